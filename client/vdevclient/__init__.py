@@ -1,0 +1,19 @@
+"""vdevclient: talk to a vdevd rack (`connect`) and, in the vendor modules, to its cards as the
+vendor libraries do."""
+
+from vdevclient.core import Card, CardInfo, Irq, Rack, Region, RegionInfo, Sim, connect
+from vdevclient.errors import RemoteError, VdevClientError, VdevTimeout
+
+__all__ = [
+    "Card",
+    "CardInfo",
+    "Irq",
+    "Rack",
+    "Region",
+    "RegionInfo",
+    "RemoteError",
+    "Sim",
+    "VdevClientError",
+    "VdevTimeout",
+    "connect",
+]

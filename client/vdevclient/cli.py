@@ -1,0 +1,148 @@
+"""`vdevctl`: the operator command (cards, peek, poke, irq, step, stats, control, now).
+
+Endpoint rules as `vdevclient.connect`: --endpoint, else $VDEVD_ENDPOINT, else tcp://127.0.0.1:5555.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from vdevclient.core import connect
+from vdevclient.errors import VdevClientError
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="vdevctl", description="operate a vdevd rack")
+    p.add_argument("--endpoint", help="request endpoint (default $VDEVD_ENDPOINT)")
+    p.add_argument("--events", help="events endpoint (default $VDEVD_EVENTS, else from hello)")
+    p.add_argument("--timeout", type=float, default=10.0, help="reply timeout, wall seconds")
+    sub = p.add_subparsers(dest="command", required=True)
+    sub.add_parser("cards", help="list the cards, their regions and irq lines")
+    peek = sub.add_parser("peek", help="read a region: CARD REGION OFFSET [SIZE]")
+    peek.add_argument("card")
+    peek.add_argument("region")
+    peek.add_argument("offset", type=_int)
+    peek.add_argument("size", type=_int, nargs="?", default=4)
+    poke = sub.add_parser("poke", help="write a region: CARD REGION OFFSET HEXBYTES")
+    poke.add_argument("card")
+    poke.add_argument("region")
+    poke.add_argument("offset", type=_int)
+    poke.add_argument("hexbytes", help="bytes in bus order, e.g. 01000000 or 01:00:00:00")
+    irq = sub.add_parser("irq", help="print interrupt events until interrupted")
+    irq.add_argument("card", nargs="?", help="one card (default: all)")
+    irq.add_argument("--count", type=int, default=0, help="stop after this many events")
+    irq.add_argument("--timeout", dest="irq_timeout", type=float, default=None,
+                     help="stop after this many seconds without an event")
+    step = sub.add_parser("step", help="advance the lockstep clock by SECONDS")
+    step.add_argument("seconds", type=float)
+    sub.add_parser("now", help="print the simulated time and clock mode")
+    sub.add_parser("stats", help="print the daemon's statistics (JSON)")
+    ctl = sub.add_parser("control", help="backdoor: CARD ACTION [k=v ...]")
+    ctl.add_argument("card")
+    ctl.add_argument("action")
+    ctl.add_argument("params", nargs="*", help="key=value (value parsed as JSON when it can be)")
+    return p
+
+
+def _int(text: str) -> int:
+    return int(text, 0)
+
+
+def _value(text: str) -> Any:
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        return text
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    try:
+        with connect(args.endpoint, args.events, timeout=args.timeout) as rack:
+            return _run(rack, args)
+    except VdevClientError as exc:
+        print(f"vdevctl: {exc}", file=sys.stderr)
+        return 1
+    except KeyError as exc:
+        print(f"vdevctl: {exc.args[0]}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 130
+
+
+def _run(rack: Any, args: argparse.Namespace) -> int:
+    out = sys.stdout
+    if args.command == "cards":
+        for c in rack.cards():
+            print(f"{c.name}  {c.type}  period {c.period_ns} ns  {c.endian}-endian", file=out)
+            for r in c.regions:
+                widths = "/".join(str(w) for w in r.widths)
+                print(f"  region {r.name}  {r.size:#x} bytes  widths {widths}", file=out)
+            print(f"  irq {', '.join(c.irq) or '-'}", file=out)
+            if c.controls:
+                print(f"  controls {', '.join(c.controls)}", file=out)
+    elif args.command == "peek":
+        data = rack.card(args.card).region(args.region).read(args.offset, args.size)
+        for i in range(0, len(data), 16):
+            chunk = data[i : i + 16]
+            print(f"{args.offset + i:08x}  {chunk.hex(' ')}", file=out)
+    elif args.command == "poke":
+        data = bytes.fromhex(args.hexbytes.replace(":", "").replace(" ", ""))
+        rack.card(args.card).region(args.region).write(args.offset, data)
+    elif args.command == "irq":
+        return _watch(rack, args)
+    elif args.command == "step":
+        print(rack.sim.step(seconds=args.seconds), file=out)
+    elif args.command == "now":
+        info = rack.request("sim", action="now")
+        print(f"{info['now_ns']} ns ({info['mode']}, tick {info['tick_ns']} ns)", file=out)
+    elif args.command == "stats":
+        print(json.dumps(rack.stats(), indent=2), file=out)
+    elif args.command == "control":
+        params = {}
+        for item in args.params:
+            key, sep, value = item.partition("=")
+            if not sep:
+                print(f"vdevctl: parameter {item!r} is not key=value", file=sys.stderr)
+                return 2
+            params[key] = _value(value)
+        result = rack.control(args.card, args.action, **params)
+        if result is not None:
+            print(json.dumps(result), file=out)
+    return 0
+
+
+def _watch(rack: Any, args: argparse.Namespace) -> int:
+    import msgpack
+    import zmq
+
+    sub = zmq.Context.instance().socket(zmq.SUB)
+    sub.linger = 0
+    sub.connect(rack.events_endpoint)
+    names = [args.card] if args.card else [c.name for c in rack.cards()]
+    for name in names:
+        rack.card(name)  # KeyError for an unknown card
+        sub.setsockopt(zmq.SUBSCRIBE, name.encode())
+    seen = 0
+    timeout_ms = None if args.irq_timeout is None else int(args.irq_timeout * 1000)
+    try:
+        while not args.count or seen < args.count:
+            if not sub.poll(timeout_ms):
+                break
+            topic, body = sub.recv_multipart()
+            if topic.decode() not in names:
+                continue
+            ev = msgpack.unpackb(body, raw=False)
+            print(f"{ev['sim_time_ns']:>15} {ev['card']} {ev['line']} seq={ev['seq']} "
+                  f"status={ev['status']:#x}", flush=True)
+            seen += 1
+    finally:
+        sub.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

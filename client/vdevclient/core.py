@@ -1,0 +1,317 @@
+"""The client core: a synchronous ZeroMQ client of wire protocol v1 (proto/PROTOCOL.md).
+
+`connect()` -> `Rack` -> `Card` -> `Region` (register access), `Card.irq` (interrupts),
+`Rack.sim` (the clock), `Rack.control` (the backdoor). One `Rack` is one DEALER socket: use it
+from one thread at a time.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import msgpack
+import zmq
+
+from vdevclient.errors import RemoteError, VdevTimeout
+
+DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
+PROTOCOL_VERSION = 1
+_NS = 1_000_000_000
+
+
+def connect(
+    endpoint: str | None = None, events: str | None = None, timeout: float = 10.0
+) -> Rack:
+    """Connect to a daemon: `endpoint` defaults to $VDEVD_ENDPOINT, else tcp://127.0.0.1:5555;
+    `events` to $VDEVD_EVENTS, else what `hello` reports. `timeout` is in wall seconds."""
+    endpoint = endpoint or os.environ.get("VDEVD_ENDPOINT") or DEFAULT_ENDPOINT
+    events = events or os.environ.get("VDEVD_EVENTS") or None
+    return Rack(endpoint, events, timeout)
+
+
+@dataclass(frozen=True)
+class RegionInfo:
+    name: str
+    size: int
+    widths: tuple[int, ...]
+    endian: str
+
+
+@dataclass(frozen=True)
+class CardInfo:
+    name: str
+    type: str
+    endian: str
+    period_ns: int
+    regions: tuple[RegionInfo, ...]
+    irq: tuple[str, ...]
+    controls: dict[str, Any]
+
+
+class Rack:
+    """A connection to one daemon."""
+
+    def __init__(self, endpoint: str, events: str | None = None, timeout: float = 10.0) -> None:
+        self.endpoint = endpoint
+        self.timeout = timeout
+        self._ctx = zmq.Context.instance()
+        self._sock = self._ctx.socket(zmq.DEALER)
+        self._sock.linger = 0
+        self._sock.connect(endpoint)
+        self._ids = itertools.count(1)
+        self._packb = msgpack.Packer(use_bin_type=True).pack
+        self._cards: dict[str, Card] = {}
+        self.sim = Sim(self)
+        self.info = self.request("hello", client="vdevclient")
+        self.events_endpoint: str = events or self.info.get("events", "")
+        self._infos = {c["name"]: _card_info(c) for c in self.info["cards"]}
+
+    # -- plumbing ---------------------------------------------------------------------------------
+    def request(self, op: str, _wait_s: float = 0.0, **fields: Any) -> Any:
+        """Send one request and return its result; RemoteError for an error reply."""
+        req_id = next(self._ids)
+        fields["id"], fields["op"] = req_id, op
+        self._sock.send(self._packb(fields))
+        deadline_ms = int((self.timeout + _wait_s) * 1000)
+        self._sock.rcvtimeo = deadline_ms
+        while True:
+            try:
+                raw = self._sock.recv()
+            except zmq.Again:
+                raise VdevTimeout(f"{op}: no reply from {self.endpoint} in {deadline_ms} ms") from None
+            reply = msgpack.unpackb(raw, raw=False, strict_map_key=False)
+            if reply.get("id") != req_id:
+                continue  # the late reply of an earlier request that timed out
+            if "error" in reply:
+                err = reply["error"]
+                raise RemoteError(err.get("code", "?"), err.get("message", ""))
+            return reply.get("ok")
+
+    def close(self) -> None:
+        for card in self._cards.values():
+            card.irq.close()
+        self._sock.close()
+
+    def __enter__(self) -> Rack:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- the rack ---------------------------------------------------------------------------------
+    def cards(self) -> list[CardInfo]:
+        return list(self._infos.values())
+
+    def card(self, name: str) -> Card:
+        if name not in self._infos:
+            raise KeyError(f"no card {name!r} (cards: {', '.join(self._infos)})")
+        if name not in self._cards:
+            self._cards[name] = Card(self, self._infos[name])
+        return self._cards[name]
+
+    def control(self, card: str, action: str, *, at_ns: int | None = None,
+                after_ns: int | None = None, **params: Any) -> Any:
+        """Run a backdoor action now, or at simulated time `at_ns` / `after_ns` from now."""
+        extra: dict[str, Any] = {}
+        if at_ns is not None:
+            extra["at_ns"] = at_ns
+        if after_ns is not None:
+            extra["after_ns"] = after_ns
+        return self.request("control", card=card, action=action, params=params, **extra)
+
+    def stats(self) -> dict[str, Any]:
+        return self.request("stats")  # type: ignore[no-any-return]
+
+    def batch(self, ops: Sequence[dict[str, Any]]) -> list[Any]:
+        """Run ops (built by `Region.read_op` etc.) atomically between ticks; a wait op
+        suspends the rest until it fires, and ops after a timed-out wait give None."""
+        wait_s = sum(op.get("timeout_ns", 0) for op in ops if op.get("op") == "wait") / _NS
+        return self.request("batch", _wait_s=wait_s, ops=list(ops))  # type: ignore[no-any-return]
+
+
+class Sim:
+    """The daemon's clock."""
+
+    def __init__(self, rack: Rack) -> None:
+        self._rack = rack
+
+    @property
+    def mode(self) -> str:
+        return self._rack.request("sim", action="now")["mode"]  # type: ignore[no-any-return]
+
+    def now_ns(self) -> int:
+        return self._rack.request("sim", action="now")["now_ns"]  # type: ignore[no-any-return]
+
+    def step(self, ns: int | None = None, ticks: int | None = None,
+             seconds: float | None = None, card: str | None = None) -> int:
+        """Advance lockstep time by exactly one of ns, ticks (of the rack's shortest period, or
+        of `card`'s) or seconds; returns the new time in ns."""
+        fields: dict[str, Any] = {}
+        if ns is not None:
+            fields["ns"] = int(ns)
+        if ticks is not None:
+            fields["ticks"] = int(ticks)
+        if seconds is not None:
+            fields["seconds"] = float(seconds)
+        if card is not None:
+            fields["card"] = card
+        span = (ns or 0) / _NS + (seconds or 0.0) + (ticks or 0) * 0.01
+        return self._rack.request("sim", _wait_s=span, action="step", **fields)["now_ns"]  # type: ignore[no-any-return]
+
+
+class Card:
+    """One card of the rack."""
+
+    def __init__(self, rack: Rack, info: CardInfo) -> None:
+        self.rack = rack
+        self.info = info
+        self.name = info.name
+        self.type = info.type
+        self.irq = Irq(self)
+        self._regions = {r.name: r for r in info.regions}
+
+    def region(self, name: str) -> Region:
+        if name not in self._regions:
+            raise KeyError(f"card {self.name!r} has no region {name!r} "
+                           f"(regions: {', '.join(self._regions)})")
+        return Region(self, self._regions[name])
+
+    def control(self, action: str, **params: Any) -> Any:
+        return self.rack.control(self.name, action, **params)
+
+
+class Region:
+    """Register access to one region, in the card's byte order."""
+
+    def __init__(self, card: Card, info: RegionInfo) -> None:
+        self.card = card
+        self.info = info
+        self.name = info.name
+        self.size = info.size
+        self._endian = info.endian
+        self._req = card.rack.request
+        self._where = {"card": card.name, "region": info.name}
+
+    def read(self, offset: int, size: int) -> bytes:
+        return self._req("read", offset=offset, size=size, **self._where)  # type: ignore[no-any-return]
+
+    def write(self, offset: int, data: bytes) -> None:
+        self._req("write", offset=offset, data=bytes(data), **self._where)
+
+    def _read_int(self, offset: int, size: int) -> int:
+        return int.from_bytes(self.read(offset, size), self._endian)  # type: ignore[arg-type]
+
+    def _write_int(self, offset: int, value: int, size: int) -> None:
+        self.write(offset, (value & ((1 << 8 * size) - 1)).to_bytes(size, self._endian))  # type: ignore[arg-type]
+
+    def read8(self, offset: int) -> int:
+        return self._read_int(offset, 1)
+
+    def read16(self, offset: int) -> int:
+        return self._read_int(offset, 2)
+
+    def read32(self, offset: int) -> int:
+        return self._read_int(offset, 4)
+
+    def write8(self, offset: int, value: int) -> None:
+        self._write_int(offset, value, 1)
+
+    def write16(self, offset: int, value: int) -> None:
+        self._write_int(offset, value, 2)
+
+    def write32(self, offset: int, value: int) -> None:
+        self._write_int(offset, value, 4)
+
+    def wait_value(self, offset: int, value: int, *, mask: int | None = None, size: int = 4,
+                   timeout_s: float = 1.0, equal: bool = True) -> int | None:
+        """Block (server side) until (register & mask) == value (or != with equal=False);
+        the register's value, or None on timeout. In lockstep, time advances while waiting."""
+        op = self.wait_op(offset, value, mask=mask, size=size, timeout_s=timeout_s, equal=equal)
+        del op["op"]
+        res = self._req("wait", _wait_s=timeout_s, **op)
+        return res["value"] if res["fired"] else None
+
+    # -- batch ops --------------------------------------------------------------------------------
+    def read_op(self, offset: int, size: int) -> dict[str, Any]:
+        return {"op": "read", "offset": offset, "size": size, **self._where}
+
+    def write_op(self, offset: int, data: bytes) -> dict[str, Any]:
+        return {"op": "write", "offset": offset, "data": bytes(data), **self._where}
+
+    def wait_op(self, offset: int, value: int, *, mask: int | None = None, size: int = 4,
+                timeout_s: float = 1.0, equal: bool = True) -> dict[str, Any]:
+        op: dict[str, Any] = {
+            "op": "wait", "on": "value", "offset": offset, "size": size, "value": value,
+            "cmp": "eq" if equal else "ne", "timeout_ns": int(timeout_s * _NS), **self._where,
+        }
+        if mask is not None:
+            op["mask"] = mask
+        return op
+
+
+class Irq:
+    """A card's interrupts: server-side `wait`, or a PUB/SUB subscription to every assertion."""
+
+    def __init__(self, card: Card) -> None:
+        self._card = card
+        self._sub: zmq.Socket | None = None
+        self.last_seq: int | None = None
+
+    def wait(self, timeout_s: float, line: str | None = None) -> dict[str, Any] | None:
+        """The next assertion (of `line`, or of any line) after the last one this object saw,
+        or None on timeout. The first call waits for an assertion after the call."""
+        fields: dict[str, Any] = {"card": self._card.name, "on": "irq",
+                                  "timeout_ns": int(timeout_s * _NS)}
+        if line is not None:
+            fields["line"] = line
+        if self.last_seq is not None:
+            fields["after_seq"] = self.last_seq
+        res = self._card.rack.request("wait", _wait_s=timeout_s, **fields)
+        if not res["fired"]:
+            return None
+        event: dict[str, Any] = res["event"]
+        self.last_seq = event["seq"]
+        return event
+
+    def subscribe(self) -> Irq:
+        """Start receiving every assertion of this card published on the events socket."""
+        if self._sub is None:
+            endpoint = self._card.rack.events_endpoint
+            if not endpoint:
+                raise RuntimeError("the daemon reported no events endpoint")
+            self._sub = self._card.rack._ctx.socket(zmq.SUB)
+            self._sub.linger = 0
+            self._sub.connect(endpoint)
+            self._sub.setsockopt(zmq.SUBSCRIBE, self._card.name.encode())
+        return self
+
+    def events(self, timeout_s: float | None = None) -> Iterator[dict[str, Any]]:
+        """Yield published events as they come; stop after `timeout_s` without one."""
+        if self._sub is None:
+            self.subscribe()
+        assert self._sub is not None
+        name = self._card.name.encode()
+        while True:
+            if not self._sub.poll(None if timeout_s is None else int(timeout_s * 1000)):
+                return
+            topic, body = self._sub.recv_multipart()
+            if topic == name:
+                yield msgpack.unpackb(body, raw=False)
+
+    def close(self) -> None:
+        if self._sub is not None:
+            self._sub.close()
+            self._sub = None
+
+
+def _card_info(c: dict[str, Any]) -> CardInfo:
+    regions = tuple(
+        RegionInfo(r["name"], r["size"], tuple(r["widths"]), r.get("endian", c["endian"]))
+        for r in c["regions"]
+    )
+    return CardInfo(c["name"], c["type"], c["endian"], c["period_ns"], regions,
+                    tuple(c["irq"]), c.get("controls", {}))

@@ -1,0 +1,53 @@
+"""`control`: the backdoor; actions run now or at a scheduled simulated time."""
+
+from __future__ import annotations
+
+import vdevclient
+from tests.conftest import RawClient, error_code
+from tests.protocol.motion import BAR, axis_reg
+from vdevd.devices.generic import regions as R
+from vdevd.devices.generic.regions import AxisReg
+from vdevd.rt import AxisFlag
+
+MS = 1_000_000
+
+
+def status(raw: RawClient, axis: int) -> int:
+    data = raw.call(op="read", offset=axis_reg(axis, AxisReg.STATUS), size=4, **BAR)["ok"]
+    return int.from_bytes(data, "little")
+
+
+def test_limit_switch_shows_in_the_axis_status(raw: RawClient) -> None:
+    reply = raw.call(op="control", card="servo0", action="set_limit",
+                     params={"axis": 2, "positive": True})
+    assert reply == {"id": 1, "ok": None}
+    assert status(raw, 2) & AxisFlag.HARD_LIMIT_POS
+    assert not status(raw, 1) & AxisFlag.HARD_LIMIT_POS
+    raw.call(op="control", card="servo0", action="set_limit", params={"axis": 2, "positive": False})
+    assert not status(raw, 2) & AxisFlag.HARD_LIMIT_POS
+
+
+def test_control_returns_the_action_result(rack: vdevclient.Rack) -> None:
+    state = rack.control("servo0", "axis_state", axis=0)
+    assert state["encoder"] == 0 and state["flags"] & AxisFlag.SERVO_ON
+
+
+def test_scheduled_control_runs_at_its_simulated_time(raw: RawClient) -> None:
+    reply = raw.call(op="control", card="servo0", action="set_inputs", params={"value": 5},
+                     at_ns=10 * MS)
+    assert reply["ok"] == {"scheduled_ns": 10 * MS}
+    raw.call(op="sim", action="step", ns=10 * MS - 1)
+    assert raw.call(op="read", offset=R.INPUTS, size=4, **BAR)["ok"] == bytes(4)
+    raw.call(op="sim", action="step", ns=1)
+    assert raw.call(op="read", offset=R.INPUTS, size=4, **BAR)["ok"] == b"\5\0\0\0"
+
+
+def test_scheduled_control_is_checked_when_scheduled(raw: RawClient) -> None:
+    reply = raw.call(op="control", card="servo0", action="set_inputs", params={"bogus": 1},
+                     after_ns=MS)
+    assert error_code(reply) == "bad_param"
+
+
+def test_bad_values_are_bad_param(raw: RawClient) -> None:
+    reply = raw.call(op="control", card="servo0", action="set_inputs", params={"value": -1})
+    assert error_code(reply) == "bad_param"

@@ -1,0 +1,27 @@
+"""`hello`: version, capabilities, cards with regions and irq lines, events endpoint (PROTOCOL.md)."""
+
+from __future__ import annotations
+
+from tests.conftest import RawClient
+from vdevd.protocol import CAPABILITIES, MAX_MESSAGE
+
+
+def test_hello_reports_version_capabilities_and_limits(raw: RawClient) -> None:
+    info = raw.call(op="hello", client="test")["ok"]
+    assert info["protocol"] == 1
+    assert set(info["capabilities"]) == set(CAPABILITIES)
+    assert info["max_message"] == MAX_MESSAGE
+    assert info["events"].startswith("tcp://127.0.0.1:")
+    assert info["clock"] == {"mode": "lockstep", "now_ns": 0, "tick_ns": 1_000_000}
+
+
+def test_hello_lists_cards_with_regions_irq_lines_and_controls(raw: RawClient) -> None:
+    (card,) = raw.call(op="hello")["ok"]["cards"]
+    assert card["name"] == "servo0"
+    assert card["type"] == "generic-servo"
+    assert card["endian"] == "little"
+    assert card["irq"] == ["inta"]
+    (bar,) = card["regions"]
+    assert (bar["name"], bar["size"], bar["widths"]) == ("bar0", 0x1000, [1, 2, 4])
+    assert {"set_limit", "amp_fault", "encoder_loss"} <= set(card["controls"])
+    assert "axis" in card["controls"]["set_limit"]["params"]

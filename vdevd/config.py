@@ -1,0 +1,191 @@
+"""The rack configuration: a TOML file, or the embedded default rack (one card of each type).
+
+Every check names the key it rejects (`card[2].axes: 9 is above the maximum 4`), so a bad file
+fails at start with one clear message (`ConfigError`).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from vdevd.devices import CARD_TYPES, DEFAULT_NAMES, card_class
+from vdevd.security import CurveConfig, is_local
+
+DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
+DEFAULT_EVENTS = "tcp://127.0.0.1:5556"
+CLOCK_MODES = ("realtime", "lockstep")
+WAKERS = ("thread", "timer")
+#: keys every [[card]] table may have beside the card type's own
+COMMON_CARD_KEYS = ("type", "name", "period_ns")
+
+
+class ConfigError(ValueError):
+    """A configuration that cannot start a rack; the message names the key."""
+
+
+@dataclass(frozen=True)
+class CardSpec:
+    type: str
+    name: str
+    options: dict[str, Any]
+
+
+@dataclass
+class Config:
+    endpoint: str = DEFAULT_ENDPOINT
+    events: str = DEFAULT_EVENTS
+    clock: Literal["realtime", "lockstep"] = "realtime"
+    wake_us: int = 1000
+    waker: Literal["thread", "timer"] = "thread"
+    state_dir: str | None = None
+    curve: CurveConfig | None = None
+    cards: list[CardSpec] = field(default_factory=list)
+
+
+_SECTIONS = {"server", "clock", "state", "security", "card"}
+
+
+def load(path: str | Path | None) -> Config:
+    """Read and validate a configuration file; None gives the embedded default rack."""
+    if path is None:
+        return default_config()
+    try:
+        with open(path, "rb") as f:
+            data = tomllib.load(f)
+    except OSError as exc:
+        raise ConfigError(f"{path}: {exc.strerror}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    return parse(data)
+
+
+def default_config() -> Config:
+    """One card of each registered type, loopback endpoints, realtime clock."""
+    cfg = Config()
+    cfg.cards = [
+        CardSpec(t, f"{DEFAULT_NAMES.get(t, t.split('-')[0])}0", _card_defaults(t, {}, "card"))
+        for t in CARD_TYPES
+    ]
+    return cfg
+
+
+def parse(data: dict[str, Any]) -> Config:
+    unknown = sorted(set(data) - _SECTIONS)
+    if unknown:
+        raise ConfigError(f"{unknown[0]}: unknown section (sections: {', '.join(sorted(_SECTIONS))})")
+    cfg = Config()
+    server = _table(data, "server")
+    _only(server, "server", ("endpoint", "events"))
+    cfg.endpoint = _str(server, "server", "endpoint", cfg.endpoint)
+    cfg.events = _str(server, "server", "events", cfg.events)
+    clock = _table(data, "clock")
+    _only(clock, "clock", ("mode", "wake_us", "waker"))
+    cfg.clock = _choice(clock, "clock", "mode", CLOCK_MODES, cfg.clock)  # type: ignore[assignment]
+    cfg.waker = _choice(clock, "clock", "waker", WAKERS, cfg.waker)  # type: ignore[assignment]
+    wake = clock.get("wake_us", cfg.wake_us)
+    if not isinstance(wake, int) or isinstance(wake, bool) or not 100 <= wake <= 100_000:
+        raise ConfigError(f"clock.wake_us: {wake!r} is not an integer in 100..100000")
+    cfg.wake_us = wake
+    state = _table(data, "state")
+    _only(state, "state", ("dir",))
+    cfg.state_dir = _str(state, "state", "dir", None)
+    security = _table(data, "security")
+    if security:
+        _only(security, "security", ("server_secret_key", "client_keys_dir"))
+        cfg.curve = CurveConfig(
+            _str(security, "security", "server_secret_key", None) or _missing("security", "server_secret_key"),
+            _str(security, "security", "client_keys_dir", None) or _missing("security", "client_keys_dir"),
+        )
+    cards = data.get("card", [])
+    if not isinstance(cards, list):
+        raise ConfigError("card: use [[card]] tables, one per card")
+    seen: set[str] = set()
+    for i, table in enumerate(cards):
+        where = f"card[{i}]"
+        if not isinstance(table, dict):
+            raise ConfigError(f"{where}: must be a table")
+        ctype = table.get("type")
+        if ctype not in CARD_TYPES:
+            raise ConfigError(
+                f"{where}.type: unknown card type {ctype!r} (types: {', '.join(CARD_TYPES)})"
+            )
+        name = table.get("name")
+        if not isinstance(name, str) or not name or not name.replace("-", "").replace("_", "").isalnum():
+            raise ConfigError(f"{where}.name: {name!r} is not a name (letters, digits, - and _)")
+        if name in seen:
+            raise ConfigError(f"{where}.name: duplicate card name {name!r}")
+        seen.add(name)
+        cfg.cards.append(CardSpec(ctype, name, _card_defaults(ctype, table, where)))
+    check_endpoints(cfg)
+    return cfg
+
+
+def check_endpoints(cfg: Config) -> None:
+    """Non-loopback endpoints need CURVE keys (DESIGN.md "Security")."""
+    for key, ep in (("server.endpoint", cfg.endpoint), ("server.events", cfg.events)):
+        if "://" not in ep:
+            raise ConfigError(f"{key}: {ep!r} is not a ZeroMQ endpoint (tcp://host:port, ipc://path)")
+        if not is_local(ep) and cfg.curve is None:
+            raise ConfigError(
+                f"{key}: {ep!r} is not loopback; add a [security] section "
+                "(server_secret_key, client_keys_dir) to serve it with CURVE"
+            )
+
+
+def _card_defaults(ctype: str, table: dict[str, Any], where: str) -> dict[str, Any]:
+    """The card's options: its declared keys checked and defaulted; unknown keys rejected."""
+    cls = card_class(ctype)
+    options: dict[str, Any] = {}
+    for key, value in table.items():
+        if key in ("type", "name"):
+            continue
+        if key == "period_ns":
+            if not isinstance(value, int) or isinstance(value, bool) or not 10_000 <= value <= 1_000_000_000:
+                raise ConfigError(f"{where}.period_ns: {value!r} is not an integer in 10000..1e9")
+            options[key] = value
+            continue
+        opt = cls.options.get(key)
+        if opt is None:
+            known = ", ".join([*COMMON_CARD_KEYS, *cls.options])
+            raise ConfigError(f"{where}.{key}: unknown key for {ctype} (keys: {known})")
+        try:
+            options[key] = opt.check(f"{where}.{key}", value)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+    for key, opt in cls.options.items():
+        options.setdefault(key, opt.default)
+    return options
+
+
+def _table(data: dict[str, Any], key: str) -> dict[str, Any]:
+    value = data.get(key, {})
+    if not isinstance(value, dict):
+        raise ConfigError(f"{key}: must be a table")
+    return value
+
+
+def _only(table: dict[str, Any], section: str, keys: tuple[str, ...]) -> None:
+    for key in table:
+        if key not in keys:
+            raise ConfigError(f"{section}.{key}: unknown key (keys: {', '.join(keys)})")
+
+
+def _str(table: dict[str, Any], section: str, key: str, default: str | None) -> Any:
+    value = table.get(key, default)
+    if value is not None and not isinstance(value, str):
+        raise ConfigError(f"{section}.{key}: expected a string, got {value!r}")
+    return value
+
+
+def _choice(table: dict[str, Any], section: str, key: str, choices: tuple[str, ...], default: str) -> str:
+    value = table.get(key, default)
+    if value not in choices:
+        raise ConfigError(f"{section}.{key}: {value!r} is not one of {', '.join(choices)}")
+    return str(value)
+
+
+def _missing(section: str, key: str) -> str:
+    raise ConfigError(f"{section}.{key}: missing")

@@ -1,0 +1,23 @@
+"""The card types a rack can hold, by type name (DESIGN.md "Card")."""
+
+from __future__ import annotations
+
+import importlib
+
+from vdevd.devices.base import Card
+
+#: type name -> "module:Class"; imported only when a rack uses the type
+CARD_TYPES: dict[str, str] = {
+    "generic-servo": "vdevd.devices.generic.card:GenericServoCard",
+}
+
+#: the prefix of the default name of each type in the embedded default rack
+DEFAULT_NAMES: dict[str, str] = {
+    "generic-servo": "servo",
+}
+
+
+def card_class(type_name: str) -> type[Card]:
+    """The class of a card type; KeyError for an unknown type."""
+    module, _, cls = CARD_TYPES[type_name].partition(":")
+    return getattr(importlib.import_module(module), cls)  # type: ignore[no-any-return]

@@ -1,0 +1,1 @@
+"""The generic servo card: the platform's reference card (README.md)."""

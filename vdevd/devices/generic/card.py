@@ -1,0 +1,269 @@
+"""The generic servo card (type `generic-servo`): the platform's reference card.
+
+Not a vendor product: a small, documented register map (README.md, regions.py) over the shared
+motion core, used to exercise regions, hooks, interrupts, the clock and the backdoor end to end.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from vdevd.devices.base import Card, CardContext, Option, control
+from vdevd.devices.generic import regions as R
+from vdevd.devices.generic.regions import AxisReg, Command, CommandError
+from vdevd.region import Region
+from vdevd.rt import AxisFlag, MotionCore, PlantKind
+
+_PLANTS = {"servo": PlantKind.SERVO, "stepper": PlantKind.STEPPER, "ideal": PlantKind.IDEAL}
+_FAULTS = int(AxisFlag.AMP_FAULT | AxisFlag.ENCODER_LOSS)
+_STOPS = int(AxisFlag.STOPPED_BY_LIMIT | AxisFlag.FE_TRIP | AxisFlag.AMP_FAULT)
+
+
+class GenericServoCard(Card):
+    type_name: ClassVar[str] = "generic-servo"
+    options: ClassVar[Mapping[str, Option]] = {
+        "axes": Option(int, 4, min=1, max=R.MAX_AXES, help="number of axes"),
+        "plant": Option(str, "servo", choices=tuple(_PLANTS), help="servo, stepper or ideal"),
+    }
+
+    def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
+        super().__init__(name, config, ctx)
+        self.n = int(self.config.get("axes") or 4)
+        plant = _PLANTS[str(self.config.get("plant") or "servo")]
+        self.core = MotionCore(self.n, self.period_ns, plant)
+        self.bar = self.add_region(
+            Region("bar0", R.BAR_SIZE, widths=(1, 2, 4), endian="little",
+                   description="registers (README.md)")
+        )
+        self.inta = self.add_irq("inta")
+        end = R.AXIS_BASE + R.AXIS_STRIDE * self.n
+        self.axis_regs = np.ndarray(
+            (self.n,), dtype=R.AXIS_DTYPE, buffer=self.bar.buf, offset=R.AXIS_BASE
+        )
+        self._prev_flags = np.zeros(self.n, dtype=np.int64)
+        self._inputs = {
+            key: np.zeros(self.n, dtype=bool)
+            for key in ("hard_limit_pos", "hard_limit_neg", "amp_fault", "encoder_loss")
+        }
+        self._declare_hooks(end)
+        self.reset()
+
+    def _declare_hooks(self, end: int) -> None:
+        ignore = self._ignore_write
+        self.bar.hook(R.ID, R.TICK_HI + 4 - R.ID, on_write=ignore)
+        self.bar.hook(R.IRQ_STATUS, 4, on_write=self._write_irq_status)
+        self.bar.hook(R.IRQ_ENABLE, 4, on_write=self._write_irq_enable)
+        self.bar.hook(R.INPUTS, 4, on_write=ignore)
+        for axis in range(self.n):
+            base = R.AXIS_BASE + R.AXIS_STRIDE * axis
+            self.bar.hook(base + AxisReg.COMMAND, 4,
+                          on_write=lambda off, data, a=axis: self._write_command(a, data))
+            self.bar.hook(base + AxisReg.STATUS, AxisReg.ERROR + 4 - AxisReg.STATUS,
+                          on_write=ignore)
+
+    # -- power-on --------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Power-on: identity registers, default motion parameters, saved parameters restored."""
+        self.bar.buf[:] = bytes(R.BAR_SIZE)
+        self.bar.set(R.ID, R.CARD_ID)
+        self.bar.set(R.VERSION, R.FIRMWARE_VERSION)
+        self.bar.set(R.AXES, self.n)
+        self.bar.set(R.PERIOD_NS, self.period_ns)
+        regs = self.axis_regs
+        regs["vmax"], regs["acc"], regs["dec"] = 50_000, 500_000, 500_000
+        saved = self.ctx.nvram.load(self.name) if self.ctx.nvram else None
+        if saved:
+            for field in ("vmax", "acc", "dec", "jerk"):
+                values = saved.get(field)
+                if isinstance(values, list) and len(values) == self.n:
+                    regs[field] = values
+        self.core.servo_on(slice(None))
+        self._store_status()
+
+    def nvram(self) -> dict[str, Any]:
+        return {f: self.axis_regs[f].tolist() for f in ("vmax", "acc", "dec", "jerk")}
+
+    # -- firmware --------------------------------------------------------------------------------
+    def tick(self, n: int) -> int:
+        """Run up to n ticks in the motion core; stop at a tick that interrupted the host."""
+        done = 0
+        period = self.period_ns
+        while done < n:
+            k, events = self.core.run(n - done)
+            done += k
+            self.ticks += k
+            self.now_ns = self.ticks * period
+            if events:
+                self._on_events()
+                if self.pause:
+                    self.pause = False
+                    break
+        self._store_status()
+        return done
+
+    def _store_status(self) -> None:
+        """Refresh every axis's read-only registers from the core in one vectorised store."""
+        ax = self.core.axes
+        live = self.axis_regs["live"]
+        live["status"] = ax.flags
+        live["position"] = ax.encoder
+        live["commanded"] = np.rint(ax.cmd_pos)
+        live["ferr"] = np.rint(ax.ferr)
+        live["velocity"] = np.rint(ax.vel)
+        live["output"] = np.rint(ax.out)
+        self.bar.set(R.TICK_LO, self.ticks & 0xFFFFFFFF)
+        self.bar.set(R.TICK_HI, self.ticks >> 32)
+
+    def _on_events(self) -> None:
+        """A profile ended or a fault stopped an axis: raise the IRQ_STATUS bits (README.md)."""
+        flags = self.core.axes.flags
+        new = flags & ~self._prev_flags
+        self._prev_flags = flags.copy()
+        bits = 0
+        for axis in np.flatnonzero(new & int(AxisFlag.DONE)):
+            bits |= 1 << int(axis)
+        for axis in np.flatnonzero(new & _STOPS):
+            bits |= 1 << (16 + int(axis))
+        if bits:
+            self._set_irq_status(self.bar.get(R.IRQ_STATUS) | bits)
+
+    # -- interrupts ------------------------------------------------------------------------------
+    def _set_irq_status(self, status: int) -> None:
+        old = self.bar.get(R.IRQ_STATUS) & self.bar.get(R.IRQ_ENABLE)
+        self.bar.set(R.IRQ_STATUS, status)
+        self._update_line(old)
+
+    def _update_line(self, old_pending: int) -> None:
+        pending = self.bar.get(R.IRQ_STATUS) & self.bar.get(R.IRQ_ENABLE)
+        if pending & ~old_pending:
+            self.inta.trigger(pending)  # a new cause: one assertion
+        elif not pending:
+            self.inta.clear()
+
+    def _write_irq_status(self, offset: int, data: bytes) -> None:
+        shift = 8 * (offset - R.IRQ_STATUS)
+        ones = int.from_bytes(data, "little") << shift
+        old = self.bar.get(R.IRQ_STATUS) & self.bar.get(R.IRQ_ENABLE)
+        self.bar.set(R.IRQ_STATUS, self.bar.get(R.IRQ_STATUS) & ~ones)
+        self._update_line(old)
+
+    def _write_irq_enable(self, offset: int, data: bytes) -> None:
+        old = self.bar.get(R.IRQ_STATUS) & self.bar.get(R.IRQ_ENABLE)
+        self.bar.mem[offset : offset + len(data)] = data
+        self._update_line(old)
+
+    @staticmethod
+    def _ignore_write(offset: int, data: bytes) -> None:
+        """Read-only registers ignore writes, as a PCI target does."""
+
+    # -- commands --------------------------------------------------------------------------------
+    def _write_command(self, axis: int, data: bytes) -> None:
+        base = R.AXIS_BASE + R.AXIS_STRIDE * axis
+        self.bar.mem[base : base + len(data)] = data.ljust(4, b"\0")[: len(data)]
+        code = self.bar.get(base)
+        self.bar.set(base + AxisReg.ERROR, self._execute(axis, code))
+
+    def _execute(self, axis: int, code: int) -> CommandError:
+        regs = self.axis_regs[axis]
+        flags = int(self.core.axes.flags[axis])
+        try:
+            cmd = Command(code)
+        except ValueError:
+            return CommandError.UNKNOWN_COMMAND
+        target, vmax = int(regs["target"]), float(regs["vmax"])
+        acc, dec, jerk = float(regs["acc"]), float(regs["dec"]), float(regs["jerk"])
+        if cmd in (Command.MOVE_ABS, Command.MOVE_REL, Command.JOG):
+            if vmax <= 0 and cmd != Command.JOG or acc <= 0 or dec <= 0:
+                return CommandError.BAD_PARAMETER
+            if flags & _FAULTS:
+                return CommandError.FAULT
+            if not flags & AxisFlag.SERVO_ON:
+                return CommandError.SERVO_OFF
+            self._prev_flags[axis] &= ~int(AxisFlag.DONE)
+        if cmd == Command.MOVE_ABS:
+            self.core.move_absolute(axis, target, vmax, acc, dec, jerk)
+        elif cmd == Command.MOVE_REL:
+            self.core.move_relative(axis, target, vmax, acc, dec, jerk)
+        elif cmd == Command.JOG:
+            self.core.jog(axis, target, acc, dec, jerk)
+        elif cmd == Command.STOP:
+            self.core.stop(axis)
+        elif cmd == Command.ABORT:
+            self.core.abort(axis)
+        elif cmd == Command.SERVO_ON:
+            self.core.servo_on(axis)
+        elif cmd == Command.SERVO_OFF:
+            self.core.servo_off(axis)
+        elif cmd == Command.SET_POSITION:
+            self.core.set_position(axis, target)
+        self._store_status()
+        return CommandError.OK
+
+    # -- backdoor --------------------------------------------------------------------------------
+    def _axis(self, axis: int) -> int:
+        if not isinstance(axis, int) or not 0 <= axis < self.n:
+            raise ValueError(f"axis {axis!r} outside 0..{self.n - 1}")
+        return axis
+
+    def _flag_inputs(self, axis: int, **values: bool | None) -> None:
+        for key, value in values.items():
+            if value is not None:
+                self._inputs[key][axis] = bool(value)
+        self.core.set_inputs(**self._inputs)
+        self._store_status()
+
+    @control()
+    def set_limit(self, axis: int, positive: bool | None = None,
+                  negative: bool | None = None) -> None:
+        """Drive the axis's hard-limit switch inputs (True = switch active)."""
+        self._flag_inputs(self._axis(axis), hard_limit_pos=positive, hard_limit_neg=negative)
+
+    @control()
+    def amp_fault(self, axis: int, active: bool = True) -> None:
+        """Assert or clear the amplifier fault input of an axis."""
+        self._flag_inputs(self._axis(axis), amp_fault=active)
+
+    @control()
+    def encoder_loss(self, axis: int, active: bool = True) -> None:
+        """Lose (freeze) or restore the encoder of an axis."""
+        self._flag_inputs(self._axis(axis), encoder_loss=active)
+
+    @control()
+    def set_inputs(self, value: int) -> None:
+        """Set the 32 general-purpose inputs (INPUTS register)."""
+        if not isinstance(value, int) or not 0 <= value <= 0xFFFFFFFF:
+            raise ValueError("value must be a 32-bit unsigned integer")
+        self.bar.set(R.INPUTS, value)
+
+    @control()
+    def set_gains(self, axis: int, **gains: float) -> dict[str, float]:
+        """Set PID parameters of an axis (kp, ki, kd, il, vff, aff, out_limit)."""
+        a = self._axis(axis)
+        pid = self.core.pid
+        for key, value in gains.items():
+            arr = getattr(pid, key, None)
+            if not isinstance(arr, np.ndarray):
+                raise ValueError(f"no PID parameter {key!r}")
+            arr[a] = float(value)
+        return {k: float(getattr(pid, k)[a]) for k in gains}
+
+    @control()
+    def save(self) -> None:
+        """Save the motion parameters to flash (the state directory)."""
+        if self.ctx.nvram is None:
+            raise ValueError("the rack has no state directory ([state] dir)")
+        self.ctx.nvram.save(self.name, self.nvram())
+
+    @control()
+    def axis_state(self, axis: int) -> dict[str, Any]:
+        """The motion core's state of an axis (floats, for tests and scopes)."""
+        a = self._axis(axis)
+        ax = self.core.axes
+        return {
+            "cmd_pos": float(ax.cmd_pos[a]), "cmd_vel": float(ax.cmd_vel[a]),
+            "pos": float(ax.pos[a]), "vel": float(ax.vel[a]), "encoder": int(ax.encoder[a]),
+            "ferr": float(ax.ferr[a]), "out": float(ax.out[a]), "flags": int(ax.flags[a]),
+        }

@@ -1,0 +1,36 @@
+"""Sample rings for the `stats` op: percentiles of the last N samples, counters beside them."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class Samples:
+    """The last `capacity` samples of one quantity (ints, e.g. ns), with percentiles."""
+
+    def __init__(self, capacity: int = 65536) -> None:
+        self._buf = np.zeros(capacity, dtype=np.int64)
+        self._n = 0
+        self.count = 0
+        self.max = 0
+
+    def add(self, value: int) -> None:
+        self._buf[self._n % len(self._buf)] = value
+        self._n += 1
+        self.count += 1
+        if value > self.max:
+            self.max = value
+
+    def summary(self) -> dict[str, int]:
+        n = min(self._n, len(self._buf))
+        if n == 0:
+            return {"count": 0}
+        p50, p90, p99, p999 = np.percentile(self._buf[:n], [50, 90, 99, 99.9])
+        return {
+            "count": self.count,
+            "p50": int(p50),
+            "p90": int(p90),
+            "p99": int(p99),
+            "p999": int(p999),
+            "max": int(self.max),
+        }

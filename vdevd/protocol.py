@@ -1,0 +1,183 @@
+"""Wire protocol v1, sans-I/O: decode and validate requests, encode replies (proto/PROTOCOL.md).
+
+Nothing here touches a socket: `decode_request(bytes) -> Request` raises `VdevError` carrying the
+error code (and the request id when one could be read); `encode_ok`/`encode_error` build reply
+bytes. The server only moves these bytes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import msgpack
+
+from vdevd.errors import ErrorCode, VdevError
+
+VERSION = 1
+#: The largest request or reply body; larger requests get a `too_large` error reply.
+MAX_MESSAGE = 1 << 20
+#: Above this the socket drops the message (and the peer) unread (ZMQ_MAXMSGSIZE).
+HARD_MAX_MESSAGE = 4 * MAX_MESSAGE
+#: The longest wait or step a request may ask for, in simulated ns (one day).
+MAX_WAIT_NS = 86_400 * 1_000_000_000
+
+CAPABILITIES = ("read", "write", "batch", "wait.irq", "wait.value", "sim", "control", "stats")
+
+_INT = int
+_STR = str
+_BYTES = (bytes, bytearray)
+_MAP = dict
+_LIST = list
+
+
+@dataclass(frozen=True, slots=True)
+class Field:
+    types: type | tuple[type, ...]
+    required: bool = True
+
+
+def _f(types: type | tuple[type, ...], required: bool = True) -> Field:
+    return Field(types, required)
+
+
+#: op -> the fields it takes beside `id`, `op` and `v` (proto/PROTOCOL.md, "Operations").
+SCHEMA: dict[str, dict[str, Field]] = {
+    "hello": {"client": _f(_STR, False)},
+    "read": {"card": _f(_STR), "region": _f(_STR), "offset": _f(_INT), "size": _f(_INT)},
+    "write": {"card": _f(_STR), "region": _f(_STR), "offset": _f(_INT), "data": _f(_BYTES)},
+    "batch": {"ops": _f(_LIST)},
+    "wait": {
+        "card": _f(_STR),
+        "on": _f(_STR),
+        "timeout_ns": _f(_INT),
+        "line": _f(_STR, False),
+        "after_seq": _f(_INT, False),
+        "region": _f(_STR, False),
+        "offset": _f(_INT, False),
+        "size": _f(_INT, False),
+        "mask": _f(_INT, False),
+        "value": _f(_INT, False),
+        "cmp": _f(_STR, False),
+    },
+    "sim": {
+        "action": _f(_STR),
+        "ns": _f(_INT, False),
+        "ticks": _f(_INT, False),
+        "seconds": _f((int, float), False),
+        "card": _f(_STR, False),
+    },
+    "control": {
+        "card": _f(_STR),
+        "action": _f(_STR),
+        "params": _f(_MAP, False),
+        "at_ns": _f(_INT, False),
+        "after_ns": _f(_INT, False),
+    },
+    "stats": {},
+}
+
+#: ops allowed inside a batch
+BATCHABLE = frozenset({"read", "write", "wait", "control"})
+
+
+@dataclass(slots=True)
+class Request:
+    """A validated request: `args` holds the op's fields, already type-checked."""
+
+    id: Any
+    op: str
+    args: dict[str, Any]
+
+
+def _unpack(payload: bytes) -> Any:
+    return msgpack.unpackb(payload, raw=False, strict_map_key=False, use_list=True)
+
+
+def _type_ok(value: Any, types: type | tuple[type, ...]) -> bool:
+    # bool is an int subclass in Python but not in msgpack: reject it where ints are wanted
+    if isinstance(value, bool):
+        return types is bool
+    return isinstance(value, types)
+
+
+def validate(op: Any, fields: Mapping[Any, Any], req_id: Any = None) -> Request:
+    """Check one operation's fields against SCHEMA; raise VdevError(MALFORMED/UNKNOWN_OP)."""
+    if not isinstance(op, str):
+        raise VdevError(ErrorCode.MALFORMED, "field 'op' must be a string")
+    schema = SCHEMA.get(op)
+    if schema is None:
+        raise VdevError(ErrorCode.UNKNOWN_OP, f"unknown op {op!r} (ops: {', '.join(SCHEMA)})")
+    args: dict[str, Any] = {}
+    for name, spec in schema.items():
+        if name in fields and fields[name] is not None:
+            value = fields[name]
+            if not _type_ok(value, spec.types):
+                raise VdevError(
+                    ErrorCode.MALFORMED,
+                    f"{op}: field {name!r} has the wrong type ({type(value).__name__})",
+                )
+            args[name] = value
+        elif spec.required:
+            raise VdevError(ErrorCode.MALFORMED, f"{op}: missing field {name!r}")
+    extra = [k for k in fields if k not in schema and k not in ("id", "op", "v")]
+    if extra:
+        raise VdevError(ErrorCode.MALFORMED, f"{op}: unknown field {extra[0]!r}")
+    return Request(req_id, op, args)
+
+
+def decode_request(payload: bytes) -> Request:
+    """Decode one request body. Errors carry `.req_id` when the id could be read."""
+    if len(payload) > MAX_MESSAGE:
+        raise _with_id(VdevError(ErrorCode.TOO_LARGE, f"message of {len(payload)} bytes "
+                                 f"exceeds the maximum of {MAX_MESSAGE}"), None)
+    try:
+        msg = _unpack(payload)
+    except Exception as exc:  # msgpack raises several unrelated types for bad input
+        raise _with_id(VdevError(ErrorCode.MALFORMED, f"not msgpack: {exc}"), None) from None
+    if not isinstance(msg, dict):
+        raise _with_id(VdevError(ErrorCode.MALFORMED, "a request is a msgpack map"), None)
+    req_id = msg.get("id")
+    if isinstance(req_id, (dict, list)):
+        raise _with_id(VdevError(ErrorCode.MALFORMED, "field 'id' must be a scalar"), None)
+    v = msg.get("v", VERSION)
+    if v != VERSION or isinstance(v, bool):
+        raise _with_id(
+            VdevError(ErrorCode.BAD_VERSION, f"protocol version {v!r} not supported "
+                      f"(this server speaks {VERSION})"), req_id)
+    try:
+        req = validate(msg.get("op"), msg, req_id)
+        if req.op == "batch":
+            req.args["ops"] = [_validate_batch_op(i, o) for i, o in enumerate(req.args["ops"])]
+    except VdevError as exc:
+        raise _with_id(exc, req_id) from None
+    return req
+
+
+def _validate_batch_op(index: int, op: Any) -> Request:
+    if not isinstance(op, dict):
+        raise VdevError(ErrorCode.MALFORMED, f"batch: op {index} is not a map")
+    name = op.get("op")
+    if name not in BATCHABLE:
+        raise VdevError(ErrorCode.MALFORMED, f"batch: op {index} ({name!r}) cannot be batched")
+    return validate(name, op)
+
+
+def _with_id(exc: VdevError, req_id: Any) -> VdevError:
+    exc.req_id = req_id  # type: ignore[attr-defined]
+    return exc
+
+
+def encode_ok(req_id: Any, result: Any) -> bytes:
+    return msgpack.packb({"id": req_id, "ok": result}, use_bin_type=True)
+
+
+def encode_error(req_id: Any, code: str, message: str) -> bytes:
+    return msgpack.packb(
+        {"id": req_id, "error": {"code": str(code), "message": message}}, use_bin_type=True
+    )
+
+
+def encode_event(event: Mapping[str, Any]) -> bytes:
+    return msgpack.packb(dict(event), use_bin_type=True)

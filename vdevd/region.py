@@ -1,0 +1,240 @@
+"""Regions: named spans of a card's bus memory with the bus's width and endianness rules.
+
+DESIGN.md "Region": plain memory is a buffer and needs no code; registers with side effects are
+hooks on offsets (`on_read(offset, size) -> bytes`, `on_write(offset, data)`). An access outside
+the region or of a width the bus forbids raises `VdevError`, never crashes the daemon.
+"""
+
+from __future__ import annotations
+
+import bisect
+import struct
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from typing import Literal
+
+from vdevd.errors import ErrorCode, VdevError
+
+Endian = Literal["little", "big"]
+ReadHook = Callable[[int, int], bytes]
+WriteHook = Callable[[int, bytes], None]
+PeekHook = Callable[[int, int], bytes]
+
+_FORMATS = {1: "B", 2: "H", 4: "I", 8: "Q"}
+
+
+@dataclass(frozen=True)
+class Hook:
+    """A register with side effects at [offset, offset + size)."""
+
+    offset: int
+    size: int
+    on_read: ReadHook | None = None
+    on_write: WriteHook | None = None
+    peek: PeekHook | None = None
+
+    @property
+    def end(self) -> int:
+        return self.offset + self.size
+
+
+class Region:
+    """A fixed-size span of bus memory (a PCI BAR, a DPRAM, a VME A16 window).
+
+    `widths` are the single-access sizes the real bus allows (e.g. {1} for VME D08(O));
+    a longer block access is allowed when `block` is true and is performed as consecutive
+    accesses of the smallest width wherever it touches a hook. `aligned` requires natural
+    alignment of single accesses.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        size: int,
+        *,
+        widths: Iterable[int] = (1, 2, 4),
+        endian: Endian = "little",
+        aligned: bool = True,
+        block: bool = True,
+        description: str = "",
+    ) -> None:
+        if size <= 0:
+            raise ValueError(f"region {name}: size must be positive")
+        self.name = name
+        self.size = size
+        self.widths = frozenset(widths)
+        self.endian: Endian = endian
+        self.aligned = aligned
+        self.block = block
+        self.description = description
+        self.buf = bytearray(size)
+        self.mem = memoryview(self.buf)
+        self._hooks: list[Hook] = []
+        self._starts: list[int] = []
+        self._unit = min(self.widths)
+        self._prefix = "<" if endian == "little" else ">"
+
+    # -- declaration -------------------------------------------------------------------------
+    def hook(
+        self,
+        offset: int,
+        size: int,
+        *,
+        on_read: ReadHook | None = None,
+        on_write: WriteHook | None = None,
+        peek: PeekHook | None = None,
+    ) -> Hook:
+        """Declare a register with side effects; hooks may not overlap."""
+        h = Hook(offset, size, on_read, on_write, peek)
+        if offset < 0 or h.end > self.size:
+            raise ValueError(f"region {self.name}: hook at {offset:#x} outside the region")
+        i = bisect.bisect_left(self._starts, offset)
+        if (i < len(self._hooks) and self._hooks[i].offset < h.end) or (
+            i > 0 and self._hooks[i - 1].end > offset
+        ):
+            raise ValueError(f"region {self.name}: hook at {offset:#x} overlaps another")
+        self._hooks.insert(i, h)
+        self._starts.insert(i, offset)
+        return h
+
+    def describe(self) -> dict[str, object]:
+        return {
+            "name": self.name,
+            "size": self.size,
+            "widths": sorted(self.widths),
+            "endian": self.endian,
+            "aligned": self.aligned,
+            "block": self.block,
+            "description": self.description,
+        }
+
+    # -- bus accesses (from the host) -----------------------------------------------------------
+    def read(self, offset: int, size: int) -> bytes:
+        """A host read: plain memory from the buffer, hooked registers through their hook."""
+        single = self._check(offset, size)
+        if not self._hooks or not self._overlapping(offset, offset + size):
+            return bytes(self.mem[offset : offset + size])
+        if single:
+            return self._read_one(offset, size)
+        return b"".join(self._read_one(o, n) for o, n in self._pieces(offset, size))
+
+    def write(self, offset: int, data: bytes) -> None:
+        """A host write: plain memory into the buffer, hooked registers through their hook."""
+        size = len(data)
+        single = self._check(offset, size)
+        if not self._hooks or not self._overlapping(offset, offset + size):
+            self.mem[offset : offset + size] = data
+            return
+        if single:
+            self._write_one(offset, data)
+            return
+        for o, n in self._pieces(offset, size):
+            self._write_one(o, data[o - offset : o - offset + n])
+
+    def peek(self, offset: int, size: int) -> bytes:
+        """Read with no side effects (wait conditions, `vdevctl peek --raw`, tests)."""
+        self._check_bounds(offset, size)
+        h = self._hook_at(offset)
+        if h is not None and h.peek is not None and offset + size <= h.end:
+            return h.peek(offset, size)
+        return bytes(self.mem[offset : offset + size])
+
+    def get_peek(self, offset: int, size: int) -> int:
+        """`peek` as an unsigned integer in the region's byte order."""
+        return int.from_bytes(self.peek(offset, size), self.endian)
+
+    # -- typed access for the card's own firmware (no hooks, no checks beyond bounds) ----------
+    def get(self, offset: int, size: int = 4, signed: bool = False) -> int:
+        return int.from_bytes(self.mem[offset : offset + size], self.endian, signed=signed)
+
+    def set(self, offset: int, value: int, size: int = 4) -> None:
+        self.mem[offset : offset + size] = (value & ((1 << (8 * size)) - 1)).to_bytes(
+            size, self.endian
+        )
+
+    def pack(self, offset: int, fmt: str, *values: object) -> None:
+        struct.pack_into(self._prefix + fmt, self.buf, offset, *values)
+
+    def unpack(self, offset: int, fmt: str) -> tuple[object, ...]:
+        return struct.unpack_from(self._prefix + fmt, self.buf, offset)
+
+    # -- internals -----------------------------------------------------------------------------
+    def _check_bounds(self, offset: int, size: int) -> None:
+        if size <= 0 or offset < 0 or offset + size > self.size:
+            raise VdevError(
+                ErrorCode.OUT_OF_RANGE,
+                f"region {self.name!r}: access {offset:#x}+{size} outside 0..{self.size:#x}",
+            )
+
+    def _check(self, offset: int, size: int) -> bool:
+        """Validate an access; True for a single access, False for a block access."""
+        self._check_bounds(offset, size)
+        if size in self.widths:
+            if self.aligned and offset % size:
+                raise VdevError(
+                    ErrorCode.BAD_WIDTH,
+                    f"region {self.name!r}: {size}-byte access at {offset:#x} is not aligned",
+                )
+            return True
+        if not self.block or size % self._unit or (self.aligned and offset % self._unit):
+            raise VdevError(
+                ErrorCode.BAD_WIDTH,
+                f"region {self.name!r}: {size}-byte access at {offset:#x} not allowed "
+                f"(bus widths {sorted(self.widths)})",
+            )
+        return False
+
+    def _overlapping(self, start: int, end: int) -> bool:
+        i = bisect.bisect_left(self._starts, end)
+        return i > 0 and self._hooks[i - 1].end > start
+
+    def _hook_at(self, offset: int) -> Hook | None:
+        i = bisect.bisect_right(self._starts, offset)
+        if i and self._hooks[i - 1].end > offset:
+            return self._hooks[i - 1]
+        return None
+
+    def _pieces(self, offset: int, size: int) -> list[tuple[int, int]]:
+        """Split a block access: plain runs whole, hooked spans in accesses of the bus unit."""
+        pieces: list[tuple[int, int]] = []
+        pos, end = offset, offset + size
+        while pos < end:
+            h = self._hook_at(pos)
+            if h is not None:
+                pieces.append((pos, self._unit))
+                pos += self._unit
+                continue
+            i = bisect.bisect_right(self._starts, pos)
+            stop = min(end, self._starts[i]) if i < len(self._starts) else end
+            pieces.append((pos, stop - pos))
+            pos = stop
+        return pieces
+
+    def _register(self, offset: int, size: int) -> Hook | None:
+        """The hook a single access lands in; an access straddling a register's edge is refused."""
+        i = bisect.bisect_left(self._starts, offset + size)
+        h = self._hooks[i - 1] if i else None
+        if h is None or h.end <= offset:
+            return None
+        if h.offset > offset or offset + size > h.end:
+            raise VdevError(
+                ErrorCode.BAD_WIDTH,
+                f"region {self.name!r}: access {offset:#x}+{size} straddles a register",
+            )
+        return h
+
+    def _read_one(self, offset: int, size: int) -> bytes:
+        h = self._register(offset, size)
+        if h is None or h.on_read is None:
+            return bytes(self.mem[offset : offset + size])
+        data = h.on_read(offset, size)
+        if len(data) != size:
+            raise VdevError(ErrorCode.INTERNAL, f"hook at {offset:#x} returned {len(data)} bytes")
+        return data
+
+    def _write_one(self, offset: int, data: bytes) -> None:
+        h = self._register(offset, len(data))
+        if h is None or h.on_write is None:
+            self.mem[offset : offset + len(data)] = data
+        else:
+            h.on_write(offset, bytes(data))

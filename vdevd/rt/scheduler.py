@@ -1,0 +1,82 @@
+"""The fixed-period scheduler: runs every card's servo ticks in simulated time (DESIGN.md "Clock").
+
+Simulated time is an int of ns. Card k ticks at multiples of its period. `advance(target)` runs
+every tick due up to `target`: per card in one batch (`Card.tick(n)`) when nothing needs tick
+granularity, or tick by tick in time order when `fine` is set (a pending wait must stop at the
+exact tick its condition becomes true). The realtime pacing and lockstep driving live in the
+rack; this module has no I/O and no wall clock.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Callable, Sequence
+from typing import Protocol
+
+
+class Tickable(Protocol):
+    name: str
+    period_ns: int
+    now_ns: int
+    ticks: int
+
+    def tick(self, n: int) -> int: ...
+
+
+class Scheduler:
+    """Ticks a fixed set of cards in simulated time."""
+
+    def __init__(self, cards: Sequence[Tickable]) -> None:
+        self.cards = list(cards)
+        self.now_ns = 0
+        #: the rack's base tick: the shortest card period (`sim step ticks=`)
+        self.tick_ns = min((c.period_ns for c in self.cards), default=1_000_000)
+
+    def add(self, card: Tickable) -> None:
+        self.cards.append(card)
+        self.tick_ns = min(c.period_ns for c in self.cards)
+
+    def next_tick_ns(self) -> int:
+        """When the next tick of any card is due (tick k of a card is at k * period)."""
+        return min(
+            ((c.ticks + 1) * c.period_ns for c in self.cards), default=self.now_ns + self.tick_ns
+        )
+
+    def advance(self, target_ns: int, stop: Callable[[], bool] | None = None) -> int:
+        """Run every tick with time <= target_ns and return the time reached.
+
+        With `stop`, ticks run one at a time in time order (ties in rack order) and the advance
+        ends right after the first tick after which `stop()` is true; the time reached is then
+        that tick's time. Without it each card runs its due ticks as one batch.
+        """
+        if target_ns < self.now_ns:
+            return self.now_ns
+        if stop is None:
+            for card in self.cards:
+                due = target_ns // card.period_ns - card.ticks
+                while due > 0:
+                    due -= card.tick(due)
+            self._settle(target_ns)
+            return target_ns
+        heap = [((c.ticks + 1) * c.period_ns, i) for i, c in enumerate(self.cards)]
+        heapq.heapify(heap)
+        while heap and heap[0][0] <= target_ns:
+            t, i = heapq.heappop(heap)
+            card = self.cards[i]
+            card.tick(1)
+            heapq.heappush(heap, (t + card.period_ns, i))
+            if stop():
+                self._settle(t)
+                return t
+        self._settle(target_ns)
+        return target_ns
+
+    def _settle(self, t: int) -> None:
+        """Make every card's clock read `t`, the time stamped on what happens until the next tick."""
+        for card in self.cards:
+            card.now_ns = t
+        self.now_ns = t
+
+    def lost_ticks(self) -> dict[str, int]:
+        """Ticks due by now that were not run, per card (always 0 unless something is broken)."""
+        return {c.name: self.now_ns // c.period_ns - c.ticks for c in self.cards}

@@ -1,0 +1,143 @@
+"""The ZeroMQ server: moves bytes between the sockets and the rack, nothing else (DESIGN.md).
+
+ROUTER for requests, PUB for interrupts and events, both on the one event loop. The ROUTER is
+drained from `loop.add_reader` with NOBLOCK (no future per message): limits.md measured this at
+~95k msg/s against ~40k for zmq.asyncio.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from typing import Any
+
+import zmq
+
+from vdevd import protocol
+from vdevd.errors import ErrorCode, VdevError
+from vdevd.irq import IrqEvent
+from vdevd.rack import Rack
+from vdevd.security import CurveConfig, secure
+
+log = logging.getLogger("vdevd.server")
+
+#: messages served per readable callback before yielding to the scheduler
+DRAIN_BUDGET = 256
+
+
+class Server:
+    """Serves one rack on a ROUTER endpoint and publishes its events on a PUB endpoint."""
+
+    def __init__(
+        self,
+        rack: Rack,
+        endpoint: str,
+        events: str,
+        *,
+        ctx: zmq.Context | None = None,
+        curve: CurveConfig | None = None,
+    ) -> None:
+        self.rack = rack
+        self.ctx = ctx or zmq.Context.instance()
+        self.router = self.ctx.socket(zmq.ROUTER)
+        self.pub = self.ctx.socket(zmq.PUB)
+        for sock in (self.router, self.pub):
+            sock.linger = 0
+        self.router.setsockopt(zmq.MAXMSGSIZE, protocol.HARD_MAX_MESSAGE)
+        self.router.setsockopt(zmq.ROUTER_HANDOVER, 1)
+        self._auth = secure(self.ctx, [self.router, self.pub], curve) if curve else None
+        self.router.bind(endpoint)
+        self.pub.bind(events)
+        self.endpoint = self.router.getsockopt_string(zmq.LAST_ENDPOINT)
+        self.events = self.pub.getsockopt_string(zmq.LAST_ENDPOINT)
+        rack.publish = self.publish
+        rack.events_endpoint = self.events
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._drain_scheduled = False
+        self._draining = False
+
+    # -- lifecycle --------------------------------------------------------------------------------
+    def start(self, loop: asyncio.AbstractEventLoop) -> None:
+        self._loop = loop
+        loop.add_reader(self.router.getsockopt(zmq.FD), self._on_readable)
+        self.rack.start(loop)
+        self._on_readable()  # anything queued before the reader was added
+
+    def close(self) -> None:
+        self.rack.stop()
+        if self._loop is not None:
+            self._loop.remove_reader(self.router.getsockopt(zmq.FD))
+        self.router.close()
+        self.pub.close()
+        if self._auth is not None:
+            self._auth.stop()
+
+    # -- requests ---------------------------------------------------------------------------------
+    def _on_readable(self) -> None:
+        self._drain_scheduled = False
+        recv = self.router.recv_multipart
+        self._draining = True
+        try:
+            for _ in range(DRAIN_BUDGET):
+                try:
+                    frames = recv(zmq.NOBLOCK)
+                except zmq.Again:
+                    return
+                self._handle(frames)
+            self._schedule_drain()  # budget spent: let the scheduler run, then go on
+        finally:
+            self._draining = False
+
+    def _schedule_drain(self) -> None:
+        if not self._drain_scheduled and self._loop is not None:
+            self._drain_scheduled = True
+            self._loop.call_soon(self._on_readable)
+
+    def _handle(self, frames: list[bytes]) -> None:
+        t0 = time.perf_counter_ns()
+        envelope, payload = frames[:-1], frames[-1]
+        try:
+            req = protocol.decode_request(payload)
+        except VdevError as exc:
+            self.rack.errors += 1
+            self._send(envelope, protocol.encode_error(getattr(exc, "req_id", None), exc.code,
+                                                       exc.message))
+            return
+        req_id = req.id
+
+        def reply(result: Any) -> None:
+            if isinstance(result, VdevError):
+                body = protocol.encode_error(req_id, result.code, result.message)
+            else:
+                try:
+                    body = protocol.encode_ok(req_id, result)
+                except (TypeError, ValueError) as exc:
+                    body = protocol.encode_error(req_id, ErrorCode.INTERNAL, f"unencodable: {exc}")
+                if len(body) > protocol.MAX_MESSAGE:
+                    body = protocol.encode_error(
+                        req_id, ErrorCode.TOO_LARGE,
+                        f"reply of {len(body)} bytes exceeds {protocol.MAX_MESSAGE}")
+            self._send(envelope, body)
+
+        self.rack.execute(req, reply)
+        self.rack.latency.add(time.perf_counter_ns() - t0)
+
+    def _send(self, envelope: list[bytes], body: bytes) -> None:
+        try:
+            self.router.send_multipart([*envelope, body], zmq.NOBLOCK)
+        except zmq.ZMQError as exc:  # peer gone or its queue full: drop the reply, keep serving
+            log.debug("reply dropped: %s", exc)
+        if not self._draining:
+            # an edge-triggered FD may have swallowed a readable edge while we sent
+            self._schedule_drain()
+
+    # -- events -----------------------------------------------------------------------------------
+    def publish(self, event: IrqEvent) -> None:
+        try:
+            self.pub.send_multipart(
+                [event.card.encode(), protocol.encode_event({"kind": "irq", **event.as_dict()})],
+                zmq.NOBLOCK,
+            )
+        except zmq.ZMQError as exc:
+            log.debug("event dropped: %s", exc)

@@ -1,0 +1,84 @@
+"""Run a daemon inside the current process, on its own thread and event loop (for pytest runs).
+
+    with DaemonThread(config) as d:
+        rack = vdevclient.connect(d.endpoint)
+
+The daemon is the real one (sockets, scheduler, cards); only the process is shared.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from typing import Any
+
+import zmq
+
+from vdevd.config import Config, default_config
+from vdevd.server import Server
+
+
+class DaemonThread:
+    """A real vdevd on a background thread; `endpoint` and `events` are set once started."""
+
+    def __init__(self, cfg: Config | None = None, *, clock: str = "lockstep",
+                 endpoint: str = "tcp://127.0.0.1:*", events: str = "tcp://127.0.0.1:*") -> None:
+        self.cfg = cfg or default_config()
+        if cfg is None:
+            self.cfg.clock = clock  # type: ignore[assignment]
+            self.cfg.endpoint, self.cfg.events = endpoint, events
+        self.endpoint = ""
+        self.events = ""
+        self.server: Server | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._stop: asyncio.Event | None = None
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self._ctx = zmq.Context()
+        self._thread = threading.Thread(target=self._main, name="vdevd-test", daemon=True)
+
+    def start(self) -> DaemonThread:
+        self._thread.start()
+        self._ready.wait(10)
+        if self._error is not None:
+            raise self._error
+        return self
+
+    def _main(self) -> None:
+        import uvloop
+
+        try:
+            uvloop.run(self._serve())
+        except BaseException as exc:  # reported to start()
+            self._error = exc
+            self._ready.set()
+
+    async def _serve(self) -> None:
+        self._loop = asyncio.get_running_loop()
+        self._stop = asyncio.Event()
+        self.server = Server(self._build(), self.cfg.endpoint, self.cfg.events, ctx=self._ctx,
+                             curve=self.cfg.curve)
+        self.endpoint, self.events = self.server.endpoint, self.server.events
+        self.server.start(self._loop)
+        self._ready.set()
+        try:
+            await self._stop.wait()
+        finally:
+            self.server.close()
+
+    def _build(self) -> Any:
+        from vdevd.daemon import build_rack
+
+        return build_rack(self.cfg)
+
+    def stop(self) -> None:
+        if self._loop is not None and self._stop is not None and self._thread.is_alive():
+            self._loop.call_soon_threadsafe(self._stop.set)
+        self._thread.join(10)
+        self._ctx.term()
+
+    def __enter__(self) -> DaemonThread:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
