@@ -7,9 +7,9 @@ from typing import Any
 
 import msgpack
 import pytest
+import vdevclient
 import zmq
 
-import vdevclient
 from vdevd.config import CardSpec, Config
 from vdevd.devices import card_class
 from vdevd.testing import DaemonThread

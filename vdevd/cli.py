@@ -1,4 +1,7 @@
-"""`vdevd`: the daemon command (`vdevd serve [--config FILE] [--clock MODE] [--endpoint URL] [--events URL]`)."""
+"""`vdevd`: the daemon command.
+
+`vdevd serve [--config FILE] [--clock realtime|lockstep] [--endpoint URL] [--events URL]`
+"""
 
 from __future__ import annotations
 

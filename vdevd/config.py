@@ -96,8 +96,8 @@ def parse(data: dict[str, Any]) -> Config:
     if security:
         _only(security, "security", ("server_secret_key", "client_keys_dir"))
         cfg.curve = CurveConfig(
-            _str(security, "security", "server_secret_key", None) or _missing("security", "server_secret_key"),
-            _str(security, "security", "client_keys_dir", None) or _missing("security", "client_keys_dir"),
+            _required(security, "security", "server_secret_key"),
+            _required(security, "security", "client_keys_dir"),
         )
     cards = data.get("card", [])
     if not isinstance(cards, list):
@@ -187,5 +187,8 @@ def _choice(table: dict[str, Any], section: str, key: str, choices: tuple[str, .
     return str(value)
 
 
-def _missing(section: str, key: str) -> str:
-    raise ConfigError(f"{section}.{key}: missing")
+def _required(table: dict[str, Any], section: str, key: str) -> str:
+    value = _str(table, section, key, None)
+    if not value:
+        raise ConfigError(f"{section}.{key}: missing")
+    return str(value)

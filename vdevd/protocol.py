@@ -23,7 +23,7 @@ HARD_MAX_MESSAGE = 4 * MAX_MESSAGE
 #: The longest wait or step a request may ask for, in simulated ns (one day).
 MAX_WAIT_NS = 86_400 * 1_000_000_000
 
-CAPABILITIES = ("read", "write", "batch", "wait.irq", "wait.value", "sim", "control", "stats")
+CAPABILITIES = ("read", "write", "batch", "wait.irq", "wait.value", "sim", "control", "stats", "sync")
 
 _INT = int
 _STR = str
@@ -76,6 +76,7 @@ SCHEMA: dict[str, dict[str, Field]] = {
         "after_ns": _f(_INT, False),
     },
     "stats": {},
+    "sync": {"card": _f(_STR)},
 }
 
 #: ops allowed inside a batch

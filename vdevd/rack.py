@@ -91,6 +91,7 @@ class Rack:
             self.add_card(card)
         self.mode: ClockMode = mode
         self.publish = publish
+        self.publish_sync: Callable[[str], None] | None = None
         self.events_endpoint = events_endpoint
         self.wake_ns = wake_ns
         self.waker = waker
@@ -450,6 +451,13 @@ class Rack:
 
         heapq.heappush(self._timers, (when, next(self._seq), later))
         return {"scheduled_ns": when}
+
+    def op_sync(self, args: dict[str, Any], reply: Reply) -> Any:
+        """Publish a `sync` event on the card's topic (a subscriber's proof it is connected)."""
+        card = self.card(args["card"])
+        if self.publish_sync is not None:
+            self.publish_sync(card.name)
+        return None
 
     def op_stats(self, args: dict[str, Any], reply: Reply) -> Any:
         return self.stats()

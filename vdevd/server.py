@@ -52,6 +52,7 @@ class Server:
         self.endpoint = self.router.getsockopt_string(zmq.LAST_ENDPOINT)
         self.events = self.pub.getsockopt_string(zmq.LAST_ENDPOINT)
         rack.publish = self.publish
+        rack.publish_sync = self.publish_sync
         rack.events_endpoint = self.events
         self._loop: asyncio.AbstractEventLoop | None = None
         self._drain_scheduled = False
@@ -134,10 +135,13 @@ class Server:
 
     # -- events -----------------------------------------------------------------------------------
     def publish(self, event: IrqEvent) -> None:
+        self._publish(event.card, {"kind": "irq", **event.as_dict()})
+
+    def publish_sync(self, card: str) -> None:
+        self._publish(card, {"kind": "sync", "card": card})
+
+    def _publish(self, topic: str, body: dict[str, Any]) -> None:
         try:
-            self.pub.send_multipart(
-                [event.card.encode(), protocol.encode_event({"kind": "irq", **event.as_dict()})],
-                zmq.NOBLOCK,
-            )
+            self.pub.send_multipart([topic.encode(), protocol.encode_event(body)], zmq.NOBLOCK)
         except zmq.ZMQError as exc:
             log.debug("event dropped: %s", exc)

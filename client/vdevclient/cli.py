@@ -119,13 +119,17 @@ def _watch(rack: Any, args: argparse.Namespace) -> int:
     import msgpack
     import zmq
 
-    sub = zmq.Context.instance().socket(zmq.SUB)
+    sub: zmq.Socket[bytes] = zmq.Context.instance().socket(zmq.SUB)
     sub.linger = 0
     sub.connect(rack.events_endpoint)
     names = [args.card] if args.card else [c.name for c in rack.cards()]
     for name in names:
         rack.card(name)  # KeyError for an unknown card
         sub.setsockopt(zmq.SUBSCRIBE, name.encode())
+    for _ in range(100):  # until the subscription is live (PROTOCOL.md, sync)
+        rack.request("sync", card=names[0])
+        if sub.poll(50):
+            break
     seen = 0
     timeout_ms = None if args.irq_timeout is None else int(args.irq_timeout * 1000)
     try:
@@ -136,6 +140,8 @@ def _watch(rack: Any, args: argparse.Namespace) -> int:
             if topic.decode() not in names:
                 continue
             ev = msgpack.unpackb(body, raw=False)
+            if ev.get("kind") != "irq":
+                continue
             print(f"{ev['sim_time_ns']:>15} {ev['card']} {ev['line']} seq={ev['seq']} "
                   f"status={ev['status']:#x}", flush=True)
             seen += 1

@@ -11,7 +11,7 @@ import itertools
 import os
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import msgpack
 import zmq
@@ -58,7 +58,7 @@ class Rack:
     def __init__(self, endpoint: str, events: str | None = None, timeout: float = 10.0) -> None:
         self.endpoint = endpoint
         self.timeout = timeout
-        self._ctx = zmq.Context.instance()
+        self._ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
         self._sock = self._ctx.socket(zmq.DEALER)
         self._sock.linger = 0
         self._sock.connect(endpoint)
@@ -71,7 +71,7 @@ class Rack:
         self._infos = {c["name"]: _card_info(c) for c in self.info["cards"]}
 
     # -- plumbing ---------------------------------------------------------------------------------
-    def request(self, op: str, _wait_s: float = 0.0, **fields: Any) -> Any:
+    def request(self, op: str, /, *, _wait_s: float = 0.0, **fields: Any) -> Any:
         """Send one request and return its result; RemoteError for an error reply."""
         req_id = next(self._ids)
         fields["id"], fields["op"] = req_id, op
@@ -124,13 +124,13 @@ class Rack:
         return self.request("control", card=card, action=action, params=params, **extra)
 
     def stats(self) -> dict[str, Any]:
-        return self.request("stats")  # type: ignore[no-any-return]
+        return self.request("stats")
 
     def batch(self, ops: Sequence[dict[str, Any]]) -> list[Any]:
         """Run ops (built by `Region.read_op` etc.) atomically between ticks; a wait op
         suspends the rest until it fires, and ops after a timed-out wait give None."""
         wait_s = sum(op.get("timeout_ns", 0) for op in ops if op.get("op") == "wait") / _NS
-        return self.request("batch", _wait_s=wait_s, ops=list(ops))  # type: ignore[no-any-return]
+        return self.request("batch", _wait_s=wait_s, ops=list(ops))
 
 
 class Sim:
@@ -141,10 +141,10 @@ class Sim:
 
     @property
     def mode(self) -> str:
-        return self._rack.request("sim", action="now")["mode"]  # type: ignore[no-any-return]
+        return self._rack.request("sim", action="now")["mode"]
 
     def now_ns(self) -> int:
-        return self._rack.request("sim", action="now")["now_ns"]  # type: ignore[no-any-return]
+        return self._rack.request("sim", action="now")["now_ns"]
 
     def step(self, ns: int | None = None, ticks: int | None = None,
              seconds: float | None = None, card: str | None = None) -> int:
@@ -160,7 +160,7 @@ class Sim:
         if card is not None:
             fields["card"] = card
         span = (ns or 0) / _NS + (seconds or 0.0) + (ticks or 0) * 0.01
-        return self._rack.request("sim", _wait_s=span, action="step", **fields)["now_ns"]  # type: ignore[no-any-return]
+        return self._rack.request("sim", _wait_s=span, action="step", **fields)["now_ns"]
 
 
 class Card:
@@ -192,21 +192,21 @@ class Region:
         self.info = info
         self.name = info.name
         self.size = info.size
-        self._endian = info.endian
+        self._endian: Literal["little", "big"] = "big" if info.endian == "big" else "little"
         self._req = card.rack.request
-        self._where = {"card": card.name, "region": info.name}
+        self._where: dict[str, Any] = {"card": card.name, "region": info.name}
 
     def read(self, offset: int, size: int) -> bytes:
-        return self._req("read", offset=offset, size=size, **self._where)  # type: ignore[no-any-return]
+        return self._req("read", offset=offset, size=size, **self._where)
 
     def write(self, offset: int, data: bytes) -> None:
         self._req("write", offset=offset, data=bytes(data), **self._where)
 
     def _read_int(self, offset: int, size: int) -> int:
-        return int.from_bytes(self.read(offset, size), self._endian)  # type: ignore[arg-type]
+        return int.from_bytes(self.read(offset, size), self._endian)
 
     def _write_int(self, offset: int, value: int, size: int) -> None:
-        self.write(offset, (value & ((1 << 8 * size) - 1)).to_bytes(size, self._endian))  # type: ignore[arg-type]
+        self.write(offset, (value & ((1 << 8 * size) - 1)).to_bytes(size, self._endian))
 
     def read8(self, offset: int) -> int:
         return self._read_int(offset, 1)
@@ -258,7 +258,7 @@ class Irq:
 
     def __init__(self, card: Card) -> None:
         self._card = card
-        self._sub: zmq.Socket | None = None
+        self._sub: zmq.Socket[bytes] | None = None
         self.last_seq: int | None = None
 
     def wait(self, timeout_s: float, line: str | None = None) -> dict[str, Any] | None:
@@ -287,7 +287,20 @@ class Irq:
             self._sub.linger = 0
             self._sub.connect(endpoint)
             self._sub.setsockopt(zmq.SUBSCRIBE, self._card.name.encode())
+            self._sync()
         return self
+
+    def _sync(self, attempts: int = 100) -> None:
+        """Wait until the subscription is live: ZeroMQ joins a PUB asynchronously, so ask the
+        daemon to publish `sync` events until one arrives (PROTOCOL.md, sync)."""
+        assert self._sub is not None
+        for _ in range(attempts):
+            self._card.rack.request("sync", card=self._card.name)
+            if self._sub.poll(50):
+                while self._sub.poll(0):
+                    self._sub.recv_multipart()  # drop the syncs; nothing else can be queued yet
+                return
+        raise TimeoutError(f"no events from {self._card.rack.events_endpoint}")
 
     def events(self, timeout_s: float | None = None) -> Iterator[dict[str, Any]]:
         """Yield published events as they come; stop after `timeout_s` without one."""
@@ -299,8 +312,9 @@ class Irq:
             if not self._sub.poll(None if timeout_s is None else int(timeout_s * 1000)):
                 return
             topic, body = self._sub.recv_multipart()
-            if topic == name:
-                yield msgpack.unpackb(body, raw=False)
+            event = msgpack.unpackb(body, raw=False)
+            if topic == name and event.get("kind") != "sync":
+                yield event
 
     def close(self) -> None:
         if self._sub is not None:

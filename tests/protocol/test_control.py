@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import vdevclient
+
 from tests.conftest import RawClient, error_code
 from tests.protocol.motion import BAR, axis_reg
 from vdevd.devices.generic import regions as R

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import vdevclient
+
 from tests.conftest import RawClient
 
 BAR = {"card": "servo0", "region": "bar0"}

@@ -20,4 +20,4 @@ DEFAULT_NAMES: dict[str, str] = {
 def card_class(type_name: str) -> type[Card]:
     """The class of a card type; KeyError for an unknown type."""
     module, _, cls = CARD_TYPES[type_name].partition(":")
-    return getattr(importlib.import_module(module), cls)  # type: ignore[no-any-return]
+    return getattr(importlib.import_module(module), cls)

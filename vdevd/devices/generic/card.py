@@ -59,8 +59,7 @@ class GenericServoCard(Card):
         self.bar.hook(R.INPUTS, 4, on_write=ignore)
         for axis in range(self.n):
             base = R.AXIS_BASE + R.AXIS_STRIDE * axis
-            self.bar.hook(base + AxisReg.COMMAND, 4,
-                          on_write=lambda off, data, a=axis: self._write_command(a, data))
+            self.bar.hook(base + AxisReg.COMMAND, 4, on_write=self._write_command)
             self.bar.hook(base + AxisReg.STATUS, AxisReg.ERROR + 4 - AxisReg.STATUS,
                           on_write=ignore)
 
@@ -160,9 +159,10 @@ class GenericServoCard(Card):
         """Read-only registers ignore writes, as a PCI target does."""
 
     # -- commands --------------------------------------------------------------------------------
-    def _write_command(self, axis: int, data: bytes) -> None:
+    def _write_command(self, offset: int, data: bytes) -> None:
+        axis = (offset - R.AXIS_BASE) // R.AXIS_STRIDE
         base = R.AXIS_BASE + R.AXIS_STRIDE * axis
-        self.bar.mem[base : base + len(data)] = data.ljust(4, b"\0")[: len(data)]
+        self.bar.mem[offset : offset + len(data)] = data
         code = self.bar.get(base)
         self.bar.set(base + AxisReg.ERROR, self._execute(axis, code))
 

@@ -1,0 +1,112 @@
+"""vdevctl and vdevd as a user runs them."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from vdevclient.cli import main as vdevctl
+
+from vdevd.devices.generic import regions as R
+from vdevd.testing import DaemonThread
+
+
+def ctl(daemon: DaemonThread, capsys: pytest.CaptureFixture[str], *argv: str) -> str:
+    assert vdevctl(["--endpoint", daemon.endpoint, *argv]) == 0
+    return capsys.readouterr().out
+
+
+def test_cards_lists_regions_and_lines(daemon: DaemonThread, capsys: pytest.CaptureFixture[str]) -> None:
+    out = ctl(daemon, capsys, "cards")
+    assert "servo0  generic-servo" in out
+    assert "region bar0  0x1000 bytes  widths 1/2/4" in out
+    assert "irq inta" in out
+
+
+def test_poke_then_peek(daemon: DaemonThread, capsys: pytest.CaptureFixture[str]) -> None:
+    ctl(daemon, capsys, "poke", "servo0", "bar0", hex(R.OUTPUTS), "78563412")
+    out = ctl(daemon, capsys, "peek", "servo0", "bar0", hex(R.OUTPUTS), "4")
+    assert out.strip() == f"{R.OUTPUTS:08x}  78 56 34 12"
+
+
+def test_step_control_now_and_stats(daemon: DaemonThread, capsys: pytest.CaptureFixture[str]) -> None:
+    assert ctl(daemon, capsys, "step", "0.25").strip() == "250000000"
+    assert ctl(daemon, capsys, "now").startswith("250000000 ns (lockstep")
+    ctl(daemon, capsys, "control", "servo0", "set_inputs", "value=9")
+    assert ctl(daemon, capsys, "peek", "servo0", "bar0", hex(R.INPUTS)).split()[1] == "09"
+    state = json.loads(ctl(daemon, capsys, "control", "servo0", "axis_state", "axis=1"))
+    assert state["encoder"] == 0
+    assert json.loads(ctl(daemon, capsys, "stats"))["cards"]["servo0"]["ticks"] == 250
+
+
+def test_errors_are_one_line_and_exit_1(daemon: DaemonThread, capsys: pytest.CaptureFixture[str]) -> None:
+    assert vdevctl(["--endpoint", daemon.endpoint, "peek", "servo0", "bar0", "0x1000"]) == 1
+    assert "out_of_range" in capsys.readouterr().err
+
+
+def test_irq_prints_events(daemon: DaemonThread, capsys: pytest.CaptureFixture[str]) -> None:
+    import threading
+
+    import vdevclient
+
+    from tests.protocol.motion import move_ops
+
+    with vdevclient.connect(daemon.endpoint) as rack:
+        rack.card("servo0").region("bar0").write32(R.IRQ_ENABLE, 1)
+        rack.batch(move_ops(0, 100))
+        watcher = threading.Thread(
+            target=vdevctl,
+            args=(["--endpoint", daemon.endpoint, "irq", "servo0", "--count", "1",
+                   "--timeout", "20"],))
+        watcher.start()
+        # PUB/SUB joins asynchronously: keep stepping until the watcher has its event
+        for _ in range(200):
+            if not watcher.is_alive():
+                break
+            rack.sim.step(seconds=0.05)
+            watcher.join(0.05)
+        watcher.join(20)
+    out = capsys.readouterr().out
+    assert "servo0 inta seq=1 status=0x1" in out
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.mark.slow
+def test_vdevd_serve_starts_serves_and_exits_cleanly_on_sigterm(tmp_path: Path) -> None:
+    endpoint = f"tcp://127.0.0.1:{free_port()}"
+    events = f"tcp://127.0.0.1:{free_port()}"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "vdevd", "serve", "--clock", "lockstep", "--endpoint", endpoint,
+         "--events", events], stderr=subprocess.PIPE, text=True, env={**os.environ})
+    try:
+        import vdevclient
+
+        with vdevclient.connect(endpoint, timeout=20) as rack:
+            assert rack.card("servo0").region("bar0").read32(0) == R.CARD_ID
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=20) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.stderr is not None
+    assert "listening on" in proc.stderr.read()
+
+
+def test_vdevd_serve_refuses_a_bad_config_naming_the_key(tmp_path: Path) -> None:
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text('[[card]]\ntype = "generic-servo"\nname = "a"\naxes = 0\n')
+    res = subprocess.run([sys.executable, "-m", "vdevd", "serve", "--config", str(cfg)],
+                         capture_output=True, text=True, timeout=60)
+    assert res.returncode == 2
+    assert "card[0].axes" in res.stderr

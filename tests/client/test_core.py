@@ -1,0 +1,84 @@
+"""The client core against a real daemon: connect rules, regions, irq, sim, control, stats."""
+
+from __future__ import annotations
+
+import itertools
+
+import pytest
+import vdevclient
+
+from tests.protocol.motion import axis_reg, move_ops
+from vdevd.devices.generic import regions as R
+from vdevd.devices.generic.regions import AxisReg
+from vdevd.testing import DaemonThread
+
+
+def test_connect_takes_the_endpoint_from_the_environment(
+    daemon: DaemonThread, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("VDEVD_ENDPOINT", daemon.endpoint)
+    monkeypatch.delenv("VDEVD_EVENTS", raising=False)
+    with vdevclient.connect() as rack:
+        assert rack.endpoint == daemon.endpoint
+        assert rack.events_endpoint == daemon.events  # from hello
+        assert [c.name for c in rack.cards()] == ["servo0"]
+
+
+def test_cards_describe_regions_and_irq_lines(rack: vdevclient.Rack) -> None:
+    (info,) = rack.cards()
+    assert (info.name, info.type, info.irq) == ("servo0", "generic-servo", ("inta",))
+    assert info.regions[0].size == 0x1000
+    with pytest.raises(KeyError):
+        rack.card("nope")
+    with pytest.raises(KeyError):
+        rack.card("servo0").region("bar9")
+
+
+def test_remote_errors_raise_with_the_code(rack: vdevclient.Rack) -> None:
+    bar = rack.card("servo0").region("bar0")
+    with pytest.raises(vdevclient.RemoteError) as info:
+        bar.read32(0x1000)
+    assert info.value.code == "out_of_range"
+    assert bar.read32(0) == R.CARD_ID  # the connection still works
+
+
+def test_irq_wait_sees_the_done_interrupt_of_a_move(rack: vdevclient.Rack) -> None:
+    card = rack.card("servo0")
+    card.region("bar0").write32(R.IRQ_ENABLE, 0x1)
+    assert rack.batch(move_ops(0, 500)) == [None] * 5
+    event = card.irq.wait(timeout_s=1.0)
+    assert event is not None and event["line"] == "inta" and event["status"] == 1
+    assert rack.sim.now_ns() == event["sim_time_ns"]
+    assert card.irq.wait(timeout_s=0.01) is None  # nothing new: times out
+    assert rack.sim.now_ns() == event["sim_time_ns"] + 10_000_000
+
+
+def test_irq_subscription_receives_published_assertions(rack: vdevclient.Rack) -> None:
+    card = rack.card("servo0")
+    card.irq.subscribe()
+    bar = card.region("bar0")
+    bar.write32(R.IRQ_ENABLE, 0x3)
+    rack.batch(move_ops(0, 200) + move_ops(1, -300))
+    bar.wait_value(axis_reg(1, AxisReg.POSITION), (-300) & 0xFFFFFFFF, timeout_s=2.0)
+    events = list(itertools.islice(card.irq.events(timeout_s=5.0), 2))
+    assert [(e["seq"], e["status"]) for e in events] == [(1, 0x1), (2, 0x3)]
+    assert all(e["card"] == "servo0" and e["kind"] == "irq" for e in events)
+
+
+def test_sim_step_mode_and_now(rack: vdevclient.Rack) -> None:
+    assert rack.sim.mode == "lockstep"
+    assert rack.sim.step(ticks=2) == 2_000_000
+    assert rack.sim.step(seconds=0.5) == 502_000_000
+    assert rack.sim.step(ns=7) == 502_000_007
+    assert rack.sim.now_ns() == 502_000_007
+
+
+def test_wait_value_returns_none_on_timeout(rack: vdevclient.Rack) -> None:
+    bar = rack.card("servo0").region("bar0")
+    assert bar.wait_value(R.ID, 0, timeout_s=0.002) is None
+    assert rack.sim.now_ns() == 2_000_000
+
+
+def test_stats_and_context_manager(daemon: DaemonThread) -> None:
+    with vdevclient.connect(daemon.endpoint) as rack:
+        assert rack.stats()["cards"]["servo0"]["lost_ticks"] == 0
