@@ -119,8 +119,7 @@ def _watch(rack: Any, args: argparse.Namespace) -> int:
     import msgpack
     import zmq
 
-    sub: zmq.Socket[bytes] = zmq.Context.instance().socket(zmq.SUB)
-    sub.linger = 0
+    sub = rack.socket(zmq.SUB)
     sub.connect(rack.events_endpoint)
     names = [args.card] if args.card else [c.name for c in rack.cards()]
     for name in names:

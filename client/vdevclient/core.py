@@ -24,13 +24,25 @@ _NS = 1_000_000_000
 
 
 def connect(
-    endpoint: str | None = None, events: str | None = None, timeout: float = 10.0
+    endpoint: str | None = None,
+    events: str | None = None,
+    timeout: float = 10.0,
+    *,
+    server_key: str | None = None,
+    client_key: str | None = None,
 ) -> Rack:
     """Connect to a daemon: `endpoint` defaults to $VDEVD_ENDPOINT, else tcp://127.0.0.1:5555;
-    `events` to $VDEVD_EVENTS, else what `hello` reports. `timeout` is in wall seconds."""
+    `events` to $VDEVD_EVENTS, else what `hello` reports. `timeout` is in wall seconds.
+
+    For a CURVE-secured daemon, `server_key` is the server's public certificate file and
+    `client_key` this client's secret certificate file ($VDEVD_SERVER_KEY, $VDEVD_CLIENT_KEY).
+    """
     endpoint = endpoint or os.environ.get("VDEVD_ENDPOINT") or DEFAULT_ENDPOINT
     events = events or os.environ.get("VDEVD_EVENTS") or None
-    return Rack(endpoint, events, timeout)
+    server_key = server_key or os.environ.get("VDEVD_SERVER_KEY") or None
+    client_key = client_key or os.environ.get("VDEVD_CLIENT_KEY") or None
+    curve = (server_key, client_key) if server_key and client_key else None
+    return Rack(endpoint, events, timeout, curve=curve)
 
 
 @dataclass(frozen=True)
@@ -55,18 +67,23 @@ class CardInfo:
 class Rack:
     """A connection to one daemon."""
 
-    def __init__(self, endpoint: str, events: str | None = None, timeout: float = 10.0) -> None:
+    def __init__(self, endpoint: str, events: str | None = None, timeout: float = 10.0,
+                 curve: tuple[str, str] | None = None) -> None:
         self.endpoint = endpoint
         self.timeout = timeout
+        self.curve = curve
         self._ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
-        self._sock = self._ctx.socket(zmq.DEALER)
-        self._sock.linger = 0
+        self._sock = self.socket(zmq.DEALER)
         self._sock.connect(endpoint)
         self._ids = itertools.count(1)
         self._packb = msgpack.Packer(use_bin_type=True).pack
         self._cards: dict[str, Card] = {}
         self.sim = Sim(self)
-        self.info = self.request("hello", client="vdevclient")
+        try:
+            self.info = self.request("hello", client="vdevclient")
+        except BaseException:
+            self._sock.close()
+            raise
         self.events_endpoint: str = events or self.info.get("events", "")
         self._infos = {c["name"]: _card_info(c) for c in self.info["cards"]}
 
@@ -90,6 +107,21 @@ class Rack:
                 err = reply["error"]
                 raise RemoteError(err.get("code", "?"), err.get("message", ""))
             return reply.get("ok")
+
+    def socket(self, kind: int) -> zmq.Socket[bytes]:
+        """A socket of this connection's context, with its CURVE keys when it has them."""
+        sock = self._ctx.socket(kind)
+        sock.linger = 0
+        if self.curve is not None:
+            import zmq.auth
+
+            server_public, _ = zmq.auth.load_certificate(self.curve[0])
+            public, secret = zmq.auth.load_certificate(self.curve[1])
+            if secret is None:
+                raise ValueError(f"{self.curve[1]} holds no secret key")
+            sock.curve_serverkey, sock.curve_publickey, sock.curve_secretkey = (
+                server_public, public, secret)
+        return sock
 
     def close(self) -> None:
         for card in self._cards.values():
@@ -283,8 +315,7 @@ class Irq:
             endpoint = self._card.rack.events_endpoint
             if not endpoint:
                 raise RuntimeError("the daemon reported no events endpoint")
-            self._sub = self._card.rack._ctx.socket(zmq.SUB)
-            self._sub.linger = 0
+            self._sub = self._card.rack.socket(zmq.SUB)
             self._sub.connect(endpoint)
             self._sub.setsockopt(zmq.SUBSCRIBE, self._card.name.encode())
             self._sync()

@@ -10,6 +10,7 @@ import vdevclient
 from tests.protocol.motion import axis_reg, move_ops
 from vdevd.devices.generic import regions as R
 from vdevd.devices.generic.regions import AxisReg
+from vdevd.rt import AxisFlag
 from vdevd.testing import DaemonThread
 
 
@@ -59,7 +60,8 @@ def test_irq_subscription_receives_published_assertions(rack: vdevclient.Rack) -
     bar = card.region("bar0")
     bar.write32(R.IRQ_ENABLE, 0x3)
     rack.batch(move_ops(0, 200) + move_ops(1, -300))
-    bar.wait_value(axis_reg(1, AxisReg.POSITION), (-300) & 0xFFFFFFFF, timeout_s=2.0)
+    done = int(AxisFlag.DONE)
+    assert bar.wait_value(axis_reg(1, AxisReg.STATUS), done, mask=done, timeout_s=2.0)
     events = list(itertools.islice(card.irq.events(timeout_s=5.0), 2))
     assert [(e["seq"], e["status"]) for e in events] == [(1, 0x1), (2, 0x3)]
     assert all(e["card"] == "servo0" and e["kind"] == "irq" for e in events)
