@@ -92,8 +92,6 @@ class MotionCore:
 
     def _plant_step(self) -> None:
         ax = self.axes
-        if self._any_off:
-            np.copyto(ax.cmd_pos, ax.pos, where=~self.servo_on_mask)
         if len(self._servo_idx):
             np.subtract(ax.cmd_pos, self._enc, out=self.pid.e)
             self.pid.update(ax.out)
@@ -113,6 +111,8 @@ class MotionCore:
             np.add(ax.pos, _ENC_EPS, out=enc)
             np.floor(enc, out=enc)
         ax.encoder[:] = enc
+        if self._any_off:  # servo off: the command follows the actual position
+            np.copyto(ax.cmd_pos, ax.pos, where=~self.servo_on_mask)
         np.subtract(ax.cmd_pos, enc, out=ax.ferr)
 
     def _follow(self, idx: np.ndarray, rounded: bool) -> None:

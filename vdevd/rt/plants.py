@@ -3,7 +3,8 @@
 - IDEAL: the actual position is the commanded one.
 - STEPPER: the axis moves in whole steps to the commanded position (open loop, no lost steps).
 - SERVO: DC motor with a current amplifier: torque = amp_gain * out, clamped to +-peak_torque;
-  inertia * acc = torque - viscous * vel - coulomb * sign(vel); semi-implicit Euler at dt.
+  inertia * acc = torque - viscous * vel - coulomb * sign(vel); semi-implicit Euler at dt
+  (the viscous term implicit, so any damping is stable).
   Units: out in DAC counts, torque per unit inertia in counts/s^2 (inertia defaults to 1).
 """
 
@@ -48,7 +49,7 @@ class ServoPlant:
     def _configure(self) -> None:
         self._gain_dt = self.amp_gain * self.dt / self.inertia
         self._peak_dt = self.peak_torque * self.dt / self.inertia
-        self._visc_dt = self.viscous * self.dt / self.inertia
+        self._damp = 1.0 / (1.0 + self.viscous * self.dt / self.inertia)
         self._coul_dt = self.coulomb * self.dt / self.inertia
         self._clamped = bool(np.isfinite(self.peak_torque).any())
         self._friction = bool(self.coulomb.any())
@@ -60,13 +61,12 @@ class ServoPlant:
         if self._clamped:
             np.minimum(dv, self._peak_dt, out=dv)
             np.maximum(dv, -self._peak_dt, out=dv)
-        np.multiply(self._visc_dt, vel, out=tmp)
-        dv -= tmp
         if self._friction:
             np.sign(vel, out=tmp)
             tmp *= self._coul_dt
             dv -= tmp
         vel += dv
+        vel *= self._damp  # viscous damping taken implicitly: stable for any damping
         np.multiply(vel, self.dt, out=tmp)
         pos += tmp
 

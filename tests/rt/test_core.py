@@ -1,0 +1,173 @@
+"""The motion core as a whole: plants, limits, following error, servo on/off, events."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.rt.trace import idle, record
+from vdevd.rt import AxisFlag, MotionCore, PlantKind
+
+MS = 1_000_000
+
+
+def core_with(plant: PlantKind, n: int = 2) -> MotionCore:
+    core = MotionCore(n, MS, plant)
+    core.servo_on(slice(None))
+    return core
+
+
+def settle(core: MotionCore, ticks: int) -> None:
+    for _ in range(ticks):
+        core.tick()
+    core.update_in_position()
+
+
+def test_servo_with_default_gains_tracks_and_settles_in_position() -> None:
+    core = core_with(PlantKind.SERVO)
+    core.move_absolute(slice(None), [10_000, -2_500], 50_000, 500_000, 500_000)
+    worst = 0.0
+    while not idle(core):
+        core.tick()
+        worst = max(worst, float(np.abs(core.axes.ferr).max()))
+    assert worst < 2 * 50_000 * 1e-3  # two ticks of travel: the sampling delay, no more
+    settle(core, 300)
+    assert list(core.axes.encoder) == [10_000, -2_500]
+    assert (core.axes.flags & AxisFlag.IN_POSITION).all()
+
+
+def test_servo_output_and_integrator_limits() -> None:
+    core = core_with(PlantKind.SERVO, 1)
+    core.pid.out_limit[:] = 2.0
+    core.pid.il[:] = 5.0
+    core.plant.set(0, viscous=1e6)  # a stalled motor: the error cannot close
+    core.move_absolute(0, 1000, 1e5, 1e6, 1e6)
+    settle(core, 200)
+    assert abs(core.axes.out[0]) == pytest.approx(2.0)
+    assert abs(core.pid.integ[0]) == pytest.approx(5.0)
+
+
+def test_stepper_moves_in_whole_steps_and_ends_on_target() -> None:
+    core = core_with(PlantKind.STEPPER, 1)
+    core.move_absolute(0, 777, 10_000, 1e5, 1e5)
+    trace = []
+    while not idle(core):
+        core.tick()
+        trace.append(core.axes.pos[0])
+    assert all(float(p).is_integer() for p in trace)
+    assert core.axes.encoder[0] == 777 and core.axes.pos[0] == 777
+
+
+def test_mixed_plants_on_one_card() -> None:
+    core = MotionCore(3, MS, [PlantKind.SERVO, PlantKind.IDEAL, PlantKind.STEPPER])
+    core.servo_on(slice(None))
+    core.move_absolute(slice(None), 500, 20_000, 2e5, 2e5)
+    record(core, 5000, idle)
+    settle(core, 300)
+    assert list(core.axes.encoder) == [500, 500, 500]
+
+
+def test_hard_limit_stops_a_move_toward_it_and_allows_moving_away() -> None:
+    core = core_with(PlantKind.IDEAL, 1)
+    core.limits.limit_dec[:] = 1e6
+    core.jog(0, 20_000, 1e5, 1e5)
+    record(core, 300, lambda c: False)
+    core.set_inputs(hard_limit_pos=[True])
+    flags = core.axes.flags[0]
+    assert flags & AxisFlag.HARD_LIMIT_POS and flags & AxisFlag.STOPPED_BY_LIMIT
+    events = 0
+    for _ in range(200):
+        events |= core.tick()
+    assert events & AxisFlag.DONE and core.axes.cmd_vel[0] == 0.0
+    core.jog(0, 5_000, 1e5, 1e5)  # toward the active limit: refused
+    assert core.tick() & AxisFlag.STOPPED_BY_LIMIT and idle(core)
+    core.jog(0, -5_000, 1e5, 1e5)  # away from it: allowed
+    record(core, 100, lambda c: False)
+    assert core.axes.cmd_vel[0] == -5_000
+
+
+def test_soft_limit_stops_a_jog_at_the_limit_with_the_limit_deceleration() -> None:
+    core = core_with(PlantKind.IDEAL, 1)
+    core.set_soft_limits(0, -1_000, 1_000)
+    core.limits.limit_dec[:] = 1e7
+    core.jog(0, 10_000, 1e6, 1e6)
+    trace = record(core, 2000, idle)
+    assert core.axes.flags[0] & AxisFlag.SOFT_LIMIT_POS
+    assert core.axes.flags[0] & AxisFlag.STOPPED_BY_LIMIT
+    assert 1_000 <= trace[-1, 0] <= 1_000 + 10_000**2 / (2 * 1e7) + 10_000 * 1e-3 + 1
+
+
+def test_following_error_trip_is_an_event() -> None:
+    core = core_with(PlantKind.SERVO, 1)
+    core.set_fe_limit(0, 20)
+    core.plant.set(0, peak_torque=1.0)  # too weak to follow
+    core.move_absolute(0, 100_000, 1e5, 1e6, 1e6)
+    ticks, events = core.run(5000)
+    assert events & AxisFlag.FE_TRIP and ticks < 5000
+    assert core.axes.flags[0] & AxisFlag.FE_TRIP
+    assert abs(core.axes.ferr[0]) > 20
+    core.servo_on(0)
+    assert not core.axes.flags[0] & AxisFlag.FE_TRIP
+
+
+def test_run_stops_right_after_the_event_tick() -> None:
+    core = core_with(PlantKind.IDEAL, 1)
+    core.move_absolute(0, 10, 1000, 1e5, 1e5)
+    ticks, events = core.run(10_000)
+    assert events & AxisFlag.DONE
+    assert core.profile.ticks == ticks and core.axes.cmd_pos[0] == 10
+    assert core.run(5) == (5, 0)
+
+
+def test_servo_off_opens_the_loop_and_the_command_follows() -> None:
+    core = core_with(PlantKind.SERVO, 1)
+    core.jog(0, 20_000, 1e6, 1e6)
+    record(core, 100, lambda c: False)
+    core.servo_off(0)
+    assert not core.axes.flags[0] & AxisFlag.SERVO_ON
+    record(core, 50, lambda c: False)
+    assert core.axes.out[0] == 0.0
+    assert core.axes.cmd_pos[0] == core.axes.pos[0]
+    assert abs(core.axes.vel[0]) < 20_000  # coasting down under viscous friction
+
+
+def test_set_position_defines_position_without_motion() -> None:
+    core = core_with(PlantKind.SERVO, 1)
+    core.set_position(0, 5000)
+    settle(core, 100)
+    assert core.axes.encoder[0] == 5000 and core.axes.ferr[0] == 0
+    assert abs(core.axes.vel[0]) < 1e-9
+
+
+def test_encoder_quantises_and_encoder_loss_freezes_it() -> None:
+    core = core_with(PlantKind.IDEAL, 1)
+    core.jog(0, 1234.5, 1e6, 1e6)
+    record(core, 100, lambda c: False)
+    assert core.axes.encoder[0] == np.floor(core.axes.pos[0])
+    core.set_inputs(encoder_loss=[True])
+    frozen = core.axes.encoder[0]
+    record(core, 100, lambda c: False)
+    assert core.axes.encoder[0] == frozen and core.axes.pos[0] > frozen + 100
+    assert core.axes.flags[0] & AxisFlag.ENCODER_LOSS
+
+
+def test_amplifier_fault_aborts_and_turns_the_servo_off() -> None:
+    core = core_with(PlantKind.SERVO, 1)
+    core.jog(0, 5_000, 1e6, 1e6)
+    record(core, 20, lambda c: False)
+    core.set_inputs(amp_fault=[True])
+    events = core.tick()
+    assert events & AxisFlag.AMP_FAULT and events & AxisFlag.DONE
+    flags = core.axes.flags[0]
+    assert flags & AxisFlag.AMP_FAULT and flags & AxisFlag.ABORTED
+    assert not flags & AxisFlag.SERVO_ON
+    core.servo_on(0)  # refused while the fault is active
+    assert not core.axes.flags[0] & AxisFlag.SERVO_ON
+
+
+def test_bad_motion_parameters_are_refused() -> None:
+    core = core_with(PlantKind.IDEAL, 1)
+    with pytest.raises(ValueError):
+        core.move_absolute(0, 100, 0, 1e5, 1e5)
+    with pytest.raises(ValueError):
+        core.jog(0, 100, -1, 1e5)
