@@ -38,8 +38,7 @@ def test_servo_with_default_gains_tracks_and_settles_in_position() -> None:
 
 def test_servo_output_and_integrator_limits() -> None:
     core = core_with(PlantKind.SERVO, 1)
-    core.pid.out_limit[:] = 2.0
-    core.pid.il[:] = 5.0
+    core.pid.set(0, out_limit=2.0, il=5.0)
     core.plant.set(0, viscous=1e6)  # a stalled motor: the error cannot close
     core.move_absolute(0, 1000, 1e5, 1e6, 1e6)
     settle(core, 200)

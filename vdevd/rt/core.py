@@ -22,8 +22,6 @@ from vdevd.rt.profiles import ProfileGenerator
 
 Selector = int | slice | Sequence[int] | np.ndarray
 
-_ENC_EPS = 1e-9  # absorbs float error so an exact integer position reads as that count
-
 
 class MotionCore:
     """Axes, profile generator, PID, plants and limits of one card."""
@@ -34,8 +32,7 @@ class MotionCore:
             raise ValueError("need at least one axis and a positive period")
         self.n, self.dt_ns, self.dt = n, dt_ns, dt_ns / 1e9
         self.pid = Pid(n)
-        for key, value in default_gains(self.dt).items():
-            getattr(self.pid, key)[:] = value
+        self.pid.set(slice(None), **default_gains(self.dt))
         self.axes = Axes(n, cmd_vel=self.pid.cmd_vel, cmd_acc=self.pid.cmd_acc)
         self.profile = ProfileGenerator(self.axes, self.dt)
         self.plant = ServoPlant(n, self.dt)
@@ -104,12 +101,10 @@ class MotionCore:
             self._follow(self._step_idx, rounded=True)
         enc = self._enc
         if self._any_loss:
-            np.add(ax.pos, _ENC_EPS, out=self._tmp)
-            np.floor(self._tmp, out=self._tmp)
+            np.floor(ax.pos, out=self._tmp)
             np.copyto(enc, self._tmp, where=~self.encoder_loss)
         else:
-            np.add(ax.pos, _ENC_EPS, out=enc)
-            np.floor(enc, out=enc)
+            np.floor(ax.pos, out=enc)
         ax.encoder[:] = enc
         if self._any_off:  # servo off: the command follows the actual position
             np.copyto(ax.cmd_pos, ax.pos, where=~self.servo_on_mask)

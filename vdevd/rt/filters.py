@@ -29,6 +29,25 @@ class Pid:
         self.offset = np.zeros(n)
         self.out_limit = np.full(n, np.inf)
         self._prod = np.zeros((len(self.TERMS), n))
+        self._configure()
+
+    PARAMS = (*TERMS, "il", "offset", "out_limit")
+
+    def set(self, axes: slice | np.ndarray | int, **params: float) -> None:
+        """Set gains and limits of some axes (use this, not the arrays: the tick skips the
+        integrator limit, offset and output limit while none is in use)."""
+        for key, value in params.items():
+            if key not in self.PARAMS:
+                raise ValueError(f"no PID parameter {key!r} (parameters: {', '.join(self.PARAMS)})")
+            if key in ("il", "out_limit") and not float(value) >= 0:
+                raise ValueError(f"{key} must be >= 0")
+            getattr(self, key)[axes] = float(value)
+        self._configure()
+
+    def _configure(self) -> None:
+        self._limit_integ = bool(np.isfinite(self.il).any())
+        self._limit_out = bool(np.isfinite(self.out_limit).any())
+        self._offset = bool(self.offset.any())
 
     def reset(self, axes: slice | np.ndarray | int) -> None:
         """Clear the integrator and derivative memory (servo on, define position)."""
@@ -41,10 +60,13 @@ class Pid:
         np.subtract(e, self.e_prev, out=self.de)
         self.e_prev[:] = e
         integ += e
-        np.minimum(integ, self.il, out=integ)
-        np.maximum(integ, -self.il, out=integ)
+        if self._limit_integ:
+            np.minimum(integ, self.il, out=integ)
+            np.maximum(integ, -self.il, out=integ)
         np.multiply(self.gains, self.terms, out=self._prod)
         np.add.reduce(self._prod, axis=0, out=out)
-        out += self.offset
-        np.minimum(out, self.out_limit, out=out)
-        np.maximum(out, -self.out_limit, out=out)
+        if self._offset:
+            out += self.offset
+        if self._limit_out:
+            np.minimum(out, self.out_limit, out=out)
+            np.maximum(out, -self.out_limit, out=out)

@@ -216,6 +216,7 @@ class ProfileGenerator:
     def _enter(self, axis: int, ph: Phase) -> None:
         self.t0[axis], self.p0[axis], self.v0[axis] = ph.t0, ph.p0, ph.v0
         self.a0[axis], self.j[axis] = ph.a0, ph.j
+        self.axes.cmd_acc[axis] = ph.a0  # constant within a trapezoid phase
         self.a0_3[axis] = ph.a0 / 3
         self.t_end[axis] = ph.t0 + ph.dur
 
@@ -249,13 +250,12 @@ class ProfileGenerator:
         """Commanded position, velocity and acceleration of every axis at `self.t`."""
         ax, tau, tmp = self.axes, self._tau, self._tmp
         np.subtract(self.t, self.t0, out=tau)
-        if not self.jerky:  # constant acceleration phases only: the trapezoid shortcut
-            ax.cmd_acc[:] = self.a0
+        if not self.jerky:  # constant acceleration (cmd_acc set on entering the phase)
             np.multiply(self.a0, tau, out=tmp)
             np.add(self.v0, tmp, out=ax.cmd_vel)
-            tmp *= 0.5
-            tmp += self.v0
+            np.add(self.v0, ax.cmd_vel, out=tmp)  # the mean velocity over tau, times 2
             tmp *= tau
+            tmp *= 0.5
             np.add(self.p0, tmp, out=ax.cmd_pos)
             return
         np.multiply(self.j, tau, out=ax.cmd_acc)

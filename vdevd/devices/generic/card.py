@@ -242,13 +242,8 @@ class GenericServoCard(Card):
     def set_gains(self, axis: int, **gains: float) -> dict[str, float]:
         """Set PID parameters of an axis (kp, ki, kd, il, vff, aff, out_limit)."""
         a = self._axis(axis)
-        pid = self.core.pid
-        for key, value in gains.items():
-            arr = getattr(pid, key, None)
-            if not isinstance(arr, np.ndarray):
-                raise ValueError(f"no PID parameter {key!r}")
-            arr[a] = float(value)
-        return {k: float(getattr(pid, k)[a]) for k in gains}
+        self.core.pid.set(a, **gains)
+        return {k: float(getattr(self.core.pid, k)[a]) for k in gains}
 
     @control()
     def save(self) -> None:
