@@ -34,13 +34,22 @@ _LIST = list
 
 @dataclass(frozen=True, slots=True)
 class Field:
-    types: type | tuple[type, ...]
+    """A field's allowed msgpack types (exact Python types: a bool is not an int) and whether
+    it is required."""
+
+    types: frozenset[type]
     required: bool = True
 
 
 def _f(types: type | tuple[type, ...], required: bool = True) -> Field:
-    return Field(types, required)
+    return Field(frozenset(types if isinstance(types, tuple) else (types,)), required)
 
+
+_INT = int
+_STR = str
+_BYTES = (bytes, bytearray)
+_MAP = dict
+_LIST = list
 
 #: op -> the fields it takes beside `id`, `op` and `v` (proto/PROTOCOL.md, "Operations").
 SCHEMA: dict[str, dict[str, Field]] = {
@@ -78,6 +87,8 @@ SCHEMA: dict[str, dict[str, Field]] = {
     "stats": {},
     "sync": {"card": _f(_STR)},
 }
+_META = ("id", "op", "v")
+_SCHEMA_ITEMS = {op: tuple(fields.items()) for op, fields in SCHEMA.items()}
 
 #: ops allowed inside a batch
 BATCHABLE = frozenset({"read", "write", "wait", "control"})
@@ -96,35 +107,36 @@ def _unpack(payload: bytes) -> Any:
     return msgpack.unpackb(payload, raw=False, strict_map_key=False, use_list=True)
 
 
-def _type_ok(value: Any, types: type | tuple[type, ...]) -> bool:
-    # bool is an int subclass in Python but not in msgpack: reject it where ints are wanted
-    if isinstance(value, bool):
-        return types is bool
-    return isinstance(value, types)
-
-
 def validate(op: Any, fields: Mapping[Any, Any], req_id: Any = None) -> Request:
     """Check one operation's fields against SCHEMA; raise VdevError(MALFORMED/UNKNOWN_OP)."""
-    if not isinstance(op, str):
-        raise VdevError(ErrorCode.MALFORMED, "field 'op' must be a string")
-    schema = SCHEMA.get(op)
-    if schema is None:
+    items = _SCHEMA_ITEMS.get(op) if isinstance(op, str) else None
+    if items is None:
+        if not isinstance(op, str):
+            raise VdevError(ErrorCode.MALFORMED, "field 'op' must be a string")
         raise VdevError(ErrorCode.UNKNOWN_OP, f"unknown op {op!r} (ops: {', '.join(SCHEMA)})")
     args: dict[str, Any] = {}
-    for name, spec in schema.items():
-        if name in fields and fields[name] is not None:
-            value = fields[name]
-            if not _type_ok(value, spec.types):
-                raise VdevError(
-                    ErrorCode.MALFORMED,
-                    f"{op}: field {name!r} has the wrong type ({type(value).__name__})",
-                )
-            args[name] = value
-        elif spec.required:
-            raise VdevError(ErrorCode.MALFORMED, f"{op}: missing field {name!r}")
-    extra = [k for k in fields if k not in schema and k not in ("id", "op", "v")]
-    if extra:
-        raise VdevError(ErrorCode.MALFORMED, f"{op}: unknown field {extra[0]!r}")
+    present = 0
+    for name, spec in items:
+        if name not in fields:
+            if spec.required:
+                raise VdevError(ErrorCode.MALFORMED, f"{op}: missing field {name!r}")
+            continue
+        present += 1
+        value = fields[name]
+        if value is None:
+            if spec.required:
+                raise VdevError(ErrorCode.MALFORMED, f"{op}: missing field {name!r}")
+            continue
+        if type(value) not in spec.types:
+            raise VdevError(
+                ErrorCode.MALFORMED,
+                f"{op}: field {name!r} has the wrong type ({type(value).__name__})",
+            )
+        args[name] = value
+    if len(fields) > present:
+        extra = [k for k in fields if k not in SCHEMA[op] and k not in _META]
+        if extra:
+            raise VdevError(ErrorCode.MALFORMED, f"{op}: unknown field {extra[0]!r}")
     return Request(req_id, op, args)
 
 

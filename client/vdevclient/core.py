@@ -74,6 +74,7 @@ class Rack:
         self.curve = curve
         self._ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
         self._sock = self.socket(zmq.DEALER)
+        self._rcvtimeo = -1
         self._sock.connect(endpoint)
         self._ids = itertools.count(1)
         self._packb = msgpack.Packer(use_bin_type=True).pack
@@ -94,7 +95,8 @@ class Rack:
         fields["id"], fields["op"] = req_id, op
         self._sock.send(self._packb(fields))
         deadline_ms = int((self.timeout + _wait_s) * 1000)
-        self._sock.rcvtimeo = deadline_ms
+        if deadline_ms != self._rcvtimeo:  # a socket option costs ~5 us: set it on change only
+            self._sock.rcvtimeo = self._rcvtimeo = deadline_ms
         while True:
             try:
                 raw = self._sock.recv()
