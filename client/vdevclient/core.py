@@ -102,7 +102,7 @@ class Rack:
                 raw = self._sock.recv()
             except zmq.Again:
                 raise VdevTimeout(f"{op}: no reply from {self.endpoint} in {deadline_ms} ms") from None
-            reply = msgpack.unpackb(raw, raw=False, strict_map_key=False)
+            reply = msgpack.unpackb(raw)
             if reply.get("id") != req_id:
                 continue  # the late reply of an earlier request that timed out
             if "error" in reply:
