@@ -13,6 +13,7 @@ import time
 from typing import Any
 
 import vdevclient
+
 from bench.common import daemon, pin, placement, servo_card, wait_for
 from vdevd.config import parse
 from vdevd.daemon import build_rack

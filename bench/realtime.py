@@ -13,6 +13,7 @@ import time
 from typing import Any
 
 import vdevclient
+
 from bench.common import daemon, fmt, pin, placement, servo_card, summary, wait_for
 
 

@@ -14,9 +14,9 @@ import time
 from typing import Any
 
 import msgpack
+import vdevclient
 import zmq
 
-import vdevclient
 from bench.common import daemon, fmt, free_port, pin, placement, process, servo_card, summary, wait_for
 
 POSITION0 = 0x11C  # generic-servo axis 0 POSITION register

@@ -25,11 +25,6 @@ MAX_WAIT_NS = 86_400 * 1_000_000_000
 
 CAPABILITIES = ("read", "write", "batch", "wait.irq", "wait.value", "sim", "control", "stats", "sync")
 
-_INT = int
-_STR = str
-_BYTES = (bytes, bytearray)
-_MAP = dict
-_LIST = list
 
 
 @dataclass(frozen=True, slots=True)
