@@ -12,6 +12,7 @@ import tempfile
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -89,6 +90,19 @@ def daemon(config: str, cpus: set[int] | None) -> Iterator[tuple[str, str]]:
 def servo_card(axes: int = 4, plant: str = "servo", period_ns: int = 1_000_000) -> str:
     return (f'[[card]]\ntype = "generic-servo"\nname = "servo0"\naxes = {axes}\n'
             f'plant = "{plant}"\nperiod_ns = {period_ns}\n')
+
+
+def connect(endpoint: str, timeout: float = 5.0, within: float = 20.0) -> Any:
+    """A vdevclient connection, once the daemon just started answers."""
+    import vdevclient
+
+    deadline = time.monotonic() + within
+    while True:
+        try:
+            return vdevclient.connect(endpoint, timeout=timeout)
+        except vdevclient.VdevClientError:
+            if time.monotonic() > deadline:
+                raise
 
 
 def wait_for(fn: object, timeout: float = 20.0) -> None:

@@ -12,9 +12,7 @@ import statistics
 import time
 from typing import Any
 
-import vdevclient
-
-from bench.common import daemon, pin, placement, servo_card, wait_for
+from bench.common import connect, daemon, pin, placement, servo_card
 from vdevd.config import parse
 from vdevd.daemon import build_rack
 
@@ -48,14 +46,7 @@ def run(seconds: float = 10.0, repeats: int = 3, pin_mode: str = "split") -> dic
     server_cpus, client_cpus = placement(pin_mode)
     pin(client_cpus)
     with daemon(CONFIG, server_cpus) as (endpoint, _):
-        rack: vdevclient.Rack | None = None
-
-        def connect() -> None:
-            nonlocal rack
-            rack = vdevclient.connect(endpoint, timeout=120)
-
-        wait_for(connect)
-        assert rack is not None
+        rack = connect(endpoint, timeout=120)
         bar = rack.card("servo0").region("bar0")
 
         def step(s: float) -> None:

@@ -12,9 +12,7 @@ import argparse
 import time
 from typing import Any
 
-import vdevclient
-
-from bench.common import daemon, fmt, pin, placement, servo_card, summary, wait_for
+from bench.common import connect, daemon, fmt, pin, placement, servo_card, summary
 
 
 def run(seconds: float = 60.0, wake_us: int = 1000, waker: str = "thread",
@@ -26,14 +24,7 @@ def run(seconds: float = 60.0, wake_us: int = 1000, waker: str = "thread",
     behind: list[float] = []
     rtts: list[float] = []
     with daemon(config, server_cpus) as (endpoint, _):
-        rack: vdevclient.Rack | None = None
-
-        def connect() -> None:
-            nonlocal rack
-            rack = vdevclient.connect(endpoint, timeout=5)
-
-        wait_for(connect)
-        assert rack is not None
+        rack = connect(endpoint, timeout=5)
         # the servo card moves all the time: jog every axis
         bar = rack.card("servo0").region("bar0")
         for axis in range(4):

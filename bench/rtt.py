@@ -14,10 +14,20 @@ import time
 from typing import Any
 
 import msgpack
-import vdevclient
 import zmq
 
-from bench.common import daemon, fmt, free_port, pin, placement, process, servo_card, summary, wait_for
+from bench.common import (
+    connect,
+    daemon,
+    fmt,
+    free_port,
+    pin,
+    placement,
+    process,
+    servo_card,
+    summary,
+    wait_for,
+)
 
 POSITION0 = 0x11C  # generic-servo axis 0 POSITION register
 
@@ -51,14 +61,7 @@ def run(n: int = 5000, repeats: int = 3, warmup: int = 1000, pin_mode: str = "sp
             return req.recv()
 
         wait_for(raw_read)
-        rack = None
-
-        def connect() -> None:
-            nonlocal rack
-            rack = vdevclient.connect(endpoint, timeout=5)
-
-        wait_for(connect)
-        assert rack is not None
+        rack = connect(endpoint, timeout=5)
         region = rack.card("servo0").region("bar0")
 
         def vdev_read() -> bytes:
