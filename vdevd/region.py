@@ -71,6 +71,8 @@ class Region:
         self.mem = memoryview(self.buf)
         self._hooks: list[Hook] = []
         self._starts: list[int] = []
+        #: the spans of hooks with a read side effect: other reads are plain memory
+        self._read_spans: list[tuple[int, int]] = []
         self._unit = min(self.widths)
         self._prefix = "<" if endian == "little" else ">"
 
@@ -95,6 +97,9 @@ class Region:
             raise ValueError(f"region {self.name}: hook at {offset:#x} overlaps another")
         self._hooks.insert(i, h)
         self._starts.insert(i, offset)
+        if on_read is not None:
+            self._read_spans.append((offset, h.end))
+            self._read_spans.sort()
         return h
 
     def describe(self) -> dict[str, object]:
@@ -112,7 +117,7 @@ class Region:
     def read(self, offset: int, size: int) -> bytes:
         """A host read: plain memory from the buffer, hooked registers through their hook."""
         single = self._check(offset, size)
-        if not self._hooks or not self._overlapping(offset, offset + size):
+        if not self._read_spans or not self._reads_hooked(offset, offset + size):
             return bytes(self.mem[offset : offset + size])
         if single:
             return self._read_one(offset, size)
@@ -187,6 +192,10 @@ class Region:
     def _overlapping(self, start: int, end: int) -> bool:
         i = bisect.bisect_left(self._starts, end)
         return i > 0 and self._hooks[i - 1].end > start
+
+    def _reads_hooked(self, start: int, end: int) -> bool:
+        i = bisect.bisect_left(self._read_spans, (end,))
+        return i > 0 and self._read_spans[i - 1][1] > start
 
     def _hook_at(self, offset: int) -> Hook | None:
         i = bisect.bisect_right(self._starts, offset)

@@ -81,8 +81,12 @@ class Server:
         recv, events = sock.recv_multipart, sock.getsockopt
         self._draining = True
         try:
+            try:  # woken up: most likely a message is there, so try it without asking first
+                self._handle(recv(zmq.NOBLOCK))
+            except zmq.Again:
+                return
             for _ in range(DRAIN_BUDGET):
-                # asking ZMQ_EVENTS costs half of a recv that raises Again
+                # then ask ZMQ_EVENTS, which costs half of a recv that raises Again
                 if not events(zmq.EVENTS) & zmq.POLLIN:
                     return
                 self._handle(recv(zmq.NOBLOCK))

@@ -87,7 +87,8 @@ def free_port() -> int:
 
 
 @pytest.mark.slow
-def test_vdevd_serve_starts_serves_and_exits_cleanly_on_sigterm(tmp_path: Path) -> None:
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_vdevd_serve_starts_serves_and_exits_cleanly_on_a_signal(sig: int) -> None:
     endpoint = f"tcp://127.0.0.1:{free_port()}"
     events = f"tcp://127.0.0.1:{free_port()}"
     with subprocess.Popen(
@@ -99,7 +100,7 @@ def test_vdevd_serve_starts_serves_and_exits_cleanly_on_sigterm(tmp_path: Path) 
 
             with vdevclient.connect(endpoint, timeout=20) as rack:
                 assert rack.card("servo0").region("bar0").read32(0) == R.CARD_ID
-            proc.send_signal(signal.SIGTERM)
+            proc.send_signal(sig)
             _, err = proc.communicate(timeout=20)
         finally:
             if proc.poll() is None:
