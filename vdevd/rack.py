@@ -193,7 +193,7 @@ class Rack:
             # A card bug must not stop the rack: log it, count it, keep time moving.
             self.card_faults += 1
             log.exception("card raised during a tick; time continues")
-            self.sched._settle(max(self.sched.now_ns, min(target_ns, self.sched.next_tick_ns())))
+            self.sched.settle(max(self.sched.now_ns, min(target_ns, self.sched.next_tick_ns())))
             return self.sched.now_ns
 
     def _service(self) -> None:

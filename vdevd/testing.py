@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import asyncio
 import threading
-from typing import Any
-
 import zmq
 
 from vdevd.config import Config, default_config
+from vdevd.daemon import build_rack
 from vdevd.server import Server
 
 
@@ -56,8 +55,8 @@ class DaemonThread:
     async def _serve(self) -> None:
         self._loop = asyncio.get_running_loop()
         self._stop = asyncio.Event()
-        self.server = Server(self._build(), self.cfg.endpoint, self.cfg.events, ctx=self._ctx,
-                             curve=self.cfg.curve)
+        self.server = Server(build_rack(self.cfg), self.cfg.endpoint, self.cfg.events,
+                             ctx=self._ctx, curve=self.cfg.curve)
         self.endpoint, self.events = self.server.endpoint, self.server.events
         self.server.start(self._loop)
         self._ready.set()
@@ -65,11 +64,6 @@ class DaemonThread:
             await self._stop.wait()
         finally:
             self.server.close()
-
-    def _build(self) -> Any:
-        from vdevd.daemon import build_rack
-
-        return build_rack(self.cfg)
 
     def stop(self) -> None:
         if self._loop is not None and self._stop is not None and self._thread.is_alive():

@@ -56,7 +56,7 @@ class Scheduler:
                 due = target_ns // card.period_ns - card.ticks
                 while due > 0:
                     due -= card.tick(due)
-            self._settle(target_ns)
+            self.settle(target_ns)
             return target_ns
         heap = [((c.ticks + 1) * c.period_ns, i) for i, c in enumerate(self.cards)]
         heapq.heapify(heap)
@@ -66,12 +66,12 @@ class Scheduler:
             card.tick(1)
             heapq.heappush(heap, (t + card.period_ns, i))
             if stop():
-                self._settle(t)
+                self.settle(t)
                 return t
-        self._settle(target_ns)
+        self.settle(target_ns)
         return target_ns
 
-    def _settle(self, t: int) -> None:
+    def settle(self, t: int) -> None:
         """Make every card's clock read `t`, the time stamped on what happens until the next tick."""
         for card in self.cards:
             card.now_ns = t
