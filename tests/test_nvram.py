@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
 import vdevclient
+
 from tests.conftest import rack_config
 from tests.protocol.motion import axis_reg
 from vdevd.devices.generic.regions import AxisReg

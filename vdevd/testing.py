@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import threading
+
 import zmq
 
 from vdevd.config import Config, default_config
