@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from vdevd.devices.base import Card, CardContext
+from vdevd.devices.base import Card, CardContext, control
 from vdevd.errors import VdevError
 from vdevd.protocol import Request
 from vdevd.rack import Rack
@@ -85,3 +85,28 @@ def test_lockstep_value_wait_and_timeout() -> None:
     late = run(rack, "wait", card="c", on="value", region="mem", offset=0, value=2,
                timeout_ns=3500)
     assert late == {"fired": False, "now_ns": 8500}
+
+
+class Faulty(Counter):
+    """A card with a bug: its firmware raises at tick 3, its backdoor always."""
+
+    def step(self) -> None:
+        super().step()
+        if self.ticks == 3:
+            raise RuntimeError("firmware bug")
+
+    @control()
+    def explode(self) -> None:
+        """A backdoor action with a bug."""
+        raise RuntimeError("backdoor bug")
+
+
+def test_a_card_that_raises_does_not_stop_the_rack() -> None:
+    bad, good = Faulty("bad", 1000), Counter("good", 1000)
+    rack = Rack([bad, good], "lockstep")
+    assert run(rack, "sim", action="step", ns=10_000)["now_ns"] == 10_000
+    assert rack.card_faults == 1
+    out: list[Any] = []
+    rack.execute(Request(7, "control", {"card": "bad", "action": "explode"}), out.append)
+    assert isinstance(out[0], VdevError) and out[0].code == "internal"
+    assert run(rack, "read", card="good", region="mem", offset=0, size=4) == good.mem.read(0, 4)
