@@ -190,7 +190,7 @@ class GenericServoCard(Card):
         elif cmd == Command.JOG:
             self.core.jog(axis, target, acc, dec, jerk)
         elif cmd == Command.STOP:
-            self.core.stop(axis)
+            self.core.stop(axis, dec if dec > 0 else None)
         elif cmd == Command.ABORT:
             self.core.abort(axis)
         elif cmd == Command.SERVO_ON:
