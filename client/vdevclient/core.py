@@ -91,17 +91,23 @@ class Rack:
     # -- plumbing ---------------------------------------------------------------------------------
     def request(self, op: str, /, *, _wait_s: float = 0.0, **fields: Any) -> Any:
         """Send one request and return its result; RemoteError for an error reply."""
-        req_id = next(self._ids)
-        fields["id"], fields["op"] = req_id, op
-        self._sock.send(self._packb(fields))
-        deadline_ms = int((self.timeout + _wait_s) * 1000)
+        fields["op"] = op
+        return self.call(fields, _wait_s)
+
+    def call(self, message: dict[str, Any], wait_s: float = 0.0) -> Any:
+        """Send one request map (its `id` is set here) and return the result."""
+        message["id"] = req_id = next(self._ids)
+        self._sock.send(self._packb(message))
+        # what follows overlaps the round trip
+        deadline_ms = int((self.timeout + wait_s) * 1000)
         if deadline_ms != self._rcvtimeo:  # a socket option costs ~5 us: set it on change only
             self._sock.rcvtimeo = self._rcvtimeo = deadline_ms
         while True:
             try:
                 raw = self._sock.recv()
             except zmq.Again:
-                raise VdevTimeout(f"{op}: no reply from {self.endpoint} in {deadline_ms} ms") from None
+                raise VdevTimeout(f"{message['op']}: no reply from {self.endpoint} "
+                                  f"in {deadline_ms} ms") from None
             reply = msgpack.unpackb(raw)
             if reply.get("id") != req_id:
                 continue  # the late reply of an earlier request that timed out
@@ -228,10 +234,13 @@ class Region:
         self.size = info.size
         self._endian: Literal["little", "big"] = "big" if info.endian == "big" else "little"
         self._req = card.rack.request
+        self._call = card.rack.call
         self._where: dict[str, Any] = {"card": card.name, "region": info.name}
+        self._card_name = card.name
 
     def read(self, offset: int, size: int) -> bytes:
-        return self._req("read", offset=offset, size=size, **self._where)
+        return self._call({"op": "read", "card": self._card_name, "region": self.name,
+                           "offset": offset, "size": size})
 
     def write(self, offset: int, data: bytes) -> None:
         self._req("write", offset=offset, data=bytes(data), **self._where)
