@@ -471,6 +471,9 @@ class Rack:
                 card.control(action, params)
             except VdevError as exc:
                 log.warning("scheduled control %s.%s failed: %s", card.name, action, exc.message)
+            except Exception:  # a bug in the card's backdoor must not stop the clock
+                self.card_faults += 1
+                log.exception("scheduled control %s.%s raised", card.name, action)
 
         heapq.heappush(self._timers, (when, next(self._seq), later))
         return {"scheduled_ns": when}
