@@ -156,20 +156,20 @@ def read_fields(msg: Any) -> tuple[Any, str, str, int, int] | None:
     The hot path of every register read: the same checks as `request_from` for this one shape,
     in a few operations. Anything else (including a malformed read) takes the general path.
     """
-    if type(msg) is not dict or msg.get("op") != "read":
-        return None
-    n = len(msg)
-    if not (n == 6 or (n == 7 and type(msg.get("v")) is int and msg["v"] == VERSION)):
-        return None
     try:
-        req_id, card, region = msg["id"], msg["card"], msg["region"]
-        offset, size = msg["offset"], msg["size"]
-    except KeyError:
+        if msg["op"] != "read" or len(msg) != 6:
+            return None
+        req_id, card, region, offset, size = (
+            msg["id"], msg["card"], msg["region"], msg["offset"], msg["size"])
+    except (KeyError, TypeError, IndexError):
         return None
-    if (type(card) is not str or type(region) is not str or type(offset) is not int
-            or type(size) is not int or type(req_id) in (dict, list)):
-        return None
-    return req_id, card, region, offset, size
+    if (type(card) is str and type(region) is str and type(offset) is int
+            and type(size) is int and type(req_id) not in _CONTAINERS):
+        return req_id, card, region, offset, size
+    return None
+
+
+_CONTAINERS = (dict, list)
 
 
 def request_from(msg: Any) -> Request:

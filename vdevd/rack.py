@@ -86,6 +86,8 @@ class Rack:
         waker: Literal["timer", "thread"] = "thread",
     ) -> None:
         self.cards: dict[str, Card] = {}
+        self._regions: dict[tuple[str, str], Region] = {}
+        self.reads = 0  # counted apart from `requests`: the hot path keeps no dict
         self.sched = Scheduler([])
         for card in cards:
             self.add_card(card)
@@ -122,6 +124,7 @@ class Rack:
             raise ValueError(f"duplicate card name {card.name!r}")
         self.cards[card.name] = card
         self.sched.add(card)
+        self._regions.update({(card.name, r.name): r for r in card.regions.values()})
 
     # -- events ------------------------------------------------------------------------------------
     def emit(self, event: IrqEvent) -> None:
@@ -337,10 +340,14 @@ class Rack:
     def read(self, card: str, region: str, offset: int, size: int) -> bytes:
         """A `read` request on the hot path (protocol.read_fields): the same effects and
         counters as `execute` of a read, without building a Request."""
-        self.catch_up()
-        self.requests["read"] = self.requests.get("read", 0) + 1
+        if self._t0:
+            self.catch_up()
+        self.reads += 1
+        r = self._regions.get((card, region))
         try:
-            return self.region(card, region).read(offset, size)
+            if r is None:
+                r = self.region(card, region)  # raises the error naming what is missing
+            return r.read(offset, size)
         except VdevError:
             self.errors += 1
             raise
@@ -511,7 +518,8 @@ class Rack:
                 for c in self.cards.values()
             },
             "requests": {
-                "by_op": dict(self.requests),
+                "by_op": {**self.requests,
+                          "read": self.requests.get("read", 0) + self.reads},
                 "errors": self.errors,
                 "latency_ns": self.latency.summary(),
                 "pending_waits": len(self._waiters),
