@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import pytest
 import vdevclient
 
-from tests.conftest import RawClient, error_code
+from tests.conftest import RawClient, error_code, rack_config
 from tests.protocol.motion import BAR, axis_reg
 from vdevd.devices.generic import regions as R
 from vdevd.devices.generic.regions import AxisReg
 from vdevd.rt import AxisFlag
+from vdevd.testing import DaemonThread
 
 MS = 1_000_000
 
@@ -52,3 +54,19 @@ def test_scheduled_control_is_checked_when_scheduled(raw: RawClient) -> None:
 def test_bad_values_are_bad_param(raw: RawClient) -> None:
     reply = raw.call(op="control", card="servo0", action="set_inputs", params={"value": -1})
     assert error_code(reply) == "bad_param"
+
+
+@pytest.mark.parametrize("peak_torque", [None, 10.0])
+def test_plant_parameters_change_the_physics(peak_torque: float | None) -> None:
+    """A weak amplifier (low peak torque) cannot follow a jog: the following error grows."""
+    with DaemonThread(rack_config(plant="servo")) as d, vdevclient.connect(d.endpoint) as rack:
+        with pytest.raises(vdevclient.RemoteError):
+            rack.control("servo0", "set_plant", axis=0, warp=1.0)
+        if peak_torque is not None:
+            rack.control("servo0", "set_plant", axis=0, peak_torque=peak_torque)
+        bar = rack.card("servo0").region("bar0")
+        bar.write32(axis_reg(0, AxisReg.TARGET), 100_000)
+        bar.write32(axis_reg(0, AxisReg.COMMAND), 3)  # JOG at 100000 counts/s
+        rack.sim.step(seconds=0.5)
+        ferr = abs(rack.control("servo0", "axis_state", axis=0)["ferr"])
+    assert ferr > 1000 if peak_torque else ferr < 200

@@ -246,6 +246,12 @@ class GenericServoCard(Card):
         return {k: float(getattr(self.core.pid, k)[a]) for k in gains}
 
     @control()
+    def set_plant(self, axis: int, **params: float) -> None:
+        """Set servo plant parameters of an axis (amp_gain, peak_torque, inertia, viscous,
+        coulomb; vdevd/rt/plants.py)."""
+        self.core.plant.set(self._axis(axis), **params)
+
+    @control()
     def save(self) -> None:
         """Save the motion parameters to flash (the state directory)."""
         if self.ctx.nvram is None:
