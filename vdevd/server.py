@@ -77,8 +77,7 @@ class Server:
     # -- requests ---------------------------------------------------------------------------------
     def _on_readable(self) -> None:
         self._drain_scheduled = False
-        sock = self.router
-        recv, events = sock.recv_multipart, sock.getsockopt
+        recv, events = self._recv, self.router.getsockopt
         self._draining = True
         try:
             try:  # woken up: most likely a message is there, so try it without asking first
@@ -93,6 +92,17 @@ class Server:
             self._schedule_drain()  # budget spent: let the scheduler run, then go on
         finally:
             self._draining = False
+
+    def _recv(self, flags: int) -> list[bytes]:
+        """One whole message. Like recv_multipart, but asking each frame's `more` flag instead
+        of ZMQ_RCVMORE: a socket option costs more than the receive itself."""
+        recv = self.router.recv
+        frames = [recv(flags)]  # the peer's identity; a ROUTER message always has a body
+        while True:
+            frame = recv(flags, copy=False)
+            frames.append(frame.bytes)
+            if not frame.more:
+                return frames
 
     def _schedule_drain(self) -> None:
         if not self._drain_scheduled and self._loop is not None:
