@@ -3,70 +3,114 @@ offset and output limit, vectorised over axes. Cards map their vendor gains onto
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
+
+Index = slice | np.ndarray | int | list[int]
+
+
+def _einsum_rows(g: np.ndarray, t: np.ndarray, out: np.ndarray) -> Any:
+    return np.einsum("ij,ij->i", g, t, out=out)
+
+
+#: per-axis dot product of two (n, k) arrays in one call (numpy >= 2.0 has it as a gufunc)
+_vecdot: Callable[..., Any] = getattr(np, "vecdot", _einsum_rows)
 
 
 class Pid:
-    """out = clamp(offset + kp*e + kd*(e - e_prev) + ki*I + vff*cmd_vel + aff*cmd_acc, +-out_limit),
-    with I += e each tick clamped to +-il (anti-windup). Gains are per sample, as on the cards:
+    """out = clamp(offset + kp*e + ki*I + kd*(e - e_prev) + vff*cmd_vel + aff*cmd_acc, +-out_limit)
+    with I += e each tick, clamped to +-il (anti-windup). Gains are per sample, as on the cards:
     kd multiplies the difference of two successive errors, ki the running sum of errors.
 
-    The terms live as the rows of one matrix (`terms`: e, de, I, cmd_vel, cmd_acc) so that the
-    output is one multiply and one sum over all axes; `cmd_vel`/`cmd_acc` rows are where the
-    profile generator writes (Axes shares them).
+    The terms are the rows of `terms` (cmd_vel, cmd_acc, ones, I, e_prev, e; `Axes.pid_terms` in a
+    motion core) and the gains are compiled into one matching block, so the output is a single
+    per-axis dot product. Parameter arrays are read-only views: change them with `set`. Axes that
+    are not `enabled` (servo off, not a servo axis) output exactly 0.
     """
 
-    #: row order of `gains` and `terms`
-    TERMS = ("kp", "kd", "ki", "vff", "aff")
+    PARAMS = ("kp", "ki", "kd", "il", "vff", "aff", "offset", "out_limit")
 
-    def __init__(self, n: int) -> None:
-        self.gains = np.zeros((len(self.TERMS), n))
-        self.kp, self.kd, self.ki, self.vff, self.aff = self.gains
-        self.terms = np.zeros((len(self.TERMS), n))
-        self.e, self.de, self.integ, self.cmd_vel, self.cmd_acc = self.terms
-        self.e_prev = np.zeros(n)
-        self.il = np.full(n, np.inf)
-        self.offset = np.zeros(n)
-        self.out_limit = np.full(n, np.inf)
-        self._prod = np.zeros((len(self.TERMS), n))
+    def __init__(self, n: int, terms: np.ndarray | None = None) -> None:
+        if terms is None:
+            terms = np.zeros((6, n))
+            terms[2] = 1.0
+        self.terms = terms
+        self.cmd_vel: np.ndarray = terms[0]
+        self.cmd_acc: np.ndarray = terms[1]
+        self.integ: np.ndarray = terms[3]
+        self.e_prev: np.ndarray = terms[4]
+        self.e: np.ndarray = terms[5]
+        self._params = {key: np.zeros(n) for key in self.PARAMS}
+        self._params["il"][:] = np.inf
+        self._params["out_limit"][:] = np.inf
+        for key, arr in self._params.items():
+            view = arr.view()
+            view.flags.writeable = False
+            setattr(self, key, view)
+        self.enabled = np.ones(n, dtype=bool)
+        self._gains = np.zeros((6, n))  # rows match `terms`
+        self._il, self._out_lim = self._params["il"], self._params["out_limit"]
+        self._il_neg = np.zeros(n)
+        self._out_neg = np.zeros(n)
         self._configure()
 
-    PARAMS = (*TERMS, "il", "offset", "out_limit")
+    # the parameter views, for type checkers (set in __init__)
+    kp: np.ndarray
+    ki: np.ndarray
+    kd: np.ndarray
+    il: np.ndarray
+    vff: np.ndarray
+    aff: np.ndarray
+    offset: np.ndarray
+    out_limit: np.ndarray
 
-    def set(self, axes: slice | np.ndarray | int, **params: float) -> None:
-        """Set gains and limits of some axes (use this, not the arrays: the tick skips the
-        integrator limit, offset and output limit while none is in use)."""
+    def set(self, axes: Index, **params: Any) -> None:
+        """Set parameters of some axes (scalars or one value per selected axis)."""
         for key, value in params.items():
-            if key not in self.PARAMS:
+            if key not in self._params:
                 raise ValueError(f"no PID parameter {key!r} (parameters: {', '.join(self.PARAMS)})")
-            if key in ("il", "out_limit") and not float(value) >= 0:
+            arr = np.asarray(value, dtype=float)
+            if key in ("il", "out_limit") and not (arr >= 0).all():
                 raise ValueError(f"{key} must be >= 0")
-            getattr(self, key)[axes] = float(value)
+            if key not in ("il", "out_limit") and not np.isfinite(arr).all():
+                raise ValueError(f"{key} must be finite")
+            self._params[key][axes] = arr
+        self._configure()
+
+    def enable(self, mask: np.ndarray) -> None:
+        """Which axes drive their output (the others output 0 and are not integrated into out)."""
+        self.enabled[:] = mask
         self._configure()
 
     def _configure(self) -> None:
-        self._limit_integ = bool(np.isfinite(self.il).any())
-        self._limit_out = bool(np.isfinite(self.out_limit).any())
-        self._offset = bool(self.offset.any())
+        """Compile the gains into the dot-product block; note which limits are in use."""
+        p, on = self._params, self.enabled
+        rows = (p["vff"], p["aff"], p["offset"], p["ki"], -p["kd"], p["kp"] + p["kd"])
+        for row, value in zip(self._gains, rows, strict=True):
+            np.multiply(value, on, out=row)
+        self._g, self._t = self._gains.T, self.terms.T
+        self._limit_integ = bool(np.isfinite(p["il"]).any())
+        self._limit_out = bool(np.isfinite(p["out_limit"]).any())
+        np.negative(p["il"], out=self._il_neg)
+        np.negative(p["out_limit"], out=self._out_neg)
 
-    def reset(self, axes: slice | np.ndarray | int) -> None:
+    def reset(self, axes: Index) -> None:
         """Clear the integrator and derivative memory (servo on, define position)."""
         self.integ[axes] = 0.0
         self.e_prev[axes] = 0.0
 
     def update(self, out: np.ndarray) -> None:
-        """One sample from the error already in `e`: write the controller output into `out`."""
+        """One sample from the error in `e` (and the feed-forward rows): write the controller
+        output into `out`, then remember `e` as the previous error."""
         e, integ = self.e, self.integ
-        np.subtract(e, self.e_prev, out=self.de)
-        self.e_prev[:] = e
-        integ += e
+        np.add(integ, e, integ)
         if self._limit_integ:
-            np.minimum(integ, self.il, out=integ)
-            np.maximum(integ, -self.il, out=integ)
-        np.multiply(self.gains, self.terms, out=self._prod)
-        np.add.reduce(self._prod, axis=0, out=out)
-        if self._offset:
-            out += self.offset
+            np.minimum(integ, self._il, out=integ)
+            np.maximum(integ, self._il_neg, out=integ)
+        _vecdot(self._g, self._t, out=out)
         if self._limit_out:
-            np.minimum(out, self.out_limit, out=out)
-            np.maximum(out, -self.out_limit, out=out)
+            np.minimum(out, self._out_lim, out=out)
+            np.maximum(out, self._out_neg, out=out)
+        np.copyto(self.e_prev, e)

@@ -2,27 +2,36 @@
 
 Method. A command plans, from the axis's commanded state (p, v, a) at that instant, a list of
 *phases* of constant jerk (trapezoid: jerk 0 and a step in acceleration; S-curve: the seven
-jerk-limited segments). Planning is scalar Python at command time (only the commanded axes).
-Each tick evaluates the current phase of every axis with a handful of in-place ufuncs:
+jerk-limited segments) with absolute start times. Planning is scalar Python at command time, for
+the commanded axes only (a trapezoid's peak speed in closed form, an S-curve's by bisection); the
+phases go into per-axis rows of a phase table (MAX_PHASES columns). From a moving state a move
+first brings the acceleration to zero (S-curve), and if it cannot stop before the target it stops
+(with dec) and comes back: a retarget behind the axis reverses within the same bounds.
 
-    acc = a0 + j*tau,   vel = v0 + tau*(a0 + acc)/2,   pos = p0 + tau*(v0 + tau*(a0/3 + acc/6))
-
-A move's last phase is a hold at the target given as an integer, so the end position is exact in
-counts; sampling the continuous profile keeps finite-difference velocity and acceleration within
-vmax and max(acc, dec). Phase boundaries are absolute times: the next one across all axes is one
-Python float, so the tick path tests it with no numpy call.
+Each tick is vectorised over all axes with no Python loop:
+- while no phase boundary is due (one Python float compare against the earliest end over all
+  axes), every axis advances by the exact one-tick step of constant jerk, two numpy calls on the
+  adjacent rows (cmd_pos, cmd_vel, cmd_acc) of `Axes.cmd_pva`:
+      x <- M @ x + (j dt^3/6, j dt^2/2, j dt),   M = [[1, dt, dt^2/2], [0, 1, dt], [0, 0, 1]]
+  (j = 0 in a trapezoid phase, whose acceleration is set on entering it);
+- on a tick that crosses a boundary (a few per move), the crossing axes step their phase index
+  (vectorised, one pass per skipped phase), and every axis is evaluated in closed form from its
+  phase start, which also drops the rounding the steps accumulated:
+      acc = a0 + j*tau,   vel = v0 + tau*(a0 + acc)/2,   pos = p0 + tau*(v0 + tau*(a0/3 + acc/6)).
+A move's last phase is a hold at the integer target, so the end position is exact in counts.
+Sampling the continuous profile keeps finite-difference velocity, acceleration and jerk within
+vmax, acc/dec and jerk, up to float rounding of the positions (~1e-12 of their magnitude).
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 
-from vdevd.rt.axes import Axes
+from vdevd.rt.axes import Axes, ProfileMode
 
 INF = math.inf
 
@@ -101,7 +110,14 @@ def plan_move(p: float, v: float, target: float, vmax: float, acc: float, dec: f
         return (u + vp) / 2 * sum(d for d, _, _ in up) + ramp_distance(vp, 0.0, dec, jerk) - length
 
     vp = vmax
-    if over(vmax) > 0:
+    if over(vmax) > 0 and (jerk <= 0 or math.isinf(jerk)) and u <= vmax:
+        # trapezoid: (vp^2 - u^2)/(2 acc) + vp^2/(2 dec) = length, solved for the peak speed
+        vp = min(vmax, math.sqrt((2 * acc * dec * length + dec * u * u) / (acc + dec)))
+        for _ in range(4):  # undo rounding that would leave a negative cruise
+            if over(vp) <= 0 or vp <= u:
+                break
+            vp = math.nextafter(vp, 0.0)
+    elif over(vmax) > 0:
         lo, hi = (u, vmax) if u <= vmax else (vmax, u)
         for _ in range(80):
             mid = (lo + hi) / 2
@@ -135,8 +151,18 @@ def to_phases(t: float, p: float, v: float, a: float, segs: Iterable[Segment],
     return phases
 
 
+#: columns of the phase table: the longest plan is an S-curve that first ramps its acceleration to
+#: zero (1), stops (3), accelerates (3), cruises (1), decelerates (3) and holds (1)
+MAX_PHASES = 16
+
+
 class ProfileGenerator:
-    """The commanded state of every axis, from its queue of planned phases."""
+    """The commanded state of every axis, from its row of planned phases.
+
+    Commands (`move`, `jog`, `stop`, `hold`) plan one axis each; call `commit()` once after
+    planning a batch so the tick sees the new plans. `moving[a]` is True while a plan that ends
+    at rest has not ended, or while a jog runs.
+    """
 
     def __init__(self, axes: Axes, dt: float) -> None:
         n = axes.n
@@ -144,6 +170,11 @@ class ProfileGenerator:
         self.dt = dt
         self.t = 0.0
         self.ticks = 0
+        # phase table: start time, end time, p0, v0, a0, jerk; row = axis, column = phase
+        self.table = np.zeros((6, n, MAX_PHASES))
+        self.pt0, self.pend, self.pp0, self.pv0, self.pa0, self.pj = self.table
+        self.pend[:] = INF
+        self.k = np.zeros(n, dtype=np.intp)  # the current column of each axis
         # the current phase of each axis
         self.t0 = np.zeros(n)
         self.p0 = np.zeros(n)
@@ -152,102 +183,141 @@ class ProfileGenerator:
         self.a0_3 = np.zeros(n)
         self.j = np.zeros(n)
         self.t_end = np.full(n, INF)
-        self.queues: list[deque[Phase]] = [deque() for _ in range(n)]
         self.moving = np.zeros(n, dtype=bool)
+        self.mode = np.zeros(n, dtype=np.int64)  # ProfileMode of each axis
         self.next_t = INF
         self.active = False
         self.jerky = False
+        # one tick of constant jerk: (pos, vel, acc) <- M @ (pos, vel, acc) + jstep, where jstep
+        # is (j dt^3/6, j dt^2/2, j dt) of each axis's current phase
+        self._m3 = np.array([[1.0, dt, dt * dt / 2], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
+        self._jstep = np.zeros((3, n))
+        self._jcoef = np.array([dt**3 / 6, dt * dt / 2, dt])[:, None]
+        self._next = np.zeros((3, n))
         self._tau = np.zeros(n)
         self._tmp = np.zeros(n)
+        self._pva = axes.cmd_pva
 
-    # -- planning --------------------------------------------------------------------------------
+    # -- planning (command time, one axis at a time) -------------------------------------------
     def state(self, axis: int) -> tuple[float, float, float]:
         ax = self.axes
         return float(ax.cmd_pos[axis]), float(ax.cmd_vel[axis]), float(ax.cmd_acc[axis])
 
-    def _prepare(self, axis: int, jerk: float) -> tuple[float, float, float, list[Segment]]:
+    def _prepare(self, axis: int, jerk: float) -> tuple[float, float, list[Segment]]:
         """The state to plan from; with jerk limiting, first bring acceleration to zero."""
         p, v, a = self.state(axis)
-        if a == 0:
-            return p, v, 0.0, []
-        if jerk <= 0:
-            return p, v, 0.0, []  # a trapezoid may step its acceleration
+        if a == 0 or jerk <= 0:
+            return p, v, []  # a trapezoid may step its acceleration
         dur = abs(a) / jerk
         seg = (dur, -math.copysign(jerk, a), a)
         p, v, _ = Phase(0.0, dur, p, v, a, seg[1]).end_state()
-        return p, v, 0.0, [seg]
+        return p, v, [seg]
 
     def move(self, axis: int, target: int, vmax: float, acc: float, dec: float,
              jerk: float) -> None:
+        """Point-to-point to the integer `target`, from the present commanded state."""
         p0, v0, a0 = self.state(axis)
-        p, v, _, first = self._prepare(axis, jerk)
+        p, v, first = self._prepare(axis, jerk)
         segs = first + plan_move(p, v, float(target), vmax, acc, dec, jerk)
-        self.load(axis, to_phases(self.t, p0, v0, a0, segs, hold=target))
+        self.load(axis, to_phases(self.t, p0, v0, a0, segs, hold=target),
+                  mode=ProfileMode.SCURVE if jerk > 0 else ProfileMode.TRAPEZOID)
 
     def jog(self, axis: int, velocity: float, acc: float, dec: float, jerk: float) -> None:
+        """Ramp to a signed velocity and keep it (through zero, with dec then acc, on reversal)."""
         p0, v0, a0 = self.state(axis)
-        _, v, _, first = self._prepare(axis, jerk)
+        _, v, first = self._prepare(axis, jerk)
         segs = first + change_velocity(v, velocity, acc, dec, jerk)
-        self.load(axis, to_phases(self.t, p0, v0, a0, segs, hold=None), endless=velocity != 0)
+        phases = to_phases(self.t, p0, v0, a0, segs, hold=None)
+        end = phases[-1]  # the exact velocity asked for, not the ramp's rounded end
+        phases[-1] = Phase(end.t0, INF, end.p0, float(velocity), 0.0, 0.0)
+        self.load(axis, phases, endless=velocity != 0, mode=ProfileMode.JOG)
 
-    def stop(self, axis: int, dec: float, jerk: float) -> None:
+    def stop(self, axis: int, dec: float, jerk: float,
+             mode: ProfileMode = ProfileMode.STOPPING) -> None:
+        """Decelerate to standstill with `dec` (and `jerk` if > 0)."""
         p0, v0, a0 = self.state(axis)
-        _, v, _, first = self._prepare(axis, jerk)
+        _, v, first = self._prepare(axis, jerk)
         segs = first + ramp(v, 0.0, dec, jerk)
         phases = to_phases(self.t, p0, v0, a0, segs, hold=None)
         end = phases[-1]
         phases[-1] = Phase(end.t0, INF, end.p0, 0.0, 0.0, 0.0)
-        self.load(axis, phases)
+        self.load(axis, phases, mode=mode)
 
     def hold(self, axis: int, position: float) -> None:
-        """Stop the profile at once and hold `position` (abort, servo off, define position)."""
+        """Stop the profile at once and hold `position` (abort, servo on/off, define position)."""
         self.load(axis, [Phase(self.t, INF, position, 0.0, 0.0, 0.0)])
 
-    def load(self, axis: int, phases: list[Phase], endless: bool = False) -> None:
-        """Make `phases` the axis's plan from now; the first is current at once."""
-        q = self.queues[axis]
-        q.clear()
-        q.extend(phases)
-        self._enter(axis, q.popleft())
-        self.moving[axis] = len(phases) > 1 or endless
+    def load(self, axis: int, phases: list[Phase], endless: bool = False,
+             mode: ProfileMode = ProfileMode.IDLE) -> None:
+        """Make `phases` the axis's plan from now (the first is current at once)."""
+        if len(phases) > MAX_PHASES:
+            raise ValueError(f"a plan of {len(phases)} phases (at most {MAX_PHASES})")
+        m = len(phases)
+        rows = np.array([(p.t0, p.t0 + p.dur, p.p0, p.v0, p.a0, p.j) for p in phases]).T
+        self.table[:, axis, :m] = rows
+        self.pend[axis, m - 1:] = INF
+        self.k[axis] = 0
+        self._enter(np.array([axis]))
+        self.moving[axis] = moving = m > 1 or endless
+        self.mode[axis] = mode if moving else ProfileMode.IDLE
+
+    def commit(self) -> None:
+        """After planning: refresh the tick's summary and evaluate the commanded state now."""
         self._refresh()
         self.evaluate()
 
-    def _enter(self, axis: int, ph: Phase) -> None:
-        self.t0[axis], self.p0[axis], self.v0[axis] = ph.t0, ph.p0, ph.v0
-        self.a0[axis], self.j[axis] = ph.a0, ph.j
-        self.axes.cmd_acc[axis] = ph.a0  # constant within a trapezoid phase
-        self.a0_3[axis] = ph.a0 / 3
-        self.t_end[axis] = ph.t0 + ph.dur
+    # -- the tick ----------------------------------------------------------------------------------
+    def advance(self) -> np.ndarray | None:
+        """Move the clock one tick; the axes whose plan ended this tick (None when no phase
+        boundary was due)."""
+        self.ticks += 1
+        self.t = t = self.ticks * self.dt
+        if t < self.next_t:
+            if self.active:  # exact within a phase of constant jerk, up to rounding
+                nxt = self._next
+                np.dot(self._m3, self._pva, nxt)
+                np.add(nxt, self._jstep, self._pva)
+            return None
+        idx = np.flatnonzero(self.t_end <= t)  # never in their last phase (it ends at INF)
+        k = self.k[idx] + 1
+        ends = self.pend[idx, k]
+        late = ends <= t
+        while np.count_nonzero(late):  # phases shorter than a tick: one pass per phase skipped
+            k += late
+            ends = self.pend[idx, k]
+            late = ends <= t
+        self.k[idx] = k
+        self._enter(idx)
+        finished = idx[np.isinf(ends) & (self.v0[idx] == 0) & self.moving[idx]]
+        self.moving[finished] = False
+        self.mode[finished] = ProfileMode.IDLE
+        self._refresh()
+        self.evaluate()
+        return finished
+
+    def _enter(self, idx: np.ndarray) -> None:
+        """Make the current table column of axes `idx` their current phase."""
+        k = self.k[idx]
+        self.t0[idx] = self.pt0[idx, k]
+        self.t_end[idx] = self.pend[idx, k]
+        self.p0[idx] = self.pp0[idx, k]
+        self.v0[idx] = self.pv0[idx, k]
+        a0 = self.pa0[idx, k]
+        self.a0[idx] = a0
+        self.a0_3[idx] = a0 / 3
+        j = self.pj[idx, k]
+        self.j[idx] = j
+        self._jstep[:, idx] = self._jcoef * j
+        self.axes.cmd_acc[idx] = a0  # constant within a trapezoid phase
 
     def _refresh(self) -> None:
         self.next_t = float(self.t_end.min())
         self.jerky = bool(self.j.any())
         self.active = bool(self.v0.any() or self.a0.any() or self.jerky)
 
-    # -- the tick ----------------------------------------------------------------------------------
-    def advance(self) -> list[int]:
-        """Move the clock one tick; the axes whose profile ended this tick."""
-        self.ticks += 1
-        self.t = t = self.ticks * self.dt
-        finished: list[int] = []
-        if t >= self.next_t:
-            for axis in np.flatnonzero(self.t_end <= t).tolist():
-                q = self.queues[axis]
-                while q and q[0].t0 + q[0].dur <= t:
-                    q.popleft()
-                if q:
-                    self._enter(axis, q.popleft())
-                if math.isinf(self.t_end[axis]) and self.moving[axis] and self.v0[axis] == 0:
-                    self.moving[axis] = False
-                    finished.append(axis)
-            self._refresh()
-        if self.active or finished:
-            self.evaluate()
-        return finished
-
     def evaluate(self) -> None:
-        """Commanded position, velocity and acceleration of every axis at `self.t`."""
+        """Commanded position, velocity and acceleration of every axis at `self.t`, in closed
+        form from the start of each axis's phase."""
         ax, tau, tmp = self.axes, self._tau, self._tmp
         np.subtract(self.t, self.t0, out=tau)
         if not self.jerky:  # constant acceleration (cmd_acc set on entering the phase)
