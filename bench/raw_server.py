@@ -1,5 +1,9 @@
-"""The baseline server: plain blocking pyzmq REP answering msgpack [op, region, offset, size]
-requests with `size` bytes of a 64 KiB buffer (as ../shared/bench/zmq_rtt.py measured)."""
+"""The RTT baseline server: a plain blocking pyzmq REP loop, the `blocking` server of
+../shared/bench/zmq_rtt.py. Request: msgpack [op, region, offset, size]; reply: msgpack bin of
+`size` bytes sliced from a 64 KiB buffer.
+
+    python bench/raw_server.py tcp://127.0.0.1:PORT
+"""
 
 from __future__ import annotations
 
@@ -10,14 +14,15 @@ import zmq
 
 
 def main(endpoint: str) -> None:
-    region = memoryview(bytearray(i & 0xFF for i in range(65536)))
-    sock = zmq.Context.instance().socket(zmq.REP)
+    region = memoryview(bytes(i & 0xFF for i in range(65536)))
+    sock: zmq.Socket[bytes] = zmq.Context.instance().socket(zmq.REP)
     sock.linger = 0
     sock.bind(endpoint)
     unpackb, packb = msgpack.unpackb, msgpack.packb
+    recv, send = sock.recv, sock.send
     while True:
-        _op, _region, offset, size = unpackb(sock.recv())
-        sock.send(packb(region[offset : offset + size]))
+        _op, _region, offset, size = unpackb(recv())
+        send(packb(region[offset : offset + size]))
 
 
 if __name__ == "__main__":

@@ -1,42 +1,125 @@
-"""`make bench`: the three platform figures of issue 2, each against a baseline of the same run.
+"""`make bench`: the three figures of the issue's "Done when", each against a baseline of the same run.
 
-    python bench/run.py [--quick] [--json FILE]
+    python bench/run.py [--quick] [--only rtt,lockstep,realtime] [--pin split|same|none] [--json [FILE]]
+
+1. rtt       4-byte register read through vdevclient vs a raw pyzmq REQ/REP round trip
+             (p50 <= 1.25x, p99 <= 1.5x), bench/rtt.py
+2. lockstep  4-axis servo card at 1 kHz, simulated s per wall s (>= 50x), bench/lockstep.py
+3. realtime  no lost tick, simulated time behind wall time p99 <= 2 ms over 60 s, bench/realtime.py
+
+The defaults are the issue's (realtime runs 60 s; the whole takes ~2 min); `--quick` shortens
+everything for a smoke run (~20 s). Placement (default split: servers on cpu0, client on cpu1)
+is stated with every figure. A figure that misses its goal prints FAIL and the exit status stays
+0; the status is 1 only when a benchmark could not run at all. `--json` writes every result to
+bench/results/bench-<time>.json (or to FILE).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import sys
+import time
+import traceback
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+if __package__ in (None, ""):  # run as a script: python bench/run.py
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench import lockstep, realtime, rtt  # noqa: E402
+from bench.common import install_signal_handlers, machine_facts, table, verdict, write_json  # noqa: E402
+
+FIGURES = ("rtt", "lockstep", "realtime")
 
 
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__)
-    p.add_argument("--quick", action="store_true", help="short runs, for a smoke test")
-    p.add_argument("--json", help="write the results to this file")
-    a = p.parse_args()
-    os.chdir(Path(__file__).resolve().parent.parent)
-    results = {
-        "rtt": rtt.run(n=1000 if a.quick else 5000, repeats=2 if a.quick else 3),
-        "lockstep": lockstep.run(seconds=2.0 if a.quick else 10.0, repeats=2 if a.quick else 3),
-        "realtime": realtime.run(seconds=5.0 if a.quick else 60.0),
+def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]], dict[str, Any],
+                                                   Callable[[dict[str, Any]], None]]]:
+    q = a.quick
+    return {
+        "rtt": (rtt.run, {"n": 1000 if q else 5000, "repeats": 2 if q else 3,
+                          "warmup": 500 if q else 2000, "pin": a.pin}, rtt.report),
+        "lockstep": (lockstep.run, {"seconds": 2.0 if q else 10.0, "repeats": 2 if q else 5,
+                                    "pin": a.pin}, lockstep.report),
+        "realtime": (realtime.run, {"seconds": a.realtime_seconds or (5.0 if q else 60.0),
+                                    "wake_us": a.wake_us, "waker": a.waker, "pin": a.pin},
+                     realtime.report),
     }
-    rtt.report(results["rtt"])
-    print()
-    lockstep.report(results["lockstep"])
-    print()
-    realtime.report(results["realtime"])
-    print("\nsummary: " + ", ".join(f"{k} {'PASS' if v['pass'] else 'FAIL'}"
-                                   for k, v in results.items()))
-    if a.json:
-        Path(a.json).write_text(json.dumps(results, indent=2, default=float))
+
+
+def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
+    rows: list[list[Any]] = []
+    for name, r in results.items():
+        if "error" in r:
+            rows.append([name, "-", "could not run", "-", "ERROR"])
+            continue
+        if name == "rtt":
+            raw, vd = r["series"][rtt.RAW], r["series"][rtt.VDEV]
+            rows.append(["rtt p50", "<= 1.25x raw", f"{vd['p50']:.0f} us",
+                         f"raw {raw['p50']:.0f} us -> {r['ratio_p50']:.2f}x",
+                         verdict(r["ratio_p50"] <= rtt.GOAL_P50)])
+            rows.append(["rtt p99", "<= 1.5x raw", f"{vd['p99']:.0f} us",
+                         f"raw {raw['p99']:.0f} us -> {r['ratio_p99']:.2f}x",
+                         verdict(r["ratio_p99"] <= rtt.GOAL_P99)])
+        elif name == "lockstep":
+            idle = r["series"]["baseline: daemon, axes idle"]["median"]
+            local = r["series"]["in-process, axes moving"]["median"]
+            rows.append(["lockstep speed", ">= 50x real time", f"{r['speed_median']:.1f}x",
+                         f"idle {idle:.0f}x, in-process {local:.0f}x", verdict(r["pass"])])
+        elif name == "realtime":
+            rows.append(["realtime behind p99", "<= 2000 us", f"{r['behind_us']['p99']:.0f} us",
+                         f"sim-now RTT p50 {r['sim_now_rtt_us']['p50']:.0f} us -> "
+                         f"{r['behind_p99_over_rtt_p50']:.1f}x",
+                         verdict(r["behind_us"]["p99"] <= realtime.GOAL_BEHIND_P99_US)])
+            rows.append(["realtime lost ticks", "0", str(r["lost_ticks"]),
+                         f"{r['daemon']['passes']} passes, {r['daemon']['overruns']} overruns",
+                         verdict(r["lost_ticks"] == 0 and all(
+                             c["ticks"] == c["expected"] for c in r["cards"].values()))])
+    return rows
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="short runs, for a smoke test")
+    ap.add_argument("--only", default=",".join(FIGURES), help="comma list of rtt, lockstep, realtime")
+    ap.add_argument("--pin", choices=("split", "same", "none"), default="split")
+    ap.add_argument("--realtime-seconds", type=float, help="override the realtime run's length")
+    ap.add_argument("--wake-us", type=int, default=1000, help="realtime: [clock] wake_us")
+    ap.add_argument("--waker", choices=("thread", "timer"), default="thread", help="realtime: [clock] waker")
+    ap.add_argument("--json", nargs="?", const="", help="write JSON (default: bench/results/)")
+    a = ap.parse_args()
+    install_signal_handlers()
+    only = [x.strip() for x in a.only.split(",") if x.strip()]
+    unknown = sorted(set(only) - set(FIGURES))
+    if unknown:
+        ap.error(f"--only: unknown {', '.join(unknown)} (figures: {', '.join(FIGURES)})")
+    facts = machine_facts()
+    print(f"# {facts.get('cpu', '?')}, {facts['nproc']} cpus, Python {facts['python']}, "
+          f"pyzmq {facts['pyzmq']} / libzmq {facts['libzmq']}, load {' '.join(facts.get('loadavg', []))}")
+    results: dict[str, dict[str, Any]] = {}
+    started = time.time()
+    for name, (fn, kwargs, report) in plan(a).items():
+        if name not in only:
+            continue
+        print(f"\n# {name}: {', '.join(f'{k}={v}' for k, v in kwargs.items())}", flush=True)
+        t0 = time.perf_counter()
+        try:
+            results[name] = fn(**kwargs)
+        except Exception as exc:  # one broken benchmark must not hide the others
+            traceback.print_exc()
+            results[name] = {"figure": name, "error": f"{type(exc).__name__}: {exc}"}
+            continue
+        results[name]["elapsed_s"] = time.perf_counter() - t0
+        report(results[name])
+    table(["figure", "goal", "measured", "baseline (same run)", "verdict"], summary_rows(results),
+          title=f"summary ({'quick' if a.quick else 'full'} run, placement {a.pin}, "
+                f"{time.time() - started:.0f} s)")
+    if a.json is not None:
+        out = write_json({"args": vars(a), "started": time.strftime(
+            "%Y-%m-%dT%H:%M:%S%z", time.localtime(started)), "results": results}, a.json, "bench")
+        print(f"results: {out}")
+    return 1 if any("error" in r for r in results.values()) else 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())
