@@ -129,6 +129,12 @@ def _watch(rack: Any, args: argparse.Namespace) -> int:
         rack.request("sync", card=names[0])
         if sub.poll(50):
             break
+    else:
+        print(f"vdevctl: no events from {rack.events_endpoint}", file=sys.stderr)
+        sub.close()
+        return 1
+    print(f"vdevctl: watching {', '.join(names)} on {rack.events_endpoint}; Ctrl-C stops",
+          file=sys.stderr, flush=True)
     seen = 0
     timeout_ms = None if args.irq_timeout is None else int(args.irq_timeout * 1000)
     try:
