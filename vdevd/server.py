@@ -12,6 +12,7 @@ import logging
 import time
 from typing import Any
 
+import msgpack
 import zmq
 
 from vdevd import protocol
@@ -58,6 +59,7 @@ class Server:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._drain_scheduled = False
         self._draining = False
+        self._pack = msgpack.Packer(use_bin_type=True).pack  # this server's, for read replies
 
     # -- lifecycle --------------------------------------------------------------------------------
     def start(self, loop: asyncio.AbstractEventLoop) -> None:
@@ -148,7 +150,7 @@ class Server:
     def _read(self, req_id: Any, card: str, region: str, offset: int, size: int) -> bytes:
         """The reply to a register read (the hot path)."""
         try:
-            return protocol.encode_ok(req_id, self.rack.read(card, region, offset, size))
+            return protocol.encode_ok(req_id, self.rack.read(card, region, offset, size), self._pack)
         except VdevError as exc:
             return protocol.encode_error(req_id, exc.code, exc.message)
         except Exception as exc:  # a bug in a card's read hook: report it, keep serving
