@@ -1,7 +1,8 @@
 """A diagnostic RTT server: the daemon's I/O architecture without the daemon (the `uvloop-cb`
 server of ../shared/bench/zmq_rtt.py). A ROUTER on uvloop, drained from `loop.add_reader` with
-NOBLOCK and ZMQ_EVENTS and read and written frame by frame like vdevd/server.py; a request is a protocol-v1 `read` map, the reply
-`{"id": id, "ok": bin}` sliced from a 4 KiB buffer, with no validation and no rack.
+NOBLOCK and ZMQ_EVENTS and read and written frame by frame like vdevd/server.py; a request is a
+protocol-v1 `read` map, the reply `{"id": id, "ok": bin}` sliced from a 4 KiB buffer, with no
+validation and no rack.
 
     python bench/floor_server.py tcp://127.0.0.1:PORT
 """

@@ -17,6 +17,7 @@ import numpy as np
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from tests.rt.trace import idle, record
 from vdevd.rt import AxisFlag, MotionCore, PlantKind
 
 DTS = st.sampled_from([125_000, 250_000, 500_000, 1_000_000, 2_000_000])
@@ -28,21 +29,6 @@ def ideal_core(n: int, dt_ns: int) -> MotionCore:
     core = MotionCore(n, dt_ns, PlantKind.IDEAL)
     core.servo_on(slice(None))
     return core
-
-
-def idle(core: MotionCore) -> bool:
-    return not core.profile.moving.any()
-
-
-def record(core: MotionCore, max_ticks: int, until: Callable[[MotionCore], bool]) -> np.ndarray:
-    """cmd_pos after every tick (row 0: before the first) until `until` holds."""
-    rows = [core.axes.cmd_pos.copy()]
-    for _ in range(max_ticks):
-        core.tick()
-        rows.append(core.axes.cmd_pos.copy())
-        if until(core):
-            break
-    return np.array(rows)
 
 
 def after(seconds: float) -> Callable[[MotionCore], bool]:
