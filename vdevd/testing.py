@@ -15,6 +15,7 @@ import zmq
 
 from vdevd.config import Config, default_config
 from vdevd.daemon import build_rack
+from vdevd.rack import Rack
 from vdevd.server import Server
 
 
@@ -22,11 +23,16 @@ class DaemonThread:
     """A real vdevd on a background thread; `endpoint` and `events` are set once started."""
 
     def __init__(self, cfg: Config | None = None, *, clock: str = "lockstep",
-                 endpoint: str = "tcp://127.0.0.1:*", events: str = "tcp://127.0.0.1:*") -> None:
+                 endpoint: str = "tcp://127.0.0.1:*", events: str = "tcp://127.0.0.1:*",
+                 rack: Rack | None = None) -> None:
+        """`cfg` as it is; without one, the default rack with `clock` and the endpoints. `rack`:
+        serve these cards (already built, e.g. a test's own Card classes) instead of the
+        configuration's; its clock mode is its own."""
         self.cfg = cfg or default_config()
         if cfg is None:
             self.cfg.clock = clock  # type: ignore[assignment]
             self.cfg.endpoint, self.cfg.events = endpoint, events
+        self._rack = rack
         self.endpoint = ""
         self.events = ""
         self.server: Server | None = None
@@ -56,7 +62,8 @@ class DaemonThread:
     async def _serve(self) -> None:
         self._loop = asyncio.get_running_loop()
         self._stop = asyncio.Event()
-        self.server = Server(build_rack(self.cfg), self.cfg.endpoint, self.cfg.events,
+        rack = self._rack if self._rack is not None else build_rack(self.cfg)
+        self.server = Server(rack, self.cfg.endpoint, self.cfg.events,
                              ctx=self._ctx, curve=self.cfg.curve)
         self.endpoint, self.events = self.server.endpoint, self.server.events
         self.server.start(self._loop)
