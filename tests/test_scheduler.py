@@ -110,3 +110,108 @@ def test_a_card_that_raises_does_not_stop_the_rack() -> None:
     rack.execute(Request(7, "control", {"card": "bad", "action": "explode"}), out.append)
     assert isinstance(out[0], VdevError) and out[0].code == "internal"
     assert run(rack, "read", card="good", region="mem", offset=0, size=4) == good.mem.read(0, 4)
+
+
+class BrokenPeek(Counter):
+    """A card whose status register's side-effect-free read breaks from tick 3 on."""
+
+    def __init__(self, name: str, period_ns: int) -> None:
+        super().__init__(name, period_ns)
+        self.mem.hook(8, 4, on_read=self._status, peek=self._status)
+
+    def _status(self, offset: int, size: int) -> bytes:
+        if self.ticks >= 3:
+            raise RuntimeError("peek bug")
+        return bytes(size)
+
+
+def test_a_resumed_batch_whose_op_raises_gets_one_internal_error_reply() -> None:
+    bad = Faulty("bad", 1000)
+    rack = Rack([bad], "lockstep")
+    ops = [Request(None, "wait", {"card": "bad", "on": "value", "region": "mem", "offset": 0,
+                                  "value": 2, "timeout_ns": 10**6}),
+           Request(None, "control", {"card": "bad", "action": "explode"})]
+    out: list[Any] = []
+    rack.execute(Request(3, "batch", {"ops": ops}), out.append)
+    assert len(out) == 1
+    assert isinstance(out[0], VdevError) and out[0].code == "internal"
+    assert "backdoor bug" in out[0].message
+    assert rack.errors == 1
+    assert run(rack, "sim", action="step", ns=1000)["now_ns"] == bad.now_ns == 3000
+
+
+def test_a_wait_whose_condition_raises_gets_an_internal_error_and_time_goes_on() -> None:
+    rack = Rack([BrokenPeek("c", 1000)], "lockstep")
+    out: list[Any] = []
+    rack.execute(Request(1, "wait", {"card": "c", "on": "value", "region": "mem", "offset": 8,
+                                     "value": 1, "timeout_ns": 10**6}), out.append)
+    assert len(out) == 1 and isinstance(out[0], VdevError) and out[0].code == "internal"
+    assert run(rack, "sim", action="step", ns=2000)["now_ns"] == 5000
+
+
+class FakeLoop:
+    """The part of an event loop the realtime rack uses with the `timer` waker."""
+
+    def __init__(self) -> None:
+        self.later: list[tuple[float, Any]] = []
+
+    def call_later(self, delay: float, callback: Any) -> None:
+        self.later.append((delay, callback))
+
+
+class WallClock:
+    """A monotonic clock in ns that the test moves."""
+
+    def __init__(self) -> None:
+        self.ns = 7_000_000_000  # any start: realtime counts from the reading at start
+
+    def __call__(self) -> int:
+        return self.ns
+
+
+def realtime_rack(period_ns: int = 1_000_000) -> tuple[Rack, Counter, FakeLoop, WallClock]:
+    card, loop, clock = Counter("c", period_ns), FakeLoop(), WallClock()
+    rack = Rack([card], "realtime", wake_ns=1_000_000, waker="timer", clock=clock)
+    rack.start(loop)  # type: ignore[arg-type]
+    return rack, card, loop, clock
+
+
+def wake(loop: FakeLoop, clock: WallClock, after_ns: int) -> float:
+    """The timer fires `after_ns` of wall time after start or the last wake; the delay it asked."""
+    delay, callback = loop.later.pop()
+    clock.ns += after_ns
+    callback()
+    return delay
+
+
+def test_realtime_pass_runs_the_ticks_due_by_wall_time() -> None:
+    rack, card, loop, clock = realtime_rack()
+    assert wake(loop, clock, 1_000_000) == 0.001
+    assert card.ticks == 1 and rack.now_ns == 1_000_000
+    assert wake(loop, clock, 1_250_000) == 0.001  # the next wake is asked for 1 ms on
+    assert card.ticks == 2 and rack.now_ns == 2_250_000
+    assert rack.overruns == 0 and rack.passes == 2
+
+
+def test_realtime_late_wake_catches_up_in_one_batch_and_counts_an_overrun() -> None:
+    rack, card, loop, clock = realtime_rack()
+    wake(loop, clock, 1_000_000)
+    wake(loop, clock, 50_000_000)  # the host stalled the daemon for 49 ms
+    assert card.ticks == 51 and rack.now_ns == 51_000_000
+    assert card.seen[-3:] == [49_000_000, 50_000_000, 51_000_000]  # every tick ran, in order
+    assert rack.overruns == 1 and rack.passes == 2
+    assert rack.late.max == 49_000_000  # woke 49 ms after the wake it asked for
+    assert rack.behind.max == 50_000_000  # simulated time was 50 ms behind when it woke
+    assert loop.later[-1][0] == 0.001  # and it goes on at the period, not in a burst
+    assert rack.sched.lost_ticks() == {"c": 0}
+
+
+def test_realtime_request_first_runs_the_ticks_fallen_due_since_the_last_pass() -> None:
+    rack, card, loop, clock = realtime_rack()
+    wake(loop, clock, 1_000_000)
+    clock.ns += 3_500_000  # a request arrives 3.5 ms after the last pass, before the next
+    data = run(rack, "read", card="c", region="mem", offset=0, size=4)
+    assert int.from_bytes(data, "little") == 4 and card.ticks == 4
+    assert rack.catch_ups == 1 and rack.now_ns == 4_500_000
+    assert rack.read("c", "mem", 0, 4) == data  # no tick due yet: nothing more runs
+    assert rack.catch_ups == 1

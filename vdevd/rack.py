@@ -84,7 +84,9 @@ class Rack:
         events_endpoint: str = "",
         wake_ns: int = 1_000_000,
         waker: Literal["timer", "thread"] = "thread",
+        clock: Callable[[], int] = time.perf_counter_ns,
     ) -> None:
+        """`clock`: the monotonic wall clock in ns that realtime follows (a test may pass its own)."""
         self.cards: dict[str, Card] = {}
         self._regions: dict[tuple[str, str], Region] = {}
         self.reads = 0  # counted apart from `requests`: the hot path keeps no dict
@@ -97,6 +99,7 @@ class Rack:
         self.events_endpoint = events_endpoint
         self.wake_ns = wake_ns
         self.waker = waker
+        self._clock = clock
         self._waiters: list[Waiter] = []
         self._timers: list[tuple[int, int, Callable[[], None]]] = []
         self._seq = itertools.count()
@@ -104,7 +107,8 @@ class Rack:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._t0 = 0
+        self._t0 = 0  # realtime: the wall clock reading at simulated time 0
+        self._paced = False  # realtime and started: requests first run the ticks fallen due
         self._next_wake = 0
         # stats
         self.started_monotonic_ns = time.monotonic_ns()
@@ -143,7 +147,8 @@ class Rack:
         self._loop = loop
         if self.mode != "realtime":
             return
-        self._t0 = time.perf_counter_ns() - self.sched.now_ns
+        self._t0 = self._clock() - self.sched.now_ns
+        self._paced = True
         self._next_wake = self.sched.now_ns + self.wake_ns
         if self.waker == "thread":
             self._thread = threading.Thread(target=self._wake_thread, name="vdevd-waker",
@@ -160,23 +165,23 @@ class Rack:
     def _wake_thread(self) -> None:
         """Sleep to each wake deadline, then hand the pass to the event loop (no shared state)."""
         assert self._loop is not None
-        loop, period, t0 = self._loop, self.wake_ns, self._t0
-        deadline = t0 + ((time.perf_counter_ns() - t0) // period + 1) * period
+        loop, period, t0, clock = self._loop, self.wake_ns, self._t0, self._clock
+        deadline = t0 + ((clock() - t0) // period + 1) * period
         while not self._stop.is_set():
-            delay = deadline - time.perf_counter_ns()
+            delay = deadline - clock()
             if delay > 0:
                 time.sleep(delay / 1e9)
             try:
                 loop.call_soon_threadsafe(self._pass)
             except RuntimeError:  # loop closed
                 return
-            deadline = t0 + ((time.perf_counter_ns() - t0) // period + 1) * period
+            deadline = t0 + ((clock() - t0) // period + 1) * period
 
     def _pass(self) -> None:
         """Realtime: run every tick due by wall time (a batch after a late wake), then waiters."""
         if self._stop.is_set():
             return
-        wall = time.perf_counter_ns() - self._t0
+        wall = self._clock() - self._t0
         self.passes += 1
         self.late.add(wall - self._next_wake)
         self.behind.add(wall - self.sched.now_ns)
@@ -186,7 +191,7 @@ class Rack:
         self._service()
         self._next_wake = wall - wall % self.wake_ns + self.wake_ns
         if self.waker == "timer" and self._loop is not None:
-            delay = self._next_wake - (time.perf_counter_ns() - self._t0)
+            delay = self._next_wake - (self._clock() - self._t0)
             self._loop.call_later(max(delay, 0) / 1e9, self._pass)
 
     def _advance(self, target_ns: int, stop: Callable[[], bool] | None = None) -> int:
@@ -210,7 +215,11 @@ class Rack:
         keep: list[Waiter] = []
         waiters, self._waiters = self._waiters, []
         for w in waiters:
-            result = w.fired()
+            try:
+                result = w.fired()
+            except Exception as exc:  # a card's peek hook with a bug: this waiter only
+                w.reply(self._internal(exc, f"wait on {w.on}"))
+                continue
             if result is None and now >= w.deadline_ns:
                 result = {"fired": False} if w.on != "step" else {}
             if result is None:
@@ -255,7 +264,11 @@ class Rack:
         self._service()
 
     def _any_fired(self) -> bool:
-        return any(w.fired() is not None for w in self._waiters)
+        """Whether a waiter resolves now; one whose condition raises does (_service answers it)."""
+        try:
+            return any(w.fired() is not None for w in self._waiters)
+        except Exception:
+            return True
 
     async def _drive(self) -> None:
         """Lockstep: advance time while anyone waits, looking at the sockets between chunks."""
@@ -278,8 +291,8 @@ class Rack:
     def catch_up(self) -> None:
         """Realtime: run the ticks that fell due since the last pass, so that a request sees the
         hardware as it is at this wall time (within one servo period), not as at the last wake."""
-        if self._t0 and self.mode == "realtime":
-            wall = time.perf_counter_ns() - self._t0
+        if self._paced:
+            wall = self._clock() - self._t0
             if wall - self.sched.now_ns >= self.sched.tick_ns:
                 self.catch_ups += 1
                 self._advance(wall)
@@ -297,12 +310,17 @@ class Rack:
             reply(exc)
             return
         except Exception as exc:
-            self.errors += 1
-            log.exception("internal error serving %s", req.op)
-            reply(VdevError(ErrorCode.INTERNAL, f"{type(exc).__name__}: {exc}"))
+            reply(self._internal(exc, req.op))
             return
         if result is not _DEFERRED:
             reply(result)
+
+    def _internal(self, exc: Exception, what: str) -> VdevError:
+        """A bug met while serving `what` (a card's hook or action, most likely): logged,
+        counted, and answered as an `internal` error; the daemon goes on."""
+        self.errors += 1
+        log.error("internal error serving %s", what, exc_info=exc)
+        return VdevError(ErrorCode.INTERNAL, f"{type(exc).__name__}: {exc}")
 
     def card(self, name: str) -> Card:
         card = self.cards.get(name)
@@ -340,7 +358,7 @@ class Rack:
     def read(self, card: str, region: str, offset: int, size: int) -> bytes:
         """A `read` request on the hot path (protocol.read_fields): the same effects and
         counters as `execute` of a read, without building a Request."""
-        if self._t0:
+        if self._paced:
             self.catch_up()
         self.reads += 1
         r = self._regions.get((card, region))
@@ -380,6 +398,8 @@ class Rack:
                         self._run_batch(ops, i + 1, results, reply)
                     except VdevError as exc:
                         reply(exc)
+                    except Exception as exc:  # resumed from _service: no execute() around it
+                        reply(self._internal(exc, f"batch op {i + 1}.."))
 
                 self._add_waiter(self._make_waiter(op.args, resume))
                 return
@@ -451,7 +471,11 @@ class Rack:
             period = self.card(args["card"]).period_ns if "card" in args else self.sched.tick_ns
             ns = args["ticks"] * period
         else:
-            ns = round(float(args["seconds"]) * 1e9)
+            seconds = float(args["seconds"])
+            if not 0 <= seconds <= MAX_WAIT_NS / 1e9:  # also NaN and infinities
+                raise VdevError(ErrorCode.BAD_PARAM, f"sim step of {seconds} s outside "
+                                f"0..{MAX_WAIT_NS // 10**9} s")
+            ns = round(seconds * 1e9)
         if not 0 <= ns <= MAX_WAIT_NS:
             raise VdevError(ErrorCode.BAD_PARAM, f"sim step of {ns} ns outside 0..{MAX_WAIT_NS}")
         return int(ns)

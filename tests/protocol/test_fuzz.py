@@ -40,9 +40,11 @@ def _bounded(req: dict[str, Any]) -> dict[str, Any]:
 
 
 def _check(reply: dict[str, Any]) -> None:
+    """One well-formed reply; an error names what the client got wrong, never a daemon bug."""
     assert set(reply) in ({"id", "ok"}, {"id", "error"})
     if "error" in reply:
         assert reply["error"]["code"] in CODES
+        assert reply["error"]["code"] != "internal", reply["error"]["message"]
         assert isinstance(reply["error"]["message"], str)
 
 

@@ -87,3 +87,11 @@ def _scenario() -> str:
 @pytest.mark.slow
 def test_same_requests_give_the_same_bytes() -> None:
     assert _scenario() == _scenario()
+
+
+@pytest.mark.parametrize("seconds", [float("inf"), float("-inf"), float("nan"), 1e300])
+def test_step_by_a_non_finite_or_huge_number_of_seconds_is_a_bad_param(
+        raw: RawClient, seconds: float) -> None:
+    reply = raw.call(op="sim", action="step", seconds=seconds)
+    assert reply["error"]["code"] == "bad_param"
+    assert raw.call(op="sim", action="now")["ok"]["now_ns"] == 0
