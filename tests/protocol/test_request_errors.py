@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import msgpack
 import pytest
 
 from tests.conftest import RawClient, error_code
+from vdevd.devices.base import Card, CardContext
 from vdevd.protocol import MAX_MESSAGE
+from vdevd.rack import Rack
+from vdevd.region import Region
+from vdevd.testing import DaemonThread
 
 BAR = {"card": "servo0", "region": "bar0"}
 
@@ -123,3 +129,39 @@ def test_request_frame_from_req_socket_keeps_its_envelope(daemon: object) -> Non
         assert reply == {"id": 9, "ok": bytes.fromhex("56454456")}
     finally:
         sock.close()
+
+
+class BusWidths(Card):
+    """A card with the bus rules of the vendor cards: a VME A16 window of byte registers
+    (D08(O)), and a PCI BAR of 32-bit registers only, with no block transfers."""
+
+    type_name = "bus-widths"
+
+    def __init__(self, name: str, ctx: CardContext) -> None:
+        super().__init__(name, {}, ctx)
+        self.add_region(Region("a16", 16, widths=(1,), block=False, endian="big"))
+        self.add_region(Region("bar", 64, widths=(4,), block=False))
+
+
+@pytest.fixture
+def widths_raw() -> Iterator[RawClient]:
+    rack = Rack([], "lockstep")
+    rack.add_card(BusWidths("vme0", CardContext(emit=rack.emit)))
+    with DaemonThread(rack=rack) as d:
+        client = RawClient(d.endpoint)
+        yield client
+        client.close()
+
+
+@pytest.mark.parametrize(
+    ("region", "offset", "size"),
+    [("a16", 0, 2), ("a16", 2, 4), ("a16", 0, 16), ("bar", 0, 1), ("bar", 0, 2), ("bar", 0, 8),
+     ("bar", 2, 4)],
+)
+def test_an_access_width_the_bus_forbids_gets_bad_width(
+        widths_raw: RawClient, region: str, offset: int, size: int) -> None:
+    where = {"card": "vme0", "region": region, "offset": offset}
+    assert error_code(widths_raw.call(op="read", size=size, **where)) == "bad_width"
+    assert error_code(widths_raw.call(op="write", data=bytes(size), **where)) == "bad_width"
+    allowed = 1 if region == "a16" else 4  # the width the bus takes still works
+    assert "ok" in widths_raw.call(op="read", offset=4, size=allowed, card="vme0", region=region)
