@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 from tests.conftest import RawClient
-from vdevd.protocol import CAPABILITIES, MAX_MESSAGE
+
+#: PROTOCOL.md, `hello`: what a v1 server implements, and the 1 MiB maximum message
+V1_CAPABILITIES = {"read", "write", "batch", "wait.irq", "wait.value", "sim", "control", "stats",
+                   "sync"}
 
 
 def test_hello_reports_version_capabilities_and_limits(raw: RawClient) -> None:
     info = raw.call(op="hello", client="test")["ok"]
     assert info["protocol"] == 1
-    assert set(info["capabilities"]) == set(CAPABILITIES)
-    assert info["max_message"] == MAX_MESSAGE
+    assert set(info["capabilities"]) == V1_CAPABILITIES
+    assert info["max_message"] == 1 << 20
     assert info["events"].startswith("tcp://127.0.0.1:")
     assert info["clock"] == {"mode": "lockstep", "now_ns": 0, "tick_ns": 1_000_000}
 
