@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import itertools
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 import msgpack
 import zmq
@@ -45,8 +45,27 @@ def connect(
     return Rack(endpoint, events, timeout, curve=curve)
 
 
+class _Record(Mapping[str, Any]):
+    """Lets a frozen dataclass be read as a mapping of its fields: `info["name"]` is `info.name`."""
+
+    __dataclass_fields__: ClassVar[dict[str, Any]]
+
+    def __getitem__(self, key: str) -> Any:
+        if key not in self.__dataclass_fields__:
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.__dataclass_fields__)
+
+    def __len__(self) -> int:
+        return len(self.__dataclass_fields__)
+
+
 @dataclass(frozen=True)
-class RegionInfo:
+class RegionInfo(_Record):
+    """A bus region as `hello` describes it."""
+
     name: str
     size: int
     widths: tuple[int, ...]
@@ -54,7 +73,9 @@ class RegionInfo:
 
 
 @dataclass(frozen=True)
-class CardInfo:
+class CardInfo(_Record):
+    """A card as `hello` describes it; `regions` are RegionInfo, `irq` the line names."""
+
     name: str
     type: str
     endian: str

@@ -35,6 +35,20 @@ def test_cards_describe_regions_and_irq_lines(rack: vdevclient.Rack) -> None:
         rack.card("servo0").region("bar9")
 
 
+def test_card_info_reads_as_a_mapping_beside_attributes(rack: vdevclient.Rack) -> None:
+    (info,) = rack.cards()
+    assert (info["name"], info["type"], info["irq"]) == (info.name, info.type, info.irq)
+    assert info["regions"] is info.regions
+    region = info["regions"][0]
+    assert (region["name"], region["size"], region["widths"]) == ("bar0", 0x1000, (1, 2, 4))
+    assert dict(region) == {"name": "bar0", "size": 0x1000, "widths": (1, 2, 4), "endian": "little"}
+    assert list(info.keys()) == ["name", "type", "endian", "period_ns", "regions", "irq", "controls"]
+    assert "set_limit" in info["controls"]
+    assert info.get("period_ns") == 1_000_000 and info.get("bus") is None and "bus" not in info
+    with pytest.raises(KeyError):
+        info["bus"]
+
+
 def test_remote_errors_raise_with_the_code(rack: vdevclient.Rack) -> None:
     bar = rack.card("servo0").region("bar0")
     with pytest.raises(vdevclient.RemoteError) as info:
