@@ -350,20 +350,23 @@ class Irq:
             self._sub = self._card.rack.socket(zmq.SUB)
             self._sub.connect(endpoint)
             self._sub.setsockopt(zmq.SUBSCRIBE, self._card.name.encode())
-            self._sync()
+            try:
+                self._sync()
+            except BaseException:
+                self.close()
+                raise
         return self
 
     def _sync(self, attempts: int = 100) -> None:
         """Wait until the subscription is live: ZeroMQ joins a PUB asynchronously, so ask the
-        daemon to publish `sync` events until one arrives (PROTOCOL.md, sync)."""
+        daemon to publish `sync` events until something arrives (PROTOCOL.md, sync). What
+        arrived stays queued: an interrupt published meanwhile is the first `events()` yields."""
         assert self._sub is not None
         for _ in range(attempts):
             self._card.rack.request("sync", card=self._card.name)
             if self._sub.poll(50):
-                while self._sub.poll(0):
-                    self._sub.recv_multipart()  # drop the syncs; nothing else can be queued yet
                 return
-        raise TimeoutError(f"no events from {self._card.rack.events_endpoint}")
+        raise VdevTimeout(f"no events from {self._card.rack.events_endpoint}")
 
     def events(self, timeout_s: float | None = None) -> Iterator[dict[str, Any]]:
         """Yield published events as they come; stop after `timeout_s` without one."""

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
 import pytest
 import vdevclient
+import zmq
 
 from tests.protocol.motion import axis_reg, move_ops
 from vdevd.devices.generic import regions as R
@@ -79,6 +81,43 @@ def test_irq_subscription_receives_published_assertions(rack: vdevclient.Rack) -
     events = list(itertools.islice(card.irq.events(timeout_s=5.0), 2))
     assert [(e["seq"], e["status"]) for e in events] == [(1, 0x1), (2, 0x3)]
     assert all(e["card"] == "servo0" and e["kind"] == "irq" for e in events)
+
+
+def test_an_interrupt_published_while_subscribe_syncs_is_the_first_event(
+    pulsers: DaemonThread, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    with vdevclient.connect(pulsers.endpoint) as rack:
+        card = rack.card("p0")
+        subs: list[zmq.Socket[bytes]] = []
+        make_socket, request = rack.socket, rack.request
+
+        def socket(kind: int) -> zmq.Socket[bytes]:
+            subs.append(make_socket(kind))
+            return subs[-1]
+
+        def sync_after_an_interrupt(op: str, /, **fields: Any) -> Any:
+            """Before the daemon publishes the sync, interrupt until one reaches the subscriber."""
+            if op == "sync":
+                for status in range(1, 100):
+                    request("control", card="p0", action="pulse", params={"status": status})
+                    if subs[0].poll(50):
+                        break
+                else:
+                    pytest.fail("the subscriber never joined")
+            return request(op, **fields)
+
+        monkeypatch.setattr(rack, "socket", socket)
+        monkeypatch.setattr(rack, "request", sync_after_an_interrupt)
+        card.irq.subscribe()
+        monkeypatch.undo()
+        card.control("pulse", status=0xFF)  # right after subscribe() returned
+        statuses = []
+        for event in card.irq.events(timeout_s=5.0):
+            assert (event["kind"], event["card"]) == ("irq", "p0")
+            statuses.append(event["status"])
+            if event["status"] == 0xFF:
+                break
+    assert len(statuses) >= 2 and statuses[-1] == 0xFF, statuses  # the sync-time ones came first
 
 
 def test_sim_step_mode_and_now(rack: vdevclient.Rack) -> None:
