@@ -2,7 +2,7 @@
 vendor libraries do."""
 
 from vdevclient.core import Card, CardInfo, Irq, Rack, Region, RegionInfo, Sim, connect
-from vdevclient.errors import RemoteError, VdevClientError, VdevTimeout
+from vdevclient.errors import RemoteError, RequestTooLarge, VdevClientError, VdevTimeout
 
 __all__ = [
     "Card",
@@ -12,6 +12,7 @@ __all__ = [
     "Region",
     "RegionInfo",
     "RemoteError",
+    "RequestTooLarge",
     "Sim",
     "VdevClientError",
     "VdevTimeout",

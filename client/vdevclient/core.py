@@ -16,10 +16,11 @@ from typing import Any, ClassVar, Literal
 import msgpack
 import zmq
 
-from vdevclient.errors import RemoteError, VdevTimeout
+from vdevclient.errors import RemoteError, RequestTooLarge, VdevTimeout
 
 DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
 PROTOCOL_VERSION = 1
+MAX_MESSAGE = 1 << 20  # protocol v1's request size limit until `hello` reports the daemon's
 _NS = 1_000_000_000
 
 
@@ -101,11 +102,13 @@ class Rack:
         self._packb = msgpack.Packer(use_bin_type=True).pack
         self._cards: dict[str, Card] = {}
         self.sim = Sim(self)
+        self.max_message = MAX_MESSAGE
         try:
             self.info = self.request("hello", client="vdevclient")
         except BaseException:
             self._sock.close()
             raise
+        self.max_message = self.info["max_message"]
         self.events_endpoint: str = events or self.info.get("events", "")
         self._infos = {c["name"]: _card_info(c) for c in self.info["cards"]}
 
@@ -116,9 +119,13 @@ class Rack:
         return self.call(fields, _wait_s)
 
     def call(self, message: dict[str, Any], wait_s: float = 0.0) -> Any:
-        """Send one request map (its `id` is set here) and return the result."""
+        """Send one request map (its `id` is set here) and return the result; RequestTooLarge,
+        without sending it, when its body exceeds the daemon's `max_message`."""
         message["id"] = req_id = next(self._ids)
-        self._sock.send(self._packb(message))
+        body = self._packb(message)
+        if len(body) > self.max_message:
+            raise RequestTooLarge(message["op"], len(body), self.max_message)
+        self._sock.send(body)
         # what follows overlaps the round trip
         deadline_ms = int((self.timeout + wait_s) * 1000)
         if deadline_ms != self._rcvtimeo:  # a socket option costs ~5 us: set it on change only

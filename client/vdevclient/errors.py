@@ -18,3 +18,17 @@ class RemoteError(VdevClientError):
 
 class VdevTimeout(VdevClientError, TimeoutError):
     """No reply within the client's timeout."""
+
+
+class RequestTooLarge(VdevClientError):
+    """A request the client refused to send: its packed body exceeds the daemon's `max_message`
+    (proto/PROTOCOL.md, Size; the daemon's socket drops bodies over 4 MiB without a reply)."""
+
+    code = "too_large"
+
+    def __init__(self, op: str, size: int, limit: int) -> None:
+        super().__init__(f"too_large: {op} request of {size} bytes exceeds the daemon's "
+                         f"max_message of {limit} bytes; not sent")
+        self.op = op
+        self.size = size
+        self.limit = limit

@@ -59,6 +59,20 @@ def test_remote_errors_raise_with_the_code(rack: vdevclient.Rack) -> None:
     assert bar.read32(0) == R.CARD_ID  # the connection still works
 
 
+def test_a_request_over_max_message_is_refused_without_being_sent(rack: vdevclient.Rack) -> None:
+    assert rack.max_message == rack.info["max_message"] == 1 << 20
+    bar = rack.card("servo0").region("bar0")
+    with pytest.raises(vdevclient.RequestTooLarge) as info:
+        bar.write(0, bytes(2 << 20))
+    err = info.value
+    assert isinstance(err, vdevclient.VdevClientError) and err.code == "too_large"
+    assert err.limit == 1 << 20 and err.size > 2 << 20
+    assert str(err).startswith(f"too_large: write request of {err.size} bytes exceeds")
+    assert "write" not in rack.stats()["requests"]["by_op"]  # the daemon never saw it
+    bar.write32(R.OUTPUTS, 7)  # the connection still works
+    assert bar.read32(R.OUTPUTS) == 7
+
+
 def test_irq_wait_sees_the_done_interrupt_of_a_move(rack: vdevclient.Rack) -> None:
     card = rack.card("servo0")
     card.region("bar0").write32(R.IRQ_ENABLE, 0x1)
