@@ -119,14 +119,19 @@ def _watch(rack: Any, args: argparse.Namespace) -> int:
     import msgpack
     import zmq
 
-    sub = rack.socket(zmq.SUB)
-    sub.connect(rack.events_endpoint)
     names = [args.card] if args.card else [c.name for c in rack.cards()]
+    if not names:
+        print(f"vdevctl: no cards to watch: the rack at {rack.endpoint} has none", file=sys.stderr)
+        return 1
     for name in names:
         rack.card(name)  # KeyError for an unknown card
+    sub = rack.socket(zmq.SUB)
+    sub.connect(rack.events_endpoint)
+    for name in names:
         sub.setsockopt(zmq.SUBSCRIBE, name.encode())
     for _ in range(100):  # until the subscription is live (PROTOCOL.md, sync)
-        rack.request("sync", card=names[0])
+        # the daemon takes subscriptions in order: once the last one is live, all are
+        rack.request("sync", card=names[-1])
         if sub.poll(50):
             break
     else:

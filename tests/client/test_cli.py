@@ -12,8 +12,10 @@ import sys
 from pathlib import Path
 
 import pytest
+import vdevclient
 from vdevclient.cli import main as vdevctl
 
+from tests.client.pulser import serve_pulsers
 from vdevd.devices.generic import regions as R
 from vdevd.testing import DaemonThread
 
@@ -54,8 +56,6 @@ def test_errors_are_one_line_and_exit_1(daemon: DaemonThread, capsys: pytest.Cap
 def test_irq_prints_events(daemon: DaemonThread, capsys: pytest.CaptureFixture[str]) -> None:
     import threading
 
-    import vdevclient
-
     from tests.protocol.motion import move_ops
 
     with vdevclient.connect(daemon.endpoint) as rack:
@@ -80,6 +80,33 @@ def test_irq_prints_events(daemon: DaemonThread, capsys: pytest.CaptureFixture[s
     assert re.search(r"^\s*\d+ servo0 inta seq=\d+ status=0x1$", out, re.M), out
 
 
+def test_irq_without_a_card_watches_every_card(pulsers: DaemonThread) -> None:
+    with subprocess.Popen(
+        [sys.executable, "-m", "vdevclient.cli", "--endpoint", pulsers.endpoint, "irq",
+         "--count", "2", "--timeout", "20"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    ) as proc:
+        try:
+            assert proc.stderr is not None
+            assert proc.stderr.readline().startswith("vdevctl: watching p0, p1 on ")  # live
+            with vdevclient.connect(pulsers.endpoint) as rack:
+                rack.control("p1", "pulse", status=1)
+                rack.control("p0", "pulse", status=2)
+            out, _ = proc.communicate(timeout=20)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+    assert proc.returncode == 0
+    assert [line.split()[1:] for line in out.splitlines()] == [
+        ["p1", "irq", "seq=1", "status=0x1"], ["p0", "irq", "seq=1", "status=0x2"]]
+
+
+def test_irq_on_a_rack_without_cards_is_an_error(capsys: pytest.CaptureFixture[str]) -> None:
+    with serve_pulsers() as empty:
+        assert vdevctl(["--endpoint", empty.endpoint, "irq"]) == 1
+    err = capsys.readouterr().err
+    assert err == f"vdevctl: no cards to watch: the rack at {empty.endpoint} has none\n"
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -96,8 +123,6 @@ def test_vdevd_serve_starts_serves_and_exits_cleanly_on_a_signal(sig: int) -> No
          "--events", events], stderr=subprocess.PIPE, text=True, env={**os.environ},
     ) as proc:
         try:
-            import vdevclient
-
             with vdevclient.connect(endpoint, timeout=20) as rack:
                 assert rack.card("servo0").region("bar0").read32(0) == R.CARD_ID
             proc.send_signal(sig)
