@@ -2,13 +2,14 @@
 vendor libraries do."""
 
 from vdevclient.core import Card, CardInfo, Irq, Rack, Region, RegionInfo, Sim, connect
-from vdevclient.errors import RemoteError, RequestTooLarge, VdevClientError, VdevTimeout
+from vdevclient.errors import RackClosed, RemoteError, RequestTooLarge, VdevClientError, VdevTimeout
 
 __all__ = [
     "Card",
     "CardInfo",
     "Irq",
     "Rack",
+    "RackClosed",
     "Region",
     "RegionInfo",
     "RemoteError",

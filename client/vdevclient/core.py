@@ -16,7 +16,7 @@ from typing import Any, ClassVar, Literal
 import msgpack
 import zmq
 
-from vdevclient.errors import RemoteError, RequestTooLarge, VdevTimeout
+from vdevclient.errors import RackClosed, RemoteError, RequestTooLarge, VdevTimeout
 
 DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
 PROTOCOL_VERSION = 1
@@ -97,13 +97,13 @@ class Rack:
         self._ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
         self._sock = self.socket(zmq.DEALER)
         self._rcvtimeo = -1
-        self._sock.connect(endpoint)
         self._ids = itertools.count(1)
         self._packb = msgpack.Packer(use_bin_type=True).pack
         self._cards: dict[str, Card] = {}
         self.sim = Sim(self)
         self.max_message = MAX_MESSAGE
         try:
+            self._sock.connect(endpoint)
             self.info = self.request("hello", client="vdevclient")
         except BaseException:
             self._sock.close()
@@ -125,7 +125,12 @@ class Rack:
         body = self._packb(message)
         if len(body) > self.max_message:
             raise RequestTooLarge(message["op"], len(body), self.max_message)
-        self._sock.send(body)
+        try:
+            self._sock.send(body)
+        except zmq.ZMQError:
+            if self._sock.closed:
+                raise RackClosed(f"{message['op']}: the connection to {self.endpoint} is closed") from None
+            raise
         # what follows overlaps the round trip
         deadline_ms = int((self.timeout + wait_s) * 1000)
         if deadline_ms != self._rcvtimeo:  # a socket option costs ~5 us: set it on change only
@@ -146,20 +151,24 @@ class Rack:
 
     def socket(self, kind: int) -> zmq.Socket[bytes]:
         """A socket of this connection's context, with its CURVE keys when it has them."""
-        sock = self._ctx.socket(kind)
-        sock.linger = 0
-        if self.curve is not None:
+        keys = None
+        if self.curve is not None:  # read before the socket exists: a bad file leaks none
             import zmq.auth
 
             server_public, _ = zmq.auth.load_certificate(self.curve[0])
             public, secret = zmq.auth.load_certificate(self.curve[1])
             if secret is None:
                 raise ValueError(f"{self.curve[1]} holds no secret key")
-            sock.curve_serverkey, sock.curve_publickey, sock.curve_secretkey = (
-                server_public, public, secret)
+            keys = (server_public, public, secret)
+        sock = self._ctx.socket(kind)
+        sock.linger = 0
+        if keys is not None:
+            sock.curve_serverkey, sock.curve_publickey, sock.curve_secretkey = keys
         return sock
 
     def close(self) -> None:
+        """Close the connection and its subscriptions; later requests raise RackClosed. Closing
+        again does nothing."""
         for card in self._cards.values():
             card.irq.close()
         self._sock.close()

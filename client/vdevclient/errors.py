@@ -20,6 +20,10 @@ class VdevTimeout(VdevClientError, TimeoutError):
     """No reply within the client's timeout."""
 
 
+class RackClosed(VdevClientError):
+    """A request on a `Rack` after its `close()`."""
+
+
 class RequestTooLarge(VdevClientError):
     """A request the client refused to send: its packed body exceeds the daemon's `max_message`
     (proto/PROTOCOL.md, Size; the daemon's socket drops bodies over 4 MiB without a reply)."""

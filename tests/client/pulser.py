@@ -30,6 +30,13 @@ class Pulser(Card):
         """Set a 32-bit register as the card's firmware does."""
         self.regs.set(offset, value)
 
+    @control()
+    def value(self, offset: int) -> int:
+        """A 32-bit register as the card's firmware reads it."""
+        (word,) = self.regs.unpack(offset, "I")
+        assert isinstance(word, int)
+        return word
+
 
 def serve_pulsers(*names: str) -> DaemonThread:
     """A lockstep daemon holding one Pulser per name (none: an empty rack)."""

@@ -27,6 +27,23 @@ def test_connect_takes_the_endpoint_from_the_environment(
         assert [c.name for c in rack.cards()] == ["servo0"]
 
 
+def test_connect_takes_the_events_endpoint_given_else_from_the_environment(
+    pulsers: DaemonThread, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    nowhere = "tcp://127.0.0.1:9"
+    daemons = pulsers.events.replace("127.0.0.1", "localhost")  # the daemon's, spelt otherwise
+    monkeypatch.setenv("VDEVD_EVENTS", daemons)
+    with vdevclient.connect(pulsers.endpoint, events=nowhere) as rack:
+        assert rack.events_endpoint == nowhere  # the argument beats the environment
+    with vdevclient.connect(pulsers.endpoint) as rack:
+        assert rack.events_endpoint == daemons != rack.info["events"]
+        card = rack.card("p0")
+        card.irq.subscribe()
+        card.control("pulse", status=5)
+        event = next(card.irq.events(timeout_s=5.0))
+    assert (event["card"], event["status"]) == ("p0", 5)
+
+
 def test_cards_describe_regions_and_irq_lines(rack: vdevclient.Rack) -> None:
     (info,) = rack.cards()
     assert (info.name, info.type, info.irq) == ("servo0", "generic-servo", ("inta",))
@@ -71,6 +88,36 @@ def test_a_request_over_max_message_is_refused_without_being_sent(rack: vdevclie
     assert "write" not in rack.stats()["requests"]["by_op"]  # the daemon never saw it
     bar.write32(R.OUTPUTS, 7)  # the connection still works
     assert bar.read32(R.OUTPUTS) == 7
+
+
+def test_big_endian_register_access_is_in_the_cards_byte_order(pulsers: DaemonThread) -> None:
+    with vdevclient.connect(pulsers.endpoint) as rack:
+        card = rack.card("p0")
+        regs = card.region("regs")
+        assert card.info.endian == regs.info.endian == "big"
+        card.control("load", offset=0, value=0x12345678)  # set by the card's firmware
+        assert regs.read(0, 4) == bytes.fromhex("12345678")  # on the bus: most significant first
+        assert regs.read32(0) == 0x12345678
+        assert (regs.read16(0), regs.read16(2), regs.read8(3)) == (0x1234, 0x5678, 0x78)
+        regs.write32(4, 0xCAFEF00D)
+        regs.write16(8, 0xBEEF)
+        assert regs.read(4, 6) == bytes.fromhex("cafef00dbeef")
+        assert card.control("value", offset=4) == 0xCAFEF00D  # what the card's firmware reads
+        assert card.control("value", offset=8) == 0xBEEF0000
+
+
+def test_close_really_closes_and_closing_again_is_harmless(rack: vdevclient.Rack) -> None:
+    card = rack.card("servo0")
+    card.irq.subscribe()
+    bar = card.region("bar0")
+    rack.close()
+    rack.close()
+    with pytest.raises(vdevclient.RackClosed, match=f"^read: the connection to {rack.endpoint} is closed$"):
+        bar.read32(R.ID)
+    with pytest.raises(vdevclient.RackClosed):
+        rack.stats()
+    with pytest.raises(vdevclient.RackClosed):
+        next(card.irq.events(timeout_s=0))  # the subscription went with the connection
 
 
 def test_irq_wait_sees_the_done_interrupt_of_a_move(rack: vdevclient.Rack) -> None:
