@@ -12,8 +12,9 @@ import numpy as np
 
 
 class AxisFlag(enum.IntFlag):
-    """Per-axis status bits in `Axes.flags`; "motion command" = move, jog (the commands that
-    start a profile). Bits marked (event) are also returned by `MotionCore.tick` when they happen.
+    """Per-axis status bits in `Axes.flags`; "motion command" = move, jog, home (the commands
+    that start a profile). Bits marked (event) are also returned by `MotionCore.tick` when they
+    happen.
 
     MOVING            set when a profile (move, jog, stop, abort with dec) is planned; cleared
                       when it ends (or at once by abort without dec, servo off, set_position).
@@ -31,8 +32,11 @@ class AxisFlag(enum.IntFlag):
                       by the next motion command.
     ABORTED           (event with DONE) abort or a fault ended the profile; cleared by the next
                       motion command.
-    DONE              (event) latched when a move/jog/stop/abort profile finishes (also at once
+    DONE              (event) latched when a move/jog/home/stop/abort profile finishes (also at once
                       for a zero-length or refused command); cleared by the next motion command.
+    HOME_SWITCH       follows the home switch input; its rising edge ends a home search.
+    HOMED             a home search found the switch and made that place position 0; cleared
+                      when the next home search starts.
     """
 
     MOVING = 1 << 0
@@ -48,6 +52,8 @@ class AxisFlag(enum.IntFlag):
     STOPPED_BY_LIMIT = 1 << 10
     ABORTED = 1 << 11
     DONE = 1 << 12
+    HOME_SWITCH = 1 << 13
+    HOMED = 1 << 14
 
 
 #: bits that a motion command clears
@@ -66,6 +72,7 @@ class ProfileMode(enum.IntEnum):
     JOG = 3
     STOPPING = 4
     ABORTING = 5
+    HOMING = 6
 
 
 class PlantKind(enum.IntEnum):

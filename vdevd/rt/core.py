@@ -29,6 +29,7 @@ Selector = int | slice | Sequence[int] | np.ndarray
 _MOVING, _DONE = int(AxisFlag.MOVING), int(AxisFlag.DONE)
 _STOPPED, _ABORTED = int(AxisFlag.STOPPED_BY_LIMIT), int(AxisFlag.ABORTED)
 _FE_TRIP, _SERVO_ON = int(AxisFlag.FE_TRIP), int(AxisFlag.SERVO_ON)
+_HOMED = int(AxisFlag.HOMED)
 
 
 class MotionCore:
@@ -62,6 +63,7 @@ class MotionCore:
         self.servo_on_mask = np.zeros(n, dtype=bool)
         self.amp_fault = np.zeros(n, dtype=bool)
         self.encoder_loss = np.zeros(n, dtype=bool)
+        self.home_switch = np.zeros(n, dtype=bool)
         self._scale = np.ones(n)
         self.encoder_scale = self._scale.view()  # read-only: set_encoder_scale
         self.encoder_scale.flags.writeable = False
@@ -327,6 +329,39 @@ class MotionCore:
             self._after_plan(a)
         self.profile.commit()
 
+    def home(self, axes: Selector, velocity: Any, acc: Any, dec: Any, jerk: Any = 0.0) -> None:
+        """Home search: a jog at the signed `velocity` until the home switch becomes active;
+        there the encoder reading becomes position 0, HOMED is set and the axis stops with `dec`
+        (DONE). An axis already on its switch is homed where it is. Otherwise as `jog`: a search
+        toward an active hard limit is refused, one toward a soft limit ends there unhomed."""
+        idx = self._select(axes)
+        self.jog(idx, velocity, acc, dec, jerk)
+        self.axes.flags[idx] &= ~_HOMED
+        mode = self.profile.mode
+        search = idx[mode[idx] == ProfileMode.JOG]
+        mode[search] = ProfileMode.HOMING
+        self._home_found(search[self.home_switch[search]])
+
+    def _home_found(self, idx: np.ndarray) -> None:
+        """Searching axes `idx` found their home switch: the encoder there becomes position 0,
+        without motion (the actual and commanded positions shift with it, so the following
+        error is unchanged), HOMED is set, and the axis stops with its search's deceleration."""
+        if not len(idx):
+            return
+        ax = self.axes
+        for a in idx.tolist():
+            shift = -float(ax.fb[a])
+            ax.pos[a] += shift
+            ax.cmd_pos[a] += shift  # the stop below plans from the shifted command
+            self.stepper.gen[a] += shift
+            self._enc[a], ax.encoder[a], ax.fb[a] = 0.0, 0, 0.0
+            ax.flags[a] |= _HOMED
+            self.done_bits[a] = 0
+            self.target_valid[a] = False
+            self.profile.stop(a, float(self.last_dec[a]), float(self.last_jerk[a]))
+            self._after_plan(a)
+        self.profile.commit()
+
     def stop(self, axes: Selector, dec: Any = None) -> None:
         """Decelerate to standstill with `dec` (default: the last command's deceleration); axes
         not moving are left alone."""
@@ -417,9 +452,10 @@ class MotionCore:
         self.profile.commit()
 
     def set_inputs(self, hard_limit_pos: Any = None, hard_limit_neg: Any = None,
-                   amp_fault: Any = None, encoder_loss: Any = None) -> None:
+                   amp_fault: Any = None, encoder_loss: Any = None, home: Any = None) -> None:
         """Backdoor inputs, one bool per axis (None: unchanged). A limit that becomes active
-        stops an axis moving toward it; an amplifier fault aborts and turns the servo off."""
+        stops an axis moving toward it; an amplifier fault aborts and turns the servo off; a home
+        switch that becomes active ends a home search (`home`)."""
         ax, lim = self.axes, self.limits
         if encoder_loss is not None:
             self.encoder_loss[:] = np.asarray(encoder_loss, dtype=bool)
@@ -450,6 +486,12 @@ class MotionCore:
                 self._limit_stop(a, 0)
             if len(heading):
                 self.profile.commit()
+        if home is not None:
+            new = np.asarray(home, dtype=bool)
+            rising = np.flatnonzero(new & ~self.home_switch)
+            self.home_switch[:] = new
+            self._set_bit(AxisFlag.HOME_SWITCH, new)
+            self._home_found(rising[self.profile.mode[rising] == ProfileMode.HOMING])
         self._configure()
 
     def _set_bit(self, bit: AxisFlag, on: np.ndarray) -> None:
