@@ -13,13 +13,15 @@ import numpy as np
 
 from vdevd.devices.base import Card, CardContext, Option, control
 from vdevd.devices.generic import regions as R
-from vdevd.devices.generic.regions import AxisReg, Command, CommandError
+from vdevd.devices.generic.regions import AxisReg, CardStatus, Command, CommandError
 from vdevd.region import Region
 from vdevd.rt import AxisFlag, MotionCore, PlantKind
 
 _PLANTS = {"servo": PlantKind.SERVO, "stepper": PlantKind.STEPPER, "ideal": PlantKind.IDEAL}
 _FAULTS = int(AxisFlag.AMP_FAULT | AxisFlag.ENCODER_LOSS)
 _STOPS = int(AxisFlag.STOPPED_BY_LIMIT | AxisFlag.FE_TRIP | AxisFlag.AMP_FAULT)
+_DONE = int(AxisFlag.DONE)
+_MOTION = (Command.MOVE_ABS, Command.MOVE_REL, Command.JOG, Command.HOME)
 
 
 class GenericServoCard(Card):
@@ -44,10 +46,12 @@ class GenericServoCard(Card):
             (self.n,), dtype=R.AXIS_DTYPE, buffer=self.bar.buf, offset=R.AXIS_BASE
         )
         self._prev_flags = np.zeros(self.n, dtype=np.int64)
+        self._axis_bit = np.left_shift(1, np.arange(self.n, dtype=np.int64))  # IRQ_STATUS bit n
         self._inputs = {
             key: np.zeros(self.n, dtype=bool)
-            for key in ("hard_limit_pos", "hard_limit_neg", "amp_fault", "encoder_loss")
+            for key in ("hard_limit_pos", "hard_limit_neg", "amp_fault", "encoder_loss", "home")
         }
+        self.abort_input = False
         self._declare_hooks(end)
         self.reset()
 
@@ -57,6 +61,7 @@ class GenericServoCard(Card):
         self.bar.hook(R.IRQ_STATUS, 4, on_write=self._write_irq_status)
         self.bar.hook(R.IRQ_ENABLE, 4, on_write=self._write_irq_enable)
         self.bar.hook(R.INPUTS, 4, on_write=ignore)
+        self.bar.hook(R.CARD_STATUS, 4, on_write=ignore)
         for axis in range(self.n):
             base = R.AXIS_BASE + R.AXIS_STRIDE * axis
             self.bar.hook(base + AxisReg.COMMAND, 4, on_write=self._write_command)
@@ -71,6 +76,7 @@ class GenericServoCard(Card):
         self.bar.set(R.VERSION, R.FIRMWARE_VERSION)
         self.bar.set(R.AXES, self.n)
         self.bar.set(R.PERIOD_NS, self.period_ns)
+        self._store_card_status()
         regs = self.axis_regs
         regs["vmax"], regs["acc"], regs["dec"] = 50_000, 500_000, 500_000
         saved = self.ctx.nvram.load(self.name) if self.ctx.nvram else None
@@ -116,16 +122,18 @@ class GenericServoCard(Card):
         self.bar.set(R.TICK_LO, self.ticks & 0xFFFFFFFF)
         self.bar.set(R.TICK_HI, self.ticks >> 32)
 
+    def _store_card_status(self) -> None:
+        self.bar.set(R.CARD_STATUS, int(CardStatus.ABORT_INPUT) if self.abort_input else 0)
+
     def _on_events(self) -> None:
         """A profile ended or a fault stopped an axis: raise the IRQ_STATUS bits (README.md)."""
         flags = self.core.axes.flags
         new = flags & ~self._prev_flags
-        self._prev_flags = flags.copy()
-        bits = 0
-        for axis in np.flatnonzero(new & int(AxisFlag.DONE)):
-            bits |= 1 << int(axis)
-        for axis in np.flatnonzero(new & _STOPS):
-            bits |= 1 << (16 + int(axis))
+        np.copyto(self._prev_flags, flags)
+        # distinct powers of two: a dot product with the axes' bits is their OR
+        done = int(self._axis_bit @ ((new & _DONE) != 0))
+        stopped = int(self._axis_bit @ ((new & _STOPS) != 0))
+        bits = done | stopped << 16
         if bits:
             self._set_irq_status(self.bar.get(R.IRQ_STATUS) | bits)
 
@@ -175,20 +183,24 @@ class GenericServoCard(Card):
             return CommandError.UNKNOWN_COMMAND
         target, vmax = int(regs["target"]), float(regs["vmax"])
         acc, dec, jerk = float(regs["acc"]), float(regs["dec"]), float(regs["jerk"])
-        if cmd in (Command.MOVE_ABS, Command.MOVE_REL, Command.JOG):
+        if cmd in _MOTION:
             if vmax <= 0 and cmd != Command.JOG or acc <= 0 or dec <= 0:
                 return CommandError.BAD_PARAMETER
             if flags & _FAULTS:
                 return CommandError.FAULT
             if not flags & AxisFlag.SERVO_ON:
                 return CommandError.SERVO_OFF
-            self._prev_flags[axis] &= ~int(AxisFlag.DONE)
+            if self.abort_input:
+                return CommandError.ABORT_INPUT
+            self._prev_flags[axis] &= ~_DONE
         if cmd == Command.MOVE_ABS:
             self.core.move_absolute(axis, target, vmax, acc, dec, jerk)
         elif cmd == Command.MOVE_REL:
             self.core.move_relative(axis, target, vmax, acc, dec, jerk)
         elif cmd == Command.JOG:
             self.core.jog(axis, target, acc, dec, jerk)
+        elif cmd == Command.HOME:
+            self.core.home(axis, vmax if target >= 0 else -vmax, acc, dec, jerk)
         elif cmd == Command.STOP:
             self.core.stop(axis, dec if dec > 0 else None)
         elif cmd == Command.ABORT:
@@ -222,6 +234,11 @@ class GenericServoCard(Card):
         self._flag_inputs(self._axis(axis), hard_limit_pos=positive, hard_limit_neg=negative)
 
     @control()
+    def set_home(self, axis: int, active: bool = True) -> None:
+        """Drive the axis's home switch input (True = switch active)."""
+        self._flag_inputs(self._axis(axis), home=active)
+
+    @control()
     def amp_fault(self, axis: int, active: bool = True) -> None:
         """Assert or clear the amplifier fault input of an axis."""
         self._flag_inputs(self._axis(axis), amp_fault=active)
@@ -230,6 +247,16 @@ class GenericServoCard(Card):
     def encoder_loss(self, axis: int, active: bool = True) -> None:
         """Lose (freeze) or restore the encoder of an axis."""
         self._flag_inputs(self._axis(axis), encoder_loss=active)
+
+    @control()
+    def set_abort(self, active: bool = True) -> None:
+        """Drive the card's abort input: while active, axes in motion abort and motion commands
+        are refused (ERROR ABORT_INPUT)."""
+        self.abort_input = bool(active)
+        if self.abort_input:
+            self.core.abort(self.core.profile.moving)
+        self._store_card_status()
+        self._store_status()
 
     @control()
     def set_inputs(self, value: int) -> None:

@@ -24,17 +24,24 @@ IRQ_STATUS = 0x020  # W1C: bit n = axis n done, bit 16+n = axis n stopped by a f
 IRQ_ENABLE = 0x024  # RW: same bits; the line is asserted while STATUS & ENABLE != 0
 INPUTS = 0x028  # RO: general inputs (backdoor `set_inputs`)
 OUTPUTS = 0x02C  # RW: general outputs
+CARD_STATUS = 0x030  # RO: CardStatus bits
 
 AXIS_BASE = 0x100
 AXIS_STRIDE = 0x40
 MAX_AXES = 16
 
 
+class CardStatus(enum.IntFlag):
+    """Bits of CARD_STATUS."""
+
+    ABORT_INPUT = 1 << 0  # the abort input is active (backdoor `set_abort`)
+
+
 class AxisReg(enum.IntEnum):
     """Offsets inside an axis block."""
 
     COMMAND = 0x00  # W: a Command code; executes on write; reads back the last command
-    TARGET = 0x04  # RW i32: target position (MOVE_ABS), distance (MOVE_REL), velocity (JOG)
+    TARGET = 0x04  # RW i32: position (MOVE_ABS), distance (MOVE_REL), velocity (JOG), direction (HOME)
     VMAX = 0x08  # RW u32 counts/s
     ACC = 0x0C  # RW u32 counts/s^2
     DEC = 0x10  # RW u32 counts/s^2
@@ -58,6 +65,7 @@ class Command(enum.IntEnum):
     SERVO_ON = 6
     SERVO_OFF = 7
     SET_POSITION = 8
+    HOME = 9
 
 
 class CommandError(enum.IntEnum):
@@ -66,6 +74,7 @@ class CommandError(enum.IntEnum):
     BAD_PARAMETER = 2  # zero or out-of-range speed, acceleration
     SERVO_OFF = 3  # motion commanded while the servo is off
     FAULT = 4  # motion commanded with an amplifier fault or encoder loss
+    ABORT_INPUT = 5  # motion commanded while the card's abort input is active
 
 
 #: the read-only status fields of an axis block, refreshed every tick in one vectorised store
