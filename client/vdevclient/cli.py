@@ -10,6 +10,8 @@ import json
 import sys
 from typing import Any
 
+import zmq
+
 from vdevclient.core import connect
 from vdevclient.errors import VdevClientError
 
@@ -30,7 +32,8 @@ def parser() -> argparse.ArgumentParser:
     poke.add_argument("card")
     poke.add_argument("region")
     poke.add_argument("offset", type=_int)
-    poke.add_argument("hexbytes", help="bytes in bus order, e.g. 01000000 or 01:00:00:00")
+    poke.add_argument("data", type=_hexbytes, metavar="HEXBYTES",
+                      help="bytes in bus order, e.g. 01000000 or 01:00:00:00")
     irq = sub.add_parser("irq", help="print interrupt events until interrupted")
     irq.add_argument("card", nargs="?", help="one card (default: all)")
     irq.add_argument("--count", type=int, default=0, help="stop after this many events")
@@ -51,6 +54,13 @@ def _int(text: str) -> int:
     return int(text, 0)
 
 
+def _hexbytes(text: str) -> bytes:
+    try:
+        return bytes.fromhex(text.replace(":", "").replace(" ", ""))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not hex bytes") from None
+
+
 def _value(text: str) -> Any:
     try:
         return json.loads(text)
@@ -68,6 +78,9 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except KeyError as exc:
         print(f"vdevctl: {exc.args[0]}", file=sys.stderr)
+        return 1
+    except (zmq.ZMQError, OSError) as exc:  # a bad endpoint, an unreadable key file
+        print(f"vdevctl: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         return 130
@@ -90,8 +103,7 @@ def _run(rack: Any, args: argparse.Namespace) -> int:
             chunk = data[i : i + 16]
             print(f"{args.offset + i:08x}  {chunk.hex(' ')}", file=out)
     elif args.command == "poke":
-        data = bytes.fromhex(args.hexbytes.replace(":", "").replace(" ", ""))
-        rack.card(args.card).region(args.region).write(args.offset, data)
+        rack.card(args.card).region(args.region).write(args.offset, args.data)
     elif args.command == "irq":
         return _watch(rack, args)
     elif args.command == "step":
@@ -117,7 +129,6 @@ def _run(rack: Any, args: argparse.Namespace) -> int:
 
 def _watch(rack: Any, args: argparse.Namespace) -> int:
     import msgpack
-    import zmq
 
     names = [args.card] if args.card else [c.name for c in rack.cards()]
     if not names:
@@ -126,23 +137,22 @@ def _watch(rack: Any, args: argparse.Namespace) -> int:
     for name in names:
         rack.card(name)  # KeyError for an unknown card
     sub = rack.socket(zmq.SUB)
-    sub.connect(rack.events_endpoint)
-    for name in names:
-        sub.setsockopt(zmq.SUBSCRIBE, name.encode())
-    for _ in range(100):  # until the subscription is live (PROTOCOL.md, sync)
-        # the daemon takes subscriptions in order: once the last one is live, all are
-        rack.request("sync", card=names[-1])
-        if sub.poll(50):
-            break
-    else:
-        print(f"vdevctl: no events from {rack.events_endpoint}", file=sys.stderr)
-        sub.close()
-        return 1
-    print(f"vdevctl: watching {', '.join(names)} on {rack.events_endpoint}; Ctrl-C stops",
-          file=sys.stderr, flush=True)
-    seen = 0
-    timeout_ms = None if args.irq_timeout is None else int(args.irq_timeout * 1000)
     try:
+        sub.connect(rack.events_endpoint)
+        for name in names:
+            sub.setsockopt(zmq.SUBSCRIBE, name.encode())
+        for _ in range(100):  # until the subscription is live (PROTOCOL.md, sync)
+            # the daemon takes subscriptions in order: once the last one is live, all are
+            rack.request("sync", card=names[-1])
+            if sub.poll(50):
+                break
+        else:
+            print(f"vdevctl: no events from {rack.events_endpoint}", file=sys.stderr)
+            return 1
+        print(f"vdevctl: watching {', '.join(names)} on {rack.events_endpoint}; Ctrl-C stops",
+              file=sys.stderr, flush=True)
+        seen = 0
+        timeout_ms = None if args.irq_timeout is None else int(args.irq_timeout * 1000)
         while not args.count or seen < args.count:
             if not sub.poll(timeout_ms):
                 break

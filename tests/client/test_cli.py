@@ -20,6 +20,12 @@ from vdevd.devices.generic import regions as R
 from vdevd.testing import DaemonThread
 
 
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
 def ctl(daemon: DaemonThread, capsys: pytest.CaptureFixture[str], *argv: str) -> str:
     assert vdevctl(["--endpoint", daemon.endpoint, *argv]) == 0
     return capsys.readouterr().out
@@ -48,9 +54,28 @@ def test_step_control_now_and_stats(daemon: DaemonThread, capsys: pytest.Capture
     assert json.loads(ctl(daemon, capsys, "stats"))["cards"]["servo0"]["ticks"] == 250
 
 
-def test_errors_are_one_line_and_exit_1(daemon: DaemonThread, capsys: pytest.CaptureFixture[str]) -> None:
-    assert vdevctl(["--endpoint", daemon.endpoint, "peek", "servo0", "bar0", "0x1000"]) == 1
-    assert "out_of_range" in capsys.readouterr().err
+@pytest.mark.parametrize(("argv", "message"), [
+    (["peek", "servo0", "bar0", "0x1000"], "out_of_range: "),
+    (["control", "servo0", "set_limit", "axis=99"], "bad_param: "),
+    (["peek", "servo9", "bar0", "0"], "no card 'servo9' (cards: servo0)"),
+    (["poke", "servo0", "bar0", "0", "00" * (2 << 20)], "too_large: write request of "),
+    (["--endpoint", "servo0:5555", "now"], "Invalid argument"),
+    (["--events", "servo0:5556", "irq"], "Invalid argument"),
+    (["--endpoint", f"tcp://127.0.0.1:{free_port()}", "--timeout", "0.1", "now"],
+     "hello: no reply from "),
+], ids=["error-reply", "bad-param", "unknown-card", "too-large", "bad-endpoint", "bad-events", "no-daemon"])
+def test_errors_are_one_line_and_exit_1(daemon: DaemonThread, capsys: pytest.CaptureFixture[str],
+                                        argv: list[str], message: str) -> None:
+    assert vdevctl(["--endpoint", daemon.endpoint, *argv]) == 1
+    captured = capsys.readouterr()
+    assert captured.err.startswith(f"vdevctl: {message}") and captured.err.count("\n") == 1, captured.err
+    assert captured.out == ""
+
+
+def test_bad_hex_bytes_are_a_usage_error(daemon: DaemonThread) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        vdevctl(["--endpoint", daemon.endpoint, "poke", "servo0", "bar0", "0", "0x1"])
+    assert exit_.value.code == 2
 
 
 def test_irq_prints_events(daemon: DaemonThread, capsys: pytest.CaptureFixture[str]) -> None:
@@ -105,12 +130,6 @@ def test_irq_on_a_rack_without_cards_is_an_error(capsys: pytest.CaptureFixture[s
         assert vdevctl(["--endpoint", empty.endpoint, "irq"]) == 1
     err = capsys.readouterr().err
     assert err == f"vdevctl: no cards to watch: the rack at {empty.endpoint} has none\n"
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 @pytest.mark.slow
