@@ -22,9 +22,11 @@ class Samples:
             self.max = value
 
     def summary(self) -> dict[str, int]:
+        """{count, p50, p90, p99, p999, max}: count and max over every sample, the percentiles
+        over the last `capacity`; all 0 before the first sample."""
         n = min(self._n, len(self._buf))
         if n == 0:
-            return {"count": 0}
+            return dict.fromkeys(("count", "p50", "p90", "p99", "p999", "max"), 0)
         p50, p90, p99, p999 = np.percentile(self._buf[:n], [50, 90, 99, 99.9])
         return {
             "count": self.count,

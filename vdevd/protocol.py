@@ -195,11 +195,15 @@ def request_from(msg: Any) -> Request:
 
 def _validate_batch_op(index: int, op: Any) -> Request:
     if not isinstance(op, dict):
-        raise VdevError(ErrorCode.MALFORMED, f"batch: op {index} is not a map")
+        raise VdevError(ErrorCode.MALFORMED, f"batch op {index}: not a map")
     name = op.get("op")
     if name not in BATCHABLE:
-        raise VdevError(ErrorCode.MALFORMED, f"batch: op {index} ({name!r}) cannot be batched")
-    return validate(name, op)
+        raise VdevError(ErrorCode.MALFORMED, f"batch op {index}: {name!r} cannot be batched "
+                        f"(batchable: {', '.join(sorted(BATCHABLE))})")
+    try:
+        return validate(name, op)
+    except VdevError as exc:
+        raise VdevError(exc.code, f"batch op {index}: {exc.message}") from None
 
 
 def _with_id(exc: VdevError, req_id: Any) -> VdevError:

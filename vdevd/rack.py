@@ -401,7 +401,11 @@ class Rack:
                     except Exception as exc:  # resumed from _service: no execute() around it
                         reply(self._internal(exc, f"batch op {i + 1}.."))
 
-                self._add_waiter(self._make_waiter(op.args, resume))
+                try:
+                    waiter = self._make_waiter(op.args, resume)
+                except VdevError as exc:
+                    raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
+                self._add_waiter(waiter)
                 return
             try:
                 results.append(getattr(self, "op_" + op.op)(op.args, reply))
@@ -434,8 +438,15 @@ class Rack:
             if w.size not in (1, 2, 4, 8):
                 raise VdevError(ErrorCode.BAD_WIDTH, f"wait on value: size {w.size} not 1/2/4/8")
             w.region.peek(w.offset, w.size)  # bounds check now, not at every tick
-            w.mask = args.get("mask", (1 << (8 * w.size)) - 1)
+            full = (1 << (8 * w.size)) - 1
+            w.mask = args.get("mask", full)
             w.value = args["value"]
+            if not 0 <= w.mask <= full:
+                raise VdevError(ErrorCode.BAD_PARAM,
+                                f"wait on value: mask {w.mask:#x} outside {w.size} bytes")
+            if w.value & ~w.mask:  # also a negative value
+                raise VdevError(ErrorCode.BAD_PARAM, f"wait on value: value {w.value:#x} has "
+                                f"bits outside the mask {w.mask:#x}")
             cmp = args.get("cmp", "eq")
             if cmp not in ("eq", "ne"):
                 raise VdevError(ErrorCode.BAD_PARAM, f"wait on value: cmp {cmp!r} not eq or ne")
@@ -450,7 +461,7 @@ class Rack:
 
     def op_sim(self, args: dict[str, Any], reply: Reply) -> Any:
         action = args["action"]
-        if action in ("now", "mode", "info"):
+        if action == "now":
             return self._clock_info()
         if action != "step":
             raise VdevError(ErrorCode.BAD_PARAM, f"sim: unknown action {action!r} (now, step)")
@@ -488,11 +499,7 @@ class Rack:
         action, params = args["action"], args.get("params") or {}
         if any(not isinstance(k, str) for k in params):
             raise VdevError(ErrorCode.MALFORMED, "control: params keys must be strings")
-        when = None
-        if "at_ns" in args:
-            when = args["at_ns"]
-        elif "after_ns" in args:
-            when = self.now_ns + args["after_ns"]
+        when = self._control_time(args)
         if when is None or when <= self.now_ns:
             return card.control(action, params)
         card.check_control(action, params)
@@ -508,6 +515,25 @@ class Rack:
 
         heapq.heappush(self._timers, (when, next(self._seq), later))
         return {"scheduled_ns": when}
+
+    def _control_time(self, args: dict[str, Any]) -> int | None:
+        """When a `control` runs: None (now), or `at_ns`, or now + `after_ns`; one day ahead at
+        most. A time not after now runs the action at once."""
+        if "at_ns" in args and "after_ns" in args:
+            raise VdevError(ErrorCode.BAD_PARAM, "control: at_ns and after_ns exclude each other")
+        if "after_ns" in args:
+            after = args["after_ns"]
+            if not 0 <= after <= MAX_WAIT_NS:
+                raise VdevError(ErrorCode.BAD_PARAM, f"control: after_ns {after} outside "
+                                f"0..{MAX_WAIT_NS}")
+            return int(self.now_ns + after)
+        if "at_ns" in args:
+            at = args["at_ns"]
+            if at > self.now_ns + MAX_WAIT_NS:
+                raise VdevError(ErrorCode.BAD_PARAM, f"control: at_ns {at} is more than a day "
+                                f"after now ({self.now_ns})")
+            return int(at)
+        return None
 
     def op_sync(self, args: dict[str, Any], reply: Reply) -> Any:
         """Publish a `sync` event on the card's topic (a subscriber's proof it is connected)."""

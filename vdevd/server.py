@@ -84,17 +84,28 @@ class Server:
         self._draining = True
         try:
             try:  # woken up: most likely a message is there, so try it without asking first
-                self._handle(recv(zmq.NOBLOCK))
+                frames = recv(zmq.NOBLOCK)
             except zmq.Again:
                 return
+            self._serve(frames)
             for _ in range(DRAIN_BUDGET):
                 # then ask ZMQ_EVENTS, which costs half of a recv that raises Again
                 if not events(zmq.EVENTS) & zmq.POLLIN:
                     return
-                self._handle(recv(zmq.NOBLOCK))
+                self._serve(recv(zmq.NOBLOCK))
             self._schedule_drain()  # budget spent: let the scheduler run, then go on
         finally:
             self._draining = False
+
+    def _serve(self, frames: list[bytes]) -> None:
+        """Handle one message; a bug met on the way is logged and counted, and the drain goes
+        on (an exception leaving the callback would leave queued messages unread until the
+        next readable edge)."""
+        try:
+            self._handle(frames)
+        except Exception:
+            self.rack.errors += 1
+            log.exception("internal error serving a request")
 
     def _recv(self, flags: int) -> list[bytes]:
         """One whole message. Like recv_multipart, but asking each frame's `more` flag instead
@@ -136,12 +147,9 @@ class Server:
             else:
                 try:
                     body = protocol.encode_ok(req_id, result)
-                except (TypeError, ValueError) as exc:
+                except (TypeError, ValueError, OverflowError) as exc:
                     body = protocol.encode_error(req_id, ErrorCode.INTERNAL, f"unencodable: {exc}")
-                if len(body) > protocol.MAX_MESSAGE:
-                    body = protocol.encode_error(
-                        req_id, ErrorCode.TOO_LARGE,
-                        f"reply of {len(body)} bytes exceeds {protocol.MAX_MESSAGE}")
+                body = _within_limit(req_id, body)
             self._send(envelope, body)
 
         self.rack.execute(req, reply)
@@ -150,7 +158,8 @@ class Server:
     def _read(self, req_id: Any, card: str, region: str, offset: int, size: int) -> bytes:
         """The reply to a register read (the hot path)."""
         try:
-            return protocol.encode_ok(req_id, self.rack.read(card, region, offset, size), self._pack)
+            return _within_limit(req_id, protocol.encode_ok(
+                req_id, self.rack.read(card, region, offset, size), self._pack))
         except VdevError as exc:
             return protocol.encode_error(req_id, exc.code, exc.message)
         except Exception as exc:  # a bug in a card's read hook: report it, keep serving
@@ -184,3 +193,11 @@ class Server:
             self.pub.send_multipart([topic.encode(), protocol.encode_event(body)], zmq.NOBLOCK)
         except zmq.ZMQError as exc:
             log.debug("event dropped: %s", exc)
+
+
+def _within_limit(req_id: Any, body: bytes) -> bytes:
+    """The reply, or a `too_large` error in its place when it exceeds the maximum message."""
+    if len(body) <= protocol.MAX_MESSAGE:
+        return body
+    return protocol.encode_error(req_id, ErrorCode.TOO_LARGE,
+                                 f"reply of {len(body)} bytes exceeds {protocol.MAX_MESSAGE}")

@@ -54,3 +54,18 @@ def test_an_error_fails_the_batch_and_names_the_op(raw: RawClient) -> None:
     reply = raw.call(op="batch", ops=ops)
     assert error_code(reply) == "bad_width"
     assert "batch op 1" in reply["error"]["message"]
+
+
+def test_a_malformed_or_failing_op_is_named_by_its_index(raw: RawClient) -> None:
+    read = {"op": "read", **BAR, "offset": 0, "size": 4}
+    cases = [
+        ([read, {"op": "read", **BAR, "offset": 0}], "malformed"),  # no size
+        ([read, read, {"op": "sim", "action": "now"}], "malformed"),  # cannot be batched
+        ([read, {"op": "wait", "card": "nope", "on": "irq", "timeout_ns": 1}], "no_card"),
+        ([{"op": "wait", **BAR, "on": "value", "offset": 0, "value": 1, "mask": 0x1_0000_0000,
+           "timeout_ns": 1}], "bad_param"),
+    ]
+    for ops, code in cases:
+        reply = raw.call(op="batch", ops=ops)
+        assert error_code(reply) == code
+        assert reply["error"]["message"].startswith(f"batch op {len(ops) - 1}: "), reply

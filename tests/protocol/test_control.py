@@ -70,3 +70,26 @@ def test_plant_parameters_change_the_physics(peak_torque: float | None) -> None:
         rack.sim.step(seconds=0.5)
         ferr = abs(rack.control("servo0", "axis_state", axis=0)["ferr"])
     assert ferr > 1000 if peak_torque else ferr < 200
+
+
+@pytest.mark.parametrize(
+    "when",
+    [{"after_ns": -1}, {"after_ns": 2**64 - 1}, {"at_ns": 2**63}, {"at_ns": 5, "after_ns": 5}],
+)
+def test_a_schedule_out_of_range_or_twice_given_is_bad_param(raw: RawClient,
+                                                              when: dict[str, int]) -> None:
+    raw.call(op="sim", action="step", ns=MS)  # time above 0: now + a huge delay overflows
+    reply = raw.call(op="control", card="servo0", action="set_inputs", params={"value": 5},
+                     **when)
+    assert error_code(reply) == "bad_param"
+    # the daemon answers the next requests at once, and nothing was scheduled
+    raw.call(op="sim", action="step", ns=10 * MS)
+    assert raw.call(op="read", offset=R.INPUTS, size=4, **BAR)["ok"] == bytes(4)
+
+
+def test_a_schedule_not_after_now_runs_the_action_at_once(raw: RawClient) -> None:
+    raw.call(op="sim", action="step", ns=2 * MS)
+    reply = raw.call(op="control", card="servo0", action="set_inputs", params={"value": 6},
+                     at_ns=MS)
+    assert reply == {"id": 1, "ok": None}  # the action's own result, not {scheduled_ns}
+    assert raw.call(op="read", offset=R.INPUTS, size=4, **BAR)["ok"] == b"\6\0\0\0"

@@ -71,8 +71,8 @@ def _scenario() -> str:
                 {"op": "control", "card": "servo0", "action": "axis_state",
                  "params": {"axis": 0}},
                 {"op": "wait", "card": "servo0", "on": "value",
-                 "region": "bar0", "offset": axis_reg(0, AxisReg.STATUS), "mask": 0,
-                 "value": 1, "timeout_ns": 3 * 10**8},
+                 "region": "bar0", "offset": axis_reg(0, AxisReg.STATUS), "mask": 1 << 31,
+                 "value": 1 << 31, "timeout_ns": 3 * 10**8},  # bit 31 is never set: times out
                 {"op": "read", **BAR, "offset": 0, "size": 0x200},
             ]
             for i, req in enumerate(requests):

@@ -16,3 +16,9 @@ def test_stats_counts_requests_errors_and_ticks(raw: RawClient) -> None:
     assert stats["requests"]["by_op"]["read"] == 2
     assert stats["requests"]["errors"] == 1
     assert stats["requests"]["latency_ns"]["count"] >= 3
+
+
+def test_distributions_have_every_field_before_the_first_sample(raw: RawClient) -> None:
+    stats = raw.call(op="stats")["ok"]
+    for dist in (stats["scheduler"]["late_ns"], stats["scheduler"]["behind_ns"]):  # lockstep
+        assert dist == {"count": 0, "p50": 0, "p90": 0, "p99": 0, "p999": 0, "max": 0}

@@ -62,3 +62,14 @@ def test_wait_value_ne_and_timeout(raw: RawClient) -> None:
     reply = raw.call(op="wait", on="value", offset=R.ID, value=R.CARD_ID, cmp="ne",
                      timeout_ns=3 * MS, **BAR)["ok"]
     assert reply == {"fired": False, "now_ns": 3 * MS}
+
+
+def test_wait_value_that_could_never_fire_is_bad_param(raw: RawClient) -> None:
+    where = {"op": "wait", "on": "value", **BAR, "offset": R.INPUTS, "timeout_ns": 10**9}
+    for fields in ({"size": 2, "mask": 0x1FFFF, "value": 1},  # mask wider than 2 bytes
+                   {"mask": -1, "value": 0},
+                   {"mask": 0xFF, "value": 0x100},  # a value bit outside the mask
+                   {"value": -1}):
+        reply = raw.call(**where, **fields)
+        assert reply["error"]["code"] == "bad_param", fields
+    assert raw.call(op="sim", action="now")["ok"]["now_ns"] == 0  # no time went by
