@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+import zmq.auth
 
 from vdevd import config
 from vdevd.config import ConfigError
@@ -53,6 +54,10 @@ def test_default_rack_has_one_card_of_each_type() -> None:
     ("text", "key"),
     [
         ('[[card]]\ntype = "warp-drive"\nname = "a"', "card[0].type"),
+        ('[[card]]\ntype = ["generic-servo"]\nname = "a"', "card[0].type"),
+        ('[[card]]\ntype = "generic-servo"\nname = "servo\u00b2"', "card[0].name"),
+        ('[[card]]\ntype = "generic-servo"\nname = "a b"', "card[0].name"),
+        ('[security]\n', "security.server_secret_key"),
         ('[[card]]\ntype = "generic-servo"\nname = "a"\n[[card]]\ntype = "generic-servo"\n'
          'name = "a"', "card[1].name"),
         ('[[card]]\ntype = "generic-servo"\nname = "a"\naxes = 99', "card[0].axes"),
@@ -78,3 +83,23 @@ def test_bad_files_name_the_key(tmp_path: Path, text: str, key: str) -> None:
 def test_missing_file_is_a_config_error(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="No such file"):
         config.load(tmp_path / "absent.toml")
+
+
+def test_security_key_files_are_checked_when_the_file_is_loaded(tmp_path: Path) -> None:
+    """A bad key file fails at start like any bad key (exit status 2), naming the key."""
+    public, secret = zmq.auth.create_certificates(tmp_path, "server")
+    keys = tmp_path / "clients"
+    keys.mkdir()
+
+    def security(secret_file: str, keys_dir: str) -> str:
+        return f'[security]\nserver_secret_key = "{secret_file}"\nclient_keys_dir = "{keys_dir}"\n'
+
+    for text, key in [
+        (security(str(tmp_path / "absent.key_secret"), str(keys)), "security.server_secret_key"),
+        (security(public, str(keys)), "security.server_secret_key"),  # a public key only
+        (security(secret, str(tmp_path / "absent")), "security.client_keys_dir"),
+    ]:
+        with pytest.raises(ConfigError) as info:
+            load_text(tmp_path, text)
+        assert str(info.value).startswith(key + ":"), info.value
+    assert load_text(tmp_path, security(secret, str(keys))).curve is not None

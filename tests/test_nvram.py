@@ -45,3 +45,21 @@ def test_save_without_a_state_directory_is_refused(rack: vdevclient.Rack) -> Non
 def test_pytest_plugin_fixture_gives_a_lockstep_default_rack(vdevd_rack: vdevclient.Rack) -> None:
     assert vdevd_rack.sim.mode == "lockstep"
     assert {c.type for c in vdevd_rack.cards()} >= {"generic-servo"}
+
+
+@pytest.mark.parametrize("image", [b"\xc1", b"\x82\xa4vmax", b"\x93\x01\x02\x03"])
+def test_an_unreadable_flash_image_starts_the_card_from_its_defaults(tmp_path: Path,
+                                                                      image: bytes) -> None:
+    (tmp_path / "servo0.nvram").write_bytes(image)  # not msgpack, truncated, not a map
+    (tmp_path / ".servo0.k1ll3d").write_bytes(b"half a save")  # a save killed mid-write
+    cfg = rack_config()
+    cfg.state_dir = str(tmp_path)
+    vmax0 = axis_reg(0, AxisReg.VMAX)
+    with DaemonThread(cfg) as d, vdevclient.connect(d.endpoint) as rack:
+        bar = rack.card("servo0").region("bar0")
+        assert bar.read32(vmax0) == 50_000  # the power-on default
+        bar.write32(vmax0, 777)
+        rack.control("servo0", "save")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["servo0.nvram", "servo0.nvram.corrupt"]
+    assert (tmp_path / "servo0.nvram.corrupt").read_bytes() == image
+    assert NvramStore(tmp_path).load("servo0")["vmax"][0] == 777  # type: ignore[index]

@@ -22,7 +22,8 @@ def parser() -> argparse.ArgumentParser:
     serve.add_argument("--endpoint", metavar="URL", help="override [server] endpoint")
     serve.add_argument("--events", metavar="URL", help="override [server] events")
     serve.add_argument("--state-dir", metavar="DIR", help="override [state] dir")
-    serve.add_argument("--log-level", default="INFO", help="DEBUG, INFO, WARNING (default INFO)")
+    serve.add_argument("--log-level", default="INFO", type=str.upper,
+                       choices=("DEBUG", "INFO", "WARNING", "ERROR"), help="default INFO")
     sub.add_parser("types", help="list the card types and their configuration keys")
     return p
 

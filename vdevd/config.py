@@ -1,22 +1,25 @@
 """The rack configuration: a TOML file, or the embedded default rack (one card of each type).
 
-Every check names the key it rejects (`card[2].axes: 9 is above the maximum 4`), so a bad file
+Every check names the key it rejects (`card[2].axes: 99 is above the maximum 16`; cards count
+from 0), so a bad file
 fails at start with one clear message (`ConfigError`).
 """
 
 from __future__ import annotations
 
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
 from vdevd.devices import CARD_TYPES, DEFAULT_NAMES, card_class
-from vdevd.security import CurveConfig, is_local
+from vdevd.security import CurveConfig, check_curve, is_local
 
 DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
 DEFAULT_EVENTS = "tcp://127.0.0.1:5556"
 CLOCK_MODES = ("realtime", "lockstep")
+_NAME = re.compile(r"[A-Za-z0-9_-]+")  # a card name: ASCII letters, digits, - and _
 WAKERS = ("thread", "timer")
 #: keys every [[card]] table may have beside the card type's own
 COMMON_CARD_KEYS = ("type", "name", "period_ns")
@@ -93,12 +96,16 @@ def parse(data: dict[str, Any]) -> Config:
     _only(state, "state", ("dir",))
     cfg.state_dir = _str(state, "state", "dir", None)
     security = _table(data, "security")
-    if security:
+    if "security" in data:
         _only(security, "security", ("server_secret_key", "client_keys_dir"))
         cfg.curve = CurveConfig(
             _required(security, "security", "server_secret_key"),
             _required(security, "security", "client_keys_dir"),
         )
+        try:
+            check_curve(cfg.curve)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
     cards = data.get("card", [])
     if not isinstance(cards, list):
         raise ConfigError("card: use [[card]] tables, one per card")
@@ -108,12 +115,12 @@ def parse(data: dict[str, Any]) -> Config:
         if not isinstance(table, dict):
             raise ConfigError(f"{where}: must be a table")
         ctype = table.get("type")
-        if ctype not in CARD_TYPES:
+        if not isinstance(ctype, str) or ctype not in CARD_TYPES:
             raise ConfigError(
                 f"{where}.type: unknown card type {ctype!r} (types: {', '.join(CARD_TYPES)})"
             )
         name = table.get("name")
-        if not isinstance(name, str) or not name or not name.replace("-", "").replace("_", "").isalnum():
+        if not isinstance(name, str) or not _NAME.fullmatch(name):
             raise ConfigError(f"{where}.name: {name!r} is not a name (letters, digits, - and _)")
         if name in seen:
             raise ConfigError(f"{where}.name: duplicate card name {name!r}")

@@ -56,6 +56,9 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None) -> None:
             loop.add_signal_handler(sig, stop.set)
     server.start(loop)
     cards = ", ".join(f"{c.name} ({c.type_name})" for c in server.rack.cards.values())
+    if not cards:
+        cards = "none"
+        log.warning("the configuration has no [[card]]: the rack is empty")
     log.info("listening on %s, events on %s, clock %s; cards: %s",
              server.endpoint, server.events, cfg.clock, cards)
     sd_notify("READY=1")

@@ -6,12 +6,15 @@ fsync of the directory. A crash or kill at any moment leaves either the old or t
 
 from __future__ import annotations
 
+import logging
 import os
 import tempfile
 from pathlib import Path
 from typing import Any
 
 import msgpack
+
+log = logging.getLogger("vdevd.nvram")
 
 
 class NvramStore:
@@ -43,10 +46,26 @@ class NvramStore:
             os.close(dir_fd)
 
     def load(self, card: str) -> dict[str, Any] | None:
-        """The saved image, or None when the card never saved one."""
+        """The saved image, or None when the card never saved one or its image is unreadable:
+        the card then starts from its power-on defaults, as a real card does after a flash
+        checksum error. An unreadable image is kept beside, as `<card>.nvram.corrupt`, and
+        temporary files left by a save that was killed are removed."""
+        for stale in self.dir.glob(f".{card}.*"):
+            stale.unlink(missing_ok=True)
+        path = self.path(card)
         try:
-            data = self.path(card).read_bytes()
+            data = path.read_bytes()
         except FileNotFoundError:
             return None
-        image = msgpack.unpackb(data, raw=False, strict_map_key=False)
-        return image if isinstance(image, dict) else None
+        try:
+            image = msgpack.unpackb(data, raw=False, strict_map_key=False)
+        except Exception as exc:  # msgpack raises several unrelated types for bad input
+            image = exc
+        if isinstance(image, dict):
+            return image
+        kept = path.with_name(path.name + ".corrupt")
+        os.replace(path, kept)
+        log.warning("%s: unreadable flash image (%s); %s starts from its defaults, the image is "
+                    "kept as %s", path, image if isinstance(image, Exception) else "not a map",
+                    card, kept.name)
+        return None

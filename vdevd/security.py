@@ -35,13 +35,22 @@ def is_local(endpoint: str) -> bool:
         return False
 
 
-def secure(ctx: zmq.Context, sockets: list[zmq.Socket], curve: CurveConfig) -> ThreadAuthenticator:
-    """Make `sockets` CURVE servers that accept only the clients whose keys are allowed."""
-    public, secret = zmq.auth.load_certificate(curve.server_secret_key)
+def check_curve(curve: CurveConfig) -> tuple[bytes, bytes]:
+    """The server's (public, secret) key; ValueError naming the key when a file is unusable."""
+    try:
+        public, secret = zmq.auth.load_certificate(curve.server_secret_key)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"security.server_secret_key: {exc}") from None
     if secret is None:
         raise ValueError(f"security.server_secret_key: {curve.server_secret_key} has no secret key")
     if not Path(curve.client_keys_dir).is_dir():
         raise ValueError(f"security.client_keys_dir: {curve.client_keys_dir} is not a directory")
+    return public, secret
+
+
+def secure(ctx: zmq.Context, sockets: list[zmq.Socket], curve: CurveConfig) -> ThreadAuthenticator:
+    """Make `sockets` CURVE servers that accept only the clients whose keys are allowed."""
+    public, secret = check_curve(curve)
     auth = ThreadAuthenticator(ctx)
     auth.start()
     auth.configure_curve(domain="*", location=curve.client_keys_dir)

@@ -20,7 +20,7 @@ def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="vdevctl", description="operate a vdevd rack")
     p.add_argument("--endpoint", help="request endpoint (default $VDEVD_ENDPOINT)")
     p.add_argument("--events", help="events endpoint (default $VDEVD_EVENTS, else from hello)")
-    p.add_argument("--timeout", type=float, default=10.0, help="reply timeout, wall seconds")
+    p.add_argument("--timeout", type=_seconds, default=10.0, help="reply timeout, wall seconds")
     sub = p.add_subparsers(dest="command", required=True)
     sub.add_parser("cards", help="list the cards, their regions and irq lines")
     peek = sub.add_parser("peek", help="read a region: CARD REGION OFFSET [SIZE]")
@@ -51,7 +51,17 @@ def parser() -> argparse.ArgumentParser:
 
 
 def _int(text: str) -> int:
-    return int(text, 0)
+    try:
+        return int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number (decimal or 0x hex)") from None
+
+
+def _seconds(text: str) -> float:
+    value = float(text)
+    if not value >= 0:  # also NaN
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds >= 0")
+    return value
 
 
 def _hexbytes(text: str) -> bytes:

@@ -22,6 +22,7 @@ DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
 PROTOCOL_VERSION = 1
 MAX_MESSAGE = 1 << 20  # protocol v1's request size limit until `hello` reports the daemon's
 _NS = 1_000_000_000
+_MAX_SPAN_S = 86_400.0  # the longest step or wait the protocol allows
 
 
 def connect(
@@ -236,7 +237,10 @@ class Sim:
             fields["seconds"] = float(seconds)
         if card is not None:
             fields["card"] = card
+        # wall time to allow for the reply (lockstep runs faster than real time); a span out
+        # of range is the daemon's to refuse (bad_param), not a reason to wait for ever
         span = (ns or 0) / _NS + (seconds or 0.0) + (ticks or 0) * 0.01
+        span = span if 0 <= span <= _MAX_SPAN_S else 0.0
         return self._rack.request("sim", _wait_s=span, action="step", **fields)["now_ns"]
 
 

@@ -63,7 +63,10 @@ def test_step_control_now_and_stats(daemon: DaemonThread, capsys: pytest.Capture
     (["--events", "servo0:5556", "irq"], "Invalid argument"),
     (["--endpoint", f"tcp://127.0.0.1:{free_port()}", "--timeout", "0.1", "now"],
      "hello: no reply from "),
-], ids=["error-reply", "bad-param", "unknown-card", "too-large", "bad-endpoint", "bad-events", "no-daemon"])
+    (["step", "nan"], "bad_param: "),
+    (["step", "inf"], "bad_param: "),
+], ids=["error-reply", "bad-param", "unknown-card", "too-large", "bad-endpoint", "bad-events",
+        "no-daemon", "step-nan", "step-inf"])
 def test_errors_are_one_line_and_exit_1(daemon: DaemonThread, capsys: pytest.CaptureFixture[str],
                                         argv: list[str], message: str) -> None:
     assert vdevctl(["--endpoint", daemon.endpoint, *argv]) == 1
@@ -72,10 +75,17 @@ def test_errors_are_one_line_and_exit_1(daemon: DaemonThread, capsys: pytest.Cap
     assert captured.out == ""
 
 
-def test_bad_hex_bytes_are_a_usage_error(daemon: DaemonThread) -> None:
+@pytest.mark.parametrize(("argv", "message"), [
+    (["poke", "servo0", "bar0", "0", "0x1"], "'0x1' is not hex bytes"),
+    (["peek", "servo0", "bar0", "xyz"], "'xyz' is not a number (decimal or 0x hex)"),
+    (["--timeout", "-1", "now"], "'-1' is not a number of seconds >= 0"),
+], ids=["hex-bytes", "offset", "timeout"])
+def test_bad_arguments_are_a_usage_error_naming_the_value(
+        daemon: DaemonThread, capsys: pytest.CaptureFixture[str], argv: list[str], message: str) -> None:
     with pytest.raises(SystemExit) as exit_:
-        vdevctl(["--endpoint", daemon.endpoint, "poke", "servo0", "bar0", "0", "0x1"])
+        vdevctl(["--endpoint", daemon.endpoint, *argv])
     assert exit_.value.code == 2
+    assert message in capsys.readouterr().err
 
 
 def test_irq_prints_events(daemon: DaemonThread, capsys: pytest.CaptureFixture[str]) -> None:
@@ -151,6 +161,13 @@ def test_vdevd_serve_starts_serves_and_exits_cleanly_on_a_signal(sig: int) -> No
                 proc.kill()
     assert proc.returncode == 0
     assert "listening on" in err
+
+
+def test_vdevd_serve_refuses_an_unknown_log_level() -> None:
+    res = subprocess.run([sys.executable, "-m", "vdevd", "serve", "--log-level", "bogus"],
+                         capture_output=True, text=True, timeout=60)
+    assert res.returncode == 2
+    assert "--log-level: invalid choice: 'BOGUS'" in res.stderr
 
 
 def test_vdevd_serve_refuses_a_bad_config_naming_the_key(tmp_path: Path) -> None:
