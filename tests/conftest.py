@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import socket
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -15,6 +16,13 @@ from vdevd.devices import card_class
 from vdevd.testing import DaemonThread
 
 LOOPBACK = "tcp://127.0.0.1:*"
+
+
+def free_endpoint() -> str:
+    """A loopback TCP endpoint on a port free now (for a daemon in another process)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return f"tcp://127.0.0.1:{s.getsockname()[1]}"
 
 
 def rack_config(clock: str = "lockstep", **card_options: Any) -> Config:

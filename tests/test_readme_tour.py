@@ -14,7 +14,6 @@ import io
 import os
 import re
 import shlex
-import socket
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -23,6 +22,8 @@ from pathlib import Path
 
 import pytest
 from vdevclient.cli import main as vdevctl
+
+from tests.conftest import free_endpoint
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -75,12 +76,6 @@ class Daemon:
     endpoint: str
     events: str
     log_line: str
-
-
-def free_endpoint() -> str:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"tcp://127.0.0.1:{s.getsockname()[1]}"
 
 
 @pytest.fixture

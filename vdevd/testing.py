@@ -10,13 +10,24 @@ from __future__ import annotations
 
 import asyncio
 import threading
+from collections.abc import Callable
 
 import zmq
 
 from vdevd.config import Config, default_config
 from vdevd.daemon import build_rack
+from vdevd.devices.base import Card, CardContext
 from vdevd.rack import Rack
 from vdevd.server import Server
+
+
+def rack_of(*cards: Callable[[CardContext], Card], mode: str = "lockstep") -> Rack:
+    """A rack of a test's own cards, each made by `card(ctx)` with the rack's interrupt sink,
+    for `DaemonThread(rack=...)`: `rack_of(lambda ctx: MyCard("c0", ctx))`."""
+    rack = Rack([], mode)  # type: ignore[arg-type]
+    for make in cards:
+        rack.add_card(make(CardContext(emit=rack.emit)))
+    return rack
 
 
 class DaemonThread:

@@ -3,10 +3,11 @@ interrupt line raised from the backdoor."""
 
 from __future__ import annotations
 
+import functools
+
 from vdevd.devices.base import Card, CardContext, control
-from vdevd.rack import Rack
 from vdevd.region import Region
-from vdevd.testing import DaemonThread
+from vdevd.testing import DaemonThread, rack_of
 
 
 class Pulser(Card):
@@ -40,7 +41,4 @@ class Pulser(Card):
 
 def serve_pulsers(*names: str) -> DaemonThread:
     """A lockstep daemon holding one Pulser per name (none: an empty rack)."""
-    rack = Rack([], "lockstep")
-    for name in names:
-        rack.add_card(Pulser(name, CardContext(emit=rack.emit)))
-    return DaemonThread(rack=rack)
+    return DaemonThread(rack=rack_of(*(functools.partial(Pulser, name) for name in names)))

@@ -6,7 +6,6 @@ import json
 import os
 import re
 import signal
-import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -16,14 +15,9 @@ import vdevclient
 from vdevclient.cli import main as vdevctl
 
 from tests.client.pulser import serve_pulsers
+from tests.conftest import free_endpoint
 from vdevd.devices.generic import regions as R
 from vdevd.testing import DaemonThread
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def ctl(daemon: DaemonThread, capsys: pytest.CaptureFixture[str], *argv: str) -> str:
@@ -61,7 +55,7 @@ def test_step_control_now_and_stats(daemon: DaemonThread, capsys: pytest.Capture
     (["poke", "servo0", "bar0", "0", "00" * (2 << 20)], "too_large: write request of "),
     (["--endpoint", "servo0:5555", "now"], "Invalid argument"),
     (["--events", "servo0:5556", "irq"], "Invalid argument"),
-    (["--endpoint", f"tcp://127.0.0.1:{free_port()}", "--timeout", "0.1", "now"],
+    (["--endpoint", free_endpoint(), "--timeout", "0.1", "now"],
      "hello: no reply from "),
     (["step", "nan"], "bad_param: "),
     (["step", "inf"], "bad_param: "),
@@ -145,8 +139,8 @@ def test_irq_on_a_rack_without_cards_is_an_error(capsys: pytest.CaptureFixture[s
 @pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_vdevd_serve_starts_serves_and_exits_cleanly_on_a_signal(sig: int) -> None:
-    endpoint = f"tcp://127.0.0.1:{free_port()}"
-    events = f"tcp://127.0.0.1:{free_port()}"
+    endpoint = free_endpoint()
+    events = free_endpoint()
     with subprocess.Popen(
         [sys.executable, "-m", "vdevd", "serve", "--clock", "lockstep", "--endpoint", endpoint,
          "--events", events], stderr=subprocess.PIPE, text=True, env={**os.environ},

@@ -10,9 +10,8 @@ import pytest
 from tests.conftest import RawClient, error_code
 from vdevd.devices.base import Card, CardContext
 from vdevd.protocol import MAX_MESSAGE
-from vdevd.rack import Rack
 from vdevd.region import Region
-from vdevd.testing import DaemonThread
+from vdevd.testing import DaemonThread, rack_of
 
 BAR = {"card": "servo0", "region": "bar0"}
 
@@ -145,9 +144,7 @@ class BusWidths(Card):
 
 @pytest.fixture
 def widths_raw() -> Iterator[RawClient]:
-    rack = Rack([], "lockstep")
-    rack.add_card(BusWidths("vme0", CardContext(emit=rack.emit)))
-    with DaemonThread(rack=rack) as d:
+    with DaemonThread(rack=rack_of(lambda ctx: BusWidths("vme0", ctx))) as d:
         client = RawClient(d.endpoint)
         yield client
         client.close()
