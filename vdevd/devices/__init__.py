@@ -9,11 +9,13 @@ from vdevd.devices.base import Card
 #: type name -> "module:Class"; imported only when a rack uses the type
 CARD_TYPES: dict[str, str] = {
     "generic-servo": "vdevd.devices.generic.card:GenericServoCard",
+    "galil-dmc13x8": "vdevd.devices.galil.card:GalilCard",
 }
 
 #: the prefix of the default name of each type in the embedded default rack
 DEFAULT_NAMES: dict[str, str] = {
     "generic-servo": "servo",
+    "galil-dmc13x8": "galil",
 }
 
 

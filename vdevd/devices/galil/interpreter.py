@@ -1,0 +1,467 @@
+"""The DMC command interpreter: one statement in, the card's reply out (manual ch. 4-6).
+
+`Interpreter.execute(text)` runs one ASCII statement (binary commands arrive here converted to
+their ASCII form) and returns the reply bytes: data lines ending CR LF, then `:`; or `?` with the
+reason kept for `TC`. A trippoint (AM, MC, WT) returns a `Trippoint` the card checks every sample;
+the interpreter takes no further command until it is satisfied (spec §5.7). No I/O here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from vdevd.devices.galil import syntax
+from vdevd.devices.galil.errors import TC, TEXTS, GalilError
+from vdevd.devices.galil.expr import evaluate
+from vdevd.devices.galil.motion import Mode, StopCode
+from vdevd.devices.galil.numbers import format_number
+from vdevd.devices.galil.params import MOTOR_TYPES, PARAMS
+
+if TYPE_CHECKING:
+    from vdevd.devices.galil.card import GalilCard
+
+AXIS_LETTERS = "XYZW"
+OK = b":"
+CRLF = b"\r\n"
+
+#: reply formats (integer digits, fraction digits) of the interrogation commands (spec §4.4)
+POSITION_FORMAT = (10, 0)  # PF default
+VARIABLE_FORMAT = (10, 4)  # VF default
+REPORT_FORMATS: dict[str, tuple[int, int]] = {
+    "TP": POSITION_FORMAT, "TE": POSITION_FORMAT, "RP": POSITION_FORMAT, "TD": POSITION_FORMAT,
+    "RL": POSITION_FORMAT, "TV": (7, 0), "TT": (1, 4), "SC": (3, 0), "TS": (3, 0),
+}
+
+#: commands of the later issue (programs, coordinated motion, gearing, ECAM, contour, flash)
+LATER: dict[str, int] = {
+    **dict.fromkeys(("JP", "JS", "EN", "RE", "RI", "IF", "EL", "HX", "ZS", "IN", "II"),
+                    TC.ONLY_VALID_FROM_PROGRAM),
+    "XQ": TC.EMPTY_PROGRAM_LINE,
+    **dict.fromkeys(("DL", "UL", "LS", "ED", "BN", "BP", "BV", "LM", "LI", "LE", "VM", "VP", "CR",
+                     "VE", "VS", "VA", "VD", "VR", "VT", "ES", "TN", "CS", "CA", "GA", "GR", "GM",
+                     "EA", "EM", "EP", "ET", "EB", "EG", "EQ", "EC", "EW", "CM", "CD", "DT", "WC",
+                     "AD", "AP", "AR", "AS", "AV", "AI", "MF", "MR", "AT", "TW", "RA", "RD", "RC",
+                     "DM", "DA", "OC", "BA", "BM", "BB", "BC", "BI", "BS", "BZ", "YA", "YB", "YC",
+                     "YR", "QS", "TR", "CO", "PF", "VF"),
+                    TC.UNRECOGNIZED_COMMAND),
+}
+
+
+@dataclass
+class Trippoint:
+    """A command-line trippoint: the interpreter waits until `ready()` (spec §5.7)."""
+
+    ready: Callable[[], bool]
+
+
+class Interpreter:
+    """The command language of one card, over its firmware state (`card`)."""
+
+    def __init__(self, card: GalilCard) -> None:
+        self.card = card
+        self.n = card.n
+        self.variables: dict[str, float] = {}
+        self.handlers: dict[str, Callable[[str], bytes | Trippoint]] = {
+            "BG": self._bg, "ST": self._st, "AB": self._ab, "MO": self._mo, "SH": self._sh,
+            "HM": self._mode_cmd(Mode.HM), "FE": self._mode_cmd(Mode.FE),
+            "FI": self._mode_cmd(Mode.FI), "DP": self._dp, "DE": self._de, "IP": self._ip,
+            "AM": self._am, "MC": self._mc, "WT": self._wt, "AL": self._al,
+            "TC": self._tc, "MG": self._mg, "EO": self._eo, "LZ": self._lz, "TM": self._tm,
+            "DR": self._dr, "QZ": self._qz, "RS": self._rs, "TB": self._tb, "TI": self._ti,
+            "TZ": self._tz, "SB": self._sb, "CB": self._cb, "OB": self._ob, "OP": self._op,
+            "EI": self._ei, "UI": self._ui, "CN": self._cn, "KF": self._ignored,
+            "\x12\x16": self._version, "\x12\x13": self._master_reset, "=": self._assign,
+            "#": self._label,
+        }
+        for name in REPORT_FORMATS:
+            self.handlers[name] = self._report(name)
+        for name in PARAMS:
+            self.handlers.setdefault(name, self._param(name))
+
+    # -- entry -------------------------------------------------------------------------------------
+    def execute(self, text: str) -> bytes | Trippoint:
+        """Run one statement; a refused one answers `?` and sets the TC code."""
+        try:
+            if not text.strip():
+                return OK
+            stmt = syntax.split_statement(text)
+            handler = self.handlers.get(stmt.name)
+            if handler is None:
+                raise GalilError(LATER.get(stmt.name, TC.UNRECOGNIZED_COMMAND), stmt.name)
+            return handler(stmt.arg)
+        except GalilError as exc:
+            self.card.error_code = exc.code
+            return b"?"
+
+    # -- helpers -----------------------------------------------------------------------------------
+    def value(self, text: str) -> float:
+        return evaluate(text, self.card.env)
+
+    def fmt(self, value: float, digits: int, frac: int) -> str:
+        return format_number(value, digits, frac, lz=not self.card.lz)
+
+    @staticmethod
+    def data(text: str) -> bytes:
+        return text.encode("latin-1") + CRLF + OK
+
+    def axes(self, arg: str) -> list[int]:
+        return list(syntax.parse_axes(arg, self.n).axes)
+
+    def per_axis(self, arg: str) -> list[tuple[int, str | object]]:
+        """(axis, field) pairs of `PR 1,,3` / `PRX=1` / `PR*=1` / `PR ?`; field text or QUERY."""
+        assign = syntax.parse_axis_assign(arg, self.n)
+        if assign is not None:
+            axes, text = assign
+            return [(a, syntax.QUERY if text.strip() == "?" else text) for a in axes]
+        fields = syntax.parse_fields(arg, self.n)
+        return [(a, f) for a, f in enumerate(fields) if f is not None]
+
+    def _setter(self, name: str, arg: str, apply: Callable[[list[int], list[float]], None],
+                query: Callable[[], np.ndarray], digits: int, frac: int,
+                check: Callable[[float], float | None] | None = None) -> bytes:
+        """The common form of a per-axis command: set fields, or answer `?` queries."""
+        pairs = self.per_axis(arg)
+        if not pairs:
+            raise GalilError(TC.NOT_ENOUGH_FIELDS, name)
+        queries = [a for a, f in pairs if f is syntax.QUERY]
+        if queries:
+            current = query()
+            return self.data(",".join(self.fmt(float(current[a]), digits, frac) for a in queries))
+        axes: list[int] = []
+        values: list[float] = []
+        for a, field in pairs:
+            v = self.value(str(field))
+            coerced = check(v) if check else v
+            if coerced is None:
+                raise GalilError(TC.NUMBER_OUT_OF_RANGE, f"{name} {v}")
+            axes.append(a)
+            values.append(coerced)
+        apply(axes, values)
+        return OK
+
+    # -- parameters --------------------------------------------------------------------------------
+    def _param(self, name: str) -> Callable[[str], bytes]:
+        param = PARAMS[name]
+
+        def check(v: float) -> float | None:
+            if name == "MT":
+                if v not in MOTOR_TYPES:
+                    return None
+                if abs(v) >= 2 and not self.card.sm_jumper:
+                    raise GalilError(TC.SM_JUMPER_NEEDED)
+            return param.coerce(v)
+
+        def query() -> np.ndarray:
+            motion = self.card.motion
+            return motion.destination() if name == "PA" else motion.values[name]
+
+        def handler(arg: str) -> bytes:
+            if name == "JG":
+                self._check_jog(arg)
+            motion = self.card.motion
+            return self._setter(name, arg, lambda ax, vs: motion.set_param(name, ax, vs), query,
+                                param.digits, param.frac, check)
+
+        return handler
+
+    def _check_jog(self, arg: str) -> None:
+        """JG while an axis moves in another mode is TC 13 [M Ch6 §Independent Jogging]."""
+        motion = self.card.motion
+        for a, field in self.per_axis(arg):
+            if field is not syntax.QUERY and motion.moving(a) and motion.mode[a] != Mode.JG:
+                raise GalilError(TC.JG_ONLY_IN_JOG_MODE)
+
+    # -- motion ------------------------------------------------------------------------------------
+    def _bg(self, arg: str) -> bytes:
+        self.card.motion.begin(self.axes(arg))
+        return OK
+
+    def _st(self, arg: str) -> bytes:
+        self.card.motion.stop(self.axes(arg))
+        return OK
+
+    def _ab(self, arg: str) -> bytes:
+        """AB aborts motion at once (AB1: motion only; there are no programs yet) [M Ch6]."""
+        if arg.strip() and self.value(arg) not in (0, 1):
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        self.card.motion.abort(list(range(self.n)), StopCode.ABORT_COMMAND)
+        return OK
+
+    def _mo(self, arg: str) -> bytes:
+        self.card.motion.motor_off(self.axes(arg))
+        return OK
+
+    def _sh(self, arg: str) -> bytes:
+        self.card.motion.servo_here(self.axes(arg))
+        return OK
+
+    def _mode_cmd(self, mode: Mode) -> Callable[[str], bytes]:
+        def handler(arg: str) -> bytes:
+            motion = self.card.motion
+            axes = self.axes(arg)
+            if any(motion.moving(a) for a in axes):
+                raise GalilError(TC.NOT_VALID_WHILE_RUNNING)
+            motion.mode[axes] = mode
+            return OK
+        return handler
+
+    def _dp(self, arg: str) -> bytes:
+        motion = self.card.motion
+        if any(motion.moving(a) for a, _ in self.per_axis(arg)):
+            raise GalilError(TC.NOT_VALID_WHILE_RUNNING)
+        return self._setter("DP", arg, motion.define_position, motion.reference, *POSITION_FORMAT,
+                            PARAMS["PA"].coerce)
+
+    def _de(self, arg: str) -> bytes:
+        motion = self.card.motion
+        return self._setter("DE", arg, motion.define_aux, motion.auxiliary, *POSITION_FORMAT,
+                            PARAMS["PA"].coerce)
+
+    def _ip(self, arg: str) -> bytes:
+        motion = self.card.motion
+        return self._setter("IP", arg, motion.increment, motion.reference, *POSITION_FORMAT,
+                            PARAMS["PR"].coerce)
+
+    def _am(self, arg: str) -> Trippoint:
+        """AM: wait until the profiles of the axes are complete [M Ch6]."""
+        axes, moving = self.axes(arg), self.card.motion.core.profile.moving
+        return Trippoint(lambda: not moving[axes].any())
+
+    def _mc(self, arg: str) -> Trippoint:
+        """MC: profile complete and the axis in position (|TE| <= 1; spec §4.5 open question
+        25); a stepper when its step count reaches the reference."""
+        motion, axes = self.card.motion, self.axes(arg)
+        return Trippoint(lambda: not motion.core.profile.moving[axes].any()
+                         and bool((np.abs(motion.error()[axes]) <= 1).all()))
+
+    def _wt(self, arg: str) -> Trippoint:
+        """WT n: wait n milliseconds [M Ch2 Ex10]."""
+        ms = self.value(arg)
+        if not 0 <= ms <= 2_147_483_647:
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        card = self.card
+        end = card.now_ns + int(ms * 1e6)
+        return Trippoint(lambda: card.now_ns >= end)
+
+    def _al(self, arg: str) -> bytes:
+        """AL: arm the latch; IN1..IN4 capture X..W on a falling edge (Fig 3-1)."""
+        motion = self.card.motion
+        for a in self.axes(arg):
+            motion.latch_armed[a] = True
+            motion.latch_occurred[a] = False
+        return OK
+
+    # -- reports -----------------------------------------------------------------------------------
+    def _report(self, name: str) -> Callable[[str], bytes]:
+        digits, frac = REPORT_FORMATS[name]
+
+        def handler(arg: str) -> bytes:
+            values = self.card.report(name)
+            return self.data(",".join(self.fmt(float(values[a]), digits, frac)
+                                      for a in self.axes(arg)))
+        return handler
+
+    def _tc(self, arg: str) -> bytes:
+        """TC: the code of the last `?`; TC1 adds its text [M Ch5 §Controller Response]."""
+        n = self.value(arg) if arg.strip() else 0
+        if n not in (0, 1):
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        code = self.card.error_code
+        if n == 1:
+            return self.data(f"{code} {TEXTS.get(code, '')}")
+        return self.data(self.fmt(code, 3, 0))
+
+    def _tb(self, arg: str) -> bytes:
+        return self.data(self.fmt(self.card.status_byte(), 3, 0))
+
+    def _ti(self, arg: str) -> bytes:
+        """TI n: input bank n as a byte (0: IN1-IN8)."""
+        bank = int(self.value(arg)) if arg.strip() else 0
+        return self.data(self.fmt(self.card.input_bank(bank), 3, 0))
+
+    def _tz(self, arg: str) -> bytes:
+        """TZ: the I/O summary, one line per block."""
+        card = self.card
+        lines = [
+            f"Block 0 (8-1) dedicated as input- value {card.input_bank(0)} "
+            f"({card.input_bank(0):08b})",
+            f"Block 0 (8-1) dedicated as output- value {card.outputs & 0xFF} "
+            f"({card.outputs & 0xFF:08b})",
+            "Analog inputs (1-8): " + ",".join(f"{v:.4f}" for v in card.analog.tolist()),
+        ]
+        return "\r\n".join(lines).encode() + CRLF + OK
+
+    def _mg(self, arg: str) -> bytes:
+        """MG: strings in quotes and expressions, separated by commas [M Ch6]."""
+        out = []
+        for item in _split_items(arg):
+            if item.startswith('"'):
+                if not item.endswith('"') or len(item) < 2:
+                    raise GalilError(TC.MISSING_QUOTE)
+                out.append(item[1:-1])
+            elif item:  # numbers print with a sign column
+                v = self.value(item)
+                out.append(("" if v < 0 else " ") + self.fmt(v, *VARIABLE_FORMAT))
+        return self.data("".join(out))
+
+    def _version(self, arg: str) -> bytes:
+        """^R^V: the firmware revision [DMCLIB DMCVersion parses "...v<rev>"]."""
+        return self.data(f"DMC13{self.n}8 Rev 1.1a")
+
+    # -- settings ----------------------------------------------------------------------------------
+    def _flag(self, arg: str, name: str) -> bytes:
+        if arg.strip() == "?":
+            return self.data(self.fmt(getattr(self.card, name), 1, 0))
+        v = self.value(arg) if arg.strip() else 0
+        if v not in (0, 1):
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        setattr(self.card, name, int(v))
+        return OK
+
+    def _eo(self, arg: str) -> bytes:
+        return self._flag(arg, "echo")
+
+    def _lz(self, arg: str) -> bytes:
+        return self._flag(arg, "lz")
+
+    def _tm(self, arg: str) -> bytes:
+        """TM: the sample time in us; reported, the servo period stays the configured one."""
+        if arg.strip() == "?":
+            return self.data(self.fmt(self.card.tm_us, 5, 0))
+        v = self.value(arg)
+        if not 250 <= v <= 20_000:
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        self.card.tm_us = v
+        return OK
+
+    def _dr(self, arg: str) -> bytes:
+        """DR -n: the data record every 2^n samples into the secondary FIFO; DR 0 off [M Ch4]."""
+        if arg.strip() == "?":
+            return self.data(self.fmt(-self.card.record_rate, 2, 0))
+        v = self.value(arg) if arg.strip() else 0
+        if v != int(v) or not -8 <= v <= 8:
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        self.card.record_rate = abs(int(v))
+        return OK
+
+    def _qz(self, arg: str) -> bytes:
+        """QZ: axes, general, coordinated and per-axis block sizes of the record (REV4)."""
+        return self.data(f"{self.n},24,16,28")
+
+    def _rs(self, arg: str) -> bytes:
+        self.card.firmware_reset()
+        return OK
+
+    def _master_reset(self, arg: str) -> bytes:
+        self.card.firmware_reset()
+        return OK
+
+    def _cn(self, arg: str) -> bytes:
+        """CN: switch polarity; accepted and kept (the backdoor drives logic levels)."""
+        for field in syntax.parse_fields(arg, 3):
+            if field is syntax.QUERY:
+                raise GalilError(TC.QUESTION_MARK_NOT_VALID)
+            if field is not None and self.value(str(field)) not in (-1, 1):
+                raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        return OK
+
+    def _ignored(self, arg: str) -> bytes:
+        return OK
+
+    # -- I/O ---------------------------------------------------------------------------------------
+    def _bit(self, arg: str) -> int:
+        n = self.value(arg)
+        if n != int(n) or not 1 <= n <= 8:
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        return 1 << (int(n) - 1)
+
+    def _sb(self, arg: str) -> bytes:
+        self.card.outputs |= self._bit(arg)
+        return OK
+
+    def _cb(self, arg: str) -> bytes:
+        self.card.outputs &= ~self._bit(arg)
+        return OK
+
+    def _ob(self, arg: str) -> bytes:
+        fields = syntax.parse_fields(arg, 2)
+        if len(fields) != 2 or any(f is None or f is syntax.QUERY for f in fields):
+            raise GalilError(TC.NOT_ENOUGH_FIELDS)
+        bit = self._bit(str(fields[0]))
+        on = self.value(str(fields[1])) != 0
+        self.card.outputs = self.card.outputs | bit if on else self.card.outputs & ~bit
+        return OK
+
+    def _op(self, arg: str) -> bytes:
+        if arg.strip() == "?":
+            return self.data(self.fmt(self.card.outputs, 3, 0))
+        v = self.value(arg)
+        if v != int(v) or not 0 <= v <= 255:
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        self.card.outputs = int(v)
+        return OK
+
+    # -- interrupts --------------------------------------------------------------------------------
+    def _ei(self, arg: str) -> bytes:
+        """EI m,n,o: conditions, input mask, vector; EI0 clears the queue [M Ch4]."""
+        fields = syntax.parse_fields(arg, 3) if arg.strip() else ["0"]
+        values = [None if f is None else self.value(str(f)) for f in fields]
+        if any(f is syntax.QUERY for f in fields):
+            raise GalilError(TC.QUESTION_MARK_NOT_VALID)
+        m, n, o = (values + [None, None, None])[:3]
+        if m is not None and not (m == int(m) and 0 <= m <= 0xFFFF):
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        if n is not None and not (n == int(n) and 0 <= n <= 0xFF):
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        if o is not None and not (o == int(o) and 8 <= o <= 255):
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        self.card.enable_interrupts(None if m is None else int(m), None if n is None else int(n),
+                                    None if o is None else int(o))
+        return OK
+
+    def _ui(self, arg: str) -> bytes:
+        """UI n: user interrupt n (0-15), status 0xF0 + n [M Ch4 §Setting up Interrupts]."""
+        n = self.value(arg) if arg.strip() else 0
+        if n != int(n) or not 0 <= n <= 15:
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        self.card.interrupt(0xF0 + int(n))
+        return OK
+
+    # -- variables ---------------------------------------------------------------------------------
+    def _assign(self, text: str) -> bytes:
+        """`V1=expr` sets a variable; `V1=` prints it [M Ch2 Ex14]."""
+        name, index, value = syntax.parse_assignment(text)
+        if index is not None:
+            raise GalilError(TC.MISSING_BRACKET, "arrays come with programs")
+        if not value.strip():
+            return self.data(self.fmt(self.card.env.variable(name), *VARIABLE_FORMAT))
+        v = self.value(value)
+        if name not in self.variables and len(self.variables) >= 254:
+            raise GalilError(67)
+        self.variables[name] = v
+        return OK
+
+    def _label(self, arg: str) -> bytes:
+        raise GalilError(TC.ONLY_VALID_FROM_PROGRAM, "#" + arg)
+
+
+def _split_items(arg: str) -> list[str]:
+    """MG items: commas outside quotes separate them."""
+    items: list[str] = []
+    cur: list[str] = []
+    quoted = False
+    for ch in arg:
+        if ch == '"':
+            quoted = not quoted
+        if ch == "," and not quoted:
+            items.append("".join(cur).strip())
+            cur = []
+        else:
+            cur.append(ch)
+    items.append("".join(cur).strip())
+    return [i for i in items if i]
+
