@@ -135,10 +135,10 @@ class GalilCard(Card):
         """One sample: motion, interrupt conditions, the command interpreter, the data record."""
         motion = self.motion
         done = motion.tick()
-        if done.any():
+        if done is not None:
             self._motion_complete(done)
         over = motion.check_error()
-        if over.any() and self.ei_mask & Condition.EXCESS_ERROR:
+        if over is not None and self.ei_mask & Condition.EXCESS_ERROR:
             self.ei_mask &= ~Condition.EXCESS_ERROR
             self.interrupt(Status.EXCESS_ERROR)
         if self._out or self._trip is not None or self.bus.command_bytes():
@@ -308,15 +308,14 @@ class GalilCard(Card):
         if rising.any() and self.ei_mask & Condition.LIMIT_SWITCH:
             self.interrupt(Status.LIMIT_SWITCH)
         if home is not None:
-            m.home_edge[a] = np.nan
+            m.set_home_edge(a, None)
             m.home_input[a] = bool(home)
 
     @control()
     def set_home_edge(self, axis: str, position: float | None = None) -> None:
         """A home switch at `position`: the input reads 1 below it and 0 above it (None: the
         level set by set_switches)."""
-        a = self._axis(axis)
-        self.motion.home_edge[a] = np.nan if position is None else float(position)
+        self.motion.set_home_edge(self._axis(axis), position)
 
     @control()
     def set_index(self, axis: str, period: float = 4096, phase: float = 0) -> None:

@@ -134,6 +134,14 @@ class GalilMotion:
         self._tv_alpha = min(1.0, self.dt / TV_SECONDS)
         self._moving_prev = np.zeros(n, dtype=bool)
         self._searching = False
+        self._edges = False
+        self._tmp = np.zeros(n)
+        self._level = np.zeros(n, dtype=bool)
+        self._done = np.zeros(n, dtype=bool)
+        self._over = np.zeros(n, dtype=bool)
+        self._new = np.zeros(n, dtype=bool)
+        self._er = np.zeros(n)
+        self._tv_gain = self._tv_alpha / self.dt
         self.apply_filter()
         self.apply_limits()
         self.core.servo_on(slice(None))
@@ -157,6 +165,7 @@ class GalilMotion:
         v = self.values
         self.core.set_soft_limits(slice(None), v["BL"], v["FL"])
         self.core.limits.limit_dec[:] = v["DC"]
+        self._er[:] = np.where(v["ER"] > 0, v["ER"], np.inf)
 
     def set_param(self, name: str, axes: Iterable[int], values: Iterable[float]) -> None:
         """Store values already checked by `Param.coerce`, with the side effects the card has."""
@@ -165,7 +174,7 @@ class GalilMotion:
         arr[idx] = list(values)
         if name in ("KP", "KD", "KI", "IL", "TL", "OF", "FA", "FV"):
             self.apply_filter()
-        elif name in ("FL", "BL", "DC"):
+        elif name in ("FL", "BL", "DC", "ER"):
             self.apply_limits()
         elif name == "PR":
             self.mode[idx] = Mode.PR
@@ -338,26 +347,33 @@ class GalilMotion:
         return rising
 
     # -- the tick ----------------------------------------------------------------------------------
-    def tick(self) -> np.ndarray:
-        """One servo sample; returns the mask of axes whose motion completed at this sample."""
+    def tick(self) -> np.ndarray | None:
+        """One servo sample; the mask of axes whose motion completed at it (None: none did)."""
         core = self.core
         core.tick()
-        ax = core.axes
-        enc = ax.fb
-        vel = (enc - self._enc_prev) / self.dt
-        self.tv += self._tv_alpha * (vel - self.tv)
+        enc, tmp = core.axes.fb, self._tmp
+        np.subtract(enc, self._enc_prev, out=tmp)  # TV: a first-order average of the velocity
+        tmp *= self._tv_gain
+        self.tv *= 1.0 - self._tv_alpha
+        self.tv += tmp
         if self._searching:
             self._search_step(enc)
         np.copyto(self._enc_prev, enc)
-        if not np.isnan(self.home_edge).all():
-            edge = ~np.isnan(self.home_edge)
-            self.home_input[edge] = enc[edge] < self.home_edge[edge]
-        moving = core.profile.moving
-        done = self._moving_prev & ~moving
-        if done.any():
-            self._finish(np.flatnonzero(done))
+        if self._edges:
+            np.less(enc, self.home_edge, out=self._level, where=~np.isnan(self.home_edge))
+            np.copyto(self.home_input, self._level, where=~np.isnan(self.home_edge))
+        moving, done = core.profile.moving, self._done
+        np.greater(self._moving_prev, moving, out=done)
+        if not done.any():
+            return None
         np.copyto(self._moving_prev, moving)
+        self._finish(np.flatnonzero(done))
         return done
+
+    def set_home_edge(self, a: int, position: float | None) -> None:
+        """The home input of axis a reads (position < edge), or its level when None."""
+        self.home_edge[a] = np.nan if position is None else float(position)
+        self._edges = not np.isnan(self.home_edge).all()
 
     def _search_step(self, enc: np.ndarray) -> None:
         """Home input transitions and index pulses of the axes in an FE/FI/HM search."""
@@ -412,13 +428,16 @@ class GalilMotion:
             self.phase[a] = Phase.NONE
             self.stop_reason[a] = 0
 
-    def check_error(self) -> np.ndarray:
+    def check_error(self) -> np.ndarray | None:
         """|TE| > ER (ER -1 disables): the ERROR output; with OE1 the motor turns off (SC 8).
-        Returns the axes that newly exceeded the limit [M Ch2 Step 7a, spec §5.5]."""
-        er = self.values["ER"]
-        over = (np.abs(self.core.axes.ferr) > er) & (er > 0) & self.core.servo_on_mask
-        new = over & ~self.error_over
-        self.error_over[:] = over
+        Returns the mask of axes that newly exceeded the limit, None if none [M Ch2 Step 7a]."""
+        over, new = self._over, self._new
+        np.abs(self.core.axes.ferr, out=self._tmp)
+        np.greater(self._tmp, self._er, out=over)
+        np.greater(over, self.error_over, out=new)
+        np.copyto(self.error_over, over)
+        if not new.any():
+            return None
         trip = new & (self.values["OE"] > 0)
         if trip.any():
             axes = np.flatnonzero(trip).tolist()
