@@ -75,7 +75,7 @@ class Interpreter:
             "TZ": self._tz, "SB": self._sb, "CB": self._cb, "OB": self._ob, "OP": self._op,
             "EI": self._ei, "UI": self._ui, "CN": self._cn, "KF": self._ignored,
             "\x12\x16": self._version, "\x12\x13": self._master_reset, "=": self._assign,
-            "#": self._label,
+            "#": self._label, "'": self._ignored, "REM": self._ignored, "": self._ignored,
         }
         for name in REPORT_FORMATS:
             self.handlers[name] = self._report(name)
