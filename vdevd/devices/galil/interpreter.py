@@ -20,6 +20,7 @@ from vdevd.devices.galil.expr import evaluate
 from vdevd.devices.galil.motion import Mode, StopCode
 from vdevd.devices.galil.numbers import format_number
 from vdevd.devices.galil.params import MOTOR_TYPES, PARAMS
+from vdevd.rt import PlantKind
 
 if TYPE_CHECKING:
     from vdevd.devices.galil.card import GalilCard
@@ -232,11 +233,20 @@ class Interpreter:
         return Trippoint(lambda: not moving[axes].any())
 
     def _mc(self, arg: str) -> Trippoint:
-        """MC: profile complete and the axis in position (|TE| <= 1; spec §4.5 open question
-        25); a stepper when its step count reaches the reference."""
+        """MC: the profile complete and the axis in position: a stepper when its step count
+        (TD) equals the reference [M Ch6 §Motion Complete Trippoint]; a servo within one count
+        of it (spec §4.5, open question 25)."""
         motion, axes = self.card.motion, self.axes(arg)
-        return Trippoint(lambda: not motion.core.profile.moving[axes].any()
-                         and bool((np.abs(motion.error()[axes]) <= 1).all()))
+
+        def ready() -> bool:
+            if motion.core.profile.moving[axes].any():
+                return False
+            if motion.plant_kind == PlantKind.STEPPER:
+                steps = np.rint(motion.core.axes.pos[axes])
+                return bool((steps == motion.reference()[axes]).all())
+            return bool((np.abs(motion.error()[axes]) <= 1).all())
+
+        return Trippoint(ready)
 
     def _wt(self, arg: str) -> Trippoint:
         """WT n: wait n milliseconds [M Ch2 Ex10]."""

@@ -21,6 +21,7 @@ from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.params import COUNTS_PER_VOLT, DAC_FULL_SCALE, PARAMS
 from vdevd.rt import AxisFlag, MotionCore, PlantKind
 from vdevd.rt.axes import ProfileMode
+from vdevd.rt.plants import StepperPlant
 
 HOME_CREEP = 256.0  # counts/s: phases 2 and 3 of HM [M Ch3 §Home Switch Input]
 TV_SECONDS = 0.25  # TV averages over about a quarter second (spec §1.2)
@@ -99,6 +100,29 @@ class AxisSwitch(enum.IntFlag):
 _PLANTS = {"servo": PlantKind.SERVO, "stepper": PlantKind.STEPPER, "ideal": PlantKind.IDEAL}
 
 
+class SmoothedStepper(StepperPlant):
+    """Step pulses through the KS smoothing filter (ch. 6 "Monitoring Generated Pulses"): the
+    step count follows the reference through a single pole of time constant 3*KS samples (KS 2 =
+    6 samples, the manual's one data point); `gen` is the filter state, whole steps go out."""
+
+    def __init__(self, n: int, dt: float) -> None:
+        super().__init__(n, dt)
+        self.gain = np.ones(n)
+
+    def set_ks(self, ks: np.ndarray) -> None:
+        self.gain[:] = 1.0 - np.exp(-1.0 / (3.0 * ks))
+
+    def step(self, cmd_pos: np.ndarray, pos: np.ndarray, vel: np.ndarray) -> None:
+        gen, tgt = self.gen, self._tgt
+        np.subtract(cmd_pos, gen, out=tgt)
+        tgt *= self.gain
+        gen += tgt
+        np.rint(gen, out=tgt)
+        np.subtract(tgt, pos, out=vel)
+        vel *= self._inv_dt
+        np.copyto(pos, tgt)
+
+
 class GalilMotion:
     """The motion firmware of one card: n axes X, Y, Z, W."""
 
@@ -107,7 +131,14 @@ class GalilMotion:
         self.dt = period_ns / 1e9
         self.plant_kind = _PLANTS[plant]
         self.core = MotionCore(n, period_ns, self.plant_kind)
+        self.stepper = SmoothedStepper(n, self.dt)
+        self.core.stepper = self.stepper
         self.values: dict[str, np.ndarray] = {k: np.full(n, p.default) for k, p in PARAMS.items()}
+        if self.plant_kind == PlantKind.STEPPER:
+            self.values["MT"][:] = 2.0  # SM jumpers installed: the card is set up for steppers
+        self.stepper.set_ks(self.values["KS"])
+        self.lowpass = np.zeros(n)  # PL output filter state (DAC counts)
+        self._pl = False
         self.mode = np.zeros(n, dtype=np.int64)
         self.phase = np.zeros(n, dtype=np.int64)
         self.search_dir = np.ones(n)  # direction of the FE/HM phase-1 search
@@ -155,9 +186,16 @@ class GalilMotion:
         kp, kd, ki = 4 * v["KP"][axes], 4 * v["KD"][axes], v["KI"][axes] / 2
         il_counts = np.abs(v["IL"][axes]) * COUNTS_PER_VOLT
         il = np.where(ki > 0, il_counts / np.where(ki > 0, ki, 1.0), np.inf)
-        limit = np.minimum(v["TL"][axes] * COUNTS_PER_VOLT, DAC_FULL_SCALE)
-        self.core.pid.set(axes, kp=kp, kd=kd, ki=ki, il=il, offset=v["OF"][axes] * COUNTS_PER_VOLT,
-                          out_limit=limit, vff=v["FV"][axes] * 1e-4, aff=v["FA"][axes] * 1e-6)
+        self.out_limit = np.minimum(v["TL"] * COUNTS_PER_VOLT, DAC_FULL_SCALE)
+        self.offset = v["OF"] * COUNTS_PER_VOLT
+        self._pl = bool(v["PL"].any())
+        if self._pl:  # PL filters the PID sum; OF and TL then act after it (spec §5.1)
+            offset, limit = np.zeros(self.n), np.full(self.n, np.inf)
+        else:
+            offset, limit = self.offset, self.out_limit
+        self.core.pid.set(slice(None), offset=offset, out_limit=limit)
+        self.core.pid.set(axes, kp=kp, kd=kd, ki=ki, il=il, vff=v["FV"][axes] * 1e-4,
+                          aff=v["FA"][axes] * 1e-6)
 
     def apply_limits(self) -> None:
         """ER (-1 disables) is checked by the card each tick; FL/BL are the core's soft limits;
@@ -172,8 +210,10 @@ class GalilMotion:
         idx = list(axes)
         arr = self.values[name]
         arr[idx] = list(values)
-        if name in ("KP", "KD", "KI", "IL", "TL", "OF", "FA", "FV"):
+        if name in ("KP", "KD", "KI", "IL", "TL", "OF", "FA", "FV", "PL"):
             self.apply_filter()
+        elif name == "KS":
+            self.stepper.set_ks(self.values["KS"])
         elif name in ("FL", "BL", "DC", "ER"):
             self.apply_limits()
         elif name == "PR":
@@ -351,6 +391,8 @@ class GalilMotion:
         """One servo sample; the mask of axes whose motion completed at it (None: none did)."""
         core = self.core
         core.tick()
+        if self._pl:
+            self._low_pass(core.axes.out)
         enc, tmp = core.axes.fb, self._tmp
         np.subtract(enc, self._enc_prev, out=tmp)  # TV: a first-order average of the velocity
         tmp *= self._tv_gain
@@ -369,6 +411,18 @@ class GalilMotion:
         np.copyto(self._moving_prev, moving)
         self._finish(np.flatnonzero(done))
         return done
+
+    def _low_pass(self, out: np.ndarray) -> None:
+        """L(z) = (1 - B)/(z - B), B = PL, then OF and the TL clamp (spec §5.1); axes that are
+        off (or not servo axes) output 0 and their filter forgets."""
+        b, y = self.values["PL"], self.lowpass
+        y *= b
+        y += (1.0 - b) * out
+        on = self.core.pid.enabled
+        y *= on
+        np.add(y, self.offset, out=out)
+        np.clip(out, -self.out_limit, self.out_limit, out=out)
+        out *= on
 
     def set_home_edge(self, a: int, position: float | None) -> None:
         """The home input of axis a reads (position < edge), or its level when None."""
