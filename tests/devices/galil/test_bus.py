@@ -168,6 +168,7 @@ def test_clear_sequence_empties_both_fifos_and_bit_7_reads_1() -> None:
     assert w.read(CONTROL) == CLEARED | READ_EMPTY
     assert w.command_bytes() == b""
     assert w.read(DATA) == 0xFF
+    assert w.clears == 1  # the firmware learns of it (it drops a held command)
 
 
 def test_reads_of_control_inside_the_clear_sequence_do_not_break_it() -> None:
@@ -205,6 +206,7 @@ def test_broken_clear_sequence_clears_nothing() -> None:
     w.write(DATA, ord("A"))
     write_control(w, 0x01, 0x80, 0x33, 0x01, 0x80)
     assert w.command_bytes() == b"A"
+    assert w.clears == 0
 
 
 def test_byte_that_breaks_a_sequence_starts_its_own() -> None:

@@ -124,6 +124,8 @@ class A16Window:
         self.freeze_mode = freeze_mode
         self._freeze_writes = _FREEZE_WRITES[freeze_mode]
         self.on_assert: Callable[[int], None] | None = None
+        #: clear sequences so far: the firmware drops a reply in progress and a held command
+        self.clears = 0
         self._command = bytearray()
         self._response = bytearray()
         self._record = bytearray()
@@ -292,6 +294,7 @@ class A16Window:
             self._command.clear()
             self._response.clear()
             self._cleared = True
+            self.clears += 1
         elif action is _Act.ENABLE_IRQ and not self.interrupts_enabled:
             self.interrupts_enabled = True
             if self._interrupts and self.on_assert is not None:

@@ -109,6 +109,7 @@ class GalilCard(Card):
         self.time_origin = self.ticks
         self._trip: Trippoint | None = None
         self._out = bytearray()
+        self._clears = self.bus.clears
 
     def reset(self) -> None:
         self.bus.reset()
@@ -141,6 +142,10 @@ class GalilCard(Card):
         if over is not None and self.ei_mask & Condition.EXCESS_ERROR:
             self.ei_mask &= ~Condition.EXCESS_ERROR
             self.interrupt(Status.EXCESS_ERROR)
+        if self.bus.clears != self._clears:  # "useful for emergency resets or Abort" [M Ch4]
+            self._clears = self.bus.clears
+            self._trip = None
+            self._out.clear()
         if self._out or self._trip is not None or self.bus.command_bytes():
             self._serve()
         rate = self.record_rate
