@@ -1,0 +1,540 @@
+"""The DMC-13X8 host side of the A16 window (manual ch. 4; spec galil.md §2.2-2.5), over batches.
+
+One `DmcBus` is one open controller: it sends command bytes to N+1 honouring the almost-full bit,
+reads the reply from N+1 while bit 5 of N+3 says data, clears the FIFOs, pops interrupt codes and
+reads the secondary-FIFO data record. Every exchange is one `batch` where it can be: a value
+`wait` only peeks (PROTOCOL.md), so `[writes, wait data, reads, status]` sends a command and reads
+its reply in one round trip. `vdevclient.galil` (the DMC library) and `vdevclient.gclib` build on it.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import struct
+import time
+from collections import OrderedDict
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from vdevclient.core import Rack
+
+log = logging.getLogger(__name__)
+
+CARD_TYPE = "galil-dmc13x8"
+REGION = "a16"
+EMPTY_READ = 0xFF  # "Reading data from the READ register when the register is empty ... FF hex"
+WRITE_BURST = 16  # bytes allowed after bit 4 reads 0, at the default almost-full level [M Ch4]
+TERMINATORS = b";\r"
+REPLY_ENDS = b":?"
+FIRST_READS = 32  # reply bytes read per command in the first batch of a line not seen before
+FIFO_SIZE = 512  # the response FIFO [M Ch4 Introduction]: the most one batch needs to read
+MEMO_SIZE = 256  # commands whose reply length is remembered
+_NS_PER_MS = 1_000_000
+
+
+class Reg(enum.IntEnum):
+    """Offsets from the base N; D08(O), odd byte lanes only [M Ch4 §Communication Registers]."""
+
+    DATA = 1
+    CONTROL = 3
+    SECONDARY_DATA = 5
+    SECONDARY_STATUS = 7
+
+
+class Status(enum.IntFlag):
+    """CONTROL (N+3) read [M Ch4 §Simplified Communication Procedure, §Clearing FIFO Buffer]."""
+
+    WRITE_ALMOST_FULL = 1 << 4
+    READ_EMPTY = 1 << 5
+    CLEARED = 1 << 7
+
+
+class SecondaryStatus(enum.IntFlag):
+    """N+7 read [M Ch4 §Overview of Secondary FIFO Procedure]."""
+
+    BUSY = 1 << 0
+    FREEZE = 1 << 1
+    NOT_EMPTY = 1 << 2
+
+
+CLEAR_SEQUENCE = (0x01, 0x80, 0x01, 0x80)  # [M Ch4 §Clearing FIFO Buffer]
+IRQ_ENABLE_SEQUENCE = (0x02, 0x04)  # [M Ch4 §Setting up Interrupts]
+IRQ_STATUS_SELECT = 0x06  # then read N+3 [M Ch4 §Servicing Interrupts]
+
+
+@dataclass
+class Reply:
+    """What an exchange brought back: the reply bytes, and whether a wait ran out first."""
+
+    data: bytes
+    timed_out: bool = False
+
+
+class DmcBus:
+    """One controller: the card `card` of `rack`. Use from one thread at a time (like `Rack`)."""
+
+    def __init__(self, rack: Rack, card: str, *, timeout_ms: int = 1000) -> None:
+        self.rack = rack
+        self.card = card
+        self.timeout_ms = timeout_ms
+        self.lockstep = rack.info.get("clock", {}).get("mode") == "lockstep"
+        where = {"card": card, "region": REGION}
+        self._writes = [{"op": "write", "offset": Reg.DATA.value, "data": bytes([b]), **where}
+                        for b in range(256)]
+        self._read = {"op": "read", "offset": Reg.DATA.value, "size": 1, **where}
+        self._status = {"op": "read", "offset": Reg.CONTROL.value, "size": 1, **where}
+        self._record_read = {"op": "read", "offset": Reg.SECONDARY_DATA.value, "size": 1, **where}
+        self._where = where
+        self._wait_cache: dict[tuple[int, int, int, int], dict[str, Any]] = {}
+        #: bit 4 of the last CONTROL read, when nothing was written since: the command FIFO has
+        #: room for a burst and the first chunk needs no wait (only the host fills that FIFO)
+        self._room = False
+        #: ':' / '?' the card still owes for bytes sent without reading the reply (DMCFastCommand,
+        #: a timed-out command); the next exchange moves those replies to `unsolicited`
+        self.owed = 0
+        #: bytes may wait in the READ FIFO that belong to no command (bit 5 read 0 at the end)
+        self.stale = True
+        self.unsolicited = bytearray()
+        self._reply_len: OrderedDict[bytes, int] = OrderedDict()
+
+    # -- ops ------------------------------------------------------------------------------------
+    def _wait(self, offset: int, mask: int, value: int, timeout_ns: int) -> dict[str, Any]:
+        key = (offset, mask, value, timeout_ns)
+        op = self._wait_cache.get(key)
+        if op is None:
+            op = self._wait_cache[key] = {
+                "op": "wait", "on": "value", "offset": offset, "size": 1, "mask": mask,
+                "value": value, "timeout_ns": timeout_ns, **self._where}
+        return op
+
+    def _timeout_ns(self) -> int:
+        return self.timeout_ms * _NS_PER_MS
+
+    def write_op(self, offset: int, value: int) -> dict[str, Any]:
+        return {"op": "write", "offset": offset, "data": bytes([value]), **self._where}
+
+    def _send_ops(self, data: bytes, timeout_ns: int) -> list[dict[str, Any]]:
+        """Command bytes to N+1 in bursts, each after bit 4 of N+3 reads 0 [M Ch4 §Write Procedure];
+        the first burst skips the wait when the last status read showed room."""
+        ops: list[dict[str, Any]] = []
+        room_wait = self._wait(Reg.CONTROL, Status.WRITE_ALMOST_FULL, 0, timeout_ns)
+        writes = self._writes
+        for start in range(0, len(data), WRITE_BURST):
+            if start or not self._room:
+                ops.append(room_wait)
+            ops.extend(writes[b] for b in data[start:start + WRITE_BURST])
+        self._room = False
+        return ops
+
+    def batch(self, ops: Sequence[dict[str, Any]]) -> list[Any]:
+        """One round trip; the wall-clock allowance covers every wait's simulated timeout."""
+        waits = sum(op["timeout_ns"] for op in ops if op["op"] == "wait")
+        return self.rack.call({"op": "batch", "ops": ops}, waits / 1e9)
+
+    # -- commands -------------------------------------------------------------------------------
+    def command(self, data: bytes, replies: int) -> Reply:
+        """Send `data` and read until `replies` ':' or '?' have come [DMCLIB DMCCommand].
+
+        One batch: [bursts of command bytes, wait bit 5 = 0, K reads of N+1, read N+3]. K is the
+        reply length this line had last time, else FIRST_READS per command; while replies are
+        missing, further batches [wait, reads, status] read four times what came so far."""
+        if self.stale:
+            self.drain()
+        timeout_ns = self._timeout_ns()
+        ops = self._send_ops(data, timeout_ns)
+        sent = len(ops)
+        owed, self.owed = self.owed, 0
+        want = owed + replies
+        reads = self._reply_len.get(data, FIRST_READS * replies) + owed
+        got = bytearray()
+        while True:
+            ops.append(self._wait(Reg.CONTROL, Status.READ_EMPTY, 0, timeout_ns))
+            ops.extend([self._read] * reads)
+            ops.append(self._status)
+            res = self.batch(ops)
+            if not _fired(res[:sent]):  # a burst found no room: part of the line is not in
+                self.owed, self.stale = owed, True
+                return Reply(b"", timed_out=True)
+            if not res[-reads - 2]["fired"]:
+                break
+            got += b"".join(res[-reads - 1:-1]).split(b"\xff", 1)[0]
+            status = res[-1][0]
+            self._room = not status & Status.WRITE_ALMOST_FULL
+            if _count(got) >= want:
+                self.stale = not status & Status.READ_EMPTY
+                break
+            ops, sent = [], 0
+            reads = min(max(FIRST_READS, 4 * len(got)), FIFO_SIZE)
+        answered = _count(got)
+        if answered < want:
+            self.owed = want - answered  # the card may still answer: those replies are not ours
+            self.stale = True
+        own = self._split_owed(bytes(got), owed)
+        if answered >= want:
+            self._remember(data, len(own))
+        return Reply(own, timed_out=answered < want)
+
+    def send(self, data: bytes, replies: int) -> None:
+        """Write without reading the reply (DMCFastCommand); the card owes `replies` answers."""
+        ops = self._send_ops(data, self._timeout_ns())
+        ops.append(self._status)
+        res = self.batch(ops)
+        if not _fired(res[:-1]):
+            self.stale = True
+        self._room = not res[-1][0] & Status.WRITE_ALMOST_FULL
+        self.owed += replies
+
+    def _split_owed(self, got: bytes, owed: int) -> bytes:
+        """Move the first `owed` replies (up to their ':' or '?') to the unsolicited buffer."""
+        cut = 0
+        for _ in range(owed):
+            ends = [i for i in (got.find(b":", cut), got.find(b"?", cut)) if i >= 0]
+            if not ends:
+                cut = len(got)
+                break
+            cut = min(ends) + 1
+        self.unsolicited += got[:cut]
+        return got[cut:]
+
+    def _remember(self, data: bytes, length: int) -> None:
+        memo = self._reply_len
+        memo[data] = max(length, 1)
+        memo.move_to_end(data)
+        if len(memo) > MEMO_SIZE:
+            memo.popitem(last=False)
+
+    def drain(self) -> None:
+        """Read whatever waits in the READ FIFO into the unsolicited buffer, until bit 5 reads 1."""
+        while True:
+            res = self.batch([*([self._read] * FIRST_READS), self._status])
+            got = b"".join(res[:-1]).split(b"\xff", 1)[0]
+            self._take_unsolicited(got)
+            status = res[-1][0]
+            self._room = not status & Status.WRITE_ALMOST_FULL
+            if status & Status.READ_EMPTY:
+                self.stale = False
+                return
+
+    def _take_unsolicited(self, got: bytes) -> None:
+        self.unsolicited += got
+        self.owed = max(0, self.owed - _count(got))
+
+    def forget(self) -> None:
+        """After a reset: what the card holds or owes is no longer known."""
+        self._room, self.stale, self.owed = False, True, 0
+
+    # -- FIFO control and interrupts [M Ch4] ------------------------------------------------------
+    def clear(self) -> None:
+        """Read N+3, write 01 80 01 80, read N+3 [M Ch4 §Clearing FIFO Buffer]."""
+        ops = [self._status, *(self.write_op(Reg.CONTROL, b) for b in CLEAR_SEQUENCE), self._status]
+        status = self.batch(ops)[-1][0]
+        self.owed, self.stale = 0, False
+        self._room = not status & Status.WRITE_ALMOST_FULL
+
+    def enable_interrupts(self) -> None:
+        self.batch([self.write_op(Reg.CONTROL, b) for b in IRQ_ENABLE_SEQUENCE])
+
+    def interrupt_status(self) -> int:
+        """Write 6 to N+3, then read N+3: the oldest queued status code, 0 when none [M Ch4]."""
+        res = self.batch([self.write_op(Reg.CONTROL, IRQ_STATUS_SELECT), self._status])
+        return int(res[-1][0])
+
+    def wait_interrupt(self, timeout_ms: int, after_seq: int | None) -> tuple[int, int | None]:
+        """Wait for an assertion of the card's line after `after_seq` (None: the next one), then
+        pop its code; (code, the assertion's seq), code 0 and seq None on timeout."""
+        wait: dict[str, Any] = {"op": "wait", "on": "irq", "card": self.card,
+                                "timeout_ns": timeout_ms * _NS_PER_MS}
+        if after_seq is not None:
+            wait["after_seq"] = after_seq
+        res = self.batch([wait, self.write_op(Reg.CONTROL, IRQ_STATUS_SELECT), self._status])
+        if not res[0]["fired"]:
+            return 0, None
+        return int(res[-1][0]), int(res[0]["event"]["seq"])
+
+    # -- secondary FIFO [M Ch4 §Polling Mode Read Procedure] --------------------------------------
+    def read_record(self, size: int) -> bytes | None:
+        """One data record in one batch: wait not-empty, freeze (write N+5), wait not busy, read
+        `size` bytes of N+5, resume (write N+5); None when no record came within the timeout."""
+        timeout_ns = self._timeout_ns()
+        freeze = self.write_op(Reg.SECONDARY_DATA, 0)
+        ops = [self._wait(Reg.SECONDARY_STATUS, SecondaryStatus.NOT_EMPTY, SecondaryStatus.NOT_EMPTY,
+                          timeout_ns),
+               freeze,
+               self._wait(Reg.SECONDARY_STATUS, SecondaryStatus.BUSY, 0, timeout_ns),
+               *([self._record_read] * size),
+               freeze]
+        res = self.batch(ops)
+        if not res[0]["fired"]:
+            return None
+        if not res[2]["fired"]:  # frozen, and the record never completed: resume the updates
+            self.batch([freeze])
+            return None
+        return b"".join(res[3:3 + size])
+
+    # -- time --------------------------------------------------------------------------------------
+    def pause(self, ms: int) -> None:
+        """Let `ms` of the card's time pass: a lockstep clock step, or a wall-clock sleep."""
+        if self.lockstep:
+            self.rack.sim.step(ns=ms * _NS_PER_MS)
+        else:
+            time.sleep(ms / 1000)
+
+
+def _fired(results: Sequence[Any]) -> bool:
+    """No wait among these batch results ran out (the ops after one that did give None)."""
+    return all(r["fired"] for r in results if isinstance(r, dict))
+
+
+def _count(data: bytes | bytearray) -> int:
+    """Replies in `data`: one ':' or '?' ends each [DMCLIB DMCCommand]."""
+    return data.count(b":") + data.count(b"?")
+
+
+def terminators(command: bytes) -> int:
+    """Commands in a line: one per ';' or CR [DMCLIB DMCCommand]."""
+    return command.count(b";") + command.count(b"\r")
+
+
+# -- the data record, revision 4 (`QZ` -> axes,24,16,28) [DMCLIB dmcdrc.h; M Ch4 memory map] -------
+GENERAL_SIZE = 24
+COORDINATED_SIZE = 16
+AXIS_SIZE = 28
+FIRST_AXIS = GENERAL_SIZE + COORDINATED_SIZE
+
+#: (name, offset, struct format) of the general and coordinated items (little-endian, spec §8 q.1)
+GENERAL_ITEMS: tuple[tuple[str, int, str], ...] = (
+    ("sample_number", 0, "<H"),
+    *((f"input_bank_{i}", 2 + i, "<B") for i in range(10)),
+    *((f"output_bank_{i}", 12 + i, "<B") for i in range(10)),
+    ("error_code", 22, "<B"),
+    ("general_status", 23, "<B"),
+    ("s_plane_segment_count", 24, "<H"),
+    ("s_plane_move_status", 26, "<H"),
+    ("s_distance", 28, "<i"),
+    ("t_plane_segment_count", 32, "<H"),
+    ("t_plane_move_status", 34, "<H"),
+    ("t_distance", 36, "<i"),
+)
+#: (name, offset in the axis block, struct format) of each axis's items
+AXIS_ITEMS: tuple[tuple[str, int, str], ...] = (
+    ("status", 0, "<H"),
+    ("switches", 2, "<B"),
+    ("stop_code", 3, "<B"),
+    ("reference_position", 4, "<i"),
+    ("motor_position", 8, "<i"),
+    ("position_error", 12, "<i"),
+    ("aux_position", 16, "<i"),
+    ("velocity", 20, "<i"),
+    ("torque", 24, "<h"),
+    ("analog_in", 26, "<h"),
+)
+
+
+def record_size(qz: str) -> tuple[int, int] | None:
+    """(axes, record size) from a `QZ` reply "axes,general,coordinated,per axis", else None."""
+    try:
+        axes, general, coordinated, per_axis = (int(x) for x in qz.split(":")[0].split(","))
+    except ValueError:
+        return None
+    return axes, general + coordinated + axes * per_axis
+
+
+def decode_record(record: bytes, axes: int, letters: str = "ABCDEFGH") -> dict[str, int]:
+    """Every item of a revision-4 record by name (gclib's style: `axis_a_motor_position`)."""
+    out = {name: struct.unpack_from(fmt, record, off)[0] for name, off, fmt in GENERAL_ITEMS}
+    for k in range(axes):
+        base = FIRST_AXIS + AXIS_SIZE * k
+        prefix = f"axis_{letters[k].lower()}_"
+        for name, off, fmt in AXIS_ITEMS:
+            out[prefix + name] = struct.unpack_from(fmt, record, base + off)[0]
+    return out
+
+
+# -- the names of Galil's dmcdrc.h for that layout ----------------------------------------------------
+class DMCDataRecordTypes(enum.IntEnum):
+    DRTypeUnknown = 0
+    DRTypeCHAR = 1
+    DRTypeUCHAR = 2
+    DRTypeSHORT = 3
+    DRTypeUSHORT = 4
+    DRTypeLONG = 5
+    DRTypeULONG = 6
+
+
+class DMCDataRecordItemIds(enum.IntEnum):
+    """Item ids of DMCGetDataRecordByItemId, the same in every record revision."""
+
+    DRIdSampleNumber = 1
+    DRIdGeneralInput0 = 2
+    DRIdGeneralInput1 = 3
+    DRIdGeneralInput2 = 4
+    DRIdGeneralInput3 = 5
+    DRIdGeneralInput4 = 6
+    DRIdGeneralInput5 = 7
+    DRIdGeneralInput6 = 8
+    DRIdGeneralInput7 = 9
+    DRIdGeneralInput8 = 10
+    DRIdGeneralInput9 = 11
+    DRIdGeneralOutput0 = 12
+    DRIdGeneralOutput1 = 13
+    DRIdGeneralOutput2 = 14
+    DRIdGeneralOutput3 = 15
+    DRIdGeneralOutput4 = 16
+    DRIdGeneralOutput5 = 17
+    DRIdGeneralOutput6 = 18
+    DRIdGeneralOutput7 = 19
+    DRIdGeneralOutput8 = 20
+    DRIdGeneralOutput9 = 21
+    DRIdErrorCode = 22
+    DRIdGeneralStatus = 23
+    DRIdThreadStatus = 24
+    DRIdBufferSpaceContour = 25
+    DRIdSegmentCountContour = 26
+    DRIdSegmentCountS = 27
+    DRIdCoordinatedMoveStatusS = 28
+    DRIdCoordinatedMoveDistanceS = 29
+    DRIdBufferSpaceS = 30
+    DRIdSegmentCountT = 31
+    DRIdCoordinatedMoveStatusT = 32
+    DRIdCoordinatedMoveDistanceT = 33
+    DRIdBufferSpaceT = 34
+    DRIdAnalogInput1 = 35
+    DRIdAnalogInput2 = 36
+    DRIdAnalogInput3 = 37
+    DRIdAnalogInput4 = 38
+    DRIdAnalogInput5 = 39
+    DRIdAnalogInput6 = 40
+    DRIdAnalogInput7 = 41
+    DRIdAnalogInput8 = 42
+    DRIdAxisStatus = 43
+    DRIdAxisSwitches = 44
+    DRIdAxisStopCode = 45
+    DRIdAxisReferencePosition = 46
+    DRIdAxisMotorPosition = 47
+    DRIdAxisPositionError = 48
+    DRIdAxisAuxillaryPosition = 49
+    DRIdAxisVelocity = 50
+    DRIdAxisTorque = 51
+    DRIdUserVariable = 52
+
+
+class DMCDataRecordAxisIds(enum.IntEnum):
+    DRIdAxis1 = 1
+    DRIdAxis2 = 2
+    DRIdAxis3 = 3
+    DRIdAxis4 = 4
+    DRIdAxis5 = 5
+    DRIdAxis6 = 6
+    DRIdAxis7 = 7
+    DRIdAxis8 = 8
+
+
+class REV4DMCDataRecordGeneralOffsets(enum.IntEnum):
+    """Revision 4 (`QZ` -> axes,24,16,28): general items and where each axis block starts."""
+
+    DRREV4GenOffSampleNumber = 0
+    DRREV4GenOffGeneralInput0 = 2
+    DRREV4GenOffGeneralInput1 = 3
+    DRREV4GenOffGeneralInput2 = 4
+    DRREV4GenOffGeneralInput3 = 5
+    DRREV4GenOffGeneralInput4 = 6
+    DRREV4GenOffGeneralInput5 = 7
+    DRREV4GenOffGeneralInput6 = 8
+    DRREV4GenOffGeneralInput7 = 9
+    DRREV4GenOffGeneralInput8 = 10
+    DRREV4GenOffGeneralInput9 = 11
+    DRREV4GenOffGeneralOutput0 = 12
+    DRREV4GenOffGeneralOutput1 = 13
+    DRREV4GenOffGeneralOutput2 = 14
+    DRREV4GenOffGeneralOutput3 = 15
+    DRREV4GenOffGeneralOutput4 = 16
+    DRREV4GenOffGeneralOutput5 = 17
+    DRREV4GenOffGeneralOutput6 = 18
+    DRREV4GenOffGeneralOutput7 = 19
+    DRREV4GenOffGeneralOutput8 = 20
+    DRREV4GenOffGeneralOutput9 = 21
+    DRREV4GenOffErrorCode = 22
+    DRREV4GenOffGeneralStatus = 23
+    DRREV4GenOffSegmentCountS = 24
+    DRREV4GenOffCoordinatedMoveStatusS = 26
+    DRREV4GenOffCoordinatedMoveDistanceS = 28
+    DRREV4GenOffSegmentCountT = 32
+    DRREV4GenOffCoordinatedMoveStatusT = 34
+    DRREV4GenOffCoordinatedMoveDistanceT = 36
+    DRREV4GenOffAxis1 = 40
+    DRREV4GenOffAxis2 = 68
+    DRREV4GenOffAxis3 = 96
+    DRREV4GenOffAxis4 = 124
+    DRREV4GenOffAxis5 = 152
+    DRREV4GenOffAxis6 = 180
+    DRREV4GenOffAxis7 = 208
+    DRREV4GenOffAxis8 = 236
+    DRREV4GenOffEnd = 264
+
+
+class REV4DMCDataRecordAxisOffsets(enum.IntEnum):
+    """Revision 4: items within an axis block."""
+
+    DRREV4AxisOffNoAxis = 0
+    DRREV4AxisOffAxisStatus = 0
+    DRREV4AxisOffAxisSwitches = 2
+    DRREV4AxisOffAxisStopCode = 3
+    DRREV4AxisOffAxisReferencePosition = 4
+    DRREV4AxisOffAxisMotorPosition = 8
+    DRREV4AxisOffAxisPositionError = 12
+    DRREV4AxisOffAxisAuxillaryPosition = 16
+    DRREV4AxisOffAxisVelocity = 20
+    DRREV4AxisOffAxisTorque = 24
+    DRREV4AxisOffAnalogInput = 26
+    DRREV4AxisOffEnd = 28
+
+
+_TYPE_OF_FORMAT = {"<B": DMCDataRecordTypes.DRTypeUCHAR, "<H": DMCDataRecordTypes.DRTypeUSHORT,
+                   "<h": DMCDataRecordTypes.DRTypeSHORT, "<i": DMCDataRecordTypes.DRTypeLONG}
+_FORMAT_OF_TYPE: dict[int, str] = {int(t): f for f, t in _TYPE_OF_FORMAT.items()} | {
+    DMCDataRecordTypes.DRTypeCHAR: "<b", DMCDataRecordTypes.DRTypeULONG: "<I"}
+_GENERAL_TYPES: dict[int, int] = {off: _TYPE_OF_FORMAT[fmt] for _, off, fmt in GENERAL_ITEMS}
+_AXIS_TYPES: dict[int, int] = {off: _TYPE_OF_FORMAT[fmt] for _, off, fmt in AXIS_ITEMS}
+#: item id -> offset, for the items of the general section and of an axis block [dmcdma.c]
+_GENERAL_BY_ID: dict[int, int] = {
+    DMCDataRecordItemIds["DRId" + m.name.removeprefix("DRREV4GenOff")]: m.value
+    for m in REV4DMCDataRecordGeneralOffsets if m.value < FIRST_AXIS}
+_AXIS_BY_ID: dict[int, int] = {
+    DMCDataRecordItemIds["DRId" + m.name.removeprefix("DRREV4AxisOff")]: m.value
+    for m in REV4DMCDataRecordAxisOffsets if m.name.startswith("DRREV4AxisOffAxis")}
+
+
+def standard_type(general: int, axis: int) -> int:
+    """The type of the item at standard offsets [dmcdma.c GetDataType, revision 4]; 0 unknown."""
+    if general < FIRST_AXIS:
+        return _GENERAL_TYPES.get(general, 0)
+    return _AXIS_TYPES.get(axis, 0)
+
+
+def record_item(record: bytes, size: int, general: int, axis: int, data_type: int) -> int | None:
+    """One item of a record [dmcdma.c DMCGetDataRecord, revision 4]; None if out of range."""
+    if not (0 <= general < size and 0 <= axis < AXIS_SIZE):
+        return None
+    offset = general + (axis if general >= FIRST_AXIS else 0)
+    fmt = _FORMAT_OF_TYPE.get(data_type)
+    if fmt is None or offset + struct.calcsize(fmt) > len(record):
+        return None
+    return int(struct.unpack_from(fmt, record, offset)[0])
+
+
+def item_place(item: int, axis_id: int) -> tuple[int, int, int] | None:
+    """(general offset, axis offset, type) of an item id in a revision-4 record [dmcdma.c
+    DMCGetDataRecordByItemId]; None for an item this revision lacks."""
+    if item in _GENERAL_BY_ID:
+        general = _GENERAL_BY_ID[item]
+        return general, 0, _GENERAL_TYPES[general]
+    analog = item - DMCDataRecordItemIds.DRIdAnalogInput1
+    if 0 <= analog < 8:  # analog input n rides in axis n's block
+        return (FIRST_AXIS + AXIS_SIZE * analog, REV4DMCDataRecordAxisOffsets.DRREV4AxisOffAnalogInput,
+                DMCDataRecordTypes.DRTypeSHORT)
+    if item in _AXIS_BY_ID and 1 <= axis_id <= 8:
+        axis = _AXIS_BY_ID[item]
+        return FIRST_AXIS + AXIS_SIZE * (axis_id - 1), axis, _AXIS_TYPES[axis]
+    return None

@@ -1,0 +1,597 @@
+"""The Galil DMC library (DMCCOM.H) for the virtual DMC-13X8 VME card, as Python functions.
+
+Same names, argument order and return codes as Galil's C library (spec galil.md §6.2; behaviour
+after the Linux `dmclnx` sources): every function returns a LONG code (`DMCNOERROR`, or one of the
+negative `DMCERROR_*`) and writes its results through ctypes output parameters::
+
+    h = ctypes.c_long()
+    rc = galil.DMCOpen(1, 0, ctypes.byref(h))             # the first galil-dmc13x8 card
+    buf = ctypes.create_string_buffer(256)
+    rc = galil.DMCCommand(h, "TPX", buf, ctypes.sizeof(buf))  # buf.value == b" 0000000000\\r\\n:"
+
+Output parameters may be `ctypes.byref(x)`, `ctypes.pointer(x)` or the ctypes object itself; a
+handle may be passed as an int or a `c_long`. Strings may be `str`, `bytes` or a ctypes char buffer.
+The controller number of `DMCOpen` is the n-th card of type `galil-dmc13x8` in the order `hello`
+lists the cards, on the daemon at $VDEVD_ENDPOINT (else tcp://127.0.0.1:5555, as
+`vdevclient.connect`); keyword-only arguments after the C ones choose another (`endpoint=`).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import zmq
+
+from vdevclient._galil_bus import (
+    CARD_TYPE,
+    DmcBus,
+    DMCDataRecordAxisIds,
+    DMCDataRecordItemIds,
+    DMCDataRecordTypes,
+    Reply,
+    REV4DMCDataRecordAxisOffsets,
+    REV4DMCDataRecordGeneralOffsets,
+    item_place,
+    record_item,
+    record_size,
+    standard_type,
+    terminators,
+)
+from vdevclient.core import Rack, connect
+from vdevclient.errors import VdevClientError
+
+log = logging.getLogger(__name__)
+
+# -- return codes (DMCCOM.H) ---------------------------------------------------------------------------
+DMCNOERROR = 0
+DMCWARNING_MONITOR = 1
+DMCERROR_TIMEOUT = -1
+DMCERROR_COMMAND = -2
+DMCERROR_CONTROLLER = -3
+DMCERROR_FILE = -4
+DMCERROR_DRIVER = -5
+DMCERROR_HANDLE = -6
+DMCERROR_HMODULE = -7
+DMCERROR_MEMORY = -8
+DMCERROR_BUFFERFULL = -9
+DMCERROR_RESPONSEDATA = -10
+DMCERROR_DMA = -11
+DMCERROR_ARGUMENT = -12
+DMCERROR_DATARECORD = -13
+DMCERROR_DOWNLOAD = -14
+DMCERROR_FIRMWARE = -15
+DMCERROR_CONVERSION = -16
+DMCERROR_RESOURCE = -17
+DMCERROR_REGISTRY = -18
+DMCERROR_BUSY = -19
+DMCERROR_DEVICE_DISCONNECTED = -20
+
+#: DMCError's texts [dmclnx.c DMCError]
+_MESSAGES: dict[int, str] = {
+    DMCERROR_TIMEOUT: "A time-out occurred while waiting for a response from the controller.",
+    DMCERROR_CONTROLLER: "Galil controller could not be found in Windows registry.",
+    DMCERROR_FILE: "File could not be opened.",
+    DMCERROR_DRIVER: "Device driver could not be opened, or a read or write error occured.",
+    DMCERROR_HANDLE: "Invalid Galil controller handle.",
+    DMCERROR_HMODULE: "Support dynamic link library could not be loaded.",
+    DMCERROR_MEMORY: "Out of memory.",
+    DMCERROR_BUFFERFULL: "Response from the controller was larger than the response buffer supplied.",
+    DMCERROR_RESPONSEDATA: "Response from the controller overflowed the internal additional "
+                           "response buffer.",
+    DMCERROR_DMA: "Could not communicate with DMA channel.",
+    DMCERROR_ARGUMENT: "One or more required arguments to a DMC API function call was NULL.",
+    DMCERROR_DATARECORD: "Could not access DMC data record.",
+    DMCERROR_FIRMWARE: "Could not update the controller's firmware.",
+    DMCERROR_CONVERSION: "Could not convert DMC command (ASCII to binary or binary to ASCII).",
+    DMCERROR_REGISTRY: "Could not access or modify the controller's registry information.",
+    DMCERROR_RESOURCE: "Windows reports a resource conflict with the current hardware configuration.",
+    DMCERROR_BUSY: "Controller is busy and not ready to accept commands.",
+    DMCERROR_DEVICE_DISCONNECTED: "Controller has been disconnected from the communications channel "
+                                  "(USB or Ethernet).",
+}
+
+DEFAULT_TIMEOUT_MS = 1000  # DMCGetTimeout: "The default is 1000."
+#: DMCSetTimeout(0) means "ignore time-out errors"; a wait needs an end in lockstep, so a reply is
+#: awaited this long (simulated time) and a missing one is not reported
+ZERO_TIMEOUT_BOUND_MS = 10_000
+DEFAULT_REFRESH_RATE = 4  # DR-4: a record every 2^4 samples, the library's default [dmclnx.c]
+OPEN_TRIES = 5  # DMCOpen writes ';' up to five times while the card answers '?' [dmclnx.c]
+
+
+# C enums put their members in the global namespace: so do these (DRIdAxis1, DRREV4GenOffAxis1...)
+for _enum in (DMCDataRecordTypes, DMCDataRecordItemIds, DMCDataRecordAxisIds,
+              REV4DMCDataRecordGeneralOffsets, REV4DMCDataRecordAxisOffsets):
+    globals().update(_enum.__members__)
+
+# -- open controllers ---------------------------------------------------------------------------------
+@dataclass
+class _Controller:
+    bus: DmcBus
+    owns_rack: bool
+    timeout_ms: int = DEFAULT_TIMEOUT_MS
+    additional: bytes = b""
+    axes: int = 0
+    record_size: int = 0  # 0: no data record access (QZ refused, or refresh_rate 0)
+    record: bytes | None = None
+    hwnd: Any = None
+    unsolicited_out: bytearray = field(default_factory=bytearray)
+
+
+_controllers: dict[int, _Controller] = {}
+_next_handle = 1
+
+
+def _handle(hdmc: Any) -> _Controller | None:
+    value = getattr(hdmc, "value", hdmc)
+    return _controllers.get(value) if isinstance(value, int) else None
+
+
+def _target(param: Any) -> Any:
+    """The ctypes object behind an output parameter: byref(x), pointer(x) or x."""
+    if hasattr(param, "_obj"):  # ctypes.byref
+        return param._obj
+    if isinstance(param, ctypes._Pointer):
+        return param.contents
+    return param
+
+
+def _set(param: Any, value: int) -> None:
+    _target(param).value = value
+
+
+def _put(buffer: Any, size: int, data: bytes) -> bool:
+    """Copy `data` NUL-terminated into a char buffer of `size` bytes; False if it was cut."""
+    target = _target(buffer)
+    room = min(int(size), ctypes.sizeof(target) if isinstance(target, ctypes.Array) else len(target))
+    if room <= 0:
+        return not data
+    n = min(len(data), room - 1)
+    if isinstance(target, bytearray):
+        target[:n + 1] = data[:n] + b"\0"
+    else:
+        ctypes.memmove(ctypes.addressof(target), data[:n] + b"\0", n + 1)
+    return n == len(data)
+
+
+def _text(value: Any) -> bytes:
+    """A command string as bytes: str (latin-1, so ^R^V etc. pass), bytes up to NUL, ctypes."""
+    value = _target(value)
+    if isinstance(value, str):
+        return value.encode("latin-1")
+    if isinstance(value, ctypes.c_char_p) or (
+            isinstance(value, ctypes.Array) and value._type_ is ctypes.c_char):
+        return bytes(value.value or b"")
+    return bytes(value).split(b"\0", 1)[0]
+
+
+def _ascii_command(command: Any) -> bytes:
+    """The line DMCCommand sends: CR appended unless it ends in CR or ';' [dmclnx.c DMCCommand]."""
+    data = _text(command) if command is not None else b""
+    return data if data.endswith((b"\r", b";")) else data + b"\r"
+
+
+def _guarded(fn: Callable[..., int]) -> Callable[..., int]:
+    """Transport failures (no daemon, a closed rack) become DMCERROR_DRIVER, as a driver error."""
+
+    @functools.wraps(fn)
+    def call(*args: Any, **kwargs: Any) -> int:
+        try:
+            return fn(*args, **kwargs)
+        except (VdevClientError, zmq.ZMQError) as exc:
+            log.warning("%s: %s", fn.__name__, exc)
+            return DMCERROR_DRIVER
+
+    return call
+
+
+def _reply(c: _Controller, reply: Reply, response: Any, size: int) -> int:
+    """Hand a reply to the caller with DMCCommand's return code: '?' -> DMCERROR_COMMAND (even
+    after a time-out), a time-out, a reply cut to the buffer -> DMCERROR_BUFFERFULL (the rest is
+    DMCGetAdditionalResponse's)."""
+    c.additional = b""
+    whole = True
+    if response is not None and size:
+        whole = _put(response, size, reply.data)
+        if not whole:
+            c.additional = reply.data[max(int(size) - 1, 0):]
+    if b"?" in reply.data:
+        return DMCERROR_COMMAND
+    if reply.timed_out and c.timeout_ms:
+        return DMCERROR_TIMEOUT
+    return DMCNOERROR if whole else DMCERROR_BUFFERFULL
+
+
+# -- opening ------------------------------------------------------------------------------------------
+@_guarded
+def DMCOpen(usController: int, hwnd: Any, phdmc: Any, *, endpoint: str | None = None,
+            events: str | None = None, refresh_rate: int = DEFAULT_REFRESH_RATE) -> int:
+    """Open controller `usController` (1-based, the n-th galil-dmc13x8 card of the rack) and write
+    its handle to `phdmc`. A non-zero `hwnd` enables the card's interrupt output (2, 4 to N+3).
+    `refresh_rate`: the data record comes every 2^n samples (DR-n); 0 leaves it off."""
+    if phdmc is None:
+        return DMCERROR_ARGUMENT
+    _set(phdmc, -1)
+    rack = connect(endpoint, events)
+    cards = [card.name for card in rack.cards() if card.type == CARD_TYPE]
+    if not 1 <= int(usController) <= len(cards):
+        rack.close()
+        return DMCERROR_CONTROLLER
+    return _open(rack, cards[int(usController) - 1], hwnd, phdmc, refresh_rate)
+
+
+@_guarded
+def DMCOpenDesc(pszDescription: Any, hwnd: Any, phdmc: Any, pControllerNum: Any = None, *,
+                endpoint: str | None = None, events: str | None = None,
+                refresh_rate: int = DEFAULT_REFRESH_RATE) -> int:
+    """Open the controller whose description is `pszDescription`: here the card's name ("galil0");
+    its controller number goes to `pControllerNum` when given."""
+    if phdmc is None:
+        return DMCERROR_ARGUMENT
+    _set(phdmc, -1)
+    name = _text(pszDescription).decode("latin-1")
+    rack = connect(endpoint, events)
+    cards = [card.name for card in rack.cards() if card.type == CARD_TYPE]
+    if name not in cards:
+        rack.close()
+        return DMCERROR_CONTROLLER
+    if pControllerNum is not None:
+        _set(pControllerNum, cards.index(name) + 1)
+    return _open(rack, name, hwnd, phdmc, refresh_rate)
+
+
+def _open(rack: Rack, card: str, hwnd: Any, phdmc: Any, refresh_rate: int) -> int:
+    """The library's opening sequence [dmclnx.c DMCOpen]: drain, ';' until ':' (a '>' is the
+    boot monitor), QZ and DR-n for the data record, clear the FIFOs, echo off."""
+    global _next_handle
+    c = _Controller(DmcBus(rack, card, timeout_ms=DEFAULT_TIMEOUT_MS), owns_rack=True, hwnd=hwnd)
+    try:
+        rc = _start(c, refresh_rate, hwnd)
+    except BaseException:
+        rack.close()
+        raise
+    if rc < 0:
+        rack.close()
+        return rc
+    handle, _next_handle = _next_handle, _next_handle + 1
+    _controllers[handle] = c
+    _set(phdmc, handle)
+    return rc
+
+
+def _start(c: _Controller, refresh_rate: int, hwnd: Any) -> int:
+    bus = c.bus
+    bus.drain()
+    reply = Reply(b"", timed_out=True)
+    for _ in range(OPEN_TRIES):
+        reply = bus.command(b";", 1)
+        if b"?" not in reply.data:
+            break
+    if reply.timed_out:
+        return DMCERROR_TIMEOUT
+    if b">" in reply.data:
+        return DMCWARNING_MONITOR
+    if refresh_rate:
+        qz = bus.command(b"QZ\r", 1)
+        sized = None if qz.timed_out or b"?" in qz.data else record_size(qz.data.decode("latin-1"))
+        if sized is not None and not bus.command(b"DR-%d\r" % refresh_rate, 1).timed_out:
+            c.axes, c.record_size = sized
+    bus.clear()
+    if hwnd:
+        bus.enable_interrupts()
+    bus.command(b"EO0\r", 1)
+    return DMCNOERROR
+
+
+@_guarded
+def DMCClose(hdmc: Any) -> int:
+    """Close the handle (the data record stays on, as in Galil's library)."""
+    c = _controllers.pop(getattr(hdmc, "value", hdmc), None)
+    if c is None:
+        return DMCERROR_HANDLE
+    if c.owns_rack:
+        c.bus.rack.close()
+    return DMCNOERROR
+
+
+# -- commands -----------------------------------------------------------------------------------------
+@_guarded
+def DMCCommand(hdmc: Any, pszCommand: Any, pchResponse: Any, cbResponse: int) -> int:
+    """Send an ASCII command line (CR appended unless it ends in CR or ';') and read the reply
+    until one ':' or '?' per command; '?' gives DMCERROR_COMMAND (DMCError tells why)."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    command = _ascii_command(pszCommand)
+    return _reply(c, c.bus.command(command, terminators(command)), pchResponse, cbResponse)
+
+
+@_guarded
+def DMCFastCommand(hdmc: Any, pszCommand: Any) -> int:
+    """Send a command line without waiting for its reply; the reply goes to the unsolicited
+    buffer when it comes."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    command = _ascii_command(pszCommand)
+    c.bus.send(command, terminators(command))
+    return DMCNOERROR
+
+
+@_guarded
+def DMCBinaryCommand(hdmc: Any, pbCommand: Any, ulCommandLength: int, pchResponse: Any,
+                     cbResponse: int) -> int:
+    """Send a binary command (spec §4.2: opcode 0x80-0xFF, format, coordinated, axis mask, data)
+    and read until ':' or '?' [dmcbin.c]."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pbCommand is None or not ulCommandLength:
+        return DMCERROR_ARGUMENT
+    command = bytes(_target(pbCommand))[:int(ulCommandLength)]
+    return _reply(c, c.bus.command(command, 1), pchResponse, cbResponse)
+
+
+@_guarded
+def DMCGetUnsolicitedResponse(hdmc: Any, pchResponse: Any, cbResponse: int) -> int:
+    """What came from the card outside any command's reply (program output, late replies)."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pchResponse is None or not cbResponse:
+        return DMCERROR_ARGUMENT
+    c.bus.drain()
+    pending = bytes(c.bus.unsolicited)
+    n = max(int(cbResponse) - 1, 0)
+    _put(pchResponse, cbResponse, pending[:n])
+    del c.bus.unsolicited[:n]
+    return DMCNOERROR
+
+
+@_guarded
+def DMCGetAdditionalResponseLen(hdmc: Any, pulResponseLen: Any) -> int:
+    """The length of what did not fit the last response buffer (DMCERROR_BUFFERFULL)."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pulResponseLen is None:
+        return DMCERROR_ARGUMENT
+    _set(pulResponseLen, len(c.additional))
+    return DMCNOERROR
+
+
+@_guarded
+def DMCGetAdditionalResponse(hdmc: Any, pchResponse: Any, cbResponse: int) -> int:
+    """The rest of the last response; the internal buffer is emptied."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pchResponse is None or not cbResponse:
+        return DMCERROR_ARGUMENT
+    _put(pchResponse, cbResponse, c.additional)
+    c.additional = b""
+    return DMCNOERROR
+
+
+@_guarded
+def DMCError(hdmc: Any, lError: int, pchMessage: Any, cbMessage: int) -> int:
+    """The text of an error code; for DMCERROR_COMMAND the card's reason (`TC1`, e.g.
+    "1 Unrecognized command.") [dmclnx.c DMCError]."""
+    if pchMessage is None or not cbMessage:
+        return DMCERROR_ARGUMENT
+    rc, text = DMCNOERROR, _MESSAGES.get(int(lError), "Unknown error.").encode()
+    if lError == DMCNOERROR:
+        text = b""
+    elif lError == DMCERROR_COMMAND:
+        text = b"Could not retrieve error code from controller."
+        c = _handle(hdmc)
+        if c is not None:
+            reply = c.bus.command(b"TC1\r", 1)
+            rc = _reply(c, reply, None, 0)
+            if rc == DMCNOERROR:
+                cause = reply.data.rstrip(b":\r\n")
+                text = cause + b"." if cause else b"Unknown command error."
+    _put(pchMessage, cbMessage, text)
+    return rc
+
+
+@_guarded
+def DMCClear(hdmc: Any) -> int:
+    """Clear both FIFOs: read N+3, write 01 80 01 80, read N+3 [M Ch4 §Clearing FIFO Buffer]."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    c.bus.clear()
+    return DMCNOERROR
+
+
+def _reset(c: _Controller, command: bytes) -> int:
+    reply = c.bus.command(command, 1)
+    rc = _reply(c, reply, None, 0)
+    c.bus.forget()
+    if rc == DMCNOERROR:
+        rc = _reply(c, c.bus.command(b"EO0\r", 1), None, 0)
+    return rc
+
+
+@_guarded
+def DMCReset(hdmc: Any) -> int:
+    """`RS`, then echo off."""
+    c = _handle(hdmc)
+    return DMCERROR_HANDLE if c is None else _reset(c, b"RS\r")
+
+
+@_guarded
+def DMCMasterReset(hdmc: Any) -> int:
+    """^R^S (factory defaults), then echo off."""
+    c = _handle(hdmc)
+    return DMCERROR_HANDLE if c is None else _reset(c, b"\x12\x13\r")
+
+
+@_guarded
+def DMCVersion(hdmc: Any, pchVersion: Any, cbVersion: int) -> int:
+    """The firmware revision: the card's answer to ^R^V, its first line."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pchVersion is None or not cbVersion:
+        return DMCERROR_ARGUMENT
+    reply = c.bus.command(b"\x12\x16\r", 1)
+    rc = _reply(c, reply, None, 0)
+    if rc == DMCNOERROR and not reply.data.strip(b":\r\n"):
+        rc = DMCERROR_COMMAND
+    _put(pchVersion, cbVersion, reply.data.split(b"\r", 1)[0] if rc == DMCNOERROR else b"")
+    return rc
+
+
+# -- interrupts ----------------------------------------------------------------------------------------
+@_guarded
+def DMCGetInterruptStatus(hdmc: Any, pusStatus: Any) -> int:
+    """The oldest queued interrupt status code (write 6 to N+3, read N+3); 0 when none."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pusStatus is None:
+        return DMCERROR_ARGUMENT
+    _set(pusStatus, c.bus.interrupt_status())
+    return DMCNOERROR
+
+
+# -- data record ---------------------------------------------------------------------------------------
+@_guarded
+def DMCRefreshDataRecord(hdmc: Any, ulLength: int) -> int:
+    """Read a fresh data record from the secondary FIFO [M Ch4 §Polling Mode Read Procedure]."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if not c.record_size:
+        return DMCERROR_DATARECORD
+    record = c.bus.read_record(c.record_size)
+    if record is None:
+        return DMCERROR_TIMEOUT
+    c.record = record
+    return DMCNOERROR
+
+
+@_guarded
+def DMCGetDataRecord(hdmc: Any, usGeneralOffset: int, usAxisInfoOffset: int, pusDataType: Any,
+                     plData: Any) -> int:
+    """One item of the last refreshed record by offsets (DRREV4GenOff*, DRREV4AxisOff*); with
+    *pusDataType 0 the type of a standard offset is filled in."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if plData is None or pusDataType is None:
+        return DMCERROR_ARGUMENT
+    if c.record is None:
+        return DMCERROR_DATARECORD
+    general, axis = int(usGeneralOffset), int(usAxisInfoOffset)
+    data_type = int(_target(pusDataType).value) or standard_type(general, axis)
+    _set(pusDataType, data_type)
+    value = record_item(c.record, c.record_size, general, axis, data_type)
+    if value is None:
+        return DMCERROR_DATARECORD
+    _set(plData, value)
+    return DMCNOERROR
+
+
+@_guarded
+def DMCGetDataRecordByItemId(hdmc: Any, usItemId: int, usAxisId: int, pusDataType: Any,
+                             plData: Any) -> int:
+    """One item of the last refreshed record by id (DRId*; DRIdAxis1.. for axis items)."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if plData is None or pusDataType is None:
+        return DMCERROR_ARGUMENT
+    if c.record is None:
+        return DMCERROR_DATARECORD
+    place = item_place(int(usItemId), int(usAxisId))
+    if place is None:
+        return DMCERROR_DATARECORD
+    general, axis, data_type = place
+    _set(pusDataType, int(data_type))
+    value = record_item(c.record, c.record_size, general, axis, int(data_type))
+    if value is None:
+        return DMCERROR_DATARECORD
+    _set(plData, value)
+    return DMCNOERROR
+
+
+@_guarded
+def DMCGetDataRecordSize(hdmc: Any, pusRecordSize: Any) -> int:
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pusRecordSize is None:
+        return DMCERROR_ARGUMENT
+    if not c.record_size:
+        return DMCERROR_DATARECORD
+    _set(pusRecordSize, c.record_size)
+    return DMCNOERROR
+
+
+@_guarded
+def DMCCopyDataRecord(hdmc: Any, pDataRecord: Any) -> int:
+    """A copy of the last refreshed record (DMCGetDataRecordSize bytes) into `pDataRecord`."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pDataRecord is None:
+        return DMCERROR_ARGUMENT
+    if c.record is None:
+        return DMCERROR_DATARECORD
+    target = _target(pDataRecord)
+    if ctypes.sizeof(target) < len(c.record):
+        return DMCERROR_ARGUMENT
+    ctypes.memmove(ctypes.addressof(target), c.record, len(c.record))
+    return DMCNOERROR
+
+
+@_guarded
+def DMCGetDataRecordRevision(hdmc: Any, pusRevision: Any) -> int:
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pusRevision is None:
+        return DMCERROR_ARGUMENT
+    if not c.record_size:
+        return DMCERROR_DATARECORD
+    _set(pusRevision, 4)
+    return DMCNOERROR
+
+
+# -- configuration -------------------------------------------------------------------------------------
+@_guarded
+def DMCGetTimeout(hdmc: Any, pTimeout: Any) -> int:
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pTimeout is None:
+        return DMCERROR_ARGUMENT
+    _set(pTimeout, c.timeout_ms)
+    return DMCNOERROR
+
+
+@_guarded
+def DMCSetTimeout(hdmc: Any, lTimeout: int) -> int:
+    """The reply time-out in ms of (simulated, in lockstep) card time; 0 ignores time-outs."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    timeout = int(getattr(lTimeout, "value", lTimeout))
+    if timeout < 0:
+        return DMCERROR_ARGUMENT
+    c.timeout_ms = timeout
+    c.bus.timeout_ms = timeout or ZERO_TIMEOUT_BOUND_MS
+    return DMCNOERROR
+
+
+def bus_of(hdmc: Any) -> DmcBus | None:
+    """The register protocol behind a handle (for vdevclient.gclib), None for a bad handle."""
+    c = _handle(hdmc)
+    return None if c is None else c.bus

@@ -1,0 +1,251 @@
+"""Galil's gclib Python wrapper (`gclib.py`, class `py`) for the virtual DMC-13X8 VME card.
+
+An existing gclib script runs by changing its import (`from vdevclient import gclib`)::
+
+    g = gclib.py()
+    g.GOpen("galil0")                    # a card name, optionally "galil0 --endpoint tcp://..."
+    print(g.GCommand("TPX"))             # "0000000000": trimmed of the final ':' and whitespace
+    g.GMotionComplete("X")
+    g.GClose()
+
+Errors raise `GclibError` with gclib's texts ("question mark returned by controller", "device
+timed out", ...). Built on `vdevclient.galil`: a `py` holds a DMC library handle. Addresses take
+gclib's `--flags`: `--endpoint URL`, `--events URL` (the daemon), `--timeout ms` / `-t ms`; other
+gclib flags (`--direct`, `-d`, `-s ALL`, `--subscribe ALL`) are accepted and ignored.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.metadata
+import shlex
+from typing import Any
+
+from vdevclient import galil
+from vdevclient._galil_bus import AXIS_SIZE, FIRST_AXIS, DmcBus, decode_record
+
+# gclib_errors.h: the codes and texts GclibError carries
+G_NO_ERROR = 0
+G_TIMEOUT = -1100
+G_OPEN_ERROR = -1101
+G_UNSUPPORTED_FUNCTION = -1109
+G_CONNECTION_NOT_ESTABLISHED = -1201
+G_BAD_RESPONSE_QUESTION_MARK = -10000
+G_BAD_VALUE_RANGE = -10002
+G_BAD_LOST_DATA = -10004
+G_BAD_ADDRESS = -10006
+G_DATA_RECORD_ERROR = -1107
+G_GCLIB_ERROR = -1
+G_GCLIB_NON_BLOCKING_READ_EMPTY = -4
+
+_TEXTS = {
+    G_TIMEOUT: "device timed out",
+    G_OPEN_ERROR: "device failed to open",
+    G_UNSUPPORTED_FUNCTION: "function not supported on this communication bus",
+    G_CONNECTION_NOT_ESTABLISHED: "connection to hardware not established",
+    G_BAD_RESPONSE_QUESTION_MARK: "question mark returned by controller",
+    G_BAD_VALUE_RANGE: "value passed to function was bad or out of range",
+    G_BAD_LOST_DATA: "data was lost due to buffer or fifo limitations",
+    G_BAD_ADDRESS: "a bad address was specified in open",
+    G_DATA_RECORD_ERROR: "data record error",
+    G_GCLIB_ERROR: "gclib unexpected error",
+    G_GCLIB_NON_BLOCKING_READ_EMPTY: "data was not waiting for a zero-timeout read",
+}
+
+#: GRecord's method (gclib.h): G_QR asks with the QR command, G_DR takes the DR stream. The
+#: DMC-13X8 has only the secondary FIFO, so both read it.
+G_QR = 0
+G_DR = 1
+
+DEFAULT_TIMEOUT_MS = 5000  # gclib's default timeout (py._timeout)
+MOTION_POLL_MS = 10  # GMotionComplete polls _BG this often (card time)
+_BUF_SIZE = 500_000  # gclib.py's response buffer: "big enough to fit an entire program"
+
+#: what a DMC library code becomes in gclib
+_FROM_DMC = {
+    galil.DMCERROR_TIMEOUT: G_TIMEOUT,
+    galil.DMCERROR_COMMAND: G_BAD_RESPONSE_QUESTION_MARK,
+    galil.DMCERROR_CONTROLLER: G_OPEN_ERROR,
+    galil.DMCERROR_DRIVER: G_OPEN_ERROR,
+    galil.DMCERROR_HANDLE: G_CONNECTION_NOT_ESTABLISHED,
+    galil.DMCERROR_BUFFERFULL: G_BAD_LOST_DATA,
+    galil.DMCERROR_DATARECORD: G_DATA_RECORD_ERROR,
+}
+
+
+class GclibError(Exception):
+    """Error class for non-zero gclib return codes."""
+
+
+def _rc(code: int) -> None:
+    """Raise GclibError with gclib's text for a non-zero code (a DMC library code or a G_ one)."""
+    if code == G_NO_ERROR:
+        return
+    code = _FROM_DMC.get(code, code)
+    raise GclibError(_TEXTS.get(code, _TEXTS[G_GCLIB_ERROR]))
+
+
+def _parse_address(address: str) -> tuple[str, dict[str, str]]:
+    """(card name, {flag: value}) of "galil0 --endpoint tcp://... -t 1000"."""
+    try:
+        words = shlex.split(address)
+    except ValueError:
+        _rc(G_BAD_ADDRESS)
+    card, flags = "", {}
+    takes_value = {"--endpoint": "endpoint", "--events": "events", "--timeout": "timeout",
+                   "-t": "timeout", "-s": "", "--subscribe": "", "--baud": "", "-b": ""}
+    i = 0
+    while i < len(words):
+        word = words[i]
+        if word in takes_value:
+            if i + 1 >= len(words):
+                _rc(G_BAD_ADDRESS)
+            if takes_value[word]:
+                flags[takes_value[word]] = words[i + 1]
+            i += 2
+            continue
+        if not word.startswith("-"):
+            if card:
+                _rc(G_BAD_ADDRESS)
+            card = word
+        i += 1
+    if not card:
+        _rc(G_BAD_ADDRESS)
+    return card, flags
+
+
+class py:
+    """Represents a single Python connection to a Galil controller (here a galil-dmc13x8 card)."""
+
+    def __init__(self) -> None:
+        self._gcon = ctypes.c_long(0)
+        self._buf = ctypes.create_string_buffer(_BUF_SIZE)
+        self._timeout = DEFAULT_TIMEOUT_MS
+        self._initial_timeout = DEFAULT_TIMEOUT_MS
+        self._address = ""
+        self._irq_seq: int | None = None
+        self._irq_enabled = False
+
+    def __del__(self) -> None:
+        try:
+            self.GClose()
+        except Exception:  # at interpreter exit there is no one to tell
+            pass
+
+    def _cc(self) -> DmcBus:
+        """The open connection's bus; GclibError if there is none."""
+        bus = galil.bus_of(self._gcon) if self._gcon.value else None
+        if bus is None:
+            _rc(G_CONNECTION_NOT_ESTABLISHED)
+        assert bus is not None
+        return bus
+
+    def GOpen(self, address: str) -> None:
+        """Open a connection to the card named first in `address` (see the module docstring)."""
+        card, flags = _parse_address(address)
+        self.GClose()
+        timeout = flags.get("timeout", str(DEFAULT_TIMEOUT_MS))
+        if not timeout.isdigit():
+            _rc(G_BAD_ADDRESS)
+        handle = ctypes.c_long(0)
+        _rc(galil.DMCOpenDesc(card, 0, ctypes.byref(handle), endpoint=flags.get("endpoint"),
+                              events=flags.get("events")))
+        self._gcon = handle
+        self._address = card
+        self._irq_seq, self._irq_enabled = None, False
+        self._initial_timeout = int(timeout)
+        self.GTimeout(self._initial_timeout)
+
+    def GClose(self) -> None:
+        """Close the connection (nothing happens without one)."""
+        if self._gcon.value:
+            galil.DMCClose(self._gcon)
+            self._gcon = ctypes.c_long(0)
+
+    def GCommand(self, command: str) -> str:
+        """Send a command and return its reply trimmed of the final ':' and of whitespace."""
+        self._cc()
+        _rc(galil.DMCCommand(self._gcon, command, self._buf, _BUF_SIZE))
+        response = self._buf.value.decode("latin-1")
+        return response[:-1].strip() if response.endswith(":") else response.strip()
+
+    def GTimeout(self, timeout: int) -> None:
+        """Set the timeout in ms; -1 restores the one GOpen set."""
+        self._cc()
+        if timeout < -1:
+            _rc(G_BAD_VALUE_RANGE)
+        value = self._initial_timeout if timeout == -1 else timeout
+        _rc(galil.DMCSetTimeout(self._gcon, value))
+        self._timeout = timeout
+
+    @property
+    def timeout(self) -> int:
+        return self._timeout
+
+    @timeout.setter
+    def timeout(self, timeout: int) -> None:
+        self.GTimeout(timeout)
+
+    def GMotionComplete(self, axes: str) -> None:
+        """Return once every axis in `axes` ("XY", "AB") has stopped: polls `MG _BGx` as gclib
+        does, letting MOTION_POLL_MS of card time pass between polls."""
+        bus = self._cc()
+        for axis in axes.strip().upper():
+            while float(self.GCommand(f"MG _BG{axis}")):
+                bus.pause(MOTION_POLL_MS)
+
+    def GSleep(self, val: int) -> None:
+        """Let `val` ms pass on the card's clock (a lockstep step, or a wall-clock sleep)."""
+        self._cc().pause(int(val))
+
+    def GMessage(self) -> str:
+        """Unsolicited output of the card (what arrived outside command replies)."""
+        self._cc()
+        _rc(galil.DMCGetUnsolicitedResponse(self._gcon, self._buf, _BUF_SIZE))
+        return str(self._buf.value.decode("latin-1"))
+
+    def GInfo(self) -> str:
+        """The connection: "<card> on <endpoint>, <firmware revision>"."""
+        bus = self._cc()
+        _rc(galil.DMCVersion(self._gcon, self._buf, _BUF_SIZE))
+        return f"{self._address} on {bus.rack.endpoint}, {self._buf.value.decode('latin-1')}"
+
+    def GVersion(self) -> str:
+        """The library version, "py." and the version of vdevd's client."""
+        return "py." + importlib.metadata.version("vdevd")
+
+    def GInterrupt(self) -> int:
+        """The next interrupt status byte of the card (0xD1 for "Y motion complete"), waiting up
+        to the timeout for one (timeout 0: none waiting is an error); enables the card's
+        interrupt output on first use."""
+        bus = self._cc()
+        if not self._irq_enabled:
+            bus.enable_interrupts()
+            self._irq_enabled = True
+        code = bus.interrupt_status()
+        if code:
+            return code
+        wait_ms = self._initial_timeout if self._timeout == -1 else self._timeout
+        if not wait_ms:
+            _rc(G_GCLIB_NON_BLOCKING_READ_EMPTY)
+        while True:
+            code, seq = bus.wait_interrupt(wait_ms, self._irq_seq)
+            if seq is None:
+                _rc(G_TIMEOUT)
+            self._irq_seq = seq
+            if code:
+                return code
+
+    def GRecord(self, method: int = G_DR) -> dict[str, Any]:
+        """A fresh data record decoded by item name (`sample_number`, `axis_a_motor_position`,
+        ...). Both methods read the card's secondary FIFO (the DMC-13X8 has no QR)."""
+        self._cc()
+        if method not in (G_QR, G_DR):
+            _rc(G_BAD_VALUE_RANGE)
+        _rc(galil.DMCRefreshDataRecord(self._gcon, 0))
+        size = ctypes.c_ushort()
+        _rc(galil.DMCGetDataRecordSize(self._gcon, ctypes.byref(size)))
+        record = ctypes.create_string_buffer(size.value)
+        _rc(galil.DMCCopyDataRecord(self._gcon, record))
+        axes = (size.value - FIRST_AXIS) // AXIS_SIZE
+        return decode_record(record.raw, axes)
