@@ -59,6 +59,8 @@ class SecondaryStatus(enum.IntFlag):
     NOT_EMPTY = 1 << 2
 
 
+_ALMOST_FULL = int(Status.WRITE_ALMOST_FULL)  # plain ints: IntFlag arithmetic is slow
+_READ_EMPTY = int(Status.READ_EMPTY)
 CLEAR_SEQUENCE = (0x01, 0x80, 0x01, 0x80)  # [M Ch4 §Clearing FIFO Buffer]
 IRQ_ENABLE_SEQUENCE = (0x02, 0x04)  # [M Ch4 §Setting up Interrupts]
 IRQ_STATUS_SELECT = 0x06  # then read N+3 [M Ch4 §Servicing Interrupts]
@@ -88,6 +90,7 @@ class DmcBus:
         self._record_read = {"op": "read", "offset": Reg.SECONDARY_DATA.value, "size": 1, **where}
         self._where = where
         self._wait_cache: dict[tuple[int, int, int, int], dict[str, Any]] = {}
+        self._send_cache: dict[tuple[bytes, bool, int], list[dict[str, Any]]] = {}
         #: bit 4 of the last CONTROL read, when nothing was written since: the command FIFO has
         #: room for a burst and the first chunk needs no wait (only the host fills that FIFO)
         self._room = False
@@ -97,7 +100,7 @@ class DmcBus:
         #: bytes may wait in the READ FIFO that belong to no command (bit 5 read 0 at the end)
         self.stale = True
         self.unsolicited = bytearray()
-        self._reply_len: OrderedDict[bytes, int] = OrderedDict()
+        self._reply_len: OrderedDict[bytes, int] = OrderedDict()  # the oldest learnt goes first
 
     # -- ops ------------------------------------------------------------------------------------
     def _wait(self, offset: int, mask: int, value: int, timeout_ns: int) -> dict[str, Any]:
@@ -105,33 +108,38 @@ class DmcBus:
         op = self._wait_cache.get(key)
         if op is None:
             op = self._wait_cache[key] = {
-                "op": "wait", "on": "value", "offset": offset, "size": 1, "mask": mask,
-                "value": value, "timeout_ns": timeout_ns, **self._where}
+                "op": "wait", "on": "value", "offset": int(offset), "size": 1, "mask": int(mask),
+                "value": int(value), "timeout_ns": timeout_ns, **self._where}
         return op
 
     def _timeout_ns(self) -> int:
         return self.timeout_ms * _NS_PER_MS
 
     def write_op(self, offset: int, value: int) -> dict[str, Any]:
-        return {"op": "write", "offset": offset, "data": bytes([value]), **self._where}
+        return {"op": "write", "offset": int(offset), "data": bytes([value]), **self._where}
 
     def _send_ops(self, data: bytes, timeout_ns: int) -> list[dict[str, Any]]:
         """Command bytes to N+1 in bursts, each after bit 4 of N+3 reads 0 [M Ch4 §Write Procedure];
         the first burst skips the wait when the last status read showed room."""
-        ops: list[dict[str, Any]] = []
-        room_wait = self._wait(Reg.CONTROL, Status.WRITE_ALMOST_FULL, 0, timeout_ns)
-        writes = self._writes
-        for start in range(0, len(data), WRITE_BURST):
-            if start or not self._room:
-                ops.append(room_wait)
-            ops.extend(writes[b] for b in data[start:start + WRITE_BURST])
+        key = (data, self._room, timeout_ns)
+        ops = self._send_cache.get(key)
+        if ops is None:
+            ops = []
+            room_wait = self._wait(Reg.CONTROL, _ALMOST_FULL, 0, timeout_ns)
+            for start in range(0, len(data), WRITE_BURST):
+                if start or not self._room:
+                    ops.append(room_wait)
+                ops.extend(self._writes[b] for b in data[start:start + WRITE_BURST])
+            if len(self._send_cache) >= MEMO_SIZE:
+                self._send_cache.clear()
+            self._send_cache[key] = ops
         self._room = False
-        return ops
+        return list(ops)
 
-    def batch(self, ops: Sequence[dict[str, Any]]) -> list[Any]:
-        """One round trip; the wall-clock allowance covers every wait's simulated timeout."""
-        waits = sum(op["timeout_ns"] for op in ops if op["op"] == "wait")
-        return self.rack.call({"op": "batch", "ops": ops}, waits / 1e9)
+    def batch(self, ops: Sequence[dict[str, Any]], wait_ns: int = 0) -> list[Any]:
+        """One round trip; `wait_ns`, the sum of its waits' timeouts, extends the wall-clock
+        allowance for the reply."""
+        return self.rack.call({"op": "batch", "ops": ops}, wait_ns / 1e9)
 
     # -- commands -------------------------------------------------------------------------------
     def command(self, data: bytes, replies: int) -> Reply:
@@ -145,45 +153,49 @@ class DmcBus:
         timeout_ns = self._timeout_ns()
         ops = self._send_ops(data, timeout_ns)
         sent = len(ops)
+        waits = sum(1 for op in ops if op["op"] == "wait") + 1
         owed, self.owed = self.owed, 0
         want = owed + replies
         reads = self._reply_len.get(data, FIRST_READS * replies) + owed
-        got = bytearray()
+        data_wait = self._wait(Reg.CONTROL, _READ_EMPTY, 0, timeout_ns)
+        got = b""
         while True:
-            ops.append(self._wait(Reg.CONTROL, Status.READ_EMPTY, 0, timeout_ns))
+            ops.append(data_wait)
             ops.extend([self._read] * reads)
             ops.append(self._status)
-            res = self.batch(ops)
-            if not _fired(res[:sent]):  # a burst found no room: part of the line is not in
+            res = self.batch(ops, waits * timeout_ns)
+            if sent and not _fired(res[:sent]):  # a burst found no room: part of the line is out
                 self.owed, self.stale = owed, True
                 return Reply(b"", timed_out=True)
             if not res[-reads - 2]["fired"]:
                 break
             got += b"".join(res[-reads - 1:-1]).split(b"\xff", 1)[0]
             status = res[-1][0]
-            self._room = not status & Status.WRITE_ALMOST_FULL
+            self._room = not status & _ALMOST_FULL
             if _count(got) >= want:
-                self.stale = not status & Status.READ_EMPTY
+                self.stale = not status & _READ_EMPTY
                 break
-            ops, sent = [], 0
+            ops, sent, waits = [], 0, 1
             reads = min(max(FIRST_READS, 4 * len(got)), FIFO_SIZE)
         answered = _count(got)
         if answered < want:
             self.owed = want - answered  # the card may still answer: those replies are not ours
             self.stale = True
-        own = self._split_owed(bytes(got), owed)
+        own = self._split_owed(got, owed) if owed else got
         if answered >= want:
             self._remember(data, len(own))
         return Reply(own, timed_out=answered < want)
 
     def send(self, data: bytes, replies: int) -> None:
         """Write without reading the reply (DMCFastCommand); the card owes `replies` answers."""
-        ops = self._send_ops(data, self._timeout_ns())
+        timeout_ns = self._timeout_ns()
+        ops = self._send_ops(data, timeout_ns)
+        waits = sum(1 for op in ops if op["op"] == "wait")
         ops.append(self._status)
-        res = self.batch(ops)
+        res = self.batch(ops, waits * timeout_ns)
         if not _fired(res[:-1]):
             self.stale = True
-        self._room = not res[-1][0] & Status.WRITE_ALMOST_FULL
+        self._room = not res[-1][0] & _ALMOST_FULL
         self.owed += replies
 
     def _split_owed(self, got: bytes, owed: int) -> bytes:
@@ -200,10 +212,10 @@ class DmcBus:
 
     def _remember(self, data: bytes, length: int) -> None:
         memo = self._reply_len
-        memo[data] = max(length, 1)
-        memo.move_to_end(data)
-        if len(memo) > MEMO_SIZE:
-            memo.popitem(last=False)
+        if memo.get(data) != length:
+            memo[data] = max(length, 1)
+            if len(memo) > MEMO_SIZE:
+                memo.popitem(last=False)
 
     def drain(self) -> None:
         """Read whatever waits in the READ FIFO into the unsolicited buffer, until bit 5 reads 1."""
@@ -212,8 +224,8 @@ class DmcBus:
             got = b"".join(res[:-1]).split(b"\xff", 1)[0]
             self._take_unsolicited(got)
             status = res[-1][0]
-            self._room = not status & Status.WRITE_ALMOST_FULL
-            if status & Status.READ_EMPTY:
+            self._room = not status & _ALMOST_FULL
+            if status & _READ_EMPTY:
                 self.stale = False
                 return
 
@@ -231,7 +243,7 @@ class DmcBus:
         ops = [self._status, *(self.write_op(Reg.CONTROL, b) for b in CLEAR_SEQUENCE), self._status]
         status = self.batch(ops)[-1][0]
         self.owed, self.stale = 0, False
-        self._room = not status & Status.WRITE_ALMOST_FULL
+        self._room = not status & _ALMOST_FULL
 
     def enable_interrupts(self) -> None:
         self.batch([self.write_op(Reg.CONTROL, b) for b in IRQ_ENABLE_SEQUENCE])
@@ -248,7 +260,8 @@ class DmcBus:
                                 "timeout_ns": timeout_ms * _NS_PER_MS}
         if after_seq is not None:
             wait["after_seq"] = after_seq
-        res = self.batch([wait, self.write_op(Reg.CONTROL, IRQ_STATUS_SELECT), self._status])
+        res = self.batch([wait, self.write_op(Reg.CONTROL, IRQ_STATUS_SELECT), self._status],
+                         wait["timeout_ns"])
         if not res[0]["fired"]:
             return 0, None
         return int(res[-1][0]), int(res[0]["event"]["seq"])
@@ -265,7 +278,7 @@ class DmcBus:
                self._wait(Reg.SECONDARY_STATUS, SecondaryStatus.BUSY, 0, timeout_ns),
                *([self._record_read] * size),
                freeze]
-        res = self.batch(ops)
+        res = self.batch(ops, 2 * timeout_ns)
         if not res[0]["fired"]:
             return None
         if not res[2]["fired"]:  # frozen, and the record never completed: resume the updates

@@ -115,8 +115,10 @@ class _Controller:
     owns_rack: bool
     timeout_ms: int = DEFAULT_TIMEOUT_MS
     additional: bytes = b""
+    refresh_rate: int = DEFAULT_REFRESH_RATE  # DR-n; 0: no data record access
+    record_on: bool = False  # DR-n sent since open or the last reset
     axes: int = 0
-    record_size: int = 0  # 0: no data record access (QZ refused, or refresh_rate 0)
+    record_size: int = 0  # from QZ
     record: bytes | None = None
     hwnd: Any = None
     unsolicited_out: bytearray = field(default_factory=bytearray)
@@ -147,6 +149,10 @@ def _set(param: Any, value: int) -> None:
 def _put(buffer: Any, size: int, data: bytes) -> bool:
     """Copy `data` NUL-terminated into a char buffer of `size` bytes; False if it was cut."""
     target = _target(buffer)
+    if (isinstance(target, ctypes.Array) and target._type_ is ctypes.c_char
+            and len(data) < min(size, len(target))):
+        target.value = data  # the common case, and the quickest copy ctypes has
+        return True
     room = min(int(size), ctypes.sizeof(target) if isinstance(target, ctypes.Array) else len(target))
     if room <= 0:
         return not data
@@ -212,7 +218,8 @@ def DMCOpen(usController: int, hwnd: Any, phdmc: Any, *, endpoint: str | None = 
             events: str | None = None, refresh_rate: int = DEFAULT_REFRESH_RATE) -> int:
     """Open controller `usController` (1-based, the n-th galil-dmc13x8 card of the rack) and write
     its handle to `phdmc`. A non-zero `hwnd` enables the card's interrupt output (2, 4 to N+3).
-    `refresh_rate`: the data record comes every 2^n samples (DR-n); 0 leaves it off."""
+    `refresh_rate`: the data record comes every 2^n samples (DR-n, sent when a record is first
+    needed: building records costs the card time); 0 means no data record access."""
     if phdmc is None:
         return DMCERROR_ARGUMENT
     _set(phdmc, -1)
@@ -246,11 +253,12 @@ def DMCOpenDesc(pszDescription: Any, hwnd: Any, phdmc: Any, pControllerNum: Any 
 
 def _open(rack: Rack, card: str, hwnd: Any, phdmc: Any, refresh_rate: int) -> int:
     """The library's opening sequence [dmclnx.c DMCOpen]: drain, ';' until ':' (a '>' is the
-    boot monitor), QZ and DR-n for the data record, clear the FIFOs, echo off."""
+    boot monitor), clear the FIFOs, echo off. QZ and DR-n wait for the first record."""
     global _next_handle
-    c = _Controller(DmcBus(rack, card, timeout_ms=DEFAULT_TIMEOUT_MS), owns_rack=True, hwnd=hwnd)
+    c = _Controller(DmcBus(rack, card, timeout_ms=DEFAULT_TIMEOUT_MS), owns_rack=True, hwnd=hwnd,
+                    refresh_rate=refresh_rate)
     try:
-        rc = _start(c, refresh_rate, hwnd)
+        rc = _start(c, hwnd)
     except BaseException:
         rack.close()
         raise
@@ -263,7 +271,7 @@ def _open(rack: Rack, card: str, hwnd: Any, phdmc: Any, refresh_rate: int) -> in
     return rc
 
 
-def _start(c: _Controller, refresh_rate: int, hwnd: Any) -> int:
+def _start(c: _Controller, hwnd: Any) -> int:
     bus = c.bus
     bus.drain()
     reply = Reply(b"", timed_out=True)
@@ -275,11 +283,6 @@ def _start(c: _Controller, refresh_rate: int, hwnd: Any) -> int:
         return DMCERROR_TIMEOUT
     if b">" in reply.data:
         return DMCWARNING_MONITOR
-    if refresh_rate:
-        qz = bus.command(b"QZ\r", 1)
-        sized = None if qz.timed_out or b"?" in qz.data else record_size(qz.data.decode("latin-1"))
-        if sized is not None and not bus.command(b"DR-%d\r" % refresh_rate, 1).timed_out:
-            c.axes, c.record_size = sized
     bus.clear()
     if hwnd:
         bus.enable_interrupts()
@@ -413,6 +416,7 @@ def _reset(c: _Controller, command: bytes) -> int:
     reply = c.bus.command(command, 1)
     rc = _reply(c, reply, None, 0)
     c.bus.forget()
+    c.record_on = False  # the reset turned the data record off
     if rc == DMCNOERROR:
         rc = _reply(c, c.bus.command(b"EO0\r", 1), None, 0)
     return rc
@@ -462,13 +466,31 @@ def DMCGetInterruptStatus(hdmc: Any, pusStatus: Any) -> int:
 
 
 # -- data record ---------------------------------------------------------------------------------------
+def _record_access(c: _Controller) -> bool:
+    """Turn the data record on if it is not (QZ sizes it, DR-n starts it) [dmclnx.c DMCOpen]."""
+    if c.record_on:
+        return True
+    if not c.refresh_rate:
+        return False
+    if not c.record_size:
+        qz = c.bus.command(b"QZ\r", 1)
+        sized = None if qz.timed_out or b"?" in qz.data else record_size(qz.data.decode("latin-1"))
+        if sized is None:
+            return False
+        c.axes, c.record_size = sized
+    dr = c.bus.command(b"DR-%d\r" % c.refresh_rate, 1)
+    c.record_on = not dr.timed_out and b"?" not in dr.data
+    return c.record_on
+
+
 @_guarded
 def DMCRefreshDataRecord(hdmc: Any, ulLength: int) -> int:
-    """Read a fresh data record from the secondary FIFO [M Ch4 §Polling Mode Read Procedure]."""
+    """Read a fresh data record from the secondary FIFO [M Ch4 §Polling Mode Read Procedure]: the
+    latest the card loaded (every 2^n samples), or the next one once the last was read."""
     c = _handle(hdmc)
     if c is None:
         return DMCERROR_HANDLE
-    if not c.record_size:
+    if not _record_access(c):
         return DMCERROR_DATARECORD
     record = c.bus.read_record(c.record_size)
     if record is None:
@@ -529,7 +551,7 @@ def DMCGetDataRecordSize(hdmc: Any, pusRecordSize: Any) -> int:
         return DMCERROR_HANDLE
     if pusRecordSize is None:
         return DMCERROR_ARGUMENT
-    if not c.record_size:
+    if not _record_access(c):
         return DMCERROR_DATARECORD
     _set(pusRecordSize, c.record_size)
     return DMCNOERROR
@@ -559,7 +581,7 @@ def DMCGetDataRecordRevision(hdmc: Any, pusRevision: Any) -> int:
         return DMCERROR_HANDLE
     if pusRevision is None:
         return DMCERROR_ARGUMENT
-    if not c.record_size:
+    if not _record_access(c):
         return DMCERROR_DATARECORD
     _set(pusRevision, 4)
     return DMCNOERROR

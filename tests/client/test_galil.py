@@ -229,6 +229,17 @@ def test_data_record_after_a_move(h: ctypes.c_long) -> None:
     assert galil.DMCGetDataRecordRevision(h, ctypes.byref(revision)) == OK and revision.value == 4
 
 
+def test_the_data_record_is_turned_on_when_first_needed_and_again_after_a_reset(
+        h: ctypes.c_long) -> None:
+    assert command(h, "MG _DR") == (OK, b" 0000000000.0000\r\n:")  # open leaves the card alone
+    size = ctypes.c_ushort()
+    assert galil.DMCGetDataRecordSize(h, ctypes.byref(size)) == OK and size.value == 152
+    assert command(h, "MG _DR") == (OK, b" 0000000004.0000\r\n:")  # DR-4, the library default
+    assert galil.DMCReset(h) == OK  # RS turns the record off
+    assert galil.DMCRefreshDataRecord(h, 0) == OK
+    assert command(h, "MG _DR") == (OK, b" 0000000004.0000\r\n:")
+
+
 def test_data_record_items_outside_the_record_are_DMCERROR_DATARECORD(h: ctypes.c_long) -> None:
     kind, value = ctypes.c_ushort(0), ctypes.c_long()
     assert galil.DMCGetDataRecord(h, 0, 0, ctypes.byref(kind), ctypes.byref(value)) \
@@ -287,6 +298,7 @@ def test_commands_cost_at_most_two_round_trips(h: ctypes.c_long, monkeypatch: py
         assert galil.DMCFastCommand(h, "MG 7") == OK
         assert command(h, "TPY") == (OK, b"0000000000\r\n:")
         assert trips.count == 2
+        assert galil.DMCRefreshDataRecord(h, 0) == OK  # the first: QZ and DR-4 besides
         trips.reset()
         status = ctypes.c_ushort()
         assert galil.DMCGetInterruptStatus(h, ctypes.byref(status)) == OK

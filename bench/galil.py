@@ -1,0 +1,288 @@
+"""Galil DMC-13X8 command round trip: `galil.DMCCommand(h, "TPX")` and `gclib.py().GCommand("TPX")`
+against a lockstep daemon with one galil-dmc13x8 card, as ratios of a raw pyzmq REQ/REP round
+trip measured in the same run with the same placement.
+
+Goal: p50 <= 2.5x the raw round trip.
+
+Method as bench/rtt.py (its baseline server, bench/raw_server.py, and its block timing): the
+servers run on the server cpu, this process is the client; after a warm-up, each repeat times `n`
+calls of every series in short blocks in a fresh random order per block. A command is one batch
+(PROTOCOL.md) [4 writes of "TPX\\r" to N+1, wait N+3 bit 5 = 0, 13 reads of N+1, read N+3]: the
+wait makes the lockstep daemon run one servo tick of the card, in which the card decodes TPX and
+queues its reply. Three diagnostic series split the cost: a one-op register read of the same card
+(the round trip floor through vdevd), a lockstep `sim step` of one tick (a round trip that runs
+one idle servo tick of the card) and DMCCommand's batch replayed through `Rack.call` without the
+library (what the daemon and the card take for it). The round trips per call are counted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import ctypes
+import random
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+if __package__ in (None, ""):  # run as a script: python bench/galil.py
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import msgpack  # noqa: E402
+import zmq  # noqa: E402
+
+from bench.common import (  # noqa: E402
+    BENCH_DIR,
+    DIST_HEADERS,
+    child,
+    connect,
+    daemon,
+    dist,
+    dist_row,
+    free_port,
+    install_signal_handlers,
+    ns_dist_to_us,
+    pin_self,
+    placement,
+    table,
+    verdict,
+    write_json,
+)
+from bench.rtt import RAW, time_block  # noqa: E402
+
+GOAL_P50 = 2.5
+COMMAND = "TPX"
+CARD = "galil0"
+
+DMC = f'galil.DMCCommand(h, "{COMMAND}")'
+GCLIB = f'gclib.py().GCommand("{COMMAND}")'
+READ = "diag: Region.read of N+3 (one op)"
+TICK = "diag: sim step of one tick"
+REPLAY = "diag: DMCCommand's batch via Rack.call"
+
+
+def galil_card(name: str = CARD) -> str:
+    """A [[card]] table of one DMC-13X8 with its defaults (4 axes, servo plant, TM 1000)."""
+    return f'[[card]]\ntype = "galil-dmc13x8"\nname = "{name}"\n'
+
+
+def raw_client(stack: contextlib.ExitStack, ctx: zmq.Context[Any], endpoint: str) -> Callable[[], Any]:
+    """rtt.py's baseline request: msgpack [op, region, offset, size] to bench/raw_server.py."""
+    req = ctx.socket(zmq.REQ)
+    stack.callback(req.close)
+    req.linger = 0
+    req.rcvtimeo = 10_000
+    req.connect(endpoint)
+    body = msgpack.packb([1, "a16", 3, 1])
+    unpackb = msgpack.unpackb
+
+    def raw_read() -> Any:  # the client unpacks the reply, as vdevclient does
+        req.send(body)
+        return unpackb(req.recv())
+
+    return raw_read
+
+
+def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin: str = "split",
+        diag: bool = True, seed: int = 1) -> dict[str, Any]:
+    from vdevclient import galil, gclib
+    from vdevclient.core import Rack
+
+    server_cpus, client_cpus, where = placement(pin)
+    pin_self(client_cpus)
+    ctx: zmq.Context[Any] = zmq.Context.instance()
+    series: dict[str, list[list[int]]] = {}
+    with contextlib.ExitStack() as stack:
+        tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="vdevd-bench-")))
+        raw_ep = f"tcp://127.0.0.1:{free_port()}"
+        raw_server = stack.enter_context(child(
+            [sys.executable, str(BENCH_DIR / "raw_server.py"), raw_ep], server_cpus, tmp / "raw.log"))
+        d = stack.enter_context(daemon(galil_card(), "lockstep", server_cpus))
+        pin_self(client_cpus)  # zmq's I/O threads exist now; keep them with the client
+        raw_read = raw_client(stack, ctx, raw_ep)
+        try:
+            raw_read()
+        except zmq.Again:
+            raw_server.check_alive("raw server")
+            raise RuntimeError("the raw REP server did not answer") from None
+
+        rack = connect(d)  # waits until the daemon answers
+        stack.callback(rack.close)
+        h = ctypes.c_long()
+        rc = galil.DMCOpen(1, 0, ctypes.byref(h), endpoint=d.endpoint, events=d.events)
+        if rc != galil.DMCNOERROR:
+            raise RuntimeError(f"DMCOpen returned {rc}")
+        stack.callback(galil.DMCClose, h)
+        g = gclib.py()
+        g.GOpen(f"{CARD} --endpoint {d.endpoint} --events {d.events}")
+        stack.callback(g.GClose)
+        buf = ctypes.create_string_buffer(256)
+
+        def dmc() -> bytes:
+            if galil.DMCCommand(h, COMMAND, buf, 256) != galil.DMCNOERROR:
+                raise RuntimeError(f"DMCCommand({COMMAND!r}) failed: {buf.value!r}")
+            return buf.value
+
+        def gcommand() -> str:
+            return g.GCommand(COMMAND)
+
+        fns: dict[str, Callable[[], Any]] = {RAW: raw_read, DMC: dmc, GCLIB: gcommand}
+        batch_ops = 0
+        if diag:
+            a16 = rack.card(CARD).region("a16")
+            fns[READ] = lambda: a16.read(3, 1)
+            fns[TICK] = lambda: rack.sim.step(ticks=1)
+            fns[REPLAY], batch_ops = replay_of(dmc, rack)
+
+        counts = count_round_trips(Rack, {DMC: dmc, GCLIB: gcommand}, 200)
+        now0 = rack.sim.now_ns()
+        dmc()
+        card_ns = rack.sim.now_ns() - now0
+
+        names = list(fns)
+        rng = random.Random(seed)
+        for _ in range(max(1, warmup // block)):  # warm-up, interleaved like the timed part
+            for name in names:
+                time_block(fns[name], block, [])
+        for _ in range(repeats):
+            runs: dict[str, list[int]] = {name: [] for name in names}
+            for _ in range(max(1, n // block)):
+                order = names[:]
+                rng.shuffle(order)  # a fresh order every block: no series always follows another
+                for name in order:
+                    time_block(fns[name], block, runs[name])
+            for name in names:
+                series.setdefault(name, []).append(runs[name])
+        stats = rack.stats()
+
+    def us(samples: list[int]) -> list[float]:
+        return [s / 1000 for s in samples]
+
+    dists = {name: dist(us([s for run_ in runs for s in run_])) for name, runs in series.items()}
+    raw = dists[RAW]
+    per_repeat = []
+    for i, raw_run in enumerate(series[RAW]):
+        raw_r = dist(us(raw_run))
+        row = {"raw_p50": raw_r["p50"], "raw_p99": raw_r["p99"]}
+        for key, name in (("dmc", DMC), ("gclib", GCLIB)):
+            d_r = dist(us(series[name][i]))
+            row[f"{key}_ratio_p50"] = d_r["p50"] / raw_r["p50"]
+            row[f"{key}_ratio_p99"] = d_r["p99"] / raw_r["p99"]
+        per_repeat.append(row)
+    ratios = {name: {"p50": dists[name]["p50"] / raw["p50"], "p99": dists[name]["p99"] / raw["p99"]}
+              for name in (DMC, GCLIB)}
+    return {
+        "figure": "galil",
+        "placement": where,
+        "params": {"n": n, "repeats": repeats, "warmup": warmup, "block": block,
+                   "command": COMMAND, "transport": "tcp loopback", "clock": "lockstep"},
+        "series": dists,
+        "per_repeat": per_repeat,
+        "ratios": ratios,
+        "round_trips": counts,
+        "batch_ops": batch_ops,
+        "card_ns_per_command": card_ns,
+        "daemon_latency_us": ns_dist_to_us(stats["requests"]["latency_ns"]),
+        "goal": f"p50 <= {GOAL_P50}x raw REQ/REP",
+        "pass": all(r["p50"] <= GOAL_P50 for r in ratios.values()),
+    }
+
+
+def replay_of(dmc: Callable[[], Any], rack: Any) -> tuple[Callable[[], Any], int]:
+    """A call that sends the batch DMCCommand sends once it knows the reply's length, through
+    `rack` (no library around it), and the number of ops in that batch."""
+    seen: list[dict[str, Any]] = []
+    call = type(rack).call
+
+    def spy(self: Any, message: dict[str, Any], wait_s: float = 0.0) -> Any:
+        seen.append(message)
+        return call(self, message, wait_s)
+
+    dmc()  # the first call reads 32 bytes; from the second on, as many as the reply has
+    type(rack).call = spy
+    try:
+        dmc()
+    finally:
+        type(rack).call = call
+    ops = list(seen[-1]["ops"])
+
+    def replay() -> Any:
+        return rack.call({"op": "batch", "ops": ops}, 1.0)
+
+    return replay, len(ops)
+
+
+def count_round_trips(rack_class: Any, fns: dict[str, Callable[[], Any]], n: int) -> dict[str, Any]:
+    """Requests per call of each function over `n` calls: {name: {mean, max}}."""
+    call = rack_class.call
+    counts: list[int] = []
+
+    def spy(self: Any, message: dict[str, Any], wait_s: float = 0.0) -> Any:
+        counts[-1] += 1
+        return call(self, message, wait_s)
+
+    out: dict[str, Any] = {}
+    rack_class.call = spy
+    try:
+        for name, fn in fns.items():
+            per_call = []
+            for _ in range(n):
+                counts.append(0)
+                fn()
+                per_call.append(counts[-1])
+            out[name] = {"mean": sum(per_call) / n, "max": max(per_call)}
+    finally:
+        rack_class.call = call
+    return out
+
+
+def report(r: dict[str, Any]) -> None:
+    p = r["params"]
+    raw = r["series"][RAW]
+    table([*DIST_HEADERS, "p50/raw", "p99/raw"],
+          [[*dist_row(name, d), d["p50"] / raw["p50"], d["p99"] / raw["p99"]]
+           for name, d in r["series"].items()],
+          title=f'Galil "{p["command"]}" round trip (lockstep), us; {p["repeats"]} x {p["n"]} per '
+                f"series, placement {r['placement']}")
+    rows = [[i + 1, x["raw_p50"], x["dmc_ratio_p50"], x["gclib_ratio_p50"], x["raw_p99"],
+             x["dmc_ratio_p99"], x["gclib_ratio_p99"]] for i, x in enumerate(r["per_repeat"])]
+    table(["repeat", "raw p50", "DMC p50/raw", "gclib p50/raw", "raw p99", "DMC p99/raw",
+           "gclib p99/raw"], rows)
+    trips = ", ".join(f"{name}: {c['mean']:.2f} (max {c['max']})" for name, c in r["round_trips"].items())
+    print(f"round trips per call: {trips}; card time per command {r['card_ns_per_command'] / 1e6:g} ms")
+    lat = r["daemon_latency_us"]
+    print(f"daemon's own handling time per request (stats, last 64k): p50 {lat.get('p50', 0):.1f} us, "
+          f"p99 {lat.get('p99', 0):.1f} us")
+    if r["batch_ops"]:
+        p50 = {name: d["p50"] for name, d in r["series"].items()}
+        print(f"where the p50 goes: galil library {p50[DMC] - p50[REPLAY]:+.1f} us (DMCCommand vs its "
+              f"batch replayed), the batch's {r['batch_ops']} ops and TPX's decoding "
+              f"{p50[REPLAY] - p50[TICK]:+.1f} us (vs an idle tick), lockstep's tick "
+              f"{p50[TICK] - p50[READ]:+.1f} us (sim step vs a one-op read), vdevd round trip "
+              f"{p50[READ] - p50[RAW]:+.1f} us (vs raw REQ/REP)")
+    for name, ratio in r["ratios"].items():
+        print(f"{name} / raw: p50 {ratio['p50']:.2f}x (goal <= {GOAL_P50}), p99 {ratio['p99']:.2f}x"
+              f"  ->  {verdict(ratio['p50'] <= GOAL_P50)}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--n", type=int, default=3000, help="calls per series per repeat")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--warmup", type=int, default=1000)
+    ap.add_argument("--block", type=int, default=5, help="calls per alternating block")
+    ap.add_argument("--pin", choices=("split", "same", "none"), default="split")
+    ap.add_argument("--no-diag", action="store_true", help="skip the two diagnostic series")
+    ap.add_argument("--json", nargs="?", const="", help="write JSON (default: bench/results/)")
+    a = ap.parse_args()
+    install_signal_handlers()
+    r = run(a.n, a.repeats, a.warmup, a.block, a.pin, diag=not a.no_diag)
+    report(r)
+    if a.json is not None:
+        print(f"results: {write_json(r, a.json, 'galil')}")
+
+
+if __name__ == "__main__":
+    main()
