@@ -345,13 +345,13 @@ AXIS_ITEMS: tuple[tuple[str, int, str], ...] = (
 )
 
 
-def record_size(qz: str) -> tuple[int, int] | None:
-    """(axes, record size) from a `QZ` reply "axes,general,coordinated,per axis", else None."""
+def record_size(qz: str) -> int | None:
+    """The record size from a `QZ` reply "axes,general,coordinated,per axis", else None."""
     try:
         axes, general, coordinated, per_axis = (int(x) for x in qz.split(":")[0].split(","))
     except ValueError:
         return None
-    return axes, general + coordinated + axes * per_axis
+    return general + coordinated + axes * per_axis
 
 
 def decode_record(record: bytes, axes: int, letters: str = "ABCDEFGH") -> dict[str, int]:

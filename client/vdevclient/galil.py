@@ -7,7 +7,7 @@ negative `DMCERROR_*`) and writes its results through ctypes output parameters::
     h = ctypes.c_long()
     rc = galil.DMCOpen(1, 0, ctypes.byref(h))             # the first galil-dmc13x8 card
     buf = ctypes.create_string_buffer(256)
-    rc = galil.DMCCommand(h, "TPX", buf, ctypes.sizeof(buf))  # buf.value == b" 0000000000\\r\\n:"
+    rc = galil.DMCCommand(h, "TPX", buf, ctypes.sizeof(buf))  # buf.value == b"0000000000\\r\\n:"
 
 Output parameters may be `ctypes.byref(x)`, `ctypes.pointer(x)` or the ctypes object itself; a
 handle may be passed as an int or a `c_long`. Strings may be `str`, `bytes` or a ctypes char buffer.
@@ -22,7 +22,7 @@ import ctypes
 import functools
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import zmq
@@ -108,20 +108,19 @@ for _enum in (DMCDataRecordTypes, DMCDataRecordItemIds, DMCDataRecordAxisIds,
               REV4DMCDataRecordGeneralOffsets, REV4DMCDataRecordAxisOffsets):
     globals().update(_enum.__members__)
 
+
 # -- open controllers ---------------------------------------------------------------------------------
 @dataclass
 class _Controller:
+    """An open handle: its connection and what the library keeps for it."""
+
     bus: DmcBus
-    owns_rack: bool
-    timeout_ms: int = DEFAULT_TIMEOUT_MS
-    additional: bytes = b""
+    timeout_ms: int = DEFAULT_TIMEOUT_MS  # as set; the bus holds the one it waits (0 -> a bound)
+    additional: bytes = b""  # what the last response buffer could not hold
     refresh_rate: int = DEFAULT_REFRESH_RATE  # DR-n; 0: no data record access
     record_on: bool = False  # DR-n sent since open or the last reset
-    axes: int = 0
     record_size: int = 0  # from QZ
-    record: bytes | None = None
-    hwnd: Any = None
-    unsolicited_out: bytearray = field(default_factory=bytearray)
+    record: bytes | None = None  # the last refreshed record
 
 
 _controllers: dict[int, _Controller] = {}
@@ -255,8 +254,7 @@ def _open(rack: Rack, card: str, hwnd: Any, phdmc: Any, refresh_rate: int) -> in
     """The library's opening sequence [dmclnx.c DMCOpen]: drain, ';' until ':' (a '>' is the
     boot monitor), clear the FIFOs, echo off. QZ and DR-n wait for the first record."""
     global _next_handle
-    c = _Controller(DmcBus(rack, card, timeout_ms=DEFAULT_TIMEOUT_MS), owns_rack=True, hwnd=hwnd,
-                    refresh_rate=refresh_rate)
+    c = _Controller(DmcBus(rack, card, timeout_ms=DEFAULT_TIMEOUT_MS), refresh_rate=refresh_rate)
     try:
         rc = _start(c, hwnd)
     except BaseException:
@@ -296,8 +294,7 @@ def DMCClose(hdmc: Any) -> int:
     c = _controllers.pop(getattr(hdmc, "value", hdmc), None)
     if c is None:
         return DMCERROR_HANDLE
-    if c.owns_rack:
-        c.bus.rack.close()
+    c.bus.rack.close()
     return DMCNOERROR
 
 
@@ -474,10 +471,10 @@ def _record_access(c: _Controller) -> bool:
         return False
     if not c.record_size:
         qz = c.bus.command(b"QZ\r", 1)
-        sized = None if qz.timed_out or b"?" in qz.data else record_size(qz.data.decode("latin-1"))
-        if sized is None:
+        size = None if qz.timed_out or b"?" in qz.data else record_size(qz.data.decode("latin-1"))
+        if size is None:
             return False
-        c.axes, c.record_size = sized
+        c.record_size = size
     dr = c.bus.command(b"DR-%d\r" % c.refresh_rate, 1)
     c.record_on = not dr.timed_out and b"?" not in dr.data
     return c.record_on
