@@ -23,7 +23,7 @@ HARD_MAX_MESSAGE = 4 * MAX_MESSAGE
 #: The longest wait or step a request may ask for, in simulated ns (one day).
 MAX_WAIT_NS = 86_400 * 1_000_000_000
 
-CAPABILITIES = ("read", "write", "batch", "wait.irq", "wait.value", "sim", "control", "stats", "sync")
+CAPABILITIES = ("read", "write", "rep", "batch", "wait.irq", "wait.value", "sim", "control", "stats", "sync")
 
 
 
@@ -49,8 +49,10 @@ _LIST = list
 #: op -> the fields it takes beside `id`, `op` and `v` (proto/PROTOCOL.md, "Operations").
 SCHEMA: dict[str, dict[str, Field]] = {
     "hello": {"client": _f(_STR, False)},
-    "read": {"card": _f(_STR), "region": _f(_STR), "offset": _f(_INT), "size": _f(_INT)},
-    "write": {"card": _f(_STR), "region": _f(_STR), "offset": _f(_INT), "data": _f(_BYTES)},
+    "read": {"card": _f(_STR), "region": _f(_STR), "offset": _f(_INT), "size": _f(_INT),
+             "rep": _f(bool, False)},
+    "write": {"card": _f(_STR), "region": _f(_STR), "offset": _f(_INT), "data": _f(_BYTES),
+              "rep": _f(bool, False)},
     "batch": {"ops": _f(_LIST)},
     "wait": {
         "card": _f(_STR),

@@ -245,8 +245,16 @@ class Rack:
             self._driving = True
             if self._loop is None:
                 self._drive_sync()
-            else:
-                self._loop.create_task(self._drive())
+                return
+            # The first chunk at once: a wait that resolves in it (a reply at the next tick)
+            # costs no trip through the event loop; the rest runs as a task, between requests.
+            try:
+                self._drive_step()
+            finally:
+                if self._waiters:
+                    self._loop.create_task(self._drive())
+                else:
+                    self._driving = False
 
     def _lockstep_target(self) -> tuple[int, bool]:
         """Where lockstep time goes next, and whether it must go tick by tick."""
@@ -353,7 +361,10 @@ class Rack:
         return self.hello()
 
     def op_read(self, args: dict[str, Any], reply: Reply) -> Any:
-        return self.region(args["card"], args["region"]).read(args["offset"], args["size"])
+        region = self.region(args["card"], args["region"])
+        if args.get("rep"):
+            return region.read_rep(args["offset"], args["size"])
+        return region.read(args["offset"], args["size"])
 
     def read(self, card: str, region: str, offset: int, size: int) -> bytes:
         """A `read` request on the hot path (protocol.read_fields): the same effects and
@@ -371,7 +382,11 @@ class Rack:
             raise
 
     def op_write(self, args: dict[str, Any], reply: Reply) -> Any:
-        self.region(args["card"], args["region"]).write(args["offset"], args["data"])
+        region = self.region(args["card"], args["region"])
+        if args.get("rep"):
+            region.write_rep(args["offset"], args["data"])
+        else:
+            region.write(args["offset"], args["data"])
         return None
 
     def op_batch(self, args: dict[str, Any], reply: Reply) -> Any:

@@ -19,6 +19,8 @@ Endian = Literal["little", "big"]
 ReadHook = Callable[[int, int], bytes]
 WriteHook = Callable[[int, bytes], None]
 PeekHook = Callable[[int, int], bytes]
+RepReadHook = Callable[[int, int], bytes]
+RepWriteHook = Callable[[int, bytes], None]
 
 _FORMATS = {1: "B", 2: "H", 4: "I", 8: "Q"}
 
@@ -32,6 +34,9 @@ class Hook:
     on_read: ReadHook | None = None
     on_write: WriteHook | None = None
     peek: PeekHook | None = None
+    #: optional fast paths of a repeated access (`read_rep`/`write_rep`), same effect as the loop
+    on_read_rep: RepReadHook | None = None
+    on_write_rep: RepWriteHook | None = None
 
     @property
     def end(self) -> int:
@@ -85,9 +90,12 @@ class Region:
         on_read: ReadHook | None = None,
         on_write: WriteHook | None = None,
         peek: PeekHook | None = None,
+        on_read_rep: RepReadHook | None = None,
+        on_write_rep: RepWriteHook | None = None,
     ) -> Hook:
-        """Declare a register with side effects; hooks may not overlap."""
-        h = Hook(offset, size, on_read, on_write, peek)
+        """Declare a register with side effects; hooks may not overlap. `on_read_rep(offset,
+        size)`/`on_write_rep(offset, data)` may serve a repeated access in one call."""
+        h = Hook(offset, size, on_read, on_write, peek, on_read_rep, on_write_rep)
         if offset < 0 or h.end > self.size:
             raise ValueError(f"region {self.name}: hook at {offset:#x} outside the region")
         i = bisect.bisect_left(self._starts, offset)
@@ -135,6 +143,41 @@ class Region:
             return
         for o, n in self._pieces(offset, size):
             self._write_one(o, data[o - offset : o - offset + n])
+
+    def read_rep(self, offset: int, size: int) -> bytes:
+        """A repeated read (string I/O, Linux `ioread8_rep`): `size` bytes read as single accesses
+        of the bus's smallest width, all at `offset` (a FIFO port)."""
+        unit = self._unit
+        self._check_rep(offset, size)
+        h = self._register(offset, unit)
+        if h is not None and h.on_read_rep is not None:
+            data = h.on_read_rep(offset, size)
+            if len(data) != size:
+                raise VdevError(ErrorCode.INTERNAL, f"hook at {offset:#x} returned {len(data)} bytes")
+            return data
+        return b"".join(self._read_one(offset, unit) for _ in range(size // unit))
+
+    def write_rep(self, offset: int, data: bytes) -> None:
+        """A repeated write: `data` written as single accesses of the smallest width, all at
+        `offset` (a FIFO port), in order."""
+        unit = self._unit
+        self._check_rep(offset, len(data))
+        h = self._register(offset, unit)
+        if h is not None and h.on_write_rep is not None:
+            h.on_write_rep(offset, bytes(data))
+            return
+        for i in range(0, len(data), unit):
+            self._write_one(offset, data[i : i + unit])
+
+    def _check_rep(self, offset: int, size: int) -> None:
+        unit = self._unit
+        self._check_bounds(offset, unit if size > 0 else 0)
+        if size % unit or (self.aligned and offset % unit):
+            raise VdevError(
+                ErrorCode.BAD_WIDTH,
+                f"region {self.name!r}: repeated access of {size} bytes at {offset:#x} is not "
+                f"a whole number of {unit}-byte accesses",
+            )
 
     def peek(self, offset: int, size: int) -> bytes:
         """Read with no side effects (wait conditions, `vdevctl peek --raw`, tests)."""

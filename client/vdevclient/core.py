@@ -286,6 +286,14 @@ class Region:
     def write(self, offset: int, data: bytes) -> None:
         self._req("write", offset=offset, data=bytes(data), **self._where)
 
+    def read_rep(self, offset: int, size: int) -> bytes:
+        """`size` bytes read from one register (a FIFO port), one bus access at a time."""
+        return self._req("read", offset=offset, size=size, rep=True, **self._where)
+
+    def write_rep(self, offset: int, data: bytes) -> None:
+        """`data` written to one register (a FIFO port), one bus access at a time."""
+        self._req("write", offset=offset, data=bytes(data), rep=True, **self._where)
+
     def _read_int(self, offset: int, size: int) -> int:
         return int.from_bytes(self.read(offset, size), self._endian)
 
@@ -320,11 +328,19 @@ class Region:
         return res["value"] if res["fired"] else None
 
     # -- batch ops --------------------------------------------------------------------------------
-    def read_op(self, offset: int, size: int) -> dict[str, Any]:
-        return {"op": "read", "offset": offset, "size": size, **self._where}
+    def read_op(self, offset: int, size: int, *, rep: bool = False) -> dict[str, Any]:
+        """A `read` for `Rack.batch`; `rep`: `size` bytes from one register (a FIFO port)."""
+        op = {"op": "read", "offset": offset, "size": size, **self._where}
+        if rep:
+            op["rep"] = True
+        return op
 
-    def write_op(self, offset: int, data: bytes) -> dict[str, Any]:
-        return {"op": "write", "offset": offset, "data": bytes(data), **self._where}
+    def write_op(self, offset: int, data: bytes, *, rep: bool = False) -> dict[str, Any]:
+        """A `write` for `Rack.batch`; `rep`: every byte to one register (a FIFO port)."""
+        op = {"op": "write", "offset": offset, "data": bytes(data), **self._where}
+        if rep:
+            op["rep"] = True
+        return op
 
     def wait_op(self, offset: int, value: int, *, mask: int | None = None, size: int = 4,
                 timeout_s: float = 1.0, equal: bool = True) -> dict[str, Any]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from tests.conftest import RawClient
 
 #: PROTOCOL.md, `hello`: what a v1 server implements, and the 1 MiB maximum message
-V1_CAPABILITIES = {"read", "write", "batch", "wait.irq", "wait.value", "sim", "control", "stats",
+V1_CAPABILITIES = {"read", "write", "rep", "batch", "wait.irq", "wait.value", "sim", "control", "stats",
                    "sync"}
 
 
