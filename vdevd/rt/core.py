@@ -344,22 +344,29 @@ class MotionCore:
 
     def _home_found(self, idx: np.ndarray) -> None:
         """Searching axes `idx` found their home switch: the encoder there becomes position 0,
-        without motion (the actual and commanded positions shift with it, so the following
-        error is unchanged), HOMED is set, and the axis stops with its search's deceleration."""
+        HOMED is set, and the axis stops with its search's deceleration."""
         if not len(idx):
             return
-        ax = self.axes
         for a in idx.tolist():
-            shift = -float(ax.fb[a])
-            ax.pos[a] += shift
-            ax.cmd_pos[a] += shift  # the stop below plans from the shifted command
-            self.stepper.gen[a] += shift
-            self._enc[a], ax.encoder[a], ax.fb[a] = 0.0, 0, 0.0
-            ax.flags[a] |= _HOMED
-            self.done_bits[a] = 0
-            self.target_valid[a] = False
-            self.profile.stop(a, float(self.last_dec[a]), float(self.last_jerk[a]))
-            self._after_plan(a)
+            self.axes.flags[a] |= _HOMED
+            self.redefine_and_stop(a, 0, float(self.last_dec[a]))
+
+    def redefine_and_stop(self, axis: int, counts: float, dec: float) -> None:
+        """A reference mark found at speed: the encoder reading of `axis` becomes `counts`
+        (whole counts) without motion (the actual and commanded positions shift with it, so the
+        following error is unchanged), and the axis decelerates to a stop with `dec` from there."""
+        a, ax = axis, self.axes
+        shift = float(np.rint(counts)) - float(ax.fb[a])
+        ax.pos[a] += shift
+        ax.cmd_pos[a] += shift  # the stop below plans from the shifted command
+        self.stepper.gen[a] += shift
+        enc = math.floor(float(np.rint(counts)) * float(self._scale[a]) + 1e-9)
+        self._enc[a], ax.encoder[a] = enc, enc
+        ax.fb[a] = enc * float(self._inv_scale[a])
+        self.done_bits[a] = 0
+        self.target_valid[a] = False
+        self.profile.stop(a, dec, float(self.last_jerk[a]))
+        self._after_plan(a)
         self.profile.commit()
 
     def stop(self, axes: Selector, dec: Any = None) -> None:

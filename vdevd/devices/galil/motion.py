@@ -133,7 +133,7 @@ class GalilMotion:
         self.core = MotionCore(n, period_ns, self.plant_kind)
         self.stepper = SmoothedStepper(n, self.dt)
         self.core.stepper = self.stepper
-        self.values: dict[str, np.ndarray] = {k: np.full(n, p.default) for k, p in PARAMS.items()}
+        self.values: dict[str, np.ndarray] = {k: np.full(n, float(p.default)) for k, p in PARAMS.items()}
         if self.plant_kind == PlantKind.STEPPER:
             self.values["MT"][:] = 2.0  # SM jumpers installed: the card is set up for steppers
         self.stepper.set_ks(self.values["KS"])
@@ -450,12 +450,11 @@ class GalilMotion:
             else:  # HM phase 2 complete: forward to the index
                 phase[a] = Phase.INDEX
                 self.core.jog(a, HOME_CREEP, v["AC"][a], v["DC"][a])
-        for a in np.flatnonzero(index).tolist():
+        for a in np.flatnonzero(index).tolist():  # the index becomes position 0, then DC
             boundary = max(k_now[a], k_prev[a]) * period[a] + self.index_phase[a]
-            self.core.set_position(a, float(enc[a] - boundary))
-            self._enc_prev[a] = self.core.axes.fb[a]
+            self.core.redefine_and_stop(a, float(enc[a] - boundary), float(v["DC"][a]))
+            enc[a] = self.core.axes.fb[a]
             phase[a] = Phase.INDEX_STOP
-            self.core.stop(a, v["DC"][a])
 
     def _finish(self, idx: np.ndarray) -> None:
         """Profiles that ended: the next homing phase, or the stop code of the move."""

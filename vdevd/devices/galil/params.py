@@ -30,6 +30,8 @@ class Param:
             return None
         if value in self.also:
             return value
+        if self.hi < value <= self.hi + _LSB or self.lo - _LSB <= value < self.lo:
+            value = min(max(value, self.lo), self.hi)  # 9.998 in 32.16 fixed point is a hair above
         if not self.lo <= value <= self.hi:
             return None
         if self.resolution:
@@ -42,6 +44,7 @@ class Param:
 
 
 _POS = 2_147_483_647.0
+_LSB = 1 / 65536  # the resolution of the card's numbers
 _ACC = Param(256_000, 1024, 67_107_840, 1024, 7, 0, round_down=True)
 
 #: every parameter command, by name (manual ch. 2 step 7-8, ch. 6; spec §1.3)
