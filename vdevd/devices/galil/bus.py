@@ -42,6 +42,12 @@ class SecondaryStatus(enum.IntFlag):
     NOT_EMPTY = 1 << 2
 
 
+# plain ints for the status reads: IntFlag arithmetic costs microseconds on every poll
+_READ_EMPTY, _ALMOST_FULL = int(ControlStatus.READ_EMPTY), int(ControlStatus.WRITE_ALMOST_FULL)
+_CLEARED = int(ControlStatus.CLEARED)
+_FREEZE, _NOT_EMPTY = int(SecondaryStatus.FREEZE), int(SecondaryStatus.NOT_EMPTY)
+
+
 class ControlWrite(enum.IntEnum):
     """Bytes of the CONTROL write sequences [M Ch4 §Changing Almost Full Flags, §Clearing FIFO Buffer,
     §Setting up Interrupts, §Servicing Interrupts]."""
@@ -124,8 +130,8 @@ class A16Window:
         self.freeze_mode = freeze_mode
         self._freeze_writes = _FREEZE_WRITES[freeze_mode]
         self.on_assert: Callable[[int], None] | None = None
-        #: clear sequences so far: the firmware drops a reply in progress and a held command
-        self.clears = 0
+        #: called at each clear sequence: the firmware drops a reply in progress and a held command
+        self.on_clear: Callable[[], None] | None = None
         self._command = bytearray()
         self._response = bytearray()
         self._record = bytearray()
@@ -181,6 +187,19 @@ class A16Window:
         elif offset in self._freeze_writes:
             action = self._freeze_writes[offset]
             self._frozen = action is _Freeze.SET or (action is _Freeze.TOGGLE and not self._frozen)
+
+    def read_data(self, n: int) -> bytes:
+        """`n` host reads of N+1 at once: the next n response bytes, 0xFF for each past the end."""
+        got = bytes(self._response[:n])
+        del self._response[:n]
+        return got + bytes((EMPTY_READ,)) * (n - len(got))
+
+    def write_data(self, data: bytes) -> None:
+        """Host writes of N+1, one per byte; the bytes that do not fit are lost."""
+        room = self.fifo_size - len(self._command)
+        if data[:room]:
+            self._command += data[:room]
+            self._cleared = False
 
     def peek(self, offset: int) -> int:
         """The byte `read` would give, with no side effects; N+3 is always the status byte."""
@@ -268,22 +287,18 @@ class A16Window:
 
     # -- internals ------------------------------------------------------------------------------
     def _status(self) -> int:
-        status = ControlStatus(0)
-        if not self._response:
-            status |= ControlStatus.READ_EMPTY
+        status = 0 if self._response else _READ_EMPTY
         if self.fifo_size - len(self._command) < self._level:
-            status |= ControlStatus.WRITE_ALMOST_FULL
+            status |= _ALMOST_FULL
         if self._cleared:
-            status |= ControlStatus.CLEARED
-        return int(status)
+            status |= _CLEARED
+        return status
 
     def _secondary_status(self) -> int:
-        status = SecondaryStatus(0)  # BUSY: records are loaded atomically
-        if self._frozen:
-            status |= SecondaryStatus.FREEZE
+        status = _FREEZE if self._frozen else 0  # BUSY: records are loaded atomically
         if self._record:
-            status |= SecondaryStatus.NOT_EMPTY
-        return int(status)
+            status |= _NOT_EMPTY
+        return status
 
     def _control(self, value: int) -> None:
         step = _CONTROL_SEQUENCES[self._seq].get(value) or _CONTROL_SEQUENCES[_Seq.IDLE].get(value)
@@ -294,7 +309,8 @@ class A16Window:
             self._command.clear()
             self._response.clear()
             self._cleared = True
-            self.clears += 1
+            if self.on_clear is not None:
+                self.on_clear()
         elif action is _Act.ENABLE_IRQ and not self.interrupts_enabled:
             self.interrupts_enabled = True
             if self._interrupts and self.on_assert is not None:

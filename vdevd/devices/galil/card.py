@@ -14,7 +14,7 @@ import numpy as np
 
 from vdevd.devices.base import Card, CardContext, Option, control
 from vdevd.devices.galil import syntax
-from vdevd.devices.galil.bus import FREEZE_MODES, WINDOW_SIZE, A16Window
+from vdevd.devices.galil.bus import FREEZE_MODES, WINDOW_SIZE, A16Reg, A16Window
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.interpreter import AXIS_LETTERS, OK, Interpreter, Trippoint
 from vdevd.devices.galil.motion import GalilMotion, StopCode
@@ -62,6 +62,8 @@ class GalilCard(Card):
                               help="secondary FIFO freeze control (README.md)"),
         "record_endian": Option(str, "little", choices=("little", "big"),
                                 help="byte order of the data record"),
+        "decode": Option(str, "arrival", choices=("arrival", "sample"),
+                         help="decode a command when its terminator arrives, or at the next sample"),
     }
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
@@ -78,13 +80,16 @@ class GalilCard(Card):
         self.irq_level = int(cfg.get("irq_level") or 5)
         self.plant = str(cfg.get("plant") or "servo")
         self.sm_jumper = self.plant == "stepper"
+        self.decode_on_arrival = str(cfg.get("decode") or "arrival") == "arrival"
         self.bus = A16Window(freeze_mode=str(cfg.get("freeze_mode") or "toggle_n5"))
         self.bus.on_assert = self._assert
+        self.bus.on_clear = self._cleared
         self.a16 = self.add_region(Region(
             "a16", WINDOW_SIZE, widths=(1,), endian="big", aligned=False,
             description="A16 short I/O, D08(O): FIFOs N+1, control N+3, secondary FIFO N+5/N+7"))
         self.a16.hook(0, WINDOW_SIZE, on_read=self._host_read, on_write=self._host_write,
-                      peek=self._host_peek)
+                      peek=self._host_peek, on_read_rep=self._host_read_rep,
+                      on_write_rep=self._host_write_rep)
         self.irq = self.add_irq("irq")
         self._dtype = record_dtype(self.n, str(cfg.get("record_endian") or "little"))
         self.env = _Env(self)
@@ -109,7 +114,6 @@ class GalilCard(Card):
         self.time_origin = self.ticks
         self._trip: Trippoint | None = None
         self._out = bytearray()
-        self._clears = self.bus.clears
 
     def reset(self) -> None:
         self.bus.reset()
@@ -125,8 +129,24 @@ class GalilCard(Card):
 
     def _host_write(self, offset: int, data: bytes) -> None:
         self.bus.write(offset, data[0])
-        if self.irq.asserted and not self.bus.line_asserted:
+        if offset == A16Reg.DATA and self.decode_on_arrival:
+            self._serve()  # the command it completes is decoded at once
+        elif self.irq.asserted and not self.bus.line_asserted:
             self.irq.clear()
+
+    def _host_read_rep(self, offset: int, size: int) -> bytes:
+        if offset == A16Reg.DATA:
+            return self.bus.read_data(size)
+        return bytes(self._host_read(offset, 1)[0] for _ in range(size))
+
+    def _host_write_rep(self, offset: int, data: bytes) -> None:
+        if offset == A16Reg.DATA:
+            self.bus.write_data(data)
+            if self.decode_on_arrival:
+                self._serve()
+        else:
+            for b in data:
+                self._host_write(offset, bytes((b,)))
 
     def _host_peek(self, offset: int, size: int) -> bytes:
         return bytes(self.bus.peek(o) for o in range(offset, offset + size))
@@ -142,10 +162,6 @@ class GalilCard(Card):
         if over is not None and self.ei_mask & Condition.EXCESS_ERROR:
             self.ei_mask &= ~Condition.EXCESS_ERROR
             self.interrupt(Status.EXCESS_ERROR)
-        if self.bus.clears != self._clears:  # "useful for emergency resets or Abort" [M Ch4]
-            self._clears = self.bus.clears
-            self._trip = None
-            self._out.clear()
         if self._out or self._trip is not None or self.bus.command_bytes():
             self._serve()
         rate = self.record_rate
@@ -194,6 +210,12 @@ class GalilCard(Card):
                 self._trip = result
             else:
                 self._reply(result)
+
+    def _cleared(self) -> None:
+        """The host cleared the FIFOs: "useful for emergency resets or Abort" [M Ch4]; a held
+        command-line trippoint and a reply in progress go too."""
+        self._trip = None
+        self._out.clear()
 
     def _execute(self, frame: syntax.Frame) -> bytes | Trippoint:
         if not frame.binary:

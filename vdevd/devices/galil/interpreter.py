@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -52,6 +53,11 @@ LATER: dict[str, int] = {
 }
 
 
+#: statements and axis lists repeat (a host polls `TPX`): parse each text once
+_split_statement = lru_cache(maxsize=512)(syntax.split_statement)
+_parse_axes = lru_cache(maxsize=512)(syntax.parse_axes)
+
+
 @dataclass
 class Trippoint:
     """A command-line trippoint: the interpreter waits until `ready()` (spec §5.7)."""
@@ -89,7 +95,7 @@ class Interpreter:
         try:
             if not text.strip():
                 return OK
-            stmt = syntax.split_statement(text)
+            stmt = _split_statement(text)
             handler = self.handlers.get(stmt.name)
             if handler is None:
                 raise GalilError(LATER.get(stmt.name, TC.UNRECOGNIZED_COMMAND), stmt.name)
@@ -110,7 +116,7 @@ class Interpreter:
         return text.encode("latin-1") + CRLF + OK
 
     def axes(self, arg: str) -> list[int]:
-        return list(syntax.parse_axes(arg, self.n).axes)
+        return list(_parse_axes(arg, self.n).axes)
 
     def per_axis(self, arg: str) -> list[tuple[int, str | object]]:
         """(axis, field) pairs of `PR 1,,3` / `PRX=1` / `PR*=1` / `PR ?`; field text or QUERY."""
