@@ -83,11 +83,7 @@ class DmcBus:
         self.timeout_ms = timeout_ms
         self.lockstep = rack.info.get("clock", {}).get("mode") == "lockstep"
         where = {"card": card, "region": REGION}
-        self._writes = [{"op": "write", "offset": Reg.DATA.value, "data": bytes([b]), **where}
-                        for b in range(256)]
-        self._read = {"op": "read", "offset": Reg.DATA.value, "size": 1, **where}
         self._status = {"op": "read", "offset": Reg.CONTROL.value, "size": 1, **where}
-        self._record_read = {"op": "read", "offset": Reg.SECONDARY_DATA.value, "size": 1, **where}
         self._where = where
         self._wait_cache: dict[tuple[int, int, int, int], dict[str, Any]] = {}
         self._send_cache: dict[tuple[bytes, bool, int], list[dict[str, Any]]] = {}
@@ -118,6 +114,14 @@ class DmcBus:
     def write_op(self, offset: int, value: int) -> dict[str, Any]:
         return {"op": "write", "offset": int(offset), "data": bytes([value]), **self._where}
 
+    def _fifo_write(self, data: bytes) -> dict[str, Any]:
+        """Bytes written one by one to N+1 (a repeated write: PROTOCOL.md `rep`)."""
+        return {"op": "write", "offset": int(Reg.DATA), "data": data, "rep": True, **self._where}
+
+    def _fifo_read(self, offset: int, size: int) -> dict[str, Any]:
+        """`size` single reads of one FIFO port (a repeated read: PROTOCOL.md `rep`)."""
+        return {"op": "read", "offset": int(offset), "size": size, "rep": True, **self._where}
+
     def _send_ops(self, data: bytes, timeout_ns: int) -> list[dict[str, Any]]:
         """Command bytes to N+1 in bursts, each after bit 4 of N+3 reads 0 [M Ch4 §Write Procedure];
         the first burst skips the wait when the last status read showed room."""
@@ -129,7 +133,7 @@ class DmcBus:
             for start in range(0, len(data), WRITE_BURST):
                 if start or not self._room:
                     ops.append(room_wait)
-                ops.extend(self._writes[b] for b in data[start:start + WRITE_BURST])
+                ops.append(self._fifo_write(data[start:start + WRITE_BURST]))
             if len(self._send_cache) >= MEMO_SIZE:
                 self._send_cache.clear()
             self._send_cache[key] = ops
@@ -145,7 +149,8 @@ class DmcBus:
     def command(self, data: bytes, replies: int) -> Reply:
         """Send `data` and read until `replies` ':' or '?' have come [DMCLIB DMCCommand].
 
-        One batch: [bursts of command bytes, wait bit 5 = 0, K reads of N+1, read N+3]. K is the
+        One batch: [bursts of command bytes, wait bit 5 = 0, K reads of N+1 (one repeated read),
+        read N+3]. K is the
         reply length this line had last time, else FIRST_READS per command; while replies are
         missing, further batches [wait, reads, status] read four times what came so far."""
         if self.stale:
@@ -161,15 +166,15 @@ class DmcBus:
         got = b""
         while True:
             ops.append(data_wait)
-            ops.extend([self._read] * reads)
+            ops.append(self._fifo_read(Reg.DATA, reads))
             ops.append(self._status)
             res = self.batch(ops, waits * timeout_ns)
             if sent and not _fired(res[:sent]):  # a burst found no room: part of the line is out
                 self.owed, self.stale = owed, True
                 return Reply(b"", timed_out=True)
-            if not res[-reads - 2]["fired"]:
+            if not res[-3]["fired"]:
                 break
-            got += b"".join(res[-reads - 1:-1]).split(b"\xff", 1)[0]
+            got += res[-2].split(b"\xff", 1)[0]
             status = res[-1][0]
             self._room = not status & _ALMOST_FULL
             if _count(got) >= want:
@@ -220,8 +225,8 @@ class DmcBus:
     def drain(self) -> None:
         """Read whatever waits in the READ FIFO into the unsolicited buffer, until bit 5 reads 1."""
         while True:
-            res = self.batch([*([self._read] * FIRST_READS), self._status])
-            got = b"".join(res[:-1]).split(b"\xff", 1)[0]
+            res = self.batch([self._fifo_read(Reg.DATA, FIRST_READS), self._status])
+            got = res[0].split(b"\xff", 1)[0]
             self._take_unsolicited(got)
             status = res[-1][0]
             self._room = not status & _ALMOST_FULL
@@ -276,7 +281,7 @@ class DmcBus:
                           timeout_ns),
                freeze,
                self._wait(Reg.SECONDARY_STATUS, SecondaryStatus.BUSY, 0, timeout_ns),
-               *([self._record_read] * size),
+               self._fifo_read(Reg.SECONDARY_DATA, size),
                freeze]
         res = self.batch(ops, 2 * timeout_ns)
         if not res[0]["fired"]:
@@ -284,7 +289,7 @@ class DmcBus:
         if not res[2]["fired"]:  # frozen, and the record never completed: resume the updates
             self.batch([freeze])
             return None
-        return b"".join(res[3:3 + size])
+        return bytes(res[3])
 
     # -- time --------------------------------------------------------------------------------------
     def pause(self, ms: int) -> None:

@@ -318,10 +318,9 @@ def test_each_burst_of_16_command_bytes_waits_for_the_almost_full_bit(
         if op["op"] == "wait" and op.get("mask") == 0x10:
             waited = True
         elif op["op"] == "write" and op["offset"] == 1:
-            if waited or not bursts:
-                bursts.append((waited, 0))
-                waited = False
-            bursts[-1] = (bursts[-1][0], bursts[-1][1] + 1)
+            assert op["rep"]  # one repeated write to N+1 per burst
+            bursts.append((waited, len(op["data"])))
+            waited = False
     assert [n for _, n in bursts] == [16, 16, 13]
     assert all(w for w, _ in bursts[1:])  # the first burst knew from the last status read
 
