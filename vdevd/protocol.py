@@ -85,7 +85,7 @@ SCHEMA: dict[str, dict[str, Field]] = {
     "sync": {"card": _f(_STR)},
 }
 _META = ("id", "op", "v")
-_SCHEMA_ITEMS = {op: tuple(fields.items()) for op, fields in SCHEMA.items()}
+_REQUIRED = {op: tuple(k for k, f in fields.items() if f.required) for op, fields in SCHEMA.items()}
 
 #: ops allowed inside a batch
 BATCHABLE = frozenset({"read", "write", "wait", "control"})
@@ -105,23 +105,19 @@ _unpack = msgpack.unpackb  # str keys only (strict_map_key), str as str, arrays 
 
 def validate(op: Any, fields: Mapping[Any, Any], req_id: Any = None) -> Request:
     """Check one operation's fields against SCHEMA; raise VdevError(MALFORMED/UNKNOWN_OP)."""
-    items = _SCHEMA_ITEMS.get(op) if isinstance(op, str) else None
-    if items is None:
+    schema = SCHEMA.get(op) if isinstance(op, str) else None
+    if schema is None:
         if not isinstance(op, str):
             raise VdevError(ErrorCode.MALFORMED, "field 'op' must be a string")
         raise VdevError(ErrorCode.UNKNOWN_OP, f"unknown op {op!r} (ops: {', '.join(SCHEMA)})")
     args: dict[str, Any] = {}
-    present = 0
-    for name, spec in items:
-        if name not in fields:
-            if spec.required:
-                raise VdevError(ErrorCode.MALFORMED, f"{op}: missing field {name!r}")
-            continue
-        present += 1
-        value = fields[name]
+    for name, value in fields.items():  # the fields given: fewer than the schema's, usually
+        spec = schema.get(name)
+        if spec is None:
+            if name in _META:
+                continue
+            raise VdevError(ErrorCode.MALFORMED, f"{op}: unknown field {name!r}")
         if value is None:
-            if spec.required:
-                raise VdevError(ErrorCode.MALFORMED, f"{op}: missing field {name!r}")
             continue
         if type(value) not in spec.types:
             raise VdevError(
@@ -129,10 +125,9 @@ def validate(op: Any, fields: Mapping[Any, Any], req_id: Any = None) -> Request:
                 f"{op}: field {name!r} has the wrong type ({type(value).__name__})",
             )
         args[name] = value
-    if len(fields) > present:
-        extra = [k for k in fields if k not in SCHEMA[op] and k not in _META]
-        if extra:
-            raise VdevError(ErrorCode.MALFORMED, f"{op}: unknown field {extra[0]!r}")
+    for name in _REQUIRED[op]:
+        if name not in args:
+            raise VdevError(ErrorCode.MALFORMED, f"{op}: missing field {name!r}")
     return Request(req_id, op, args)
 
 

@@ -149,8 +149,8 @@ class DmcBus:
     def command(self, data: bytes, replies: int) -> Reply:
         """Send `data` and read until `replies` ':' or '?' have come [DMCLIB DMCCommand].
 
-        One batch: [bursts of command bytes, wait bit 5 = 0, K reads of N+1 (one repeated read),
-        read N+3]. K is the
+        One batch: [bursts of command bytes, wait bit 5 = 0, K + 1 reads of N+1 (one repeated
+        read; an empty read gives 0xFF, so the last byte tells whether the FIFO is drained)]. K is the
         reply length this line had last time, else FIRST_READS per command; while replies are
         missing, further batches [wait, reads, status] read four times what came so far."""
         if self.stale:
@@ -166,19 +166,20 @@ class DmcBus:
         got = b""
         while True:
             ops.append(data_wait)
-            ops.append(self._fifo_read(Reg.DATA, reads))
-            ops.append(self._status)
+            ops.append(self._fifo_read(Reg.DATA, reads + 1))
             res = self.batch(ops, waits * timeout_ns)
             if sent and not _fired(res[:sent]):  # a burst found no room: part of the line is out
                 self.owed, self.stale = owed, True
                 return Reply(b"", timed_out=True)
-            if not res[-3]["fired"]:
+            if not res[-2]["fired"]:
                 break
-            got += res[-2].split(b"\xff", 1)[0]
-            status = res[-1][0]
-            self._room = not status & _ALMOST_FULL
+            chunk = res[-1]
+            got += chunk.split(b"\xff", 1)[0]
             if _count(got) >= want:
-                self.stale = not status & _READ_EMPTY
+                # Every reply came, so the card took every byte sent: the command FIFO is empty
+                # (only this host fills it). A 0xFF read means the READ FIFO was drained too.
+                self._room = True
+                self.stale = chunk[-1] != EMPTY_READ
                 break
             ops, sent, waits = [], 0, 1
             reads = min(max(FIRST_READS, 4 * len(got)), FIFO_SIZE)
