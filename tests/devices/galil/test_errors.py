@@ -83,3 +83,11 @@ def test_after_an_error_the_card_keeps_working(dmc: Dmc, line: str) -> None:
     dmc.refused(line)
     dmc.cmd("PR 250;BGX;AMX")
     assert dmc.value("RPX") == 250
+
+
+def test_bg_of_a_coordinate_system_without_a_sequence_is_tc_24(dmc: Dmc) -> None:
+    """`BG S` begins a vector sequence [M Ch5 §Coordinated Motion]; none can be defined yet, so
+    the card gives TC 24 "Begin not valid because no sequence defined" and moves nothing."""
+    assert dmc.refused("BG S") == 24
+    assert dmc.refused("BG TW") == 24
+    assert dmc.value("MG _BGW") == 0

@@ -172,8 +172,7 @@ def test_find_edge_moves_toward_the_transition_and_stops_past_it_with_dc(dmc: Dm
     Input]. The switch at `edge` reads 1 below it: forward from 0 to 1500, reverse to -1500."""
     speed, dec = 5000, stored_acc(256_000)
     dmc.control("set_home_edge", axis="X", position=edge)
-    dmc.step(TM_S)  # the card reads its inputs at the servo sample
-    level = dmc.value("MG _HMX")
+    level = dmc.value("MG _HMX")  # the switch reads at once
     assert level == (1 if edge > 0 else 0)
     dmc.cmd(f"SP {speed};AC 256000;DC 256000")
     dmc.cmd("FE X;BG X;AM X")

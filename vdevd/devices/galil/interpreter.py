@@ -184,7 +184,11 @@ class Interpreter:
 
     # -- motion ------------------------------------------------------------------------------------
     def _bg(self, arg: str) -> bytes:
-        self.card.motion.begin(self.axes(arg))
+        """BG axes; BG S/T needs a vector sequence, which this firmware has not yet (TC 24)."""
+        axes = _parse_axes(arg, self.n)
+        if axes.s or axes.t:
+            raise GalilError(24)
+        self.card.motion.begin(list(axes.axes))
         return OK
 
     def _st(self, arg: str) -> bytes:

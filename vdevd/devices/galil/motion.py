@@ -428,6 +428,8 @@ class GalilMotion:
         """The home input of axis a reads (position < edge), or its level when None."""
         self.home_edge[a] = np.nan if position is None else float(position)
         self._edges = not np.isnan(self.home_edge).all()
+        if position is not None:  # the input reads the switch at once, not at the next sample
+            self.home_input[a] = bool(self.core.axes.fb[a] < float(position))
 
     def _search_step(self, enc: np.ndarray) -> None:
         """Home input transitions and index pulses of the axes in an FE/FI/HM search."""
