@@ -7,12 +7,13 @@ Goal: p50 <= 2.5x the raw round trip.
 Method as bench/rtt.py (its baseline server, bench/raw_server.py, and its block timing): the
 servers run on the server cpu, this process is the client; after a warm-up, each repeat times `n`
 calls of every series in short blocks in a fresh random order per block. A command is one batch
-(PROTOCOL.md) [4 writes of "TPX\\r" to N+1, wait N+3 bit 5 = 0, 13 reads of N+1, read N+3]: the
-wait makes the lockstep daemon run one servo tick of the card, in which the card decodes TPX and
-queues its reply. Three diagnostic series split the cost: a one-op register read of the same card
-(the round trip floor through vdevd), a lockstep `sim step` of one tick (a round trip that runs
-one idle servo tick of the card) and DMCCommand's batch replayed through `Rack.call` without the
-library (what the daemon and the card take for it). The round trips per call are counted.
+(PROTOCOL.md) [a repeated write of "TPX\\r" to N+1, wait N+3 bit 5 = 0, a repeated read of 14
+bytes of N+1]: the card (decode = "arrival", its default) decodes TPX when the CR is written, so
+the wait holds at once and no servo tick runs. Three diagnostic series split the cost: a one-op
+register read of the same card (the round trip floor through vdevd), a lockstep `sim step` of one
+tick (what a command would cost more with decode = "sample", which decodes at the next tick) and
+DMCCommand's batch replayed through `Rack.call` without the library (what the daemon and the card
+take for it). The round trips per call are counted.
 """
 
 from __future__ import annotations
@@ -259,9 +260,9 @@ def report(r: dict[str, Any]) -> None:
         p50 = {name: d["p50"] for name, d in r["series"].items()}
         print(f"where the p50 goes: galil library {p50[DMC] - p50[REPLAY]:+.1f} us (DMCCommand vs its "
               f"batch replayed), the batch's {r['batch_ops']} ops and TPX's decoding "
-              f"{p50[REPLAY] - p50[TICK]:+.1f} us (vs an idle tick), lockstep's tick "
-              f"{p50[TICK] - p50[READ]:+.1f} us (sim step vs a one-op read), vdevd round trip "
-              f"{p50[READ] - p50[RAW]:+.1f} us (vs raw REQ/REP)")
+              f"{p50[REPLAY] - p50[READ]:+.1f} us (vs a one-op read), vdevd round trip "
+              f"{p50[READ] - p50[RAW]:+.1f} us (vs raw REQ/REP); a lockstep tick would add "
+              f"{p50[TICK] - p50[READ]:+.1f} us (sim step vs a one-op read)")
     for name, ratio in r["ratios"].items():
         print(f"{name} / raw: p50 {ratio['p50']:.2f}x (goal <= {GOAL_P50}), p99 {ratio['p99']:.2f}x"
               f"  ->  {verdict(ratio['p50'] <= GOAL_P50)}")
