@@ -123,9 +123,6 @@ def test_analog_inputs_stop_at_minus_10_volts(dmc: Dmc) -> None:
     assert dmc.value("MG @AN[1]") == -10
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "card bug: set_analog rounds to multiples of 20/4096 V over -10..+10 V inclusive, 4097 "
-    "levels: +10 V reads 10.0000 where a 12-bit converter's top code is 10 - 20/4096 = 9.9951 V"))
 def test_a_12_bit_converter_has_4096_levels(dmc: Dmc) -> None:
     """12 bits over +-10 V are codes -2048..2047 of 20/4096 V: -10 V is the bottom code and the top
     one is 9.9951 V, so +10 V (and above) reads 9.9951."""
@@ -153,10 +150,6 @@ def test_tz_reports_the_input_and_output_blocks_and_the_analog_inputs(dmc: Dmc,
     assert analog == [0, 0, quantised(2.5), 0, 0, 0, 0, 0]
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "card bug: TZ's line 'Analog inputs (1-8): ...' puts a ':' inside the reply data; the DMC "
-    "library ends a reply at its ':' (one per command), so DMCCommand returns TZ cut short and "
-    "the rest is left behind as unsolicited data"))
 def test_tz_through_dmc_command_is_whole(dmc: Dmc) -> None:
     """A data reply is "data, CR LF, ':'" [M Ch4 §Controller Response to DATA]; DMCCommand reads to
     the ':' and nothing of TZ's reply may be left over."""

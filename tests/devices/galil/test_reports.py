@@ -88,9 +88,6 @@ def test_ip_during_a_stop_is_tc_16(dmc: Dmc) -> None:
     assert dmc.refused("IP 500") == IP_INCORRECT_SIGN
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "card bug: IP while jogging is refused with TC 16; the manual's jog mode takes IP as an "
-    "instant position increment"))
 def test_ip_while_jogging_moves_the_position_at_once(dmc: Dmc) -> None:
     """"An instant change to the motor position can be made with the use of the IP command ... the
     controller commands the motor to a position which is equal to the specified increment plus the

@@ -171,10 +171,6 @@ def test_dp_sets_the_reference_and_the_step_count(stepper: Dmc) -> None:
     assert stepper.value("TD X") == stepper.value("RP X") == 600
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "card bug: on a stepper axis DE redefines the step count register (TD) and leaves TP alone; "
-    "the manual has DE define the encoder (TP) and DP the step count, and MC then releases with "
-    "TD != RP"))
 def test_de_defines_the_encoder_not_the_step_count(stepper: Dmc) -> None:
     """"The position of the encoder can be interrogated by using the command, TP. The position value
     can be defined by using the command, DE" [M Ch6 §Using an Encoder with Stepper Motors];

@@ -384,8 +384,8 @@ class GalilCard(Card):
         """Analog input AN1..AN8 in volts (+-10 V, 12-bit)."""
         if not 1 <= input <= 8:
             raise ValueError("input must be 1..8")
-        v = max(-10.0, min(10.0, float(volts)))
-        self.analog[input - 1] = round(v / (20 / 4096)) * (20 / 4096)
+        step = 20 / 4096  # 4096 levels from -10 V to 10 V - one step
+        self.analog[input - 1] = min(max(round(float(volts) / step), -2048), 2047) * step
 
     @control()
     def set_amp_fault(self, axis: str, active: bool) -> None:

@@ -311,7 +311,8 @@ class Interpreter:
             f"({card.input_bank(0):08b})",
             f"Block 0 (8-1) dedicated as output- value {card.outputs & 0xFF} "
             f"({card.outputs & 0xFF:08b})",
-            "Analog inputs (1-8): " + ",".join(f"{v:.4f}" for v in card.analog.tolist()),
+            # no ':' in the text: a host library counts ':' as the end of a reply
+            "Analog inputs (1-8) " + ",".join(f"{v:.4f}" for v in card.analog.tolist()),
         ]
         return "\r\n".join(lines).encode() + CRLF + OK
 

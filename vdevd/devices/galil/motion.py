@@ -157,6 +157,7 @@ class GalilMotion:
         self.index_phase = np.zeros(n)
         self.abort_input = False
         self.aux = np.zeros(n)  # TD for servo axes (no auxiliary encoder model): what DE set
+        self.enc_offset = np.zeros(n)  # stepper axes: TP = encoder + offset (DE, DP)
         self.latch_armed = np.zeros(n, dtype=bool)
         self.latch_occurred = np.zeros(n, dtype=bool)
         self.latched = np.zeros(n)
@@ -347,17 +348,27 @@ class GalilMotion:
         self.oe_tripped[axes] = False
 
     def define_position(self, axes: list[int], values: list[float]) -> None:
-        """DP: the present position becomes `values` (reference and encoder) [M Ch2 Ex6]."""
+        """DP: the present position becomes `values`: reference and encoder on a servo axis
+        [M Ch2 Ex6], reference and step count on a stepper axis, whose encoder keeps its reading
+        [M Ch6 §Stepper]."""
+        tp = self.position()[axes]
         self.core.set_position(np.asarray(axes, dtype=np.int64), values)
-        self._enc_prev[axes] = self.core.axes.encoder[axes]
+        self._enc_prev[axes] = self.core.axes.fb[axes]
+        if self.plant_kind == PlantKind.STEPPER:
+            self.enc_offset[axes] = tp - self.core.axes.encoder[axes]
         self.values["PA"][axes] = values
 
     def define_aux(self, axes: list[int], values: list[float]) -> None:
-        """DE: the auxiliary encoder (the step counter on a stepper axis) reads `values`."""
-        self.aux[axes] = np.asarray(values) - self._aux_base()[axes]
+        """DE: the auxiliary encoder reads `values`; on a stepper axis the main encoder (TP)
+        [M Ch6 §Stepper: "DE defines the encoder position"]."""
+        if self.plant_kind == PlantKind.STEPPER:
+            self.enc_offset[axes] = np.asarray(values) - self.core.axes.encoder[axes]
+        else:
+            self.aux[axes] = values
 
     def increment(self, axes: list[int], values: list[float]) -> None:
-        """IP: on the fly a new target further along the move; idle: PR and BG [M Ch6]."""
+        """IP: on the fly a new target further along the move; in a jog the position moves by
+        the increment at once; idle: PR and BG [M Ch6 §Independent Axis Positioning, §Jogging]."""
         v = self.values
         for a, d in zip(axes, values, strict=True):
             if not self.moving(a):
@@ -369,6 +380,10 @@ class GalilMotion:
                     raise GalilError(TC.IP_INCORRECT_SIGN)
                 self.core.move_absolute(a, float(self.core.target[a]) + d, max(v["SP"][a], 1.0),
                                         v["AC"][a], v["DC"][a], self._jerk(a))
+            elif self.mode[a] == Mode.JG and not self.stop_reason[a] and self.phase[a] == Phase.NONE:
+                # jogging: the commanded position moves by d at once, the jog goes on from there
+                self.core.axes.cmd_pos[a] += d
+                self.core.jog(a, v["JG"][a], v["AC"][a], v["DC"][a], self._jerk(a))
             else:
                 raise GalilError(TC.IP_INCORRECT_SIGN)
 
@@ -507,21 +522,19 @@ class GalilMotion:
         return np.rint(self.core.axes.cmd_pos)
 
     def position(self) -> np.ndarray:
-        """TP: the main encoder."""
-        return self.core.axes.encoder.astype(float)
+        """TP: the main encoder (on a stepper card its own counter, which DE defines)."""
+        return self.core.axes.encoder + self.enc_offset
 
     def error(self) -> np.ndarray:
         """TE = commanded - actual [M Ch2 Ex5]."""
         return self.reference() - self.position()
 
-    def _aux_base(self) -> np.ndarray:
+    def auxiliary(self) -> np.ndarray:
+        """TD: the auxiliary encoder (what DE set: no encoder is modelled there); on a stepper
+        axis the step count [M Ch6 §Stepper]."""
         if self.plant_kind == PlantKind.STEPPER:
             return np.rint(self.core.axes.pos)
-        return np.zeros(self.n)
-
-    def auxiliary(self) -> np.ndarray:
-        """TD: the auxiliary encoder; on a stepper axis the step count [M Ch6 §Stepper]."""
-        return self._aux_base() + self.aux
+        return self.aux.copy()
 
     def torque(self) -> np.ndarray:
         """TT: the DAC output in volts."""
