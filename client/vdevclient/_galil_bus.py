@@ -96,6 +96,9 @@ class DmcBus:
         #: bytes may wait in the READ FIFO that belong to no command (bit 5 read 0 at the end)
         self.stale = True
         self.unsolicited = bytearray()
+        #: read the reply in the batch that sends the command, with no wait before the read
+        #: (the card decodes on arrival); cleared when a card had nothing to read at all
+        self.eager = True
         self._reply_len: OrderedDict[bytes, int] = OrderedDict()  # the oldest learnt goes first
 
     # -- ops ------------------------------------------------------------------------------------
@@ -149,29 +152,35 @@ class DmcBus:
     def command(self, data: bytes, replies: int) -> Reply:
         """Send `data` and read until `replies` ':' or '?' have come [DMCLIB DMCCommand].
 
-        One batch: [bursts of command bytes, wait bit 5 = 0, K + 1 reads of N+1 (one repeated
-        read; an empty read gives 0xFF, so the last byte tells whether the FIFO is drained)]. K is the
-        reply length this line had last time, else FIRST_READS per command; while replies are
-        missing, further batches [wait, reads, status] read four times what came so far."""
+        One batch: [bursts of command bytes, K + 1 reads of N+1 (one repeated read; an empty
+        read gives 0xFF, so the last byte tells whether the FIFO is drained)]. A card that decodes
+        a command when its terminator arrives has answered by then; while replies are missing,
+        further batches [wait bit 5 = 0, reads] wait for them in the daemon. A card that had
+        nothing at all to read after the bursts (it decodes at its next sample) gets the wait in
+        the first batch from then on. K is the reply length this line had last time, else
+        FIRST_READS per command; later batches read four times what came so far."""
         if self.stale:
             self.drain()
         timeout_ns = self._timeout_ns()
         ops = self._send_ops(data, timeout_ns)
         sent = len(ops)
-        waits = sum(1 for op in ops if op["op"] == "wait") + 1
+        waits = sum(1 for op in ops if op["op"] == "wait")
         owed, self.owed = self.owed, 0
         want = owed + replies
         reads = self._reply_len.get(data, FIRST_READS * replies) + owed
         data_wait = self._wait(Reg.CONTROL, _READ_EMPTY, 0, timeout_ns)
         got = b""
+        waited = not self.eager
         while True:
-            ops.append(data_wait)
+            if waited:
+                ops.append(data_wait)
+                waits += 1
             ops.append(self._fifo_read(Reg.DATA, reads + 1))
             res = self.batch(ops, waits * timeout_ns)
             if sent and not _fired(res[:sent]):  # a burst found no room: part of the line is out
                 self.owed, self.stale = owed, True
                 return Reply(b"", timed_out=True)
-            if not res[-2]["fired"]:
+            if waited and not res[-2]["fired"]:
                 break
             chunk = res[-1]
             got += chunk.split(b"\xff", 1)[0]
@@ -181,7 +190,9 @@ class DmcBus:
                 self._room = True
                 self.stale = chunk[-1] != EMPTY_READ
                 break
-            ops, sent, waits = [], 0, 1
+            if not waited and not got:
+                self.eager = False  # the card answers at its next sample: wait at once
+            ops, sent, waits, waited = [], 0, 0, True
             reads = min(max(FIRST_READS, 4 * len(got)), FIFO_SIZE)
         answered = _count(got)
         if answered < want:
