@@ -7,9 +7,9 @@ Goal: p50 <= 2.5x the raw round trip.
 Method as bench/rtt.py (its baseline server, bench/raw_server.py, and its block timing): the
 servers run on the server cpu, this process is the client; after a warm-up, each repeat times `n`
 calls of every series in short blocks in a fresh random order per block. A command is one batch
-(PROTOCOL.md) [a repeated write of "TPX\\r" to N+1, wait N+3 bit 5 = 0, a repeated read of 14
-bytes of N+1]: the card (decode = "arrival", its default) decodes TPX when the CR is written, so
-the wait holds at once and no servo tick runs. Three diagnostic series split the cost: a one-op
+(PROTOCOL.md) [a repeated write of "TPX\\r" to N+1, a repeated read of 14 bytes of N+1]: the
+card (decode = "arrival", its default) decodes TPX when the CR is written, so the reply is there
+to read and no servo tick runs. Three diagnostic series split the cost: a one-op
 register read of the same card (the round trip floor through vdevd), a lockstep `sim step` of one
 tick (what a command would cost more with decode = "sample", which decodes at the next tick) and
 DMCCommand's batch replayed through `Rack.call` without the library (what the daemon and the card
