@@ -355,12 +355,12 @@ class MotionCore:
         """A reference mark found at speed: the encoder reading of `axis` becomes `counts`
         (whole counts) without motion (the actual and commanded positions shift with it, so the
         following error is unchanged), and the axis decelerates to a stop with `dec` from there."""
-        a, ax = axis, self.axes
-        shift = float(np.rint(counts)) - float(ax.fb[a])
+        a, ax, whole = axis, self.axes, float(np.rint(counts))
+        shift = whole - float(ax.fb[a])
         ax.pos[a] += shift
         ax.cmd_pos[a] += shift  # the stop below plans from the shifted command
         self.stepper.gen[a] += shift
-        enc = math.floor(float(np.rint(counts)) * float(self._scale[a]) + 1e-9)
+        enc = math.floor(whole * float(self._scale[a]) + 1e-9)
         self._enc[a], ax.encoder[a] = enc, enc
         ax.fb[a] = enc * float(self._inv_scale[a])
         self.done_bits[a] = 0

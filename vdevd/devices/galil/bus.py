@@ -219,6 +219,11 @@ class A16Window:
         """A copy of the unconsumed host->card command FIFO."""
         return bytes(self._command)
 
+    @property
+    def commands_waiting(self) -> bool:
+        """Whether the command FIFO holds bytes (without copying them)."""
+        return bool(self._command)
+
     def consume(self, n: int) -> None:
         """The interpreter took `n` bytes from the front of the command FIFO."""
         if not 0 <= n <= len(self._command):

@@ -16,7 +16,13 @@ from vdevd.devices.base import Card, CardContext, Option, control
 from vdevd.devices.galil import syntax
 from vdevd.devices.galil.bus import FREEZE_MODES, WINDOW_SIZE, A16Reg, A16Window
 from vdevd.devices.galil.errors import TC, GalilError
-from vdevd.devices.galil.interpreter import AXIS_LETTERS, OK, Interpreter, Trippoint
+from vdevd.devices.galil.interpreter import (
+    AXIS_LETTERS,
+    OK,
+    REPORT_FORMATS,
+    Interpreter,
+    Trippoint,
+)
 from vdevd.devices.galil.motion import GalilMotion, StopCode
 from vdevd.devices.galil.params import COUNTS_PER_VOLT, PARAMS
 from vdevd.devices.galil.record import GeneralStatus, clip32, record_dtype
@@ -162,7 +168,7 @@ class GalilCard(Card):
         if over is not None and self.ei_mask & Condition.EXCESS_ERROR:
             self.ei_mask &= ~Condition.EXCESS_ERROR
             self.interrupt(Status.EXCESS_ERROR)
-        if self._out or self._trip is not None or self.bus.command_bytes():
+        if self._out or self._trip is not None or self.bus.commands_waiting:
             self._serve()
         rate = self.record_rate
         if rate and not (self.ticks - self.time_origin) % (1 << rate):
@@ -418,6 +424,10 @@ class GalilCard(Card):
         core.plant.set(a, coulomb=float(volts) * COUNTS_PER_VOLT * float(core.plant.amp_gain[a]))
 
 
+#: `_DEx` and `_DPx` read what DE and DP defined: the auxiliary encoder and the reference
+_DEFINED = {"DE": "TD", "DP": "RP"}
+
+
 class _Env:
     """Operands (`_TPX`), variables and @IN/@OUT/@AN for the expression evaluator."""
 
@@ -440,7 +450,8 @@ class _Env:
         a = "XYZWABCD".index(letter) % 4
         if a >= card.n:
             raise GalilError(TC.ONLY_ABCD_VALID, name)
-        if cmd in ("TP", "TE", "RP", "TD", "RL", "TV", "TT", "SC", "TS"):
+        cmd = _DEFINED.get(cmd, cmd)
+        if cmd in REPORT_FORMATS:
             return float(card.report(cmd)[a])
         if cmd == "PA":
             return float(m.destination()[a])
@@ -449,7 +460,6 @@ class _Env:
         per_axis = {
             "LF": not m.forward_limit[a], "LR": not m.reverse_limit[a], "HM": m.home_input[a],
             "MO": not m.core.servo_on_mask[a], "BG": m.moving(a), "AL": m.latch_armed[a],
-            "DE": m.auxiliary()[a], "DP": m.reference()[a],
         }
         if cmd in per_axis:
             return float(per_axis[cmd])

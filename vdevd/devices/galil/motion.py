@@ -167,6 +167,7 @@ class GalilMotion:
         self._moving_prev = np.zeros(n, dtype=bool)
         self._searching = False
         self._edges = False
+        self._has_edge = np.zeros(n, dtype=bool)
         self._tmp = np.zeros(n)
         self._level = np.zeros(n, dtype=bool)
         self._done = np.zeros(n, dtype=bool)
@@ -413,12 +414,12 @@ class GalilMotion:
         tmp *= self._tv_gain
         self.tv *= 1.0 - self._tv_alpha
         self.tv += tmp
+        if self._edges:  # home switches at a position read the encoder (set_home_edge)
+            np.less(enc, self.home_edge, out=self._level)
+            np.copyto(self.home_input, self._level, where=self._has_edge)
         if self._searching:
             self._search_step(enc)
         np.copyto(self._enc_prev, enc)
-        if self._edges:
-            np.less(enc, self.home_edge, out=self._level, where=~np.isnan(self.home_edge))
-            np.copyto(self.home_input, self._level, where=~np.isnan(self.home_edge))
         moving, done = core.profile.moving, self._done
         np.greater(self._moving_prev, moving, out=done)
         if not done.any():
@@ -442,7 +443,8 @@ class GalilMotion:
     def set_home_edge(self, a: int, position: float | None) -> None:
         """The home input of axis a reads (position < edge), or its level when None."""
         self.home_edge[a] = np.nan if position is None else float(position)
-        self._edges = not np.isnan(self.home_edge).all()
+        self._has_edge[a] = position is not None
+        self._edges = bool(self._has_edge.any())
         if position is not None:  # the input reads the switch at once, not at the next sample
             self.home_input[a] = bool(self.core.axes.fb[a] < float(position))
 
@@ -452,7 +454,7 @@ class GalilMotion:
         if not phase.any():
             self._searching = False
             return
-        level = np.where(np.isnan(self.home_edge), self.home_input, enc < self.home_edge)
+        level = self.home_input
         edge = ((phase == Phase.EDGE) | (phase == Phase.BACK)) & (level != self.home_level0)
         period = self.index_period
         k_now = np.floor((enc - self.index_phase) / period)
@@ -470,7 +472,8 @@ class GalilMotion:
         for a in np.flatnonzero(index).tolist():  # the index becomes position 0, then DC
             boundary = max(k_now[a], k_prev[a]) * period[a] + self.index_phase[a]
             self.core.redefine_and_stop(a, float(enc[a] - boundary), float(v["DC"][a]))
-            enc[a] = self.core.axes.fb[a]
+            if self._has_edge[a]:  # the switch reads the renumbered position
+                self.home_input[a] = enc[a] < self.home_edge[a]
             phase[a] = Phase.INDEX_STOP
 
     def _finish(self, idx: np.ndarray) -> None:
