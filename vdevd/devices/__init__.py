@@ -10,12 +10,14 @@ from vdevd.devices.base import Card
 CARD_TYPES: dict[str, str] = {
     "generic-servo": "vdevd.devices.generic.card:GenericServoCard",
     "galil-dmc13x8": "vdevd.devices.galil.card:GalilCard",
+    "oms-maxk": "vdevd.devices.oms.card:MaxkCard",
 }
 
 #: the prefix of the default name of each type in the embedded default rack
 DEFAULT_NAMES: dict[str, str] = {
     "generic-servo": "servo",
     "galil-dmc13x8": "galil",
+    "oms-maxk": "maxk",
 }
 
 

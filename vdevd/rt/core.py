@@ -518,6 +518,23 @@ class MotionCore:
         idx = self._select(axes)
         self.limits.set_fe_limit(idx, self._per_axis(limit, len(idx)))
 
+    def set_kind(self, axes: Selector, kind: PlantKind) -> None:
+        """Change what axes drive (a card's motor-type command); a profile running is aborted,
+        the axes hold where they are."""
+        idx = self._select(axes)
+        self.abort(idx[self.profile.moving[idx]])
+        self.kinds[idx] = int(kind)
+        self._has_servo = bool((self.kinds == PlantKind.SERVO).any())
+        ax = self.axes
+        ax.vel[idx] = 0.0
+        ax.out[idx] = 0.0
+        self.stepper.gen[idx] = ax.pos[idx]
+        self.pid.reset(idx)
+        for a in idx.tolist():
+            self.profile.hold(a, float(ax.pos[a]))
+        self.profile.commit()
+        self._configure()
+
     def set_encoder_scale(self, axes: Selector, scale: Any) -> None:
         """Encoder counts per count of position (default 1): encoder = floor(pos * scale) and
         the loop compares the command with encoder / scale."""

@@ -1,0 +1,335 @@
+"""Motion commands, motion parameters and the queue commands [S §2.13, §6.2, App C; spec oms.md
+§4.3 "Motion", "Motion parameters"]."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from vdevd.devices.oms.params import PARAMS
+from vdevd.devices.oms.queue import Group, Run
+from vdevd.devices.oms.syntax import Command, Operand
+from vdevd.devices.oms.table import CommandError, command
+
+if TYPE_CHECKING:
+    from vdevd.devices.oms.firmware import Firmware
+
+Factory = Callable[[int], Callable[[], Run]]
+
+
+def _at_once(fn: Callable[[int], None]) -> Factory:
+    """A queued command that completes when it runs."""
+
+    def factory(a: int) -> Callable[[], Run]:
+        def make() -> Run:
+            def run(axis: int) -> bool:
+                fn(axis)
+                return True
+
+            return run
+
+        return make
+
+    return factory
+
+
+def _no_operand(cmd: Command) -> None:
+    if cmd.operand:
+        raise CommandError("no operand expected")
+
+
+# -- parameters (queued: they apply to the moves that follow them) -------------------------------
+@command("VL", "VB", "AC", "HV", "HD", "HG", "ES", operand=Operand.NUMBERS)
+def motion_parameter(fw: Firmware, cmd: Command) -> None:
+    name, param = cmd.mnemonic, PARAMS[cmd.mnemonic]
+    pairs = fw.per_axis(cmd)
+    for a, v in pairs:
+        value = param.coerce(v)
+        if value is None:
+            raise CommandError(f"{name} out of range")
+        vl = fw.params.values["VL"][a]
+        if name == "VB" and value >= vl or name == "VL" and value <= fw.params.values["VB"][a]:
+            raise CommandError("VB must be below VL")  # "OMS errors if VB = VL"
+    for a, v in pairs:
+        value = param.coerce(v)
+
+        def set_value(axis: int, value: float | None = value) -> None:
+            fw.params.values[name][axis] = value
+            if name == "AC":
+                fw.motion.apply_limits()
+
+        fw.enqueue([a], name, _at_once(set_value), units=2)
+
+
+# -- targets and GO --------------------------------------------------------------------------
+def _target(fw: Firmware, cmd: Command, relative: bool) -> None:
+    pairs = fw.per_axis(cmd)
+    if not pairs:
+        raise CommandError("a position is required")
+    for a, v in pairs:
+        if not math.isfinite(v) or abs(v) > 2**31 - 1:
+            raise CommandError("position out of range")
+        d = float(math.trunc(v))
+
+        def set_target(axis: int, d: float = d) -> None:
+            fw.pending[axis] = fw.motion.target_base(axis) + d if relative else d
+
+        fw.enqueue([a], cmd.mnemonic, _at_once(set_target), units=2)
+        fw.armed.add(a)
+
+
+@command("MA", operand=Operand.NUMBERS)
+def move_absolute(fw: Firmware, cmd: Command) -> None:
+    _target(fw, cmd, relative=False)
+
+
+@command("MR", operand=Operand.NUMBERS)
+def move_relative(fw: Firmware, cmd: Command) -> None:
+    _target(fw, cmd, relative=True)
+
+
+@command("MP", "MM")
+def direction_logic(fw: Firmware, cmd: Command) -> None:
+    """Direction logic positive / minus: accepted; moves take their direction from the target
+    (README)."""
+    _no_operand(cmd)
+
+
+def _go_factory(fw: Firmware, clear_done: bool) -> Factory:
+    def factory(a: int) -> Callable[[], Run]:
+        def make() -> Run:
+            started = False
+
+            def run(axis: int) -> bool:
+                nonlocal started
+                if not started:
+                    started = True
+                    if clear_done:
+                        fw.done[axis] = False
+                    target = fw.pending[axis]
+                    if math.isnan(target):
+                        return True
+                    fw.pending[axis] = math.nan
+                    fw.motion.move_to(axis, target)
+                return not fw.motion.moving(axis)
+
+            return run
+
+        return make
+
+    return factory
+
+
+@command("GO", "GD")
+def go(fw: Firmware, cmd: Command) -> None:
+    """Start the pending moves: in AA mode together (a group), in AM mode each axis on its own;
+    the queue waits for the move to end [S App C]."""
+    _no_operand(cmd)
+    clear = cmd.mnemonic == "GD"
+    axes = [fw.axis] if fw.mode == "single" else sorted(fw.armed) or list(range(fw.n))
+    group = None
+    if fw.mode == "AA":
+        group = Group(frozenset(axes))
+        fw.aa_members = group.members
+    fw.enqueue(axes, cmd.mnemonic, _go_factory(fw, clear), units=4, group=group)
+    fw.armed.clear()
+
+
+@command("JG", operand=Operand.NUMBERS)
+def jog(fw: Firmware, cmd: Command) -> None:
+    """Run at the signed velocity until stopped; a new JG changes the velocity on the fly."""
+    pairs = fw.per_axis(cmd, integer=True)
+    if any(abs(v) > PARAMS["VL"].hi for _, v in pairs):
+        raise CommandError("jog velocity out of range")
+    for a, v in pairs:
+
+        def start(axis: int, v: float = v) -> None:
+            fw.motion.jog(axis, v)
+
+        fw.enqueue([a], "JG", _at_once(start), units=2)
+
+
+@command("ID")
+def interrupt_done(fw: Firmware, cmd: Command) -> None:
+    """At this point of the queue set the done flag and the doorbell done bit; in AA mode when
+    every axis of the last AA move has reached it [S App C; spec §3.4]."""
+    _no_operand(cmd)
+    if fw.mode == "AA":
+        axes = sorted(fw.aa_members)
+        group = Group(frozenset(axes))
+    else:
+        axes, group = fw.selected(), None
+    fw.enqueue(axes, "ID", _at_once(fw.set_done), group=group)
+
+
+# -- stopping --------------------------------------------------------------------------------
+def _flags(fw: Firmware, cmd: Command) -> list[int]:
+    """The axes of KS/SI: `1` per axis in AA/AM (`KS1,,1`), the axis in single-axis mode."""
+    if not cmd.operand:
+        return fw.selected()
+    if fw.mode == "single":
+        return [fw.axis]
+    return [a for a, v in fw.per_axis(cmd) if v]
+
+
+@command("ST")
+def stop(fw: Firmware, cmd: Command) -> None:
+    """Decelerate the addressed axes to a stop at AC and flush their queues."""
+    for a in fw.selected():
+        fw.flush(a)
+        fw.motion.stop(a)
+
+
+@command("SA")
+def stop_all(fw: Firmware, cmd: Command) -> None:
+    for a in range(fw.n):
+        fw.flush(a)
+        fw.motion.stop(a)
+
+
+@command("KL")
+def kill_all(fw: Firmware, cmd: Command) -> None:
+    fw.kill(list(range(fw.n)))
+
+
+@command("KS", operand=Operand.NUMBERS)
+def kill_selected(fw: Firmware, cmd: Command) -> None:
+    fw.kill(_flags(fw, cmd))
+
+
+@command("SI", operand=Operand.NUMBERS)
+def stop_individual(fw: Firmware, cmd: Command) -> None:
+    for a in _flags(fw, cmd):
+        fw.flush(a)
+        fw.motion.stop(a)
+
+
+@command("FL")
+def flush(fw: Firmware, cmd: Command) -> None:
+    for a in fw.selected():
+        fw.flush(a)
+
+
+@command("WQ")
+def wait_queue(fw: Firmware, cmd: Command) -> None:
+    """Accepted: the host-side wait of EPICS' stop string needs nothing here (README)."""
+
+
+# -- loops and waits (queued) --------------------------------------------------------------------
+@command("LS", operand=Operand.NUMBERS)
+def loop_start(fw: Firmware, cmd: Command) -> None:
+    pairs = fw.per_axis(cmd, integer=True) if fw.mode == "single" else [
+        (a, v) for a, v in fw.per_axis(cmd, integer=True)]
+    if not pairs:
+        raise CommandError("a loop count is required")
+    for a, v in pairs:
+        if not 1 <= v <= 2_147_483_647:
+            raise CommandError("loop count out of range")
+        fw.enqueue([a], "LS", _at_once(lambda axis: None), units=2, kind="LS", count=int(v))
+
+
+@command("LE")
+def loop_end(fw: Firmware, cmd: Command) -> None:
+    fw.enqueue(fw.selected(), "LE", _at_once(lambda axis: None), kind="LE")
+
+
+@command("SW", operand=Operand.NUMBERS)
+def wait_input(fw: Firmware, cmd: Command) -> None:
+    """Hold the queue until general-purpose input bit # is high."""
+    pairs = fw.per_axis(cmd, integer=True)
+    for a, bit in pairs:
+        if not 0 <= bit <= 15:
+            raise CommandError("I/O bit is 0-15")
+
+        def factory(axis: int, bit: int = int(bit)) -> Callable[[], Run]:
+            return lambda: (lambda ax: bool(fw.gpio_levels() >> bit & 1))
+
+        fw.enqueue([a], "SW", factory, units=2)
+
+
+@command("WT", operand=Operand.NUMBERS)
+def wait_time(fw: Firmware, cmd: Command) -> None:
+    """Hold the queue for # milliseconds (README)."""
+    pairs = fw.per_axis(cmd, integer=True)
+    for a, ms in pairs:
+        if not 0 <= ms <= 2_147_483_647:
+            raise CommandError("time out of range")
+
+        def factory(axis: int, ms: float = ms) -> Callable[[], Run]:
+            def make() -> Run:
+                end: list[int] = []
+
+                def run(ax: int) -> bool:
+                    if not end:
+                        end.append(fw.now_ns + int(ms * 1e6))
+                    return fw.now_ns >= end[0]
+
+                return run
+
+            return make
+
+        fw.enqueue([a], "WT", factory, units=2)
+
+
+# -- position registers (queued) ------------------------------------------------------------------
+def _load(fw: Firmware, cmd: Command, which: str) -> None:
+    pairs = fw.per_axis(cmd, integer=True)
+    if not pairs:
+        raise CommandError("a position is required")
+    for a, v in pairs:
+        if abs(v) > 2**31 - 1:
+            raise CommandError("position out of range")
+
+        def load(axis: int, v: float = v) -> None:
+            fw.load_position(axis, v, which)
+
+        fw.enqueue([a], cmd.mnemonic, _at_once(load), units=2)
+
+
+@command("LP", operand=Operand.NUMBERS)
+def load_position(fw: Firmware, cmd: Command) -> None:
+    """Load motor and encoder position [S §2.13]."""
+    _load(fw, cmd, "both")
+
+
+@command("LO", operand=Operand.NUMBERS)
+def load_motor(fw: Firmware, cmd: Command) -> None:
+    _load(fw, cmd, "motor")
+
+
+@command("LPE", operand=Operand.NUMBERS)
+def load_encoder(fw: Firmware, cmd: Command) -> None:
+    _load(fw, cmd, "encoder")
+
+
+# -- homing (queued; the queue waits for the search to end) ------------------------------------
+def _home(fw: Firmware, cmd: Command) -> None:
+    forward = cmd.mnemonic in ("HM", "KM")
+    ramp = cmd.mnemonic in ("HM", "HR")
+    pairs = fw.per_axis(cmd, integer=True)
+    if not cmd.operand:
+        pairs = [(a, 0.0) for a in fw.selected()]
+    for a, value in pairs:
+        if abs(value) > 2**31 - 1:
+            raise CommandError("position out of range")
+
+        def factory(axis: int, value: float = value) -> Callable[[], Run]:
+            def make() -> Run:
+                started = False
+
+                def run(ax: int) -> bool:
+                    nonlocal started
+                    if not started:
+                        started = True
+                        fw.motion.home(ax, forward, value, ramp)
+                    return not fw.motion.moving(ax)
+
+                return run
+
+            return make
+
+        fw.enqueue([a], cmd.mnemonic, factory, units=2)
+
+
+command("HM", "HR", "KM", "KR", operand=Operand.NUMBERS)(_home)

@@ -1,0 +1,175 @@
+"""Axis selection, identity, flags and status queries [S App C; spec oms.md §4.2, §4.3]."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from vdevd.devices.oms.layout import AXIS_LETTERS
+from vdevd.devices.oms.syntax import Command, Operand
+from vdevd.devices.oms.table import CommandError, command
+
+if TYPE_CHECKING:
+    from vdevd.devices.oms.firmware import Firmware
+
+UPDATE_RATES = (1024, 2048, 4096, 8192)  # #UR [S §2.13]
+
+
+def _select_axis(fw: Firmware, cmd: Command) -> None:
+    fw.axis = fw.check_axis(AXIS_LETTERS.index(cmd.mnemonic[1]))
+    fw.mode = "single"
+
+
+for _letter in AXIS_LETTERS:
+    command(f"A{_letter}")(_select_axis)
+
+
+@command("AA")
+def all_axes(fw: Firmware, cmd: Command) -> None:
+    """Coordinated multi-axis mode: one operand per axis; GO starts them together."""
+    fw.mode = "AA"
+
+
+@command("AM")
+def multitasking(fw: Firmware, cmd: Command) -> None:
+    """Multitasking mode: one operand per axis, each axis runs its own queue."""
+    fw.mode = "AM"
+
+
+@command("WY")
+def who_are_you(fw: Firmware, cmd: Command) -> str:
+    """Model (MAXk-n000, A for 10 axes), firmware version, serial, FPGA [S §2.6]."""
+    return fw.identity()
+
+
+@command("CA")
+def clear_done(fw: Firmware, cmd: Command) -> None:
+    for a in fw.selected():
+        fw.done[a] = False
+
+
+@command("IC")
+def interrupt_clear(fw: Firmware, cmd: Command) -> None:
+    """Clear the done and slip latches of the addressed axes (scope assumed, README)."""
+    for a in fw.selected():
+        fw.done[a] = False
+        fw.slip[a] = False
+
+
+@command("II", "EF")
+def accepted(fw: Firmware, cmd: Command) -> None:
+    """Accepted without effect on this card (README)."""
+
+
+def axis_status(fw: Firmware, a: int) -> str:
+    """The four QA characters: direction P/M, done D/N, limit L/N, home H/N [spec §4.2]."""
+    m = fw.motion
+    positive = bool(m.direction[a] >= 0)
+    pos, neg = m.limit_active()
+    limit = bool(pos[a]) if positive else bool(neg[a])
+    return ("P" if positive else "M") + ("D" if fw.done[a] else "N") + (
+        "L" if limit else "N") + ("H" if m.home_active()[a] else "N")
+
+
+@command("QA")
+def query_axis(fw: Firmware, cmd: Command) -> str:
+    return ",".join(axis_status(fw, a) for a in fw.selected())
+
+
+@command("RA")
+def report_axis(fw: Firmware, cmd: Command) -> str:
+    """As QA, then clear the done flag(s) [spec §8.8]."""
+    reply = query_axis(fw, cmd)
+    for a in fw.selected():
+        fw.done[a] = False
+    return reply
+
+
+@command("QI")
+def query_all(fw: Firmware, cmd: Command) -> str:
+    return ",".join(axis_status(fw, a) for a in range(fw.n))
+
+
+@command("RI")
+def report_all(fw: Firmware, cmd: Command) -> str:
+    reply = query_all(fw, cmd)
+    fw.done[:] = False
+    return reply
+
+
+def _ints(values: list[int]) -> str:
+    return ",".join(str(v) for v in values)
+
+
+@command("RP")
+def report_position(fw: Firmware, cmd: Command) -> str:
+    pos = fw.motor_position()
+    return _ints([int(pos[a]) for a in fw.selected()])
+
+
+@command("RE")
+def report_encoder(fw: Firmware, cmd: Command) -> str:
+    enc = fw.encoder_position()
+    return _ints([int(enc[a]) for a in fw.selected()])
+
+
+@command("RV")
+def report_velocity(fw: Firmware, cmd: Command) -> str:
+    vel = fw.motion.velocity()
+    return _ints([int(vel[a]) for a in fw.selected()])
+
+
+@command("PP")
+def positions(fw: Firmware, cmd: Command) -> str:
+    return _ints([int(v) for v in fw.motor_position()])
+
+
+@command("PE")
+def encoders(fw: Firmware, cmd: Command) -> str:
+    return _ints([int(v) for v in fw.encoder_position()])
+
+
+@command("RQC")
+def queue_free(fw: Firmware, cmd: Command) -> str:
+    return _ints([fw.queues[a].free for a in fw.selected()])
+
+
+@command("#WS", operand=Operand.NUMBERS)
+def watchdog(fw: Firmware, cmd: Command) -> str:
+    return "=0"
+
+
+@command("#UR", operand=Operand.NUMBERS)
+def update_rate(fw: Firmware, cmd: Command) -> str | None:
+    """Update rate in Hz; `#UR?` answers without `=` (EPICS reads it with atol) [spec §8.10]."""
+    if cmd.query:
+        return str(fw.update_hz)
+    try:
+        hz = int(float(cmd.operand))
+    except ValueError:
+        raise CommandError("malformed number") from None
+    if hz not in UPDATE_RATES:
+        raise CommandError("update rate is 1024, 2048, 4096 or 8192")
+    fw.set_update_rate(hz)
+    return None
+
+
+@command("APP")
+def store_defaults(fw: Firmware, cmd: Command) -> None:
+    """Store the working parameters as the power-up defaults [S §2.13-2.14]."""
+    fw.store_defaults()
+
+
+@command("RDF")
+def restore_factory(fw: Firmware, cmd: Command) -> None:
+    fw.restore_defaults(factory=True)
+
+
+@command("RDP")
+def restore_power_up(fw: Firmware, cmd: Command) -> None:
+    fw.restore_defaults(factory=False)
+
+
+@command("RS")
+def reset(fw: Firmware, cmd: Command) -> None:
+    """Reset the controller (as the direct command RESET_CONTROLLER, README)."""
+    fw.reset_requested = True

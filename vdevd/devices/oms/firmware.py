@@ -1,0 +1,275 @@
+"""The MAXk firmware: the command interpreter, the axis queues and the status the host sees.
+
+The card (card.py) feeds it the bytes of the command ring and runs `cycle()` every update
+period; the firmware answers through `replies` (posted one at a time by the card, spec oms.md
+§2.5) and raises doorbell bits through `ring(bits)`. Handlers of the commands live in the
+`cmd_*` modules (table.py).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from vdevd.devices.oms import cmd_io, cmd_motion, cmd_servo, cmd_system  # noqa: F401 (register)
+from vdevd.devices.oms.layout import AXIS_LETTERS, Doorbell
+from vdevd.devices.oms.motion import OmsMotion
+from vdevd.devices.oms.params import Params
+from vdevd.devices.oms.queue import AxisQueue, Group, Item, Run
+from vdevd.devices.oms.syntax import Command, Lexer, numbers
+from vdevd.devices.oms.table import TABLE, CommandError
+
+_LEXER_TABLE = {name: spec.operand for name, spec in TABLE.items()}
+
+
+class Firmware:
+    """One card's firmware state; `ring(bits)` rings the outbound doorbell."""
+
+    def __init__(self, n: int, types: list[str], period_ns: int, *, ideal: bool,
+                 ring: Callable[[int], None], version: str, serial: int,
+                 save: Callable[[dict[str, Any]], None], saved: dict[str, Any] | None) -> None:
+        self.n = n
+        self.period_ns = period_ns
+        self.ideal = ideal
+        self.ring_doorbell = ring
+        self.version = version
+        self.serial = serial
+        self.factory_types = list(types)
+        self.params = Params(n, types)
+        self.lexer = Lexer(_LEXER_TABLE)
+        self.replies: deque[bytes] = deque()
+        self.last_error = ""
+        self.errors = 0
+        self.update_hz = 1024
+        self.gpio_dir = 0xFF00  # 1 = output; factory IO0-7 in, IO8-15 out [spec §8.18]
+        self.gpio_out = 0
+        self.gpio_in = 0xFFFF  # input levels (open inputs pulled high)
+        self.analog_channels = 4 if n > 5 else 2  # [S Table 6-2]
+        self.analog_in = np.zeros(4)
+        self.now_ns = 0
+        self.save = save
+        self.saved = saved  # the power-up defaults APP stored, if any
+        self.loaded = "factory"  # which parameter set is in working memory [S Table 3-4]
+        if saved is not None:
+            self.params.restore(saved)
+            self.loaded = "power_up"
+        self.power_on()
+
+    def power_on(self) -> None:
+        """Positions 0, queues empty, the working parameters as they are."""
+        n = self.n
+        self.motion = OmsMotion(self.params, self.period_ns, self.ideal)
+        self.queues = [AxisQueue() for _ in range(n)]
+        self.mode = "single"  # "single" | "AA" | "AM"
+        self.axis = 0
+        self.done = np.zeros(n, dtype=bool)  # the D of QA/RA [spec §3.4]
+        self.slip = np.zeros(n, dtype=bool)
+        self.pending = np.full(n, math.nan)  # MA/MR targets waiting for GO
+        self.aa_members: frozenset[int] = frozenset(range(n))
+        self.wk_flags = [0, 0]  # the W and K status words (0x0CC, 0x0D0)
+        self.armed: set[int] = set()  # axes given MA/MR since the last GO (AA/AM)
+        self.enc_offset = np.zeros(n)  # LO/LPE on axes whose loop does not use the encoder
+        self.reset_requested = False
+        self.lexer.reset()
+        self.replies.clear()
+
+    # -- input --------------------------------------------------------------------------------------
+    def feed(self, data: bytes) -> None:
+        """Bytes from the command ring: run every complete command."""
+        for cmd in self.lexer.feed(data):
+            self.execute(cmd)
+
+    def execute(self, cmd: Command) -> None:
+        try:
+            if cmd.error:
+                raise CommandError(cmd.error)
+            reply = TABLE[cmd.mnemonic].handler(self, cmd)
+        except CommandError as exc:
+            self.command_error(f"{cmd.mnemonic}{cmd.operand}: {exc}")
+            return
+        if reply is not None:
+            self.replies.append(reply.encode("latin-1") + b"\n")
+
+    def command_error(self, why: str) -> None:
+        self.last_error = why
+        self.errors += 1
+        self.ring_doorbell(Doorbell.COMMAND_ERROR)
+
+    # -- the update cycle ---------------------------------------------------------------------------
+    def cycle(self) -> None:
+        """One update period: queues, then the motion core, then the events it reported."""
+        for a, q in enumerate(self.queues):
+            if q.items:
+                q.advance(a)
+        events = self.motion.tick()
+        if events:
+            self.motion.core.update_in_position()
+            self.on_motion_events(events)
+
+    def on_motion_events(self, events: int) -> None:
+        """Over-travel: a limit stopped or refused a motion [spec §3.4, §5.6]."""
+        for a in self.motion.new_limit_stops().tolist():
+            self.flush(a)
+            self.flag(a, Doorbell.OVERTRAVEL)
+
+    # -- events to the host -------------------------------------------------------------------------
+    def flag(self, a: int, base: int) -> None:
+        """A done (base 0), over-travel (8) or slip (16) event of axis a: ODBR bit base + a for
+        X..S; for W and K the W/K status word bit `base` and ODBR bit 25/26 [S §3.4.5]."""
+        if a < 8:
+            self.ring_doorbell(1 << (base + a))
+        else:
+            self.wk_flags[a - 8] |= 1 << base
+            self.ring_doorbell(Doorbell.W_NOTIFY if a == 8 else Doorbell.K_NOTIFY)
+
+    # -- helpers for handlers -----------------------------------------------------------------------
+    def selected(self) -> list[int]:
+        """The axes a command without operands addresses: the axis, or all in AA/AM."""
+        return [self.axis] if self.mode == "single" else list(range(self.n))
+
+    def per_axis(self, cmd: Command, *, integer: bool = False) -> list[tuple[int, float]]:
+        """(axis, value) pairs of a numeric operand: one value in single-axis mode, one per axis
+        in canonical order in AA/AM, empty fields skipped [S App C]."""
+        try:
+            values = numbers(cmd.operand) if cmd.operand else []
+        except ValueError:
+            raise CommandError("malformed number") from None
+        if self.mode == "single":
+            if len(values) > 1 or (values and values[0] is None):
+                raise CommandError("one value in single-axis mode")
+            pairs = [(self.axis, values[0])] if values else []
+        else:
+            if len(values) > self.n:
+                raise CommandError("more values than axes")
+            pairs = [(a, v) for a, v in enumerate(values) if v is not None]
+        out = []
+        for a, v in pairs:
+            assert v is not None
+            out.append((a, float(math.trunc(v)) if integer else v))
+        return out
+
+    def enqueue(self, axes: list[int], label: str, make: Callable[[int], Callable[[], Run]],
+                units: int = 1, group: Group | None = None, kind: str = "",
+                count: int = 0) -> None:
+        """Queue a command on each of `axes` (make(axis) builds its runner); all-or-nothing:
+        a queue without room makes it a command error."""
+        if any(self.queues[a].free < units for a in axes):
+            raise CommandError("command queue full")
+        for a in axes:
+            self.queues[a].push(Item(label, make(a), units, group, kind, count))
+
+    def flush(self, a: int) -> None:
+        self.queues[a].flush()
+        self.pending[a] = math.nan
+
+    def identity(self) -> str:
+        """The WY string: model (MAXk-n000, A for 10 axes), version, serial, FPGA [S §2.6]."""
+        model = "A" if self.n == 10 else str(self.n)
+        return f"MAXk-{model}000, Ver: {self.version}, S/N: {self.serial:06d}, FPGA:20"
+
+    def set_done(self, a: int) -> None:
+        """ID reached: the axis's done flag and its doorbell bit."""
+        self.done[a] = True
+        self.flag(a, Doorbell.DONE)
+
+    def kill(self, axes: list[int]) -> None:
+        """Stop at once, without deceleration, and flush the queues [spec §2.6]."""
+        for a in axes:
+            self.flush(a)
+            self.motion.kill(a)
+
+    def load_position(self, a: int, value: float, which: str) -> None:
+        """LP (motor and encoder), LO (motor only), LPE (encoder only). A servo axis closes its
+        loop on the encoder, so on it each of them loads both (README)."""
+        enc = float(self.encoder_position()[a])
+        servo = self.params.ptype[a] == "M"
+        if which == "encoder" and not servo:
+            self.enc_offset[a] += value - enc
+            return
+        self.motion.core.set_position(a, value)
+        self.enc_offset[a] = 0.0 if which == "both" or servo else enc - value
+
+    def motor_position(self) -> np.ndarray:
+        return self.motion.motor_position()
+
+    def encoder_position(self) -> np.ndarray:
+        enc = self.motion.encoder_position() + self.enc_offset
+        return np.where(self.params.encoder_inverted, -enc, enc)
+
+    def gpio_levels(self) -> int:
+        """The 16 I/O lines: outputs as driven, inputs as the outside drives them."""
+        return (self.gpio_out & self.gpio_dir) | (self.gpio_in & ~self.gpio_dir & 0xFFFF)
+
+    def limit_word(self) -> int:
+        from vdevd.devices.oms.layout import limit_word
+        m = self.motion
+        return limit_word(m.limit_neg_level, m.limit_pos_level)
+
+    def set_update_rate(self, hz: int) -> None:
+        self.update_hz = hz  # the card retimes its cycle (card.py)
+
+    def set_axis_type(self, a: int, ptype: str) -> None:
+        self.params.ptype[a] = ptype
+        self.motion.set_kind(a, ptype)
+
+    def set_closed_loop(self, a: int, on: bool) -> None:
+        self.params.closed_loop[a] = on
+        self.motion.set_closed_loop(a, on)
+
+    def apply_gains(self) -> None:
+        self.motion.apply_gains()
+
+    def in_deadband(self, a: int) -> bool:
+        m = self.motion
+        err = abs(float(m.motor_position()[a]) * float(self.params.ratio[a])
+                  - float(m.encoder_position()[a]))
+        return err <= float(self.params.values["HD"][a])
+
+    def encoder_home(self, a: int) -> bool:
+        return bool(self.motion.home_active()[a])
+
+    # -- stored defaults [S §2.13-2.14] -------------------------------------------------------------
+    def store_defaults(self) -> None:
+        image = self.params.image()
+        self.save(image)
+        self.saved = image
+
+    def restore_defaults(self, factory: bool) -> None:
+        if not factory and self.saved is None:
+            raise CommandError("no power-up defaults stored")
+        params = Params(self.n, self.factory_types)
+        if not factory:
+            assert self.saved is not None
+            params.restore(self.saved)
+        self.params.__dict__.update(params.__dict__)
+        self.loaded = "factory" if factory else "power_up"
+        for a, t in enumerate(self.params.ptype):
+            self.motion.set_kind(a, t)
+            self.motion.set_closed_loop(a, bool(self.params.closed_loop[a]))
+        self.motion.apply_gains()
+        self.motion.apply_limits()
+
+    def letter(self, a: int) -> str:
+        return AXIS_LETTERS[a]
+
+    def check_axis(self, a: int) -> int:
+        if not 0 <= a < self.n:
+            raise CommandError(f"no axis {AXIS_LETTERS[a]} on this card")
+        return a
+
+
+def once(fn: Callable[[int], None]) -> Callable[[], Run]:
+    """A queued command that completes at once."""
+
+    def make() -> Run:
+        def run(a: int) -> bool:
+            fn(a)
+            return True
+
+        return run
+
+    return make

@@ -1,0 +1,109 @@
+"""Per-axis parameters of the MAXk: factory defaults, ranges (spec oms.md §1.4, §4.3, §4.4).
+
+Numeric parameters are float arrays, one element per axis (`Params.values["VL"]`); the axis
+configuration (type, polarities, limit mode, closed loop) is kept beside them as small arrays.
+The whole set is what `APP` stores as the power-up defaults and `RDF`/`RDP` restore [S §2.14].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Param:
+    """One numeric per-axis parameter: default and the accepted range (outside: command error)."""
+
+    default: float
+    lo: float
+    hi: float
+    integer: bool = False  # truncated toward zero (spec §4.1: `MR<n>.9`)
+
+    def coerce(self, value: float) -> float | None:
+        if not math.isfinite(value):
+            return None
+        if self.integer:
+            value = float(math.trunc(value))
+        return value if self.lo <= value <= self.hi else None
+
+
+_GAIN = Param(0, 0, 32767)
+#: the numeric parameters [S §1.4, §2.13-2.14; spec §4.3]
+PARAMS: dict[str, Param] = {
+    "VL": Param(200_000, 1, 4_194_303, integer=True),
+    "VB": Param(0, 0, 4_194_303, integer=True),
+    "AC": Param(2_000_000, 1, 8_000_000, integer=True),
+    "KP": Param(10, 0, 32767),
+    "KI": Param(1, 0, 32767),
+    "KD": Param(160, 0, 32767),
+    "KU": _GAIN,
+    "KV": _GAIN,
+    "KA": _GAIN,
+    "KF": _GAIN,
+    "KO": Param(0, -32767, 32767),
+    "HD": Param(0, 0, 2_147_483_647, integer=True),
+    "HG": Param(1, 1, 32000),
+    "HV": Param(0, 0, 4_194_303, integer=True),
+    "ES": Param(0, 0, 2_147_483_647, integer=True),  # slip tolerance (mnemonic assumed)
+    "SE": Param(0, 0, 1000, integer=True),  # aux output settle time, ms (assumed)
+}
+
+#: axis types as PS? reports them [spec §4.2]: O open-loop stepper, E stepper + encoder, M servo
+AXIS_TYPES = {"stepper": "O", "stepper_encoder": "E", "servo": "M"}
+
+
+class Params:
+    """The working parameter set of one card."""
+
+    def __init__(self, n: int, types: list[str]) -> None:
+        self.n = n
+        self.values: dict[str, np.ndarray] = {k: np.full(n, p.default) for k, p in PARAMS.items()}
+        self.ptype = list(types)  # "O" | "E" | "M" per axis
+        self.limit_high = np.zeros(n, dtype=bool)  # LTH: limits active high (factory low)
+        self.limit_mode = ["H"] * n  # H hard, S soft, F off [spec §8.11]
+        self.home_high = np.zeros(n, dtype=bool)  # HH: home active high (factory low)
+        self.encoder_inverted = np.zeros(n, dtype=bool)  # EDI
+        self.servo_inverted = np.zeros(n, dtype=bool)  # SVP-
+        # CL1 / HN; servo axes power up with the loop closed (README)
+        self.closed_loop = np.array([t == "M" for t in types], dtype=bool)
+        self.ratio = np.ones(n)  # ER a,b: a/b encoder counts per motor count
+        self.user_units = np.zeros(n)  # UU factor; 0 = off
+        self.soft_lo = np.full(n, -math.inf)
+        self.soft_hi = np.full(n, math.inf)
+
+    def image(self) -> dict[str, Any]:
+        """What APP stores (msgpack-friendly)."""
+        return {
+            "values": {k: v.tolist() for k, v in self.values.items()},
+            "ptype": self.ptype,
+            "limit_high": self.limit_high.tolist(),
+            "limit_mode": self.limit_mode,
+            "home_high": self.home_high.tolist(),
+            "encoder_inverted": self.encoder_inverted.tolist(),
+            "servo_inverted": self.servo_inverted.tolist(),
+            "closed_loop": self.closed_loop.tolist(),
+            "ratio": self.ratio.tolist(),
+            "user_units": self.user_units.tolist(),
+        }
+
+    def restore(self, image: dict[str, Any]) -> None:
+        """Load an APP image; keys or axes it lacks keep their present values."""
+        n = self.n
+        for k, v in image.get("values", {}).items():
+            if k in self.values:
+                self.values[k][: min(n, len(v))] = v[:n]
+        for name in ("limit_high", "home_high", "encoder_inverted", "servo_inverted",
+                     "closed_loop", "ratio", "user_units"):
+            if name in image:
+                arr = getattr(self, name)
+                v = image[name][:n]
+                arr[: len(v)] = v
+        for name in ("ptype", "limit_mode"):
+            if name in image:
+                lst = getattr(self, name)
+                v = image[name][:n]
+                lst[: len(v)] = v

@@ -1,0 +1,128 @@
+"""The per-axis command queues of the MAXk [S §6.2; CRM-1-11 §1.3.4; spec oms.md §4.1, §8.12].
+
+Motion and parameter commands wait in the queue of each axis they address and run in order: a
+command that takes time (a move, a home, a wait) holds the queue until it has finished, while
+commands that complete at once are chained in the same update cycle. `LS n`/`LE` repeat what lies
+between them (nestable); the queue space is reused, so repeats cost no units. A `Group` makes a
+command of several axes (an `AA` move, `MT`, an `AA` `ID`) start only when every member axis has
+reached it. 2559 units per axis; one per command plus one per operand, `GO` four (spec §8.12).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+QUEUE_UNITS = 2559  # [S App C]
+CHAIN_LIMIT = 64  # commands one axis may complete in one update cycle
+
+#: run(axis) -> True when the command is finished (it is then removed from the queue)
+Run = Callable[[int], bool]
+
+
+@dataclass(eq=False)
+class Group:
+    """A command shared by several axes: it runs when all members have reached it."""
+
+    members: frozenset[int]
+    arrived: set[int] = field(default_factory=set)
+    started: bool = False
+
+    def arrive(self, axis: int) -> bool:
+        self.arrived.add(axis)
+        return self.arrived >= self.members
+
+
+@dataclass(eq=False)
+class Item:
+    """One queued command. `make` builds the runner again for a loop's repeat."""
+
+    label: str
+    make: Callable[[], Run]
+    units: int = 1
+    group: Group | None = None
+    kind: str = ""  # "LS" / "LE" for loops
+    count: int = 0
+    run: Run | None = None
+
+    def fresh(self) -> Item:
+        group = Group(self.group.members) if self.group is not None else None
+        return Item(self.label, self.make, 0, group, self.kind, self.count)
+
+
+@dataclass
+class _Loop:
+    count: int
+    start: Item
+    body: list[Item] = field(default_factory=list)
+
+
+class AxisQueue:
+    """The queue of one axis."""
+
+    def __init__(self) -> None:
+        self.items: deque[Item] = deque()
+        self.units = 0
+        self.loops: list[_Loop] = []
+
+    @property
+    def free(self) -> int:
+        return QUEUE_UNITS - self.units
+
+    def push(self, item: Item) -> bool:
+        """Append; False when the queue has no room (a command error)."""
+        if self.units + item.units > QUEUE_UNITS:
+            return False
+        self.items.append(item)
+        self.units += item.units
+        return True
+
+    def flush(self) -> None:
+        self.items.clear()
+        self.units = 0
+        self.loops.clear()
+
+    @property
+    def idle(self) -> bool:
+        return not self.items
+
+    def advance(self, axis: int) -> None:
+        """Run the commands at the head until one must wait (or CHAIN_LIMIT ran)."""
+        items = self.items
+        for _ in range(CHAIN_LIMIT):
+            if not items:
+                return
+            item = items[0]
+            group = item.group
+            if group is not None and not group.arrive(axis):
+                return
+            if item.run is None:
+                item.run = item.make()
+            if not item.run(axis):
+                return
+            items.popleft()
+            self.units -= item.units
+            self._record(item)
+
+    def _record(self, item: Item) -> None:
+        loops = self.loops
+        if item.kind == "LS":
+            loops.append(_Loop(item.count, item))
+            return
+        if item.kind == "LE":
+            if not loops:
+                return  # an LE without LS: nothing to repeat
+            loop = loops[-1]
+            loop.count -= 1
+            if loop.count > 0:
+                repeat = [i.fresh() for i in loop.body] + [item.fresh()]
+                self.items.extendleft(reversed(repeat))
+                loop.body = []
+                return
+            loops.pop()
+            if loops:
+                loops[-1].body += [loop.start, *loop.body, item]
+            return
+        if loops:
+            loops[-1].body.append(item)

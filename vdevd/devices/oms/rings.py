@@ -1,0 +1,78 @@
+"""The firmware side of the shared-memory rings (sans-I/O: pure functions over the window's bytes).
+
+Command ring [S §3.4.6; spec §2.4]: the host writes bytes from its insert index (0x0F0) and then
+the index; the firmware takes the bytes from its process index (0x0F4) up to it and advances the
+process index. Response ring [S §3.4.7; spec §2.5]: the firmware writes one reply (text + LF) from
+its insert index (0x0F8), advances it and sets the message semaphore (0x094); the host takes the
+bytes between its process index (0x0FC) and 0x0F8 as one message and releases the semaphore.
+Capture ring [S §3.7]: 55 entries, the oldest overwritten when full.
+"""
+
+from __future__ import annotations
+
+import struct
+
+from vdevd.devices.oms.layout import CAPTURE_ENTRIES, CAPTURE_ENTRY, RING_SIZE, Shm
+
+_U32 = struct.Struct(">I")
+_ENTRY = struct.Struct(">iBBHH")
+
+
+def u32(buf: bytearray, offset: int) -> int:
+    return _U32.unpack_from(buf, offset)[0]
+
+
+def put_u32(buf: bytearray, offset: int, value: int) -> None:
+    _U32.pack_into(buf, offset, value & 0xFFFFFFFF)
+
+
+def take_commands(buf: bytearray) -> bytes:
+    """The bytes the host has put in the command ring since the last call; advances 0x0F4.
+
+    An index outside 0..1023 is taken modulo the ring size (the firmware masks it)."""
+    insert = u32(buf, Shm.CMD_INSERT) % RING_SIZE
+    process = u32(buf, Shm.CMD_PROCESS) % RING_SIZE
+    if insert == process:
+        return b""
+    base = Shm.CMD_RING
+    if insert > process:
+        data = bytes(buf[base + process: base + insert])
+    else:
+        data = bytes(buf[base + process: base + RING_SIZE]) + bytes(buf[base: base + insert])
+    put_u32(buf, Shm.CMD_PROCESS, insert)
+    return data
+
+
+def response_free(buf: bytearray) -> bool:
+    """The host has released the last reply: semaphore 0 and its process index caught up."""
+    return u32(buf, Shm.SEMAPHORE) == 0 and u32(buf, Shm.RSP_PROCESS) % RING_SIZE == u32(
+        buf, Shm.RSP_INSERT) % RING_SIZE
+
+
+def post_response(buf: bytearray, text: bytes) -> None:
+    """Write one reply (the caller adds the LF) from 0x0F8, advance it, set the semaphore."""
+    if len(text) >= RING_SIZE:
+        text = text[: RING_SIZE - 2] + b"\n"
+    insert = u32(buf, Shm.RSP_INSERT) % RING_SIZE
+    base = Shm.RSP_RING
+    first = min(len(text), RING_SIZE - insert)
+    buf[base + insert: base + insert + first] = text[:first]
+    rest = len(text) - first
+    if rest:
+        buf[base: base + rest] = text[first:]
+    put_u32(buf, Shm.RSP_INSERT, (insert + len(text)) % RING_SIZE)
+    put_u32(buf, Shm.SEMAPHORE, 1)
+
+
+def push_capture(buf: bytearray, position: int, axis: int, home_bits: int, rising: int,
+                 falling: int) -> None:
+    """Store one capture entry at the insert index; when the ring is full the removal index is
+    pushed on (the oldest entry is lost) [S §3.7]."""
+    insert = buf[Shm.CAPTURE] % CAPTURE_ENTRIES
+    at = Shm.CAPTURE + 2 + insert * CAPTURE_ENTRY
+    position = (position + 2**31) % 2**32 - 2**31
+    _ENTRY.pack_into(buf, at, position, axis, home_bits, rising & 0xFFFF, falling & 0xFFFF)
+    insert = (insert + 1) % CAPTURE_ENTRIES
+    buf[Shm.CAPTURE] = insert
+    if insert == buf[Shm.CAPTURE + 1] % CAPTURE_ENTRIES:
+        buf[Shm.CAPTURE + 1] = (insert + 1) % CAPTURE_ENTRIES
