@@ -15,7 +15,14 @@ from typing import Any
 
 import numpy as np
 
-from vdevd.devices.oms import cmd_io, cmd_motion, cmd_servo, cmd_system  # noqa: F401 (register)
+from vdevd.devices.oms import (  # noqa: F401 (they register their commands)
+    cmd_io,
+    cmd_motion,
+    cmd_servo,
+    cmd_system,
+    cmd_vector,
+)
+from vdevd.devices.oms.contour import Contour
 from vdevd.devices.oms.layout import AXIS_LETTERS, Doorbell
 from vdevd.devices.oms.motion import OmsMotion
 from vdevd.devices.oms.params import Params
@@ -74,6 +81,11 @@ class Firmware:
         self.armed: set[int] = set()  # axes given MA/MR since the last GO (AA/AM)
         self.enc_offset = np.zeros(n)  # LO/LPE on axes whose loop does not use the encoder
         self.reset_requested = False
+        self.contours: dict[int, Contour] = {}  # vector tasks being defined
+        self.running_contours: dict[int, Contour] = {}
+        self.vector_velocity: dict[int, float] = {}
+        self.vector_acceleration: dict[int, float] = {}
+        self.override: dict[int, float] = {}  # VO per task, 1.0 = 100 %
         self.lexer.reset()
         self.replies.clear()
 
@@ -105,6 +117,8 @@ class Firmware:
         for a, q in enumerate(self.queues):
             if q.items:
                 q.advance(a)
+        if self.running_contours:
+            self.advance_contours()
         events = self.motion.tick()
         if events:
             self.motion.core.update_in_position()
@@ -165,6 +179,54 @@ class Firmware:
     def flush(self, a: int) -> None:
         self.queues[a].flush()
         self.pending[a] = math.nan
+
+    # -- coordinated motion ---------------------------------------------------------------------------
+    def motion_together(self, targets: dict[int, float]) -> None:
+        """MT: straight-line move, every axis's VL and AC scaled by its share of the distance
+        so that all arrive together; the slowest axis's own VL and AC set the pace."""
+        m, v = self.motion, self.params.values
+        here = {a: float(m.core.axes.cmd_pos[a]) for a in targets}
+        dist = {a: abs(targets[a] - here[a]) for a in targets}
+        total = max(dist.values())
+        if total == 0:
+            return
+        # the time each axis would need on its own; the longest sets the common profile
+        def alone(a: int) -> float:
+            d, vl, ac = dist[a], float(v["VL"][a]), float(v["AC"][a])
+            return d / vl + vl / ac if d > vl * vl / ac else 2 * math.sqrt(d / ac)
+
+        lead = max((a for a in targets if dist[a] > 0), key=alone)
+        vl, ac = float(v["VL"][lead]), float(v["AC"][lead])
+        for a, target in targets.items():
+            share = dist[a] / dist[lead]
+            if share == 0:
+                continue
+            m.limit_seen[a] = False
+            m.direction[a] = 1.0 if target > here[a] else -1.0
+            m.core.move_absolute(a, target, vl * share, ac * share, ac * share)
+
+    def start_contour(self, task: int, contour: Contour) -> None:
+        contour.t = 0.0
+        self.running_contours[task] = contour
+        self.advance_contours()
+
+    def advance_contours(self) -> None:
+        """One update cycle of each running contour: the path coordinate at the override-
+        stretched time, the axes held there, VIO outputs at segment starts."""
+        dt = self.period_ns / 1e9
+        profile = self.motion.core.profile
+        for task, c in list(self.running_contours.items()):
+            s = c.s_at(c.t)
+            pos, seg = c.position(s)
+            io = c.segments[seg]
+            if io.io_on or io.io_off:
+                self.gpio_out = (self.gpio_out | io.io_on) & ~io.io_off
+            for a in c.axes:
+                profile.hold(a, pos[a])
+            if c.t >= c.duration:
+                del self.running_contours[task]
+            c.t += dt * self.override.get(task, 1.0)
+        profile.commit()
 
     def identity(self) -> str:
         """The WY string: model (MAXk-n000, A for 10 axes), version, serial, FPGA [S §2.6]."""

@@ -1,0 +1,227 @@
+"""Coordinated straight-line moves (`MT`) and vector contours (`VV VA VP VC VE VIO VID VO VG
+VH`) [S App C L1356-1374; spec oms.md §4.3 "Vector / contouring", §8.14]."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from vdevd.devices.oms.contour import Contour
+from vdevd.devices.oms.queue import Group, Run
+from vdevd.devices.oms.syntax import Command, Operand, hex_words, numbers
+from vdevd.devices.oms.table import CommandError, command
+
+if TYPE_CHECKING:
+    from vdevd.devices.oms.firmware import Firmware
+
+_POSITION = 2**31 - 1
+
+
+def _multi(fw: Firmware, cmd: Command) -> None:
+    if fw.mode == "single":
+        raise CommandError(f"{cmd.mnemonic} needs AA or AM mode")
+
+
+# -- MT: all axes arrive together ------------------------------------------------------------------
+@command("MT", operand=Operand.NUMBERS)
+def move_together(fw: Firmware, cmd: Command) -> None:
+    """A straight line to absolute targets: every axis's velocity and acceleration scaled so
+    that all arrive at once [S App C L1356]. The move starts when every axis's queue reaches
+    it, that is at the GO that follows (README)."""
+    _multi(fw, cmd)
+    pairs = fw.per_axis(cmd, integer=True)
+    if not pairs or any(abs(v) > _POSITION for _, v in pairs):
+        raise CommandError("MT needs absolute positions")
+    targets = dict(pairs)
+    group = Group(frozenset(targets))
+    fw.aa_members = group.members
+    fw.armed.update(targets)  # the GO that follows starts them (together, here)
+
+    def factory(a: int) -> Callable[[], Run]:
+        def make() -> Run:
+            def run(axis: int) -> bool:
+                if not group.started:
+                    group.started = True
+                    fw.motion_together(targets)
+                return not fw.motion.moving(axis)
+
+            return run
+
+        return make
+
+    fw.enqueue(sorted(targets), "MT", factory, units=1 + len(targets), group=group)
+
+
+# -- contours ------------------------------------------------------------------------------------
+def _task(fw: Firmware, cmd: Command) -> int:
+    task = cmd.index if cmd.index is not None else 1
+    if not 1 <= task <= 8:
+        raise CommandError("vector task is 1-8")
+    return task
+
+
+def _contour(fw: Firmware, cmd: Command) -> Contour:
+    """The contour being defined in the task, started at the present positions."""
+    _multi(fw, cmd)
+    task = _task(fw, cmd)
+    c = fw.contours.get(task)
+    if c is None:
+        here = tuple(float(p) for p in fw.motor_position())
+        v = fw.params.values
+        c = Contour(tuple(range(fw.n)), here, float(v["VL"][0]), float(v["AC"][0]))
+        if task in fw.vector_velocity:
+            c.velocity = fw.vector_velocity[task]
+        if task in fw.vector_acceleration:
+            c.acceleration = fw.vector_acceleration[task]
+        fw.contours[task] = c
+    return c
+
+
+def _values(cmd: Command) -> list[float | None]:
+    try:
+        return numbers(cmd.operand) if cmd.operand else []
+    except ValueError:
+        raise CommandError("malformed number") from None
+
+
+@command("VV", operand=Operand.NUMBERS)
+def vector_velocity(fw: Firmware, cmd: Command) -> None:
+    """VV v[,vend]: the vector velocity, counts/s (the end velocity is taken as rest)."""
+    values = _values(cmd)
+    if not values or values[0] is None or not 1 <= values[0] <= 4_194_303:
+        raise CommandError("vector velocity 1-4194303")
+    task = _task(fw, cmd)
+    fw.vector_velocity[task] = values[0]
+    if task in fw.contours:
+        fw.contours[task].velocity = values[0]
+
+
+@command("VA", operand=Operand.NUMBERS)
+def vector_acceleration(fw: Firmware, cmd: Command) -> None:
+    values = _values(cmd)
+    if len(values) != 1 or values[0] is None or not 1 <= values[0] <= 8_000_000:
+        raise CommandError("vector acceleration 1-8000000")
+    task = _task(fw, cmd)
+    fw.vector_acceleration[task] = values[0]
+    if task in fw.contours:
+        fw.contours[task].acceleration = values[0]
+
+
+@command("VP", operand=Operand.NUMBERS)
+def vector_point(fw: Firmware, cmd: Command) -> None:
+    """A straight segment to absolute positions (empty fields keep the axis where it is)."""
+    values = _values(cmd)
+    c = _contour(fw, cmd)
+    if not values or len(values) > len(c.start):
+        raise CommandError("VP needs one position per axis")
+    here = list(c.here)
+    for a, v in enumerate(values):
+        if v is not None:
+            here[a] = float(math.trunc(v))
+    c.line_to(tuple(here))
+
+
+@command("VC", operand=Operand.NUMBERS)
+def vector_circle(fw: Firmware, cmd: Command) -> None:
+    """VC cx,cy,degrees: an arc of the first two axes around (cx, cy); negative degrees run
+    clockwise (spec §8.14)."""
+    values = _values(cmd)
+    if len(values) != 3 or any(v is None for v in values):
+        raise CommandError("VC centre-x,centre-y,angle")
+    cx, cy, deg = (float(v) for v in values if v is not None)
+    _contour(fw, cmd).arc((cx, cy), deg)
+
+
+@command("VIO", operand=Operand.HEX)
+def vector_io(fw: Firmware, cmd: Command) -> None:
+    """VIO on,off,mask: at the start of the next segment the outputs in `mask` take the
+    levels of `on` (README)."""
+    try:
+        words = hex_words(cmd.operand) if cmd.operand else []
+    except ValueError:
+        raise CommandError("hex words") from None
+    if not words or len(words) > 3:
+        raise CommandError("VIO on,off,mask")
+    on = words[0] or 0
+    mask = words[2] if len(words) > 2 and words[2] is not None else 0xFFFF
+    c = _contour(fw, cmd)
+    c.io_on, c.io_off = on & mask, ~on & mask & 0xFFFF
+
+
+@command("VE")
+def vector_end(fw: Firmware, cmd: Command) -> None:
+    """The end of the contour definition: the contour runs once every axis of it has reached
+    this point of its queue, decelerating to rest at its end (README)."""
+    task = _task(fw, cmd)
+    c = fw.contours.pop(task, None)
+    if c is None or not c.segments:
+        raise CommandError("no contour defined")
+    c.plan()
+    c.axes = c.moved_axes()
+    group = Group(frozenset(c.axes))
+    fw.aa_members = group.members
+
+    def factory(a: int) -> Callable[[], Run]:
+        def make() -> Run:
+            def run(axis: int) -> bool:
+                if not group.started:
+                    group.started = True
+                    fw.start_contour(task, c)
+                return fw.running_contours.get(task) is not c
+
+            return run
+
+        return make
+
+    fw.enqueue(sorted(c.axes), "VE", factory, units=1 + len(c.segments), group=group)
+
+
+@command("VID")
+def vector_done(fw: Firmware, cmd: Command) -> None:
+    """Set the done flags (and doorbell) of the contour's axes when it has ended."""
+    group = Group(fw.aa_members)
+
+    def factory(a: int) -> Callable[[], Run]:
+        def make() -> Run:
+            def run(axis: int) -> bool:
+                fw.set_done(axis)
+                return True
+
+            return run
+
+        return make
+
+    fw.enqueue(sorted(group.members), "VID", factory, group=group)
+
+
+@command("VO", operand=Operand.NUMBERS)
+def vector_override(fw: Firmware, cmd: Command) -> None:
+    """VO[n]=pct: velocity override 0-200 %, at once [S App C]."""
+    values = _values(cmd)
+    if len(values) != 1 or values[0] is None or not 0 <= values[0] <= 200:
+        raise CommandError("override 0-200 %")
+    fw.override[_task(fw, cmd)] = values[0] / 100
+
+
+@command("VOA", operand=Operand.NUMBERS)
+def vector_override_analog(fw: Firmware, cmd: Command) -> None:
+    """VOA ch,...: accepted; the override from an analog input is not modelled (README)."""
+    values = _values(cmd)
+    if not values or values[0] is None or not 0 <= values[0] < fw.analog_channels:
+        raise CommandError("no such analog input")
+
+
+@command("VH", operand=Operand.NUMBERS)
+def vector_hold(fw: Firmware, cmd: Command) -> None:
+    """VH[n]1 halts the task's contour (override 0), VH[n]0 lets it run (override 100 %)."""
+    values = _values(cmd)
+    if len(values) != 1 or values[0] not in (0.0, 1.0):
+        raise CommandError("VH0 or VH1")
+    fw.override[_task(fw, cmd)] = 0.0 if values[0] else 1.0
+
+
+@command("VG")
+def vector_go(fw: Firmware, cmd: Command) -> None:
+    """Release a held task (as VH0)."""
+    fw.override[_task(fw, cmd)] = 1.0
