@@ -41,8 +41,7 @@ def move_together(fw: Firmware, cmd: Command) -> None:
     def factory(a: int) -> Callable[[], Run]:
         def make() -> Run:
             def run(axis: int) -> bool:
-                if not group.started:
-                    group.started = True
+                if group.act_once():
                     fw.motion_together(targets)
                 return not fw.motion.moving(axis)
 
@@ -165,8 +164,7 @@ def vector_end(fw: Firmware, cmd: Command) -> None:
     def factory(a: int) -> Callable[[], Run]:
         def make() -> Run:
             def run(axis: int) -> bool:
-                if not group.started:
-                    group.started = True
+                if group.act_once():
                     fw.start_contour(task, c)
                 return fw.running_contours.get(task) is not c
 

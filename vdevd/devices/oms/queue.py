@@ -23,15 +23,32 @@ Run = Callable[[int], bool]
 
 @dataclass(eq=False)
 class Group:
-    """A command shared by several axes: it runs when all members have reached it."""
+    """A command shared by several axes: it runs when every member has reached it, on every
+    member in the same update cycle. Inside a loop the same group serves every pass: `passes`
+    counts each member's arrivals, and pass k is ready when every member has arrived k times."""
 
     members: frozenset[int]
-    arrived: set[int] = field(default_factory=set)
-    started: bool = False
+    passes: dict[int, int] = field(default_factory=dict)
+    acted: int = 0  # the last pass whose shared action ran (act_once)
+    waiting: list[tuple[AxisQueue, int]] = field(default_factory=list)
 
-    def arrive(self, axis: int) -> bool:
-        self.arrived.add(axis)
-        return self.arrived >= self.members
+    def arrive(self, axis: int) -> int:
+        """Count one arrival of `axis`; its pass number."""
+        n = self.passes.get(axis, 0) + 1
+        self.passes[axis] = n
+        return n
+
+    def ready(self, n: int) -> bool:
+        return all(self.passes.get(m, 0) >= n for m in self.members)
+
+    def act_once(self) -> bool:
+        """True the first time a member runs the present pass (for an action shared by all
+        members, such as planning an MT move)."""
+        n = min(self.passes.get(m, 0) for m in self.members)
+        if self.acted >= n:
+            return False
+        self.acted = n
+        return True
 
 
 @dataclass(eq=False)
@@ -45,10 +62,10 @@ class Item:
     kind: str = ""  # "LS" / "LE" for loops
     count: int = 0
     run: Run | None = None
+    pass_: int = 0  # the pass of its group this item belongs to (0: not arrived yet)
 
     def fresh(self) -> Item:
-        group = Group(self.group.members) if self.group is not None else None
-        return Item(self.label, self.make, 0, group, self.kind, self.count)
+        return Item(self.label, self.make, 0, self.group, self.kind, self.count)
 
 
 @dataclass
@@ -95,8 +112,16 @@ class AxisQueue:
                 return
             item = items[0]
             group = item.group
-            if group is not None and not group.arrive(axis):
-                return
+            if group is not None:
+                if not item.pass_:
+                    item.pass_ = group.arrive(axis)
+                if not group.ready(item.pass_):
+                    if (self, axis) not in group.waiting:
+                        group.waiting.append((self, axis))
+                    return
+                waiting, group.waiting = group.waiting, []
+                for q, a in waiting:  # the members that arrived earlier run it now too
+                    q.advance(a)
             if item.run is None:
                 item.run = item.make()
             if not item.run(axis):
