@@ -1,6 +1,7 @@
 """`make bench`: the figures of the issues' "Done when", each against a baseline of the same run.
 
-    python bench/run.py [--quick] [--only rtt,lockstep,realtime,galil] [--pin split|same|none] [--json [FILE]]
+    python bench/run.py [--quick] [--only rtt,lockstep,realtime,galil,maxk] [--pin split|same|none]
+                        [--json [FILE]]
 
 1. rtt       4-byte register read through vdevclient vs a raw pyzmq REQ/REP round trip
              (p50 <= 1.25x, p99 <= 1.5x), bench/rtt.py
@@ -8,6 +9,8 @@
 3. realtime  no lost tick, simulated time behind wall time p99 <= 2 ms over 60 s, bench/realtime.py
 4. galil     DMCCommand(h, "TPX") and gclib GCommand("TPX") on a lockstep DMC-13X8 vs a raw
              pyzmq REQ/REP round trip (p50 <= 2.5x), bench/galil.py
+5. maxk      Maxk.send_and_get_string("AX RP") on a lockstep OMS MAXk vs a raw pyzmq REQ/REP
+             round trip (p50 <= 2.5x), bench/maxk.py
 
 The defaults are the issue's (realtime runs 60 s; the whole takes ~2 min); `--quick` shortens
 everything for a smoke run (~20 s). Placement (default split: servers on cpu0, client on cpu1)
@@ -29,10 +32,10 @@ from typing import Any
 if __package__ in (None, ""):  # run as a script: python bench/run.py
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench import galil, lockstep, realtime, rtt  # noqa: E402
+from bench import galil, lockstep, maxk, realtime, rtt  # noqa: E402
 from bench.common import install_signal_handlers, machine_facts, table, verdict, write_json  # noqa: E402
 
-FIGURES = ("rtt", "lockstep", "realtime", "galil")
+FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk")
 
 
 def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]], dict[str, Any],
@@ -48,6 +51,8 @@ def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]]
                      realtime.report),
         "galil": (galil.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
                               "warmup": 300 if q else 1000, "pin": a.pin}, galil.report),
+        "maxk": (maxk.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
+                            "warmup": 300 if q else 1000, "pin": a.pin}, maxk.report),
     }
 
 
@@ -87,13 +92,21 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
                              f"{r['series'][series]['p50']:.0f} us",
                              f"raw {raw['p50']:.0f} us -> {ratio['p50']:.2f}x",
                              verdict(ratio["p50"] <= galil.GOAL_P50)])
+        elif name == "maxk":
+            raw, cmd = r["series"][rtt.RAW], r["series"][maxk.MAXK]
+            ratio = r["ratios"][maxk.MAXK]["p50"]
+            trips = r["round_trips"][maxk.MAXK]["max"]
+            rows.append(["maxk send_and_get_string p50", f"<= {maxk.GOAL_P50}x raw",
+                         f"{cmd['p50']:.0f} us", f"raw {raw['p50']:.0f} us -> {ratio:.2f}x, "
+                         f"{trips} round trip(s)", verdict(ratio <= maxk.GOAL_P50)])
     return rows
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="short runs, for a smoke test")
-    ap.add_argument("--only", default=",".join(FIGURES), help="comma list of rtt, lockstep, realtime, galil")
+    ap.add_argument("--only", default=",".join(FIGURES),
+                    help="comma list of rtt, lockstep, realtime, galil, maxk")
     ap.add_argument("--pin", choices=("split", "same", "none"), default="split")
     ap.add_argument("--realtime-seconds", type=float, help="override the realtime run's length")
     ap.add_argument("--wake-us", type=int, default=1000, help="realtime: [clock] wake_us")

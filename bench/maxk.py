@@ -1,0 +1,266 @@
+"""OMS MAXk command round trip: `Maxk.send_and_get_string("AX RP")` (vdevclient.maxk) against a
+lockstep daemon with one 4-axis oms-maxk card, as a ratio of a raw pyzmq REQ/REP round trip
+measured in the same run with the same placement.
+
+Goal: p50 <= 2.5x the raw round trip.
+
+Method as bench/galil.py (bench/rtt.py's baseline server and block timing, a fresh random order of
+the series in every block). A command is one batch (PROTOCOL.md): [the release of the last reply
+(0x0FC, OMISR, semaphore), a read of the ring indices, the command bytes into the ring, the insert
+index (the card parses "AX RP;" on that write and posts its reply), a read of the indices and the
+response ring, a read of ODBR]. The series with `defer_release=False` releases each reply at once,
+in a second round trip. Diagnostics: a one-op register read of the same card (the round trip floor
+through vdevd) and the command's batch sent through `Rack.call` with the client's work around it
+left out (what the daemon and the card take for it). The round trips per call are counted.
+
+    python bench/maxk.py [--quick] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import random
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+if __package__ in (None, ""):  # run as a script: python bench/maxk.py
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import zmq  # noqa: E402
+
+from bench.common import (  # noqa: E402
+    BENCH_DIR,
+    DIST_HEADERS,
+    child,
+    connect,
+    daemon,
+    dist,
+    dist_row,
+    free_port,
+    install_signal_handlers,
+    ns_dist_to_us,
+    pin_self,
+    placement,
+    table,
+    verdict,
+    write_json,
+)
+from bench.galil import count_round_trips, raw_client  # noqa: E402
+from bench.rtt import RAW, time_block  # noqa: E402
+
+GOAL_P50 = 2.5
+COMMAND = "AX RP"
+CARD = "maxk0"
+
+MAXK = f'Maxk.send_and_get_string("{COMMAND}")'
+EAGER = f"{MAXK}, defer_release=False"
+READ = "diag: Region.read of 0x0F8 (one op)"
+REPLAY = "diag: the command's batch via Rack.call"
+
+
+def maxk_card(name: str = CARD, board: int = 1) -> str:
+    """A [[card]] table of one 4-axis MAXk, its other options the defaults."""
+    return f'[[card]]\ntype = "oms-maxk"\nname = "{name}"\nboard = {board}\naxes = 4\n'
+
+
+def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin: str = "split",
+        diag: bool = True, seed: int = 1) -> dict[str, Any]:
+    from vdevclient import maxk
+    from vdevclient.core import Rack
+
+    server_cpus, client_cpus, where = placement(pin)
+    pin_self(client_cpus)
+    ctx: zmq.Context[Any] = zmq.Context.instance()
+    series: dict[str, list[list[int]]] = {}
+    with contextlib.ExitStack() as stack:
+        tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="vdevd-bench-")))
+        raw_ep = f"tcp://127.0.0.1:{free_port()}"
+        raw_server = stack.enter_context(child(
+            [sys.executable, str(BENCH_DIR / "raw_server.py"), raw_ep], server_cpus, tmp / "raw.log"))
+        # one card per client: a host owns a card's rings (their indices live in the client)
+        cards = maxk_card(CARD, 1) + maxk_card("maxk1", 2) + maxk_card("maxk2", 3)
+        d = stack.enter_context(daemon(cards, "lockstep", server_cpus))
+        pin_self(client_cpus)  # zmq's I/O threads exist now; keep them with the client
+        raw_read = raw_client(stack, ctx, raw_ep)
+        try:
+            raw_read()
+        except zmq.Again:
+            raw_server.check_alive("raw server")
+            raise RuntimeError("the raw REP server did not answer") from None
+
+        rack = connect(d)  # waits until the daemon answers
+        stack.callback(rack.close)
+        card = stack.enter_context(maxk.open(1, endpoint=d.endpoint))
+        eager = stack.enter_context(maxk.open(2, endpoint=d.endpoint, defer_release=False))
+
+        def command() -> str:
+            return card.send_and_get_string(COMMAND)
+
+        def command_eager() -> str:
+            return eager.send_and_get_string(COMMAND)
+
+        if command() != "0" or command_eager() != "0":
+            raise RuntimeError(f"{COMMAND!r} did not answer '0'")
+        fns: dict[str, Callable[[], Any]] = {RAW: raw_read, MAXK: command, EAGER: command_eager}
+        batch_ops = 0
+        if diag:
+            shm = rack.card(CARD).region("shm")
+            fns[READ] = lambda: shm.read(0x0F8, 4)
+            fns[REPLAY], batch_ops = replay_of(stack.enter_context(maxk.open(3, endpoint=d.endpoint)))
+
+        counts = count_round_trips(Rack, {MAXK: command, EAGER: command_eager}, 200)
+        now0 = rack.sim.now_ns()
+        command()
+        card_ns = rack.sim.now_ns() - now0
+
+        names = list(fns)
+        rng = random.Random(seed)
+        for _ in range(max(1, warmup // block)):  # warm-up, interleaved like the timed part
+            for name in names:
+                time_block(fns[name], block, [])
+        for _ in range(repeats):
+            runs: dict[str, list[int]] = {name: [] for name in names}
+            for _ in range(max(1, n // block)):
+                order = names[:]
+                rng.shuffle(order)  # a fresh order every block: no series always follows another
+                for name in order:
+                    time_block(fns[name], block, runs[name])
+            for name in names:
+                series.setdefault(name, []).append(runs[name])
+        stats = rack.stats()
+
+    def us(samples: list[int]) -> list[float]:
+        return [s / 1000 for s in samples]
+
+    dists = {name: dist(us([s for run_ in runs for s in run_])) for name, runs in series.items()}
+    raw = dists[RAW]
+    per_repeat = []
+    for i, raw_run in enumerate(series[RAW]):
+        raw_r = dist(us(raw_run))
+        row = {"raw_p50": raw_r["p50"], "raw_p99": raw_r["p99"]}
+        for key, name in (("maxk", MAXK), ("eager", EAGER)):
+            d_r = dist(us(series[name][i]))
+            row[f"{key}_ratio_p50"] = d_r["p50"] / raw_r["p50"]
+            row[f"{key}_ratio_p99"] = d_r["p99"] / raw_r["p99"]
+        per_repeat.append(row)
+    ratios = {name: {"p50": dists[name]["p50"] / raw["p50"], "p99": dists[name]["p99"] / raw["p99"]}
+              for name in (MAXK, EAGER)}
+    return {
+        "figure": "maxk",
+        "placement": where,
+        "params": {"n": n, "repeats": repeats, "warmup": warmup, "block": block,
+                   "command": COMMAND, "transport": "tcp loopback", "clock": "lockstep"},
+        "series": dists,
+        "per_repeat": per_repeat,
+        "ratios": ratios,
+        "round_trips": counts,
+        "batch_ops": batch_ops,
+        "card_ns_per_command": card_ns,
+        "daemon_latency_us": ns_dist_to_us(stats["requests"]["latency_ns"]),
+        "goal": f"p50 <= {GOAL_P50}x raw REQ/REP",
+        "pass": ratios[MAXK]["p50"] <= GOAL_P50,
+    }
+
+
+def replay_of(card: Any) -> tuple[Callable[[], Any], int]:
+    """A call that sends the batch of `card.send_and_get_string(COMMAND)` through its rack, with
+    no library around it, and the number of ops in that batch. Each replay moves the ring
+    position, the insert index and the release on as the client would (the card answers only a
+    new command); `card` must not be used afterwards."""
+    from vdevclient._maxk_bus import RING_SIZE, Shm, ring_pieces
+
+    rack = card.rack
+    seen: list[dict[str, Any]] = []
+    call = type(rack).call
+
+    def spy(self: Any, message: dict[str, Any], wait_s: float = 0.0) -> Any:
+        seen.append(message)
+        return call(self, message, wait_s)
+
+    card.send_and_get_string(COMMAND)  # the first call after open has no reply to release
+    type(rack).call = spy
+    try:
+        reply = card.send_and_get_string(COMMAND)
+    finally:
+        type(rack).call = call
+    template = list(seen[-1]["ops"])
+    size, reply_size = len(COMMAND) + 1, len(reply) + 1
+    ring_at = next(i for i, op in enumerate(template)
+                   if op["op"] == "write" and Shm.COMMAND_RING <= op["offset"] < Shm.RESPONSE_RING)
+    data = template[ring_at]["data"]
+    insert = next(op for op in template if op["op"] == "write" and op["offset"] == Shm.COMMAND_INSERT)
+    release = next(op for op in template if op["op"] == "write" and op["offset"] == Shm.RESPONSE_PROCESS)
+    state = {"put": int.from_bytes(insert["data"], "big"),
+             "fc": (int.from_bytes(release["data"], "big") + reply_size) % RING_SIZE}
+
+    def replay() -> Any:
+        put, fc = state["put"], state["fc"]
+        ops = list(template)
+        ops[ring_at:ring_at + 1] = [dict(template[ring_at], offset=Shm.COMMAND_RING + off,
+                                         data=data[start:start + length])
+                                    for off, start, length in ring_pieces(put, size)]
+        state["put"], state["fc"] = (put + size) % RING_SIZE, (fc + reply_size) % RING_SIZE
+        for i, op in enumerate(ops):
+            if op is insert:
+                ops[i] = dict(op, data=state["put"].to_bytes(4, "big"))
+            elif op is release:
+                ops[i] = dict(op, data=fc.to_bytes(4, "big"))
+        return rack.call({"op": "batch", "ops": ops}, 1.0)
+
+    return replay, len(template)
+
+
+def report(r: dict[str, Any]) -> None:
+    p = r["params"]
+    raw = r["series"][RAW]
+    table([*DIST_HEADERS, "p50/raw", "p99/raw"],
+          [[*dist_row(name, d), d["p50"] / raw["p50"], d["p99"] / raw["p99"]]
+           for name, d in r["series"].items()],
+          title=f'MAXk "{p["command"]}" round trip (lockstep), us; {p["repeats"]} x {p["n"]} per '
+                f"series, placement {r['placement']}")
+    rows = [[i + 1, x["raw_p50"], x["maxk_ratio_p50"], x["eager_ratio_p50"], x["raw_p99"],
+             x["maxk_ratio_p99"], x["eager_ratio_p99"]] for i, x in enumerate(r["per_repeat"])]
+    table(["repeat", "raw p50", "maxk p50/raw", "eager p50/raw", "raw p99", "maxk p99/raw",
+           "eager p99/raw"], rows)
+    trips = ", ".join(f"{name}: {c['mean']:.2f} (max {c['max']})" for name, c in r["round_trips"].items())
+    print(f"round trips per call: {trips}; card time per command {r['card_ns_per_command'] / 1e6:g} ms")
+    lat = r["daemon_latency_us"]
+    print(f"daemon's own handling time per request (stats, last 64k): p50 {lat.get('p50', 0):.1f} us, "
+          f"p99 {lat.get('p99', 0):.1f} us")
+    if r["batch_ops"]:
+        p50 = {name: d["p50"] for name, d in r["series"].items()}
+        print(f"where the p50 goes: maxk library {p50[MAXK] - p50[REPLAY]:+.1f} us (the call vs its "
+              f"batch replayed), the batch's {r['batch_ops']} ops and the card's parsing "
+              f"{p50[REPLAY] - p50[READ]:+.1f} us (vs a one-op read), vdevd round trip "
+              f"{p50[READ] - p50[RAW]:+.1f} us (vs raw REQ/REP)")
+    for name, ratio in r["ratios"].items():
+        print(f"{name} / raw: p50 {ratio['p50']:.2f}x (goal <= {GOAL_P50}), p99 {ratio['p99']:.2f}x"
+              f"  ->  {verdict(ratio['p50'] <= GOAL_P50)}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--n", type=int, default=3000, help="calls per series per repeat")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--warmup", type=int, default=1000)
+    ap.add_argument("--block", type=int, default=5, help="calls per alternating block")
+    ap.add_argument("--pin", choices=("split", "same", "none"), default="split")
+    ap.add_argument("--quick", action="store_true", help="n=1000, 2 repeats, 300 warm-up calls")
+    ap.add_argument("--no-diag", action="store_true", help="skip the two diagnostic series")
+    ap.add_argument("--json", nargs="?", const="", help="write JSON (default: bench/results/)")
+    a = ap.parse_args()
+    install_signal_handlers()
+    if a.quick:
+        a.n, a.repeats, a.warmup = 1000, 2, 300
+    r = run(a.n, a.repeats, a.warmup, a.block, a.pin, diag=not a.no_diag)
+    report(r)
+    if a.json is not None:
+        print(f"results: {write_json(r, a.json, 'maxk')}")
+
+
+if __name__ == "__main__":
+    main()
