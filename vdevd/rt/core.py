@@ -3,7 +3,7 @@ following error -> PID, every tick (the order of a card's servo interrupt, see M
 
 Vectorised over the card's axes: the tick path has no Python loop over axes (only over the at most
 three plant kinds), and costs about 20 numpy calls for servo axes in motion with every feature on.
-Unused features (servo off, ideal or stepper axes, encoder loss or scale, following-error limit,
+Unused features (servo off, ideal or stepper axes, encoder loss, slip or scale, following-error limit,
 PID limits, peak torque, friction) cost nothing, and the profile step is skipped while no axis
 profiles. Commands plan at command time (a loop over the commanded axes is fine there). Events (a
 profile ended, a limit or following-error trip, an amplifier fault) are returned as AxisFlag bits
@@ -13,7 +13,7 @@ so firmware can react at the exact tick; `run(n)` stops right after such a tick.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -22,9 +22,11 @@ from vdevd.rt.axes import MOTION_STICKY, Axes, AxisFlag, PlantKind, ProfileMode
 from vdevd.rt.filters import Pid
 from vdevd.rt.limits import Limits
 from vdevd.rt.plants import ServoPlant, StepperPlant, default_gains
-from vdevd.rt.profiles import ProfileGenerator
+from vdevd.rt.profiles import Phase, ProfileGenerator
 
 Selector = int | slice | Sequence[int] | np.ndarray
+#: plan(t, p, v, goal) -> the phases from time t and commanded state (p, v) to rest at goal
+Planner = Callable[[float, float, float, float], list[Phase]]
 
 _MOVING, _DONE = int(AxisFlag.MOVING), int(AxisFlag.DONE)
 _STOPPED, _ABORTED = int(AxisFlag.STOPPED_BY_LIMIT), int(AxisFlag.ABORTED)
@@ -63,6 +65,7 @@ class MotionCore:
         self.servo_on_mask = np.zeros(n, dtype=bool)
         self.amp_fault = np.zeros(n, dtype=bool)
         self.encoder_loss = np.zeros(n, dtype=bool)
+        self.encoder_slip = np.zeros(n)  # counts the encoder has lost (slip_encoder)
         self.home_switch = np.zeros(n, dtype=bool)
         self._scale = np.ones(n)
         self.encoder_scale = self._scale.view()  # read-only: set_encoder_scale
@@ -97,9 +100,10 @@ class MotionCore:
         self._any_step = bool(step_on.any())
         self._enc_ok = ~self.encoder_loss
         self._any_loss = bool(self.encoder_loss.any())
+        self._any_slip = bool(self.encoder_slip.any())
         self._scaled = bool((self.encoder_scale != 1.0).any())
         self._inv_scale = 1.0 / self.encoder_scale
-        self._plain_encoder = not (self._scaled or self._any_loss)
+        self._plain_encoder = not (self._scaled or self._any_loss or self._any_slip)
         self._enc[:] = self.axes.encoder  # where a lost encoder freezes
 
     # -- the tick ----------------------------------------------------------------------------------
@@ -152,13 +156,15 @@ class MotionCore:
         np.copyto(ax.pv, pv2, where=self._step_on2)
 
     def _encode(self) -> None:
-        """Encoder with a scale or with lost encoders (frozen while lost)."""
+        """Encoder with a scale, with slipped counts or with lost encoders (frozen while lost)."""
         ax, tmp = self.axes, self._tmp
         if self._scaled:
             np.multiply(ax.pos, self.encoder_scale, out=tmp)
             np.floor(tmp, out=tmp)
         else:
             np.floor(ax.pos, out=tmp)
+        if self._any_slip:
+            tmp -= self.encoder_slip
         np.copyto(self._enc, tmp, where=self._enc_ok)
         ax.encoder[:] = self._enc
         np.multiply(self._enc, self._inv_scale, out=ax.fb)
@@ -288,6 +294,31 @@ class MotionCore:
         self.profile.move(a, int(goal), vmax, acc, dec, jerk)
         self._after_plan(a)
 
+    def move_planned(self, axis: int, target: float, plan: Planner, dec: float) -> None:
+        """A point-to-point move of one axis along phases its caller plans (a card's own profile
+        shape, e.g. one that starts at a base velocity): `plan(t, p, v, goal)` returns the phases
+        from now and the commanded state to rest at the integer `goal`, the last one a hold
+        there. Limits, flags and the target as `move_absolute`; `dec` is the deceleration a
+        limit stop uses."""
+        a = int(axis)
+        if not (math.isfinite(target) and dec > 0):
+            raise ValueError("target must be finite and dec positive")
+        self._begin(np.array([a]))
+        here, t = float(self.axes.cmd_pos[a]), float(np.rint(target))
+        goal, bits = self.limits.soft_target(a, here, t)
+        if self.limits.blocked(a, t - here):
+            self._refuse(a, 0)
+        elif bits and goal == here:
+            self._refuse(a, bits)
+        else:
+            self.target[a], self.target_valid[a] = int(goal), True
+            self.last_dec[a], self.last_jerk[a] = dec, 0.0
+            self.done_bits[a] = _STOPPED | bits if bits else 0
+            p, v, _ = self.profile.state(a)
+            self.profile.load(a, plan(self.profile.t, p, v, goal), mode=ProfileMode.TRAPEZOID)
+            self._after_plan(a)
+        self.profile.commit()
+
     def move_relative(self, axes: Selector, distance: Any, vmax: Any, acc: Any, dec: Any,
                       jerk: Any = 0.0) -> None:
         """A move by `distance` counts from the last target (from the rounded commanded position
@@ -356,6 +387,8 @@ class MotionCore:
         (whole counts) without motion (the actual and commanded positions shift with it, so the
         following error is unchanged), and the axis decelerates to a stop with `dec` from there."""
         a, ax, whole = axis, self.axes, float(np.rint(counts))
+        if self.encoder_slip[a]:
+            self._clear_slip(np.array([a]))
         shift = whole - float(ax.fb[a])
         ax.pos[a] += shift
         ax.cmd_pos[a] += shift  # the stop below plans from the shifted command
@@ -440,6 +473,8 @@ class MotionCore:
         idx = self._select(axes)
         c = np.rint(self._per_axis(counts, len(idx)))
         ax = self.axes
+        if self._any_slip:
+            self._clear_slip(idx)
         shift = c - ax.fb[idx]
         ax.pos[idx] += shift
         self.stepper.gen[idx] += shift
@@ -457,6 +492,24 @@ class MotionCore:
                 self._pending |= _DONE | _ABORTED
             self.profile.hold(a, p)
         self.profile.commit()
+
+    def slip_encoder(self, axes: Selector, counts: Any) -> None:
+        """The encoder slips: from the next tick it reads `counts` fewer (more if negative) than
+        the position gives, until set_position or redefine_and_stop define its reading again.
+        A servo's loop sees it (the motor moves on by that much); a stepper's does not."""
+        idx = self._select(axes)
+        values = self._per_axis(counts, len(idx))
+        if not np.isfinite(values).all():
+            raise ValueError("counts must be finite")
+        self.encoder_slip[idx] += np.rint(values)
+        self._configure()
+
+    def _clear_slip(self, idx: np.ndarray) -> None:
+        """Forget the slip of axes `idx`: `fb` becomes their reading without it (the redefinition
+        that follows shifts the position by what the encoder then reads)."""
+        self.axes.fb[idx] += self.encoder_slip[idx] * self._inv_scale[idx]
+        self.encoder_slip[idx] = 0.0
+        self._configure()
 
     def set_inputs(self, hard_limit_pos: Any = None, hard_limit_neg: Any = None,
                    amp_fault: Any = None, encoder_loss: Any = None, home: Any = None) -> None:

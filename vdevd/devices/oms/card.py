@@ -39,8 +39,9 @@ from vdevd.devices.oms.layout import (
 )
 from vdevd.devices.oms.motion import clip32
 from vdevd.devices.oms.mu import MessageUnit
-from vdevd.devices.oms.params import AXIS_TYPES
+from vdevd.devices.oms.params import AXIS_TYPES, IMAGE_FORMAT
 from vdevd.region import Region
+from vdevd.rt.axes import AxisFlag
 
 UPDATE_RATES = (1024, 2048, 4096, 8192)
 VERSION = "1.50"
@@ -102,28 +103,56 @@ class MaxkCard(Card):
                             peek=self._mu_peek)
         self.inta = self.add_irq("inta")
         self.mu = MessageUnit(on_line=self._line, on_inbound=self._inbound)
-        self.saved = self.ctx.nvram.load(self.name) if self.ctx.nvram else None
+        self.saved, self.archive_error = self._load_defaults()
         self.fault: str | None = None  # backdoor firmware state (no firmware, checksum error)
         self.power_up()
 
     # -- power-up -------------------------------------------------------------------------------------
     def power_up(self) -> None:
-        """Firmware start: positions 0, working parameters from the stored defaults if valid."""
+        """Firmware start [S §2.14; spec §2.3]: positions 0, the working parameters from the
+        power-up defaults `APP` stored when their archive is valid, else the factory set."""
         self.mem[:] = bytes(SHM_SIZE)
         self.mu.reset()
         self.inta.clear()
-        image = None if self.fault == "defaults_checksum" else self.saved
+        image = None if self.defaults_bad() else self.saved
         self.fw = Firmware(self.n, self.types, self.period_ns, ideal=self.ideal,
                            ring=self.mu.ring, version=VERSION, serial=self.serial,
                            save=self._save_defaults, saved=image)
         self.fw.now_ns = self.now_ns
+        self.fw.update_hz = self.update_hz
         self.publish()
 
     def reset(self) -> None:
         self.power_up()
 
+    @property
+    def running(self) -> bool:
+        """The application runs (it does not without firmware or with a bad flash image)."""
+        return self.fault not in ("no_firmware", "flash_checksum")
+
+    def defaults_bad(self) -> bool:
+        """A checksum error in the power-up parameter archive (Table 3-4 bit 12)."""
+        return self.archive_error or self.fault == "defaults_checksum"
+
+    def _load_defaults(self) -> tuple[dict[str, Any] | None, bool]:
+        """The stored power-up defaults and whether their archive is damaged: a file that
+        cannot be read, or an image of another format, is a checksum error (bit 12)."""
+        store = self.ctx.nvram
+        if store is None:
+            return None, False
+        existed = store.path(self.name).exists()
+        image = store.load(self.name)
+        if image is None:
+            return None, existed
+        if image.get("format") != IMAGE_FORMAT:
+            return None, True
+        return image, False
+
     def _save_defaults(self, image: dict[str, Any]) -> None:
+        """APP: the image goes to the state directory atomically (vdevd/nvram.py); a good
+        archive clears an earlier checksum error at the next power-up."""
         self.saved = image
+        self.archive_error = False
         if self.ctx.nvram is not None:
             self.ctx.nvram.save(self.name, image)
 
@@ -131,13 +160,15 @@ class MaxkCard(Card):
         return self.saved or {}
 
     def firmware_state(self) -> int:
-        """Table 3-4: running, and which parameter set was loaded."""
+        """Table 3-4: not downloaded (bit 0, with bit 8 for a flash checksum error), else
+        running (bit 2), an archive checksum error (bit 12) and which parameter set is in
+        working memory: the power-up set (bit 16) or the factory set (bit 18)."""
         if self.fault == "no_firmware":
             return int(FwFlags.NOT_DOWNLOADED)
         if self.fault == "flash_checksum":
             return int(FwFlags.NOT_DOWNLOADED | FwFlags.FLASH_CHECKSUM)
         state = int(FwFlags.RUNNING)
-        if self.fault == "defaults_checksum":
+        if self.defaults_bad():
             state |= int(FwFlags.DEFAULTS_CHECKSUM)
         state |= int(FwFlags.POWER_UP_SET if self.fw.loaded == "power_up"
                      else FwFlags.FACTORY_SET)
@@ -173,7 +204,7 @@ class MaxkCard(Card):
 
     def _direct_command(self, offset: int, data: bytes) -> None:
         code = self._store(offset, data, Shm.DIRECT_COMMAND)
-        if code is None or code == 0:
+        if code is None or code == 0 or not self.running:
             return
         fw = self.fw
         if code == DirectCommand.KILL_ALL_MOTION:
@@ -219,7 +250,10 @@ class MaxkCard(Card):
 
     # -- the firmware ----------------------------------------------------------------------------------
     def _serve(self) -> None:
-        """Parse the new bytes of the command ring, then post a reply if the host is free."""
+        """Parse the new bytes of the command ring, then post a reply if the host is free.
+        Without a running application nothing takes the bytes (0x0F4 stays)."""
+        if not self.running:
+            return
         data = rings.take_commands(self.mem)
         fw = self.fw
         if data:
@@ -239,11 +273,15 @@ class MaxkCard(Card):
             self.mu.message(0, len(text))
 
     def step(self) -> None:
+        if not self.running:
+            return
         fw = self.fw
         fw.now_ns = self.now_ns
         if not self.decode_on_arrival:
             self._serve()
         fw.cycle()
+        if fw.capture.pending:
+            self._post_captures()
         if fw.replies:
             self._post_reply()
         self.publish()
@@ -262,7 +300,7 @@ class MaxkCard(Card):
         rings.put_u32(mem, Shm.GPIO, fw.gpio_levels())
         rings.put_u32(mem, Shm.W_FLAGS, fw.wk_flags[0])
         rings.put_u32(mem, Shm.K_FLAGS, fw.wk_flags[1])
-        words[SSI_WORDS[:n]] = clip32(fw.encoder_position())
+        words[SSI_WORDS[:n]] = fw.ssi.words(fw.encoder_position())
 
     def snapshot(self) -> None:
         """The position request: motor, encoder and DAC of every axis from the same cycle."""
@@ -271,15 +309,25 @@ class MaxkCard(Card):
         words[COHERENT_ENCODER_WORDS[:n]] = clip32(fw.encoder_position())
         words[COHERENT_DAC_WORDS[:n]] = np.rint(np.clip(fw.motion.core.axes.out, -32767, 32767))
 
-    def capture(self, a: int, home_bits: int = 0, rising: int = 0, falling: int = 0) -> None:
-        """One real-time capture entry and the OMR1 notice [S §3.7]."""
-        enc = int(self.fw.encoder_position()[a])
+    def capture(self, a: int, home_bits: int = 0, rising: int = 0, falling: int = 0,
+                position: int | None = None) -> None:
+        """One real-time capture entry (the encoder position now unless given) and the OMR1
+        notice [S §3.7]."""
+        enc = int(self.fw.encoder_position()[a]) if position is None else position
         rings.push_capture(self.mem, enc, a, home_bits, rising, falling)
         self.mu.message(1, CAPTURE_MESSAGE)
+
+    def _post_captures(self) -> None:
+        """The entries the update cycle recorded (capture.py), in order."""
+        pending = self.fw.capture.pending
+        for e in pending:
+            self.capture(e.axis, e.home, e.rising, e.falling, e.position)
+        pending.clear()
 
     def describe(self) -> dict[str, Any]:
         info = super().describe()
         info["board"] = self.board
+        info["axes"] = self.n
         return info
 
     # -- backdoor ------------------------------------------------------------------------------------
@@ -315,9 +363,57 @@ class MaxkCard(Card):
         self.publish()
 
     @control()
-    def set_home_edge(self, axis: str, position: float | None = None) -> None:
-        """A home switch at `position`: active at and above it (None: back to set_home)."""
-        self.fw.motion.set_home_edge(self._axis(axis), position)
+    def set_home_edge(self, axis: str, position: float | None = None,
+                      width: float | None = None) -> None:
+        """A home switch at `position` counts: active from there up, for `width` counts if given
+        (None: back to set_home). The level follows HH/HL; a home search renumbering the axis
+        moves the switch with it."""
+        if width is not None and not width > 0:
+            raise ValueError("width must be positive")
+        self.fw.motion.set_home_edge(self._axis(axis), position, width)
+        self.publish()
+
+    @control()
+    def set_index(self, axis: str, period: float = 4096, phase: float = 0) -> None:
+        """Encoder index pulses at encoder counts phase + k * period (default one per 4096
+        counts), for HI-mode homing and index capture."""
+        if not period > 0:
+            raise ValueError("period must be positive")
+        a, enc = self._axis(axis), self.fw.motion.encoders
+        enc.index_period[a], enc.index_phase[a] = float(period), float(phase)
+
+    def _encoder_axis(self, axis: str, types: str = "EM") -> int:
+        a = self._axis(axis)
+        if self.fw.params.ptype[a] not in types:
+            raise ValueError(f"axis {AXIS_LETTERS[a]} is PS{self.fw.params.ptype[a]}, "
+                             f"this needs PS{' or PS'.join(types)}")
+        return a
+
+    @control()
+    def set_encoder_slip(self, axis: str, counts: int) -> None:
+        """The encoder of a PSE or PSM axis loses `counts` counts (gains them if negative): it
+        reads that much less than the motor moved, until LP/LPE or a home search load it. A
+        servo's loop makes up for it (the motor runs on), a stepper's encoder stays behind."""
+        self.fw.motion.core.slip_encoder(self._encoder_axis(axis), int(counts))
+
+    @control()
+    def set_encoder_loss(self, axis: str, active: bool) -> None:
+        """A lost encoder (PSE, PSM): its reading freezes while active."""
+        a, core = self._encoder_axis(axis), self.fw.motion.core
+        loss = core.encoder_loss.copy()
+        loss[a] = bool(active)
+        core.set_inputs(encoder_loss=loss)
+
+    @control()
+    def set_amp_fault(self, axis: str, active: bool) -> None:
+        """The amplifier fault input of a servo axis (PSM): the axis is aborted and its loop
+        opened and it is reported as a slip, all at once (faults.py)."""
+        a, core = self._encoder_axis(axis, "M"), self.fw.motion.core
+        fault = core.amp_fault.copy()
+        fault[a] = bool(active)
+        core.set_inputs(amp_fault=fault)
+        self.fw.on_motion_events(int(AxisFlag.AMP_FAULT))  # before the queue runs on
+        self.publish()
 
     @control()
     def set_input(self, bit: int, level: int) -> None:
@@ -338,9 +434,19 @@ class MaxkCard(Card):
         fw.analog_in[channel] = counts * 10 / 32767
 
     @control()
+    def get_outputs(self) -> dict[str, Any]:
+        """What the card drives on its output pins: the 16 I/O lines (`gpio`, bit n = IOn),
+        the auxiliary outputs (`aux`, one bool per axis, AN/AF) and the DACs (`dac_volts`)."""
+        fw = self.fw
+        volts = np.clip(np.rint(fw.motion.core.axes.out), -32767, 32767) * 10 / 32767
+        return {"gpio": fw.gpio_levels(), "aux": fw.aux.tolist(),
+                "dac_volts": [round(float(v), 4) for v in volts]}
+
+    @control()
     def set_firmware_state(self, state: str) -> None:
         """running | no_firmware | flash_checksum | defaults_checksum; takes effect at once
-        (the card restarts)."""
+        (the card restarts). Without firmware (no_firmware, flash_checksum) the card parses no
+        command; defaults_checksum loads the factory set (Table 3-4 bits 12, 18)."""
         if state not in ("running", "no_firmware", "flash_checksum", "defaults_checksum"):
             raise ValueError(f"unknown firmware state {state!r}")
         self.fault = None if state == "running" else state

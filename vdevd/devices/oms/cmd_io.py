@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from vdevd.devices.oms.servo import COUNTS_PER_VOLT
 from vdevd.devices.oms.syntax import Command, Operand, hex_words
 from vdevd.devices.oms.table import CommandError, command
 
@@ -12,7 +13,7 @@ if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
 
 
-def _letters(fw: Firmware, cmd: Command, allowed: str) -> list[tuple[int, str]]:
+def axis_letters(fw: Firmware, cmd: Command, allowed: str) -> list[tuple[int, str]]:
     """Per-axis letters (`LMH,,S` in AA/AM, `LMH` in single-axis mode)."""
     fields = cmd.operand.split(",") if cmd.operand else []
     if fw.mode == "single":
@@ -38,7 +39,7 @@ def limit_level(fw: Firmware, cmd: Command) -> str | None:
     """LTH / LTL: limit switches active high / low; LT? -> =h / =l [S §4.2]."""
     if cmd.query:
         return _polarity_reply(fw, fw.params.limit_high.tolist())
-    for a, f in _letters(fw, cmd, "HL"):
+    for a, f in axis_letters(fw, cmd, "HL"):
         fw.params.limit_high[a] = f == "H"
     fw.motion.apply_limits()
     return None
@@ -57,7 +58,7 @@ def limit_mode(fw: Firmware, cmd: Command) -> str | None:
     """LMH hard (stop at once), LMS soft (decelerate), LMF off; LM? -> =h / =s / =f."""
     if cmd.query:
         return ",".join("=" + fw.params.limit_mode[a].lower() for a in fw.selected())
-    for a, f in _letters(fw, cmd, "HSF"):
+    for a, f in axis_letters(fw, cmd, "HSF"):
         fw.params.limit_mode[a] = f
     fw.motion.apply_limits()
     return None
@@ -155,3 +156,25 @@ def analog_input(fw: Firmware, cmd: Command) -> str:
     if not 0 <= ch < fw.analog_channels:
         raise CommandError("no such analog input")
     return f"{fw.analog_in[ch]:.3f}"
+
+
+@command("AO", operand=Operand.NUMBERS)
+def analog_output(fw: Firmware, cmd: Command) -> None:
+    """AO volts (one per axis in AA/AM): the DAC of an axis that is not a servo as a
+    general-purpose analog output, -10..+10 V [S §4.5.2]; refused on a servo axis, whose DAC
+    the loop drives. Shown in the axis's DAC word (0x2E80 + 4·axis) (README)."""
+    pairs = fw.per_axis(cmd)
+    if not pairs or any(not -10.0 <= v <= 10.0 for _, v in pairs):
+        raise CommandError("AO takes -10..+10 V")
+    if any(fw.params.ptype[a] == "M" for a, _ in pairs):
+        raise CommandError("the DAC of a servo axis is not an analog output")
+    for a, v in pairs:
+        fw.motion.servo.set_analog_out(a, round(v * COUNTS_PER_VOLT))
+
+
+@command("AN", "AF")
+def aux_output(fw: Firmware, cmd: Command) -> None:
+    """Auxiliary output of the addressed axes on / off [S §4.6; spec §4.3 AN/AF]; the backdoor
+    `get_outputs` shows them (README)."""
+    for a in fw.selected():
+        fw.aux[a] = cmd.mnemonic == "AN"

@@ -9,7 +9,8 @@ from typing import TYPE_CHECKING
 
 from vdevd.devices.oms.params import PARAMS
 from vdevd.devices.oms.queue import Group, Run
-from vdevd.devices.oms.syntax import Command, Operand
+from vdevd.devices.oms.ssi import CLOCKS, MAX_BITS
+from vdevd.devices.oms.syntax import Command, Operand, hex_words
 from vdevd.devices.oms.table import CommandError, command
 
 if TYPE_CHECKING:
@@ -39,6 +40,33 @@ def _no_operand(cmd: Command) -> None:
         raise CommandError("no operand expected")
 
 
+def _refused(fw: Firmware, axis: int) -> bool:
+    """A motion command toward an active limit is not executed: the over-travel event comes at
+    once (ODBR bit, the axis's queue flushed so a pending ID never sets done) and the queue
+    stops there [S §4.2; spec §3.4, §5.6]."""
+    if not fw.motion.stopped_by_limit(axis):
+        return False
+    fw.on_motion_events(0)
+    return True
+
+
+def _starts(fw: Firmware, start: Callable[[int], None]) -> Factory:
+    """A queued command that starts a motion and completes at once (JG), unless a limit
+    refuses it."""
+
+    def factory(a: int) -> Callable[[], Run]:
+        def make() -> Run:
+            def run(axis: int) -> bool:
+                start(axis)
+                return not _refused(fw, axis)
+
+            return run
+
+        return make
+
+    return factory
+
+
 # -- parameters (queued: they apply to the moves that follow them) -------------------------------
 @command("VL", "VB", "AC", "HV", "HD", "HG", "ES", operand=Operand.NUMBERS)
 def motion_parameter(fw: Firmware, cmd: Command) -> None:
@@ -56,7 +84,7 @@ def motion_parameter(fw: Firmware, cmd: Command) -> None:
 
         def set_value(axis: int, value: float | None = value) -> None:
             fw.params.values[name][axis] = value
-            if name == "AC":
+            if name in ("AC", "ES"):  # the soft-limit deceleration, the slip tolerance
                 fw.motion.apply_limits()
 
         fw.enqueue([a], name, _at_once(set_value), units=2)
@@ -112,6 +140,8 @@ def _go_factory(fw: Firmware, clear_done: bool) -> Factory:
                         return True
                     fw.pending[axis] = math.nan
                     fw.motion.move_to(axis, target)
+                    if _refused(fw, axis):
+                        return False
                 return not fw.motion.moving(axis)
 
             return run
@@ -147,7 +177,7 @@ def jog(fw: Firmware, cmd: Command) -> None:
         def start(axis: int, v: float = v) -> None:
             fw.motion.jog(axis, v)
 
-        fw.enqueue([a], "JG", _at_once(start), units=2)
+        fw.enqueue([a], "JG", _starts(fw, start), units=2)
 
 
 @command("ID")
@@ -323,6 +353,8 @@ def _home(fw: Firmware, cmd: Command) -> None:
                     if not started:
                         started = True
                         fw.motion.home(ax, forward, value, ramp)
+                        if _refused(fw, ax):
+                            return False
                     return not fw.motion.moving(ax)
 
                 return run
@@ -333,3 +365,90 @@ def _home(fw: Firmware, cmd: Command) -> None:
 
 
 command("HM", "HR", "KM", "KR", operand=Operand.NUMBERS)(_home)
+
+
+@command("HI", "HS")
+def home_mode(fw: Firmware, cmd: Command) -> None:
+    """Home mode of the addressed axes: HI "Home Encoder" (home = the switch AND an encoder index
+    pulse [S §4.8]) or HS (the switch alone, the power-up mode); HI needs an encoder (PSE, PSM).
+    The quadrant term of the manual's home logic (Phase+A · Phase−B) is one encoder count, so
+    the index pulse alone places home here (README)."""
+    _no_operand(cmd)
+    axes = fw.selected()
+    index = cmd.mnemonic == "HI"
+    if index and any(fw.params.ptype[a] == "O" for a in axes):
+        raise CommandError("HI needs an encoder (PSE or PSM)")
+    for a in axes:
+        fw.motion.set_home_mode(a, index)
+
+
+# -- real-time position capture (mnemonics proposed: spec §2.8) ------------------------------------
+def _capture_axes(fw: Firmware, pairs: list[tuple[int, int]]) -> None:
+    if any(fw.params.ptype[a] == "O" and v for a, v in pairs):
+        raise CommandError("capture needs an incremental encoder (PSE or PSM) [S §3.7]")
+
+
+@command("CPH", operand=Operand.NUMBERS)
+def capture_home(fw: Firmware, cmd: Command) -> str | None:
+    """CPH#: capture the encoder position on home events, the Table 3-6 bits: 1 the home
+    switch's rising edge, 2 the encoder index pulse, 4 the falling edge (0 off); `CPH?` ->
+    `=#` per addressed axis."""
+    cap = fw.capture
+    if cmd.query:
+        return ",".join(f"={int(cap.home[a])}" for a in fw.selected())
+    pairs = [(a, int(v)) for a, v in fw.per_axis(cmd, integer=True)]
+    if not pairs or any(not 0 <= v <= 7 for _, v in pairs):
+        raise CommandError("CPH takes 0-7 (1 rising, 2 index, 4 falling)")
+    _capture_axes(fw, pairs)
+    for a, v in pairs:
+        cap.home[a] = v
+    cap.configure(fw)
+    return None
+
+
+def _capture_inputs(fw: Firmware, cmd: Command) -> str | None:
+    """CPR/CPF hex: capture the encoder position when these general-purpose input lines rise
+    (CPR) or fall (CPF), bit n = IOn, one mask per axis in AA/AM (0 off); `CPR?` -> `=hhhh`."""
+    cap = fw.capture
+    masks = cap.rising if cmd.mnemonic == "CPR" else cap.falling
+    if cmd.query:
+        return ",".join(f"={int(masks[a]):04x}" for a in fw.selected())
+    words = hex_words(cmd.operand) if cmd.operand else []
+    if fw.mode == "single":
+        if len(words) != 1 or words[0] is None:
+            raise CommandError("one 16-bit hex mask")
+        pairs = [(fw.axis, words[0])]
+    else:
+        if len(words) > fw.n:
+            raise CommandError("more values than axes")
+        pairs = [(a, w) for a, w in enumerate(words) if w is not None]
+    if not pairs or any(w > 0xFFFF for _, w in pairs):
+        raise CommandError("16-bit hex masks")
+    _capture_axes(fw, pairs)
+    for a, w in pairs:
+        masks[a] = w
+    cap.configure(fw)
+    return None
+
+
+command("CPR", "CPF", operand=Operand.HEX)(_capture_inputs)
+
+
+# -- absolute encoders ------------------------------------------------------------------------
+@command("ECA", operand=Operand.NUMBERS)
+def ssi_encoder(fw: Firmware, cmd: Command) -> str | None:
+    """ECA bits,clock: the addressed PSE axis reads an SSI absolute encoder of 1-32 bits at
+    one of the §4.9 clock rates [S §4.9.1]; `ECA?` -> `=bits,clock`."""
+    a = fw.axis
+    if cmd.query:
+        return f"={int(fw.ssi.bits[a])},{int(fw.ssi.clock[a])}"
+    try:
+        bits, clock = (int(x) for x in cmd.operand.split(","))
+    except ValueError:
+        raise CommandError("ECA bits,clock") from None
+    if fw.params.ptype[a] != "E":
+        raise CommandError("ECA is for PSE axes")
+    if not 1 <= bits <= MAX_BITS or clock not in CLOCKS:
+        raise CommandError("ECA: 1-32 bits, a clock of the list in [S §4.9]")
+    fw.ssi.configure(a, bits, clock)
+    return None

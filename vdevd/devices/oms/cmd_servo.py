@@ -1,10 +1,11 @@
 """Axis types, servo gains, closed loop and encoders [S §2.9, §2.13-2.14, §4.7; spec oms.md §4.3
-"Servo (PSM) and position maintenance", §5.3-5.4]."""
+"Servo (PSM) and position maintenance", §5.3-5.4]. The gain law is in servo.py."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from vdevd.devices.oms.cmd_io import axis_letters
 from vdevd.devices.oms.params import PARAMS
 from vdevd.devices.oms.syntax import Command, Operand
 from vdevd.devices.oms.table import CommandError, command
@@ -12,25 +13,46 @@ from vdevd.devices.oms.table import CommandError, command
 if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
 
+GAINS = ("KP", "KI", "KD", "KU", "KV", "KA", "KF", "KO")
+
+
+def _type_reply(fw: Firmware, prefix: str) -> str:
+    return ",".join(prefix + fw.params.ptype[a] for a in fw.selected())
+
 
 @command("PS", operand=Operand.LETTERS)
 def axis_type(fw: Firmware, cmd: Command) -> str | None:
-    """PSO / PSE / PSM: open-loop stepper, stepper with encoder, servo; PS? -> =O/=E/=M."""
+    """PSO / PSE / PSM: open-loop stepper, stepper with encoder, servo (per axis in AA/AM:
+    `PSM,M,O`); PS? -> =O/=E/=M. An axis made a servo starts with its loop open (CL0), as the
+    balancing of [S §2.9] step 3 expects; a motion in progress stops at once."""
     if cmd.query:
-        return ",".join("=" + fw.params.ptype[a] for a in fw.selected())
-    if cmd.operand not in ("O", "E", "M"):
-        raise CommandError("PSO, PSE or PSM")
-    for a in fw.selected():
-        fw.set_axis_type(a, cmd.operand)
+        return _type_reply(fw, "=")
+    pairs = axis_letters(fw, cmd, "OEM")
+    for a, t in pairs:
+        if t == "M" and fw.params.ptype[a] != "M":
+            fw.params.closed_loop[a] = False
+        fw.set_axis_type(a, t)
+    fw.apply_gains()
     return None
 
 
+@command("?PS")
+def axis_type_old(fw: Firmware, cmd: Command) -> str:
+    """The older query form: the type letter without `=` (firmware before 1.30, [A-base])."""
+    return _type_reply(fw, "")
+
+
 def _gain(fw: Firmware, cmd: Command) -> str | None:
+    """KP KI KD KU KV KA KF KO [S §2.13]: set per axis (a value out of range is refused and
+    nothing changes); `KP?` replies `=10.00`, the older `?KP` `10.00`; either query is a
+    command error on an axis that is not a servo (EPICS probes PSM with `?KP`)."""
+    old = cmd.mnemonic.startswith("?")
     name = cmd.mnemonic.lstrip("?")
-    if cmd.query or cmd.mnemonic.startswith("?"):
+    if old or cmd.query:
         if any(fw.params.ptype[a] != "M" for a in fw.selected()):
-            raise CommandError("not a servo axis")  # EPICS probes PSM with ?KP
-        return ",".join(f"{fw.params.values[name][a]:.2f}" for a in fw.selected())
+            raise CommandError("not a servo axis")
+        prefix = "" if old else "="
+        return ",".join(f"{prefix}{fw.params.values[name][a]:.2f}" for a in fw.selected())
     pairs = fw.per_axis(cmd)
     if not pairs:
         raise CommandError("a value is required")
@@ -44,41 +66,44 @@ def _gain(fw: Firmware, cmd: Command) -> str | None:
     return None
 
 
-for _name in ("KP", "KI", "KD", "KU", "KV", "KA", "KF", "KO"):
+for _name in GAINS:
     command(_name, operand=Operand.NUMBERS)(_gain)
     command("?" + _name)(_gain)
 
 
 @command("CL", operand=Operand.NUMBERS)
 def closed_loop(fw: Firmware, cmd: Command) -> str | None:
-    """CL1 closes the loop (PID hold), CL0 opens it (output KO only); CL? -> on/off."""
+    """CL1 closes the loop (PID hold), CL0 opens it (output KO only) [S §2.13]; one value per
+    axis in AA/AM; CL? -> on/off."""
     if cmd.query:
         return ",".join("on" if fw.params.closed_loop[a] else "off" for a in fw.selected())
-    if cmd.operand not in ("0", "1"):
+    pairs = fw.per_axis(cmd)
+    if not pairs or any(v not in (0.0, 1.0) for _, v in pairs):
         raise CommandError("CL0 or CL1")
-    for a in fw.selected():
-        fw.set_closed_loop(a, cmd.operand == "1")
+    for a, v in pairs:
+        fw.set_closed_loop(a, v == 1.0)
     return None
 
 
 @command("HN", "HF")
 def hold(fw: Firmware, cmd: Command) -> None:
-    """Hold on / off: the older form of CL1 / CL0."""
+    """Hold on / off: the older form of CL1 / CL0 [S §2.13]."""
     for a in fw.selected():
         fw.set_closed_loop(a, cmd.mnemonic == "HN")
 
 
 @command("SVP", operand=Operand.LETTERS)
 def servo_polarity(fw: Firmware, cmd: Command) -> None:
-    if cmd.operand not in ("+", "-"):
-        raise CommandError("SVP+ or SVP-")
-    for a in fw.selected():
-        fw.params.servo_inverted[a] = cmd.operand == "-"
+    """SVP- inverts the servo output, KO included; SVP+ normal [S §2.9 step 5]."""
+    for a, sign in axis_letters(fw, cmd, "+-"):
+        fw.params.servo_inverted[a] = sign == "-"
     fw.apply_gains()
 
 
 @command("EDI", "EDN")
 def encoder_direction(fw: Firmware, cmd: Command) -> None:
+    """Encoder direction inverted / normal [S §2.9 step 5]: negates the encoder as the card
+    reports it (RE, PE, the encoder words)."""
     for a in fw.selected():
         fw.params.encoder_inverted[a] = cmd.mnemonic == "EDI"
 
@@ -106,34 +131,36 @@ def encoder_status(fw: Firmware, cmd: Command) -> str:
 
 @command("ER", operand=Operand.NUMBERS)
 def encoder_ratio(fw: Firmware, cmd: Command) -> None:
-    """ER enc,motor: encoder counts per motor count; PSE axes only."""
+    """ER enc,motor: encoder counts per motor count, PSE axes only (spec §4.3, §4.4); the
+    axis's position, velocity and acceleration operands are then encoder counts."""
     try:
         enc, mot = (float(x) for x in cmd.operand.split(","))
     except ValueError:
         raise CommandError("ER encoder,motor") from None
-    if enc <= 0 or mot <= 0:
+    if not (enc > 0 and mot > 0):
         raise CommandError("ratio terms must be positive")
-    for a in fw.selected():
-        if fw.params.ptype[a] != "E":
-            raise CommandError("ER is for PSE axes")
-    for a in fw.selected():
+    axes = fw.selected()
+    if any(fw.params.ptype[a] != "E" for a in axes):
+        raise CommandError("ER is for PSE axes")
+    for a in axes:
         fw.params.ratio[a] = enc / mot
         fw.motion.core.set_encoder_scale(a, enc / mot)
 
 
 @command("UU", operand=Operand.NUMBERS)
 def user_units(fw: Firmware, cmd: Command) -> None:
-    try:
-        factor = float(cmd.operand)
-    except ValueError:
-        raise CommandError("UU counts per unit") from None
-    if factor <= 0:
-        raise CommandError("UU must be positive")
-    for a in fw.selected():
-        fw.params.user_units[a] = factor
+    """UU counts per user unit (one per axis in AA/AM): later position, velocity and
+    acceleration operands and the RP/RE/RV replies are in user units [spec §4.1, §4.3]. Not
+    queued: it changes how the commands after it are read."""
+    pairs = fw.per_axis(cmd)
+    if not pairs or any(not 0 < v <= 2_147_483_647 for _, v in pairs):
+        raise CommandError("UU takes a positive number of counts per unit")
+    for a, v in pairs:
+        fw.params.user_units[a] = v
 
 
 @command("UF")
 def user_units_off(fw: Firmware, cmd: Command) -> None:
+    """User units off: counts again."""
     for a in fw.selected():
         fw.params.user_units[a] = 0.0

@@ -102,30 +102,28 @@ def _ints(values: list[int]) -> str:
 
 @command("RP")
 def report_position(fw: Firmware, cmd: Command) -> str:
-    pos = fw.motor_position()
-    return _ints([int(pos[a]) for a in fw.selected()])
+    """Motor position: counts, or user units when UU is on (firmware.report)."""
+    return fw.report(fw.motor_position(), fw.selected())
 
 
 @command("RE")
 def report_encoder(fw: Firmware, cmd: Command) -> str:
-    enc = fw.encoder_position()
-    return _ints([int(enc[a]) for a in fw.selected()])
+    return fw.report(fw.encoder_position(), fw.selected(), "encoder")
 
 
 @command("RV")
 def report_velocity(fw: Firmware, cmd: Command) -> str:
-    vel = fw.motion.velocity()
-    return _ints([int(vel[a]) for a in fw.selected()])
+    return fw.report(fw.motion.velocity(), fw.selected())
 
 
 @command("PP")
 def positions(fw: Firmware, cmd: Command) -> str:
-    return _ints([int(v) for v in fw.motor_position()])
+    return fw.report(fw.motor_position(), list(range(fw.n)))
 
 
 @command("PE")
 def encoders(fw: Firmware, cmd: Command) -> str:
-    return _ints([int(v) for v in fw.encoder_position()])
+    return fw.report(fw.encoder_position(), list(range(fw.n)), "encoder")
 
 
 @command("RQC")

@@ -22,11 +22,14 @@ from vdevd.devices.oms import (  # noqa: F401 (they register their commands)
     cmd_system,
     cmd_vector,
 )
+from vdevd.devices.oms.capture import Capture
 from vdevd.devices.oms.contour import Contour
+from vdevd.devices.oms.faults import FAULT_EVENTS, react_to_faults
 from vdevd.devices.oms.layout import AXIS_LETTERS, Doorbell
 from vdevd.devices.oms.motion import OmsMotion
-from vdevd.devices.oms.params import Params
+from vdevd.devices.oms.params import UNIT_OPERANDS, Params
 from vdevd.devices.oms.queue import AxisQueue, Group, Item, Run
+from vdevd.devices.oms.ssi import Ssi
 from vdevd.devices.oms.syntax import Command, Lexer, numbers
 from vdevd.devices.oms.table import TABLE, CommandError
 
@@ -65,6 +68,7 @@ class Firmware:
             self.params.restore(saved)
             self.loaded = "power_up"
         self.power_on()
+        self.configure_axes()
 
     def power_on(self) -> None:
         """Positions 0, queues empty, the working parameters as they are."""
@@ -86,6 +90,9 @@ class Firmware:
         self.vector_velocity: dict[int, float] = {}
         self.vector_acceleration: dict[int, float] = {}
         self.override: dict[int, float] = {}  # VO per task, 1.0 = 100 %
+        self.aux = np.zeros(n, dtype=bool)  # AN/AF auxiliary outputs [S §4.6]
+        self.capture = Capture(n)  # real-time position capture [S §3.7]
+        self.ssi = Ssi(n)  # absolute encoders (ECA) [S §4.9]
         self.lexer.reset()
         self.replies.clear()
 
@@ -123,12 +130,16 @@ class Firmware:
         if events:
             self.motion.core.update_in_position()
             self.on_motion_events(events)
+        if self.capture.armed:
+            self.capture.cycle(self)
 
     def on_motion_events(self, events: int) -> None:
         """Over-travel: a limit stopped or refused a motion [spec §3.4, §5.6]."""
         for a in self.motion.new_limit_stops().tolist():
             self.flush(a)
             self.flag(a, Doorbell.OVERTRAVEL)
+        if events & FAULT_EVENTS:
+            react_to_faults(self, events)
 
     # -- events to the host -------------------------------------------------------------------------
     def flag(self, a: int, base: int) -> None:
@@ -160,11 +171,20 @@ class Firmware:
             if len(values) > self.n:
                 raise CommandError("more values than axes")
             pairs = [(a, v) for a, v in enumerate(values) if v is not None]
+        kind = UNIT_OPERANDS.get(cmd.mnemonic)  # user units, encoder ratio [spec §4.1, §4.3]
         out = []
         for a, v in pairs:
             assert v is not None
+            scale = 1.0 if kind is None else self.params.scale(a, kind)
+            if scale != 1.0:
+                v = float(round(v * scale))
             out.append((a, float(math.trunc(v)) if integer else v))
         return out
+
+    def report(self, values: np.ndarray, axes: list[int], kind: str = "motor") -> str:
+        """RP/RE/RV/PP/PE: the values of `axes`, comma separated, in counts, or in user units
+        (fixed point) when UU is on [spec §4.1, §4.2]."""
+        return ",".join(self.params.format(a, float(values[a]), kind) for a in axes)
 
     def enqueue(self, axes: list[int], label: str, make: Callable[[int], Callable[[], Run]],
                 units: int = 1, group: Group | None = None, kind: str = "",
@@ -249,8 +269,8 @@ class Firmware:
         loop on the encoder, so on it each of them loads both (README)."""
         enc = float(self.encoder_position()[a])
         servo = self.params.ptype[a] == "M"
-        if which == "encoder" and not servo:
-            self.enc_offset[a] += value - enc
+        if which == "encoder" and not servo:  # the slip detection starts again from here
+            self.enc_offset[a] += value - enc - self.motion.forget_slip(a)
             return
         self.motion.core.set_position(a, value)
         self.enc_offset[a] = 0.0 if which == "both" or servo else enc - value
@@ -272,7 +292,9 @@ class Firmware:
         return limit_word(m.limit_neg_level, m.limit_pos_level)
 
     def set_update_rate(self, hz: int) -> None:
-        self.update_hz = hz  # the card retimes its cycle (card.py)
+        """#UR: kept and reported; the card's cycle keeps the configured `update_hz` (the rack's
+        scheduler fixes every card's period at start, README)."""
+        self.update_hz = hz
 
     def set_axis_type(self, a: int, ptype: str) -> None:
         self.params.ptype[a] = ptype
@@ -286,21 +308,23 @@ class Firmware:
         self.motion.apply_gains()
 
     def in_deadband(self, a: int) -> bool:
-        m = self.motion
-        err = abs(float(m.motor_position()[a]) * float(self.params.ratio[a])
-                  - float(m.encoder_position()[a]))
-        return err <= float(self.params.values["HD"][a])
+        """EA char 4: the encoder within HD of the target (encoder.py)."""
+        return self.motion.in_deadband(a)
 
     def encoder_home(self, a: int) -> bool:
         return bool(self.motion.home_active()[a])
 
-    # -- stored defaults [S §2.13-2.14] -------------------------------------------------------------
+    # -- stored defaults [S §2.13-2.14; spec §1.4, §2.3] -------------------------------------------
     def store_defaults(self) -> None:
+        """APP: the working parameters become the power-up defaults (written to the card's
+        flash, the NVRAM file, at once); which set is loaded does not change until a restart."""
         image = self.params.image()
         self.save(image)
         self.saved = image
 
     def restore_defaults(self, factory: bool) -> None:
+        """RDF (factory) / RDP (the stored power-up set) into working memory; RDP without a
+        stored set is refused."""
         if not factory and self.saved is None:
             raise CommandError("no power-up defaults stored")
         params = Params(self.n, self.factory_types)
@@ -309,11 +333,18 @@ class Firmware:
             params.restore(self.saved)
         self.params.__dict__.update(params.__dict__)
         self.loaded = "factory" if factory else "power_up"
-        for a, t in enumerate(self.params.ptype):
-            self.motion.set_kind(a, t)
-            self.motion.set_closed_loop(a, bool(self.params.closed_loop[a]))
-        self.motion.apply_gains()
-        self.motion.apply_limits()
+        self.configure_axes()
+
+    def configure_axes(self) -> None:
+        """Make the axes what the working parameters say: type, loop, encoder ratio, gains,
+        limits."""
+        m, p = self.motion, self.params
+        for a, t in enumerate(p.ptype):
+            m.set_kind(a, t)
+            m.set_closed_loop(a, bool(p.closed_loop[a]))
+            m.core.set_encoder_scale(a, float(p.ratio[a]) if t == "E" else 1.0)
+        m.apply_gains()
+        m.apply_limits()
 
     def letter(self, a: int) -> str:
         return AXIS_LETTERS[a]

@@ -2,9 +2,13 @@
 
 Open-loop steppers (PSO) and steppers with encoder (PSE) drive the core's stepper plant, servos
 (PSM) its servo plant through the PID; `plant = "ideal"` makes every axis follow its command
-exactly. Moves are the linear (trapezoid) profile: VL peak velocity, AC for acceleration and
-deceleration [S §2.14]. The limit inputs are raw TTL levels; LTH/LTL give the active level, the
-limit mode (hard: stop at once; soft: decelerate; off: ignored) what a switch does [S §4.2].
+exactly. Moves from rest are the linear profile with base velocity (profile.py): VB, AC, VL
+[S §2.14]; a move that starts while the axis runs is the core's trapezoid from there. The limit
+inputs are raw TTL levels; LTH/LTL give the active level, the limit mode (hard: stop at once;
+soft: decelerate at AC; off: ignored) what a switch does [S §4.2]. Home searches: HM/HR/KM/KR run
+at VL until the home condition (the switch, or in HI mode the switch and an encoder index pulse)
+and load the operand into the position counter where it occurred [S §4.3, §4.8]. Encoder
+features (slip, runaway, index pulses, position maintenance) are in encoder.py.
 """
 
 from __future__ import annotations
@@ -13,11 +17,17 @@ import math
 
 import numpy as np
 
+from vdevd.devices.oms import profile
+from vdevd.devices.oms.encoder import Encoders
 from vdevd.devices.oms.params import Params
+from vdevd.devices.oms.servo import ServoLaw
 from vdevd.rt import MotionCore, PlantKind
 from vdevd.rt.axes import AxisFlag
 
 _KIND = {"O": PlantKind.STEPPER, "E": PlantKind.STEPPER, "M": PlantKind.SERVO}
+#: the deceleration of a stop "without deceleration" (hard limit, KM/KR, counts/s^2): the axis
+#: stands still within the update cycle
+HARD_STOP = 1e15
 
 
 class OmsMotion:
@@ -40,12 +50,18 @@ class OmsMotion:
         self.home_value = np.zeros(n)
         self.home_ramp = np.ones(n, dtype=bool)
         self.searching = np.zeros(n, dtype=bool)
-        self.home_edge = np.full(n, math.inf)  # backdoor: a home switch at a position
+        self.home_edge = np.full(n, math.inf)  # backdoor: a home switch at a position ...
+        self.home_top = np.full(n, math.inf)  # ... active from home_edge up to home_top
         self.home_edge_set = False
+        self.home_index = np.zeros(n, dtype=bool)  # HI mode: home = switch AND index pulse
+        self.index_capture = np.zeros(n, dtype=bool)  # index pulses make capture entries
+        self.encoders = Encoders(self.core, params)
         on = [t != "M" or params.closed_loop[a] for a, t in enumerate(params.ptype)]
         self.core.servo_on(np.flatnonzero(on))
+        self.servo = ServoLaw(self.core, params)
         self.apply_gains()
         self.apply_limits()
+        self.encoders.configure_maintenance()
 
     # -- configuration -------------------------------------------------------------------------------
     def limit_active(self) -> tuple[np.ndarray, np.ndarray]:
@@ -60,12 +76,14 @@ class OmsMotion:
         return self.home_level == self.params.home_high
 
     def apply_limits(self) -> None:
-        """Feed the switches to the core; hard mode stops at once, soft mode decelerates at AC."""
+        """Feed the switches to the core (hard mode stops at once, soft mode decelerates at AC),
+        then the slip tolerances (ES, the axis types, ER: encoder.py)."""
         p, lim = self.params, self.core.limits
         soft = np.array([m == "S" for m in p.limit_mode])
-        lim.limit_dec[:] = np.where(soft, p.values["AC"], np.inf)
+        lim.limit_dec[:] = np.where(soft, p.values["AC"], HARD_STOP)
         pos, neg = self.limit_active()
         self.core.set_inputs(hard_limit_pos=pos, hard_limit_neg=neg, home=self.home_active())
+        self.encoders.apply_slip()
 
     # -- commands ------------------------------------------------------------------------------------
     def moving(self, a: int) -> bool:
@@ -86,16 +104,31 @@ class OmsMotion:
         return float(np.rint(core.axes.cmd_pos[a]))
 
     def move_to(self, a: int, target: float) -> None:
-        v = self.params.values
-        self.limit_seen[a] = False
-        here = float(self.core.axes.cmd_pos[a])
+        """A move to `target`: from rest the linear profile with VB, else (the axis runs) the
+        core's trapezoid from its present velocity."""
+        v, core = self.params.values, self.core
+        self._begin(a)
+        here = float(core.axes.cmd_pos[a])
         if target != here:
             self.direction[a] = 1.0 if target > here else -1.0
-        self.core.move_absolute(a, target, v["VL"][a], v["AC"][a], v["AC"][a])
+        vb, vl, ac = float(v["VB"][a]), float(v["VL"][a]), float(v["AC"][a])
+        if core.profile.moving[a] or core.axes.cmd_vel[a]:
+            core.move_absolute(a, target, vl, ac, ac)
+            return
+
+        def plan(t: float, p: float, vel: float, goal: float) -> list[profile.Phase]:
+            return profile.linear(t, p, goal, vb, vl, ac)
+
+        core.move_planned(a, target, plan, ac)
+
+    def _begin(self, a: int) -> None:
+        """A motion command: a new limit stop or slip of the axis is reported again."""
+        self.limit_seen[a] = False
+        self.encoders.rearm(a)
 
     def jog(self, a: int, velocity: float) -> None:
         ac = float(self.params.values["AC"][a])
-        self.limit_seen[a] = False
+        self._begin(a)
         if velocity:
             self.direction[a] = 1.0 if velocity > 0 else -1.0
         self.core.jog(a, velocity, ac, ac)
@@ -108,32 +141,67 @@ class OmsMotion:
         self.core.abort(a)
 
     def home(self, a: int, forward: bool, value: float, ramp: bool) -> None:
-        """HM/HR (ramp) and KM/KR (stop at once): run at VL toward the home switch; where it
-        becomes active the position counter is loaded with `value` [S §4.3, §4.8]."""
+        """HM/HR (ramp) and KM/KR (stop at once): run at VL toward the home switch; where the
+        home condition occurs the position counter is loaded with `value` [S §4.3, §4.8]. An
+        axis already on its switch (switch mode) is homed where it stands."""
         self.home_value[a], self.home_ramp[a] = value, ramp
         self.searching[a] = True
         self.jog(a, float(self.params.values["VL"][a]) * (1 if forward else -1))
         if not self.moving(a):  # refused by a limit
             self.searching[a] = False
             return
-        self.check_homes()
+        self.check_homes(started=True)
 
-    def check_homes(self) -> None:
-        """Searching axes on an active home switch: load the value, ramp down or stop."""
-        found = np.flatnonzero(self.searching & self.home_active())
-        for a in found.tolist():
+    def check_homes(self, started: bool = False) -> None:
+        """Searching axes whose home condition holds: the switch active, and in HI mode an index
+        pulse in the last update cycle. The operand is what the counter reads where the
+        condition occurred (the switch edge, the index pulse); the axis then ramps down at AC
+        (HM/HR) or stops at once (KM/KR), so it ends at operand + what it ran past that point."""
+        hit = self.searching & self.home_active()
+        if self.home_index.any():
+            hit &= ~self.home_index | self.encoders.index_hit
+        for a in np.flatnonzero(hit).tolist():
             self.searching[a] = False
-            dec = float(self.params.values["AC"][a]) if self.home_ramp[a] else math.inf
-            self.core.redefine_and_stop(a, float(self.home_value[a]), dec)
+            dec = float(self.params.values["AC"][a]) if self.home_ramp[a] else HARD_STOP
+            ax = self.core.axes
+            past = 0.0  # how far the axis ran past where the condition occurred
+            if self.home_index[a]:
+                past = (float(ax.encoder[a]) - float(self.encoders.index_at[a])) / float(
+                    self.core.encoder_scale[a])
+            elif not started and math.isfinite(self.home_edge[a]):
+                edge = self.home_edge[a] if ax.cmd_vel[a] >= 0 else self.home_top[a]
+                past = float(ax.pos[a]) - float(edge) if math.isfinite(edge) else 0.0
+            before = float(ax.pos[a])
+            self.core.redefine_and_stop(a, float(self.home_value[a]) + past, dec)
+            shift = float(ax.pos[a]) - before  # the switch and the index stay on the axis
+            self.home_edge[a] += shift
+            self.home_top[a] += shift
+            self.encoders.renumbered(a, shift)
 
     def tick(self) -> int:
         events = self.core.tick()
+        self.servo.after_tick()
+        enc = self.encoders
+        if enc.watching:
+            enc.step_index()
+        if self.home_edge_set:
+            self.update_home_edges()
         if self.searching.any():
             self.searching &= self.core.profile.moving  # a limit or a stop ended the search
-            if self.home_edge_set:
-                self.update_home_edges()
             self.check_homes()
+        if enc.maintaining:
+            enc.maintain()
         return events
+
+    def set_home_mode(self, a: int, index: bool) -> None:
+        """HI (home = switch AND encoder index pulse) or HS (the switch alone)."""
+        self.home_index[a] = index
+        self.encoders.watch_index(self.home_index | self.index_capture)
+
+    def set_index_capture(self, a: int, on: bool) -> None:
+        """Index pulses of axis a make capture entries (capture.py)."""
+        self.index_capture[a] = on
+        self.encoders.watch_index(self.home_index | self.index_capture)
 
     # -- home switch positions ------------------------------------------------------------------------
     def update_home_edges(self) -> None:
@@ -142,11 +210,13 @@ class OmsMotion:
         on = np.isfinite(edge)
         pos = self.core.axes.pos
         active_level = self.params.home_high
-        at = pos >= edge  # the switch is active at and above the edge
+        at = (pos >= edge) & (pos < self.home_top)  # active from the edge, below the top
         self.home_level = np.where(on, np.where(at, active_level, ~active_level), self.home_level)
 
-    def set_home_edge(self, a: int, position: float | None) -> None:
+    def set_home_edge(self, a: int, position: float | None, width: float | None = None) -> None:
+        """A home switch active from `position` up (for `width` counts if given); None: none."""
         self.home_edge[a] = math.inf if position is None else position
+        self.home_top[a] = math.inf if position is None or width is None else position + width
         self.home_edge_set = bool(np.isfinite(self.home_edge).any())
         if self.home_edge_set:
             self.update_home_edges()
@@ -157,6 +227,7 @@ class OmsMotion:
         if int(self.core.kinds[a]) != int(kind):
             self.core.set_kind(a, kind)
         self.set_closed_loop(a, ptype != "M" or bool(self.params.closed_loop[a]))
+        self.encoders.apply_slip()
 
     def set_closed_loop(self, a: int, on: bool) -> None:
         """CL1: the servo holds and follows its command; CL0: open loop, output KO only."""
@@ -164,11 +235,15 @@ class OmsMotion:
             on = True  # a stepper always follows its pulses
         if on and not self.core.servo_on_mask[a]:
             self.core.servo_on(a)
+            self.encoders.rearm(a)
         elif not on and self.core.servo_on_mask[a]:
             self.core.servo_off(a)
+        self.apply_gains()
+        self.encoders.configure_maintenance()
 
     def apply_gains(self) -> None:
-        """The servo gains; the mapping of KP/KI/KD/KO onto the core PID is in README.md."""
+        """The servo gains onto the core's PID (servo.py)."""
+        self.servo.apply()
 
     # -- what the card reports -----------------------------------------------------------------------
     def motor_position(self) -> np.ndarray:
@@ -177,6 +252,18 @@ class OmsMotion:
 
     def encoder_position(self) -> np.ndarray:
         return self.core.axes.encoder
+
+    def in_deadband(self, a: int) -> bool:
+        return self.encoders.in_deadband(a)
+
+    def forget_slip(self, a: int) -> float:
+        """LPE on a stepper: slip detection takes the counters as they are now. The counts the
+        encoder lost leave the core (which compares the encoder with the steps); the caller
+        keeps them in its encoder offset, so the reading does not change. Returns them."""
+        slip = float(self.core.encoder_slip[a])
+        if slip:
+            self.core.slip_encoder(a, -slip)
+        return slip
 
     def velocity(self) -> np.ndarray:
         return np.rint(self.core.axes.cmd_vel)

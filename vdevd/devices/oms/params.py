@@ -3,6 +3,8 @@
 Numeric parameters are float arrays, one element per axis (`Params.values["VL"]`); the axis
 configuration (type, polarities, limit mode, closed loop) is kept beside them as small arrays.
 The whole set is what `APP` stores as the power-up defaults and `RDF`/`RDP` restore [S §2.14].
+User units (UU) and the encoder ratio (ER) change how operands and replies read (`scale`,
+`format`); inside, everything stays in counts.
 """
 
 from __future__ import annotations
@@ -55,13 +57,24 @@ PARAMS: dict[str, Param] = {
 #: axis types as PS? reports them [spec §4.2]: O open-loop stepper, E stepper + encoder, M servo
 AXIS_TYPES = {"stepper": "O", "stepper_encoder": "E", "servo": "M"}
 
+#: commands whose operand is a position, velocity or acceleration, of the motor or (LPE) of the
+#: encoder: in user units when UU is on [spec §4.1, §4.3 UU], and on a PSE axis with an encoder
+#: ratio in encoder counts ("all distance, velocity and acceleration parameters being input in
+#: encoder counts", spec §4.3 ER)
+UNIT_OPERANDS = {
+    **{m: "motor" for m in ("MA", "MR", "MT", "LP", "LO", "HM", "HR", "KM", "KR", "JG", "VL",
+                            "VB", "HV", "AC")},
+    "LPE": "encoder",
+}
+IMAGE_FORMAT = 1  # the layout of what APP stores
+
 
 class Params:
     """The working parameter set of one card."""
 
     def __init__(self, n: int, types: list[str]) -> None:
         self.n = n
-        self.values: dict[str, np.ndarray] = {k: np.full(n, p.default) for k, p in PARAMS.items()}
+        self.values: dict[str, np.ndarray] = {k: np.full(n, float(p.default)) for k, p in PARAMS.items()}
         self.ptype = list(types)  # "O" | "E" | "M" per axis
         self.limit_high = np.zeros(n, dtype=bool)  # LTH: limits active high (factory low)
         self.limit_mode = ["H"] * n  # H hard, S soft, F off [spec §8.11]
@@ -75,9 +88,30 @@ class Params:
         self.soft_lo = np.full(n, -math.inf)
         self.soft_hi = np.full(n, math.inf)
 
+    # -- units -----------------------------------------------------------------------------------
+    def scale(self, a: int, kind: str = "motor") -> float:
+        """Counts per operand unit on axis a: the UU factor (1 when off) and, for the motor of a
+        PSE axis, 1/ER (its operands are encoder counts)."""
+        factor = float(self.user_units[a]) or 1.0
+        if kind == "motor" and self.ptype[a] == "E":
+            factor /= float(self.ratio[a])
+        return factor
+
+    def format(self, a: int, counts: float, kind: str = "motor") -> str:
+        """A position or velocity as RP/RE/RV reply it: whole counts; in user units when UU is
+        on, fixed point with ceil(log10(UU)) decimals, 1 to 6 (at UU 1000 one count is 0.001)."""
+        value = counts / self.scale(a, kind)
+        uu = float(self.user_units[a])
+        if not uu:
+            return str(int(round(value)))
+        decimals = min(6, max(1, math.ceil(math.log10(uu))))
+        return f"{round(value, decimals) + 0.0:.{decimals}f}"  # + 0.0: no "-0.0"
+
+    # -- the stored defaults -----------------------------------------------------------------------
     def image(self) -> dict[str, Any]:
         """What APP stores (msgpack-friendly)."""
         return {
+            "format": IMAGE_FORMAT,
             "values": {k: v.tolist() for k, v in self.values.items()},
             "ptype": self.ptype,
             "limit_high": self.limit_high.tolist(),

@@ -1,0 +1,93 @@
+"""Real-time position capture [S §3.7, Tables 3-5/3-6; spec oms.md §2.8].
+
+Each axis with an incremental encoder (PSE, PSM) can record its encoder position when its home
+switch input has a rising (0x01) or falling (0x04) edge, when its encoder index pulse passes
+(0x02, "encoder home event"), and when general-purpose input lines have a rising or falling
+edge. The update cycle that sees the edges makes one entry per axis with every bit that
+triggered it; the card puts the entries in the shared-memory ring and writes OMR1 = 2 (INTA).
+Edges are of the raw input levels (a "positive edge" is TTL low to high, whatever HH/HL say).
+The seed names no command for the triggers ("see the MAX family command reference"); the ones
+this card takes (CPH, CPR, CPF) are proposed in cmd_motion.py and the README.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from vdevd.devices.oms.firmware import Firmware
+
+HOME_RISING = 0x01  # Table 3-6, byte 5
+INDEX = 0x02
+HOME_FALLING = 0x04
+HOME_EVENTS = HOME_RISING | INDEX | HOME_FALLING
+
+
+@dataclass(frozen=True, slots=True)
+class Entry:
+    """One capture table entry (Table 3-6)."""
+
+    position: int
+    axis: int
+    home: int
+    rising: int
+    falling: int
+
+
+class Capture:
+    """The capture triggers of every axis and the entries waiting for the card to post."""
+
+    def __init__(self, n: int) -> None:
+        self.home = np.zeros(n, dtype=np.int64)  # HOME_RISING | INDEX | HOME_FALLING per axis
+        self.rising = np.zeros(n, dtype=np.int64)  # GP input lines, rising edges, per axis
+        self.falling = np.zeros(n, dtype=np.int64)
+        self.armed = False
+        self.pending: list[Entry] = []
+        self._inputs = 0
+        self._home_level = np.ones(n, dtype=bool)
+
+    def configure(self, fw: Firmware) -> None:
+        """After a trigger changed: arm, watch index pulses where asked, take the levels now as
+        the reference for edges."""
+        self.armed = bool((self.home | self.rising | self.falling).any())
+        m = fw.motion
+        for a, bits in enumerate(self.home.tolist()):
+            if bool(bits & INDEX) != bool(m.index_capture[a]):
+                m.set_index_capture(a, bool(bits & INDEX))
+        self._inputs = self._input_levels(fw)
+        self._home_level = m.home_level.copy()
+
+    @staticmethod
+    def _input_levels(fw: Firmware) -> int:
+        return fw.gpio_levels() & ~fw.gpio_dir & 0xFFFF
+
+    def cycle(self, fw: Firmware) -> None:
+        """One update cycle: the edges since the last one make entries."""
+        m = fw.motion
+        inputs = self._input_levels(fw)
+        rise, fall = inputs & ~self._inputs, self._inputs & ~inputs
+        level = m.home_level
+        index = m.encoders.index_hit
+        changed = level != self._home_level
+        if not (rise or fall or changed.any() or index.any()):
+            return
+        home = (np.where(changed & level, HOME_RISING, 0) | np.where(index, INDEX, 0)
+                | np.where(changed & ~level, HOME_FALLING, 0)) & self.home
+        rising, falling = self.rising & rise, self.falling & fall
+        self._inputs = inputs
+        self._home_level = level.copy()
+        hit = np.flatnonzero(home | rising | falling)
+        if not len(hit):
+            return
+        enc = fw.encoder_position()
+        raw = m.core.axes.encoder
+        sign = np.where(fw.params.encoder_inverted, -1, 1)
+        for a in hit.tolist():
+            position = float(enc[a])
+            if home[a] & INDEX:  # the count of the pulse itself, as the host counts
+                position -= sign[a] * (float(raw[a]) - float(m.encoders.index_at[a]))
+            self.pending.append(Entry(int(position), a, int(home[a]), int(rising[a]),
+                                      int(falling[a])))
