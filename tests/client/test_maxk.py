@@ -141,8 +141,6 @@ def test_a_command_error_raises_and_the_card_keeps_answering(m: maxk.Maxk) -> No
     assert not m.get_status_flags().cmd_error  # the exceptions took the flag
 
 
-@pytest.mark.xfail(strict=True, reason="oms-maxk: VB/VL are checked against the working values, "
-                   "not against the VB/VL queued before them in the same stream")
 def test_vb_above_a_vl_later_in_the_same_string_is_an_error(m: maxk.Maxk) -> None:
     with pytest.raises(maxk.CommandError):
         m.send_string("AX VB5000 VL1000")  # after it VB 5000 >= VL 1000 [spec §4.4]

@@ -76,11 +76,13 @@ def motion_parameter(fw: Firmware, cmd: Command) -> None:
         value = param.coerce(v)
         if value is None:
             raise CommandError(f"{name} out of range")
-        vl = fw.params.values["VL"][a]
-        if name == "VB" and value >= vl or name == "VL" and value <= fw.params.values["VB"][a]:
+        vl, vb = fw.queued_speed(a)  # as the commands queued before this one leave them
+        if name == "VB" and value >= vl or name == "VL" and value <= vb:
             raise CommandError("VB must be below VL")  # "OMS errors if VB = VL"
     for a, v in pairs:
         value = param.coerce(v)
+        if name in ("VL", "VB"):
+            fw.queued[name][a] = value
 
         def set_value(axis: int, value: float | None = value) -> None:
             fw.params.values[name][axis] = value

@@ -80,6 +80,8 @@ class Firmware:
         self.done = np.zeros(n, dtype=bool)  # the D of QA/RA [spec §3.4]
         self.slip = np.zeros(n, dtype=bool)
         self.pending = np.full(n, math.nan)  # MA/MR targets waiting for GO
+        # VL and VB as the queued commands will leave them (nan: the working value)
+        self.queued = {"VL": np.full(n, math.nan), "VB": np.full(n, math.nan)}
         self.aa_members: frozenset[int] = frozenset(range(n))
         self.wk_flags = [0, 0]  # the W and K status words (0x0CC, 0x0D0)
         self.armed: set[int] = set()  # axes given MA/MR since the last GO (AA/AM)
@@ -199,6 +201,19 @@ class Firmware:
     def flush(self, a: int) -> None:
         self.queues[a].flush()
         self.pending[a] = math.nan
+        for name in self.queued:
+            self.queued[name][a] = math.nan
+
+    def queued_speed(self, a: int) -> tuple[float, float]:
+        """(VL, VB) of axis a once the commands in its queue have run: the last queued value,
+        else the working one (VB must stay below VL, spec §4.4)."""
+        v = self.params.values
+        vl, vb = float(self.queued["VL"][a]), float(self.queued["VB"][a])
+        if self.queues[a].idle or math.isnan(vl):
+            vl = float(v["VL"][a])
+        if self.queues[a].idle or math.isnan(vb):
+            vb = float(v["VB"][a])
+        return vl, vb
 
     # -- coordinated motion ---------------------------------------------------------------------------
     def motion_together(self, targets: dict[int, float]) -> None:
