@@ -8,7 +8,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from vdevd.devices.oms.params import PARAMS
-from vdevd.devices.oms.queue import Group, Run
+from vdevd.devices.oms.queue import Group, Run, at_once
 from vdevd.devices.oms.ssi import CLOCKS, MAX_BITS
 from vdevd.devices.oms.syntax import Command, Operand, hex_words
 from vdevd.devices.oms.table import CommandError, command
@@ -16,23 +16,7 @@ from vdevd.devices.oms.table import CommandError, command
 if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
 
-Factory = Callable[[int], Callable[[], Run]]
-
-
-def _at_once(fn: Callable[[int], None]) -> Factory:
-    """A queued command that completes when it runs."""
-
-    def factory(a: int) -> Callable[[], Run]:
-        def make() -> Run:
-            def run(axis: int) -> bool:
-                fn(axis)
-                return True
-
-            return run
-
-        return make
-
-    return factory
+Make = Callable[[], Run]
 
 
 def _no_operand(cmd: Command) -> None:
@@ -50,21 +34,18 @@ def _refused(fw: Firmware, axis: int) -> bool:
     return True
 
 
-def _starts(fw: Firmware, start: Callable[[int], None]) -> Factory:
+def _starts(fw: Firmware, start: Callable[[int], None]) -> Make:
     """A queued command that starts a motion and completes at once (JG), unless a limit
     refuses it."""
 
-    def factory(a: int) -> Callable[[], Run]:
-        def make() -> Run:
-            def run(axis: int) -> bool:
-                start(axis)
-                return not _refused(fw, axis)
+    def make() -> Run:
+        def run(axis: int) -> bool:
+            start(axis)
+            return not _refused(fw, axis)
 
-            return run
+        return run
 
-        return make
-
-    return factory
+    return make
 
 
 # -- parameters (queued: they apply to the moves that follow them) -------------------------------
@@ -89,7 +70,7 @@ def motion_parameter(fw: Firmware, cmd: Command) -> None:
             if name in ("AC", "ES"):  # the soft-limit deceleration, the slip tolerance
                 fw.motion.apply_limits()
 
-        fw.enqueue([a], name, _at_once(set_value), units=2)
+        fw.enqueue([a], name, at_once(set_value), units=2)
 
 
 # -- targets and GO --------------------------------------------------------------------------
@@ -105,7 +86,7 @@ def _target(fw: Firmware, cmd: Command, relative: bool) -> None:
         def set_target(axis: int, d: float = d) -> None:
             fw.pending[axis] = fw.motion.target_base(axis) + d if relative else d
 
-        fw.enqueue([a], cmd.mnemonic, _at_once(set_target), units=2)
+        fw.enqueue([a], cmd.mnemonic, at_once(set_target), units=2)
         fw.armed.add(a)
 
 
@@ -126,31 +107,28 @@ def direction_logic(fw: Firmware, cmd: Command) -> None:
     _no_operand(cmd)
 
 
-def _go_factory(fw: Firmware, clear_done: bool) -> Factory:
-    def factory(a: int) -> Callable[[], Run]:
-        def make() -> Run:
-            started = False
+def _go(fw: Firmware, clear_done: bool) -> Make:
+    def make() -> Run:
+        started = False
 
-            def run(axis: int) -> bool:
-                nonlocal started
-                if not started:
-                    started = True
-                    if clear_done:
-                        fw.done[axis] = False
-                    target = fw.pending[axis]
-                    if math.isnan(target):
-                        return True
-                    fw.pending[axis] = math.nan
-                    fw.motion.move_to(axis, target)
-                    if _refused(fw, axis):
-                        return False
-                return not fw.motion.moving(axis)
+        def run(axis: int) -> bool:
+            nonlocal started
+            if not started:
+                started = True
+                if clear_done:
+                    fw.done[axis] = False
+                target = fw.pending[axis]
+                if math.isnan(target):
+                    return True
+                fw.pending[axis] = math.nan
+                fw.motion.move_to(axis, target)
+                if _refused(fw, axis):
+                    return False
+            return not fw.motion.moving(axis)
 
-            return run
+        return run
 
-        return make
-
-    return factory
+    return make
 
 
 @command("GO", "GD")
@@ -164,7 +142,7 @@ def go(fw: Firmware, cmd: Command) -> None:
     if fw.mode == "AA":
         group = Group(frozenset(axes))
         fw.aa_members = group.members
-    fw.enqueue(axes, cmd.mnemonic, _go_factory(fw, clear), units=4, group=group)
+    fw.enqueue(axes, cmd.mnemonic, _go(fw, clear), units=4, group=group)
     fw.armed.clear()
 
 
@@ -192,7 +170,7 @@ def interrupt_done(fw: Firmware, cmd: Command) -> None:
         group = Group(frozenset(axes))
     else:
         axes, group = fw.selected(), None
-    fw.enqueue(axes, "ID", _at_once(fw.set_done), group=group)
+    fw.enqueue(axes, "ID", at_once(fw.set_done), group=group)
 
 
 # -- stopping --------------------------------------------------------------------------------
@@ -258,12 +236,12 @@ def loop_start(fw: Firmware, cmd: Command) -> None:
     for a, v in pairs:
         if not 1 <= v <= 2_147_483_647:
             raise CommandError("loop count out of range")
-        fw.enqueue([a], "LS", _at_once(lambda axis: None), units=2, kind="LS", count=int(v))
+        fw.enqueue([a], "LS", at_once(lambda axis: None), units=2, kind="LS", count=int(v))
 
 
 @command("LE")
 def loop_end(fw: Firmware, cmd: Command) -> None:
-    fw.enqueue(fw.selected(), "LE", _at_once(lambda axis: None), kind="LE")
+    fw.enqueue(fw.selected(), "LE", at_once(lambda axis: None), kind="LE")
 
 
 @command("SW", operand=Operand.NUMBERS)
@@ -274,10 +252,10 @@ def wait_input(fw: Firmware, cmd: Command) -> None:
         if not 0 <= bit <= 15:
             raise CommandError("I/O bit is 0-15")
 
-        def factory(axis: int, bit: int = int(bit)) -> Callable[[], Run]:
-            return lambda: (lambda ax: bool(fw.gpio_levels() >> bit & 1))
+        def make(bit: int = int(bit)) -> Run:
+            return lambda axis: bool(fw.gpio_levels() >> bit & 1)
 
-        fw.enqueue([a], "SW", factory, units=2)
+        fw.enqueue([a], "SW", make, units=2)
 
 
 @command("WT", operand=Operand.NUMBERS)
@@ -288,20 +266,17 @@ def wait_time(fw: Firmware, cmd: Command) -> None:
         if not 0 <= ms <= 2_147_483_647:
             raise CommandError("time out of range")
 
-        def factory(axis: int, ms: float = ms) -> Callable[[], Run]:
-            def make() -> Run:
-                end: list[int] = []
+        def make(ms: float = ms) -> Run:
+            end: list[int] = []
 
-                def run(ax: int) -> bool:
-                    if not end:
-                        end.append(fw.now_ns + int(ms * 1e6))
-                    return fw.now_ns >= end[0]
+            def run(axis: int) -> bool:
+                if not end:
+                    end.append(fw.now_ns + int(ms * 1e6))
+                return fw.now_ns >= end[0]
 
-                return run
+            return run
 
-            return make
-
-        fw.enqueue([a], "WT", factory, units=2)
+        fw.enqueue([a], "WT", make, units=2)
 
 
 # -- position registers (queued) ------------------------------------------------------------------
@@ -316,7 +291,7 @@ def _load(fw: Firmware, cmd: Command, which: str) -> None:
         def load(axis: int, v: float = v) -> None:
             fw.load_position(axis, v, which)
 
-        fw.enqueue([a], cmd.mnemonic, _at_once(load), units=2)
+        fw.enqueue([a], cmd.mnemonic, at_once(load), units=2)
 
 
 @command("LP", operand=Operand.NUMBERS)
@@ -346,24 +321,21 @@ def _home(fw: Firmware, cmd: Command) -> None:
         if abs(value) > 2**31 - 1:
             raise CommandError("position out of range")
 
-        def factory(axis: int, value: float = value) -> Callable[[], Run]:
-            def make() -> Run:
-                started = False
+        def make(value: float = value) -> Run:
+            started = False
 
-                def run(ax: int) -> bool:
-                    nonlocal started
-                    if not started:
-                        started = True
-                        fw.motion.home(ax, forward, value, ramp)
-                        if _refused(fw, ax):
-                            return False
-                    return not fw.motion.moving(ax)
+            def run(axis: int) -> bool:
+                nonlocal started
+                if not started:
+                    started = True
+                    fw.motion.home(axis, forward, value, ramp)
+                    if _refused(fw, axis):
+                        return False
+                return not fw.motion.moving(axis)
 
-                return run
+            return run
 
-            return make
-
-        fw.enqueue([a], cmd.mnemonic, factory, units=2)
+        fw.enqueue([a], cmd.mnemonic, make, units=2)
 
 
 command("HM", "HR", "KM", "KR", operand=Operand.NUMBERS)(_home)

@@ -4,11 +4,10 @@ VH`) [S App C L1356-1374; spec oms.md §4.3 "Vector / contouring", §8.14]."""
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from vdevd.devices.oms.contour import Contour
-from vdevd.devices.oms.queue import Group, Run
+from vdevd.devices.oms.queue import Group, Run, at_once
 from vdevd.devices.oms.syntax import Command, Operand, hex_words, numbers
 from vdevd.devices.oms.table import CommandError, command
 
@@ -38,18 +37,15 @@ def move_together(fw: Firmware, cmd: Command) -> None:
     fw.aa_members = group.members
     fw.armed.update(targets)  # the GO that follows starts them (together, here)
 
-    def factory(a: int) -> Callable[[], Run]:
-        def make() -> Run:
-            def run(axis: int) -> bool:
-                if group.act_once():
-                    fw.motion_together(targets)
-                return not fw.motion.moving(axis)
+    def make() -> Run:
+        def run(axis: int) -> bool:
+            if group.act_once():
+                fw.motion_together(targets)
+            return not fw.motion.moving(axis)
 
-            return run
+        return run
 
-        return make
-
-    fw.enqueue(sorted(targets), "MT", factory, units=1 + len(targets), group=group)
+    fw.enqueue(sorted(targets), "MT", make, units=1 + len(targets), group=group)
 
 
 # -- contours ------------------------------------------------------------------------------------
@@ -161,36 +157,22 @@ def vector_end(fw: Firmware, cmd: Command) -> None:
     group = Group(frozenset(c.axes))
     fw.aa_members = group.members
 
-    def factory(a: int) -> Callable[[], Run]:
-        def make() -> Run:
-            def run(axis: int) -> bool:
-                if group.act_once():
-                    fw.start_contour(task, c)
-                return fw.running_contours.get(task) is not c
+    def make() -> Run:
+        def run(axis: int) -> bool:
+            if group.act_once():
+                fw.start_contour(task, c)
+            return fw.running_contours.get(task) is not c
 
-            return run
+        return run
 
-        return make
-
-    fw.enqueue(sorted(c.axes), "VE", factory, units=1 + len(c.segments), group=group)
+    fw.enqueue(sorted(c.axes), "VE", make, units=1 + len(c.segments), group=group)
 
 
 @command("VID")
 def vector_done(fw: Firmware, cmd: Command) -> None:
     """Set the done flags (and doorbell) of the contour's axes when it has ended."""
     group = Group(fw.aa_members)
-
-    def factory(a: int) -> Callable[[], Run]:
-        def make() -> Run:
-            def run(axis: int) -> bool:
-                fw.set_done(axis)
-                return True
-
-            return run
-
-        return make
-
-    fw.enqueue(sorted(group.members), "VID", factory, group=group)
+    fw.enqueue(sorted(group.members), "VID", at_once(fw.set_done), group=group)
 
 
 @command("VO", operand=Operand.NUMBERS)

@@ -188,15 +188,15 @@ class Firmware:
         (fixed point) when UU is on [spec §4.1, §4.2]."""
         return ",".join(self.params.format(a, float(values[a]), kind) for a in axes)
 
-    def enqueue(self, axes: list[int], label: str, make: Callable[[int], Callable[[], Run]],
+    def enqueue(self, axes: list[int], label: str, make: Callable[[], Run],
                 units: int = 1, group: Group | None = None, kind: str = "",
                 count: int = 0) -> None:
-        """Queue a command on each of `axes` (make(axis) builds its runner); all-or-nothing:
-        a queue without room makes it a command error."""
+        """Queue a command on each of `axes` (`make()` builds its runner when it reaches the
+        head); all-or-nothing: a queue without room makes it a command error."""
         if any(self.queues[a].free < units for a in axes):
             raise CommandError("command queue full")
         for a in axes:
-            self.queues[a].push(Item(label, make(a), units, group, kind, count))
+            self.queues[a].push(Item(label, make, units, group, kind, count))
 
     def flush(self, a: int) -> None:
         self.queues[a].flush()
@@ -369,15 +369,3 @@ class Firmware:
             raise CommandError(f"no axis {AXIS_LETTERS[a]} on this card")
         return a
 
-
-def once(fn: Callable[[int], None]) -> Callable[[], Run]:
-    """A queued command that completes at once."""
-
-    def make() -> Run:
-        def run(a: int) -> bool:
-            fn(a)
-            return True
-
-        return run
-
-    return make

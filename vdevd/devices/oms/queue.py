@@ -21,6 +21,19 @@ CHAIN_LIMIT = 64  # commands one axis may complete in one update cycle
 Run = Callable[[int], bool]
 
 
+def at_once(fn: Callable[[int], None]) -> Callable[[], Run]:
+    """A queued command that completes when it runs: `fn(axis)`, then the next command."""
+
+    def make() -> Run:
+        def run(axis: int) -> bool:
+            fn(axis)
+            return True
+
+        return run
+
+    return make
+
+
 @dataclass(eq=False)
 class Group:
     """A command shared by several axes: it runs when every member has reached it, on every
