@@ -56,6 +56,14 @@ class AxisFlag(enum.IntFlag):
     HOMED = 1 << 14
 
 
+def wrap_int32(values: np.ndarray) -> np.ndarray:
+    """Counts as a card's signed 32-bit counters and register fields hold them: rounded to
+    whole counts, wrapping beyond 2^31 (a non-finite value reads 0)."""
+    v = np.rint(np.asarray(values, dtype=np.float64))
+    v = np.where(np.isfinite(v), v, 0.0)
+    return (v.astype(np.int64) + 2**31) % 2**32 - 2**31
+
+
 #: bits that a motion command clears
 MOTION_STICKY = (
     AxisFlag.DONE | AxisFlag.ABORTED | AxisFlag.STOPPED_BY_LIMIT

@@ -25,9 +25,9 @@ from vdevd.devices.galil.interpreter import (
 )
 from vdevd.devices.galil.motion import GalilMotion, StopCode
 from vdevd.devices.galil.params import COUNTS_PER_VOLT, PARAMS
-from vdevd.devices.galil.record import GeneralStatus, clip32, record_dtype
+from vdevd.devices.galil.record import GeneralStatus, record_dtype
 from vdevd.region import Region
-from vdevd.rt import PlantKind
+from vdevd.rt import PlantKind, wrap_int32
 
 
 class Condition:
@@ -311,11 +311,11 @@ class GalilCard(Card):
         ax["status"] = m.status_word()
         ax["switches"] = m.switches(self.latch_inputs())
         ax["stop_code"] = m.stop_code
-        ax["reference"] = clip32(m.reference())
-        ax["position"] = clip32(m.position())
-        ax["error"] = clip32(m.error())
-        ax["aux"] = clip32(m.auxiliary())
-        ax["velocity"] = clip32(m.tv * 64)
+        ax["reference"] = wrap_int32(m.reference())
+        ax["position"] = wrap_int32(m.position())
+        ax["error"] = wrap_int32(m.error())
+        ax["aux"] = wrap_int32(m.auxiliary())
+        ax["velocity"] = wrap_int32(m.tv * 64)
         ax["torque"] = np.rint(m.torque() * COUNTS_PER_VOLT).clip(-32767, 32767)
         ax["analog"] = np.rint(self.analog[: self.n] * COUNTS_PER_VOLT).clip(-32767, 32767)
         return rec.tobytes()

@@ -37,7 +37,3 @@ class GeneralStatus:
     WAITING_FOR_IN = 1 << 2
     PROGRAM_RUNNING = 1 << 7
 
-
-def clip32(values: np.ndarray) -> np.ndarray:
-    """Signed 32-bit fields hold positions as the card's counters do (wrap beyond 2^31)."""
-    return (np.rint(values).astype(np.int64) + 2**31) % 2**32 - 2**31

@@ -30,6 +30,7 @@ from vdevd.devices.oms.layout import (
     MU_SIZE,
     SHM_SIZE,
     SSI_WORDS,
+    UPDATE_RATES,
     DirectCommand,
     Shm,
     home_word,
@@ -37,13 +38,12 @@ from vdevd.devices.oms.layout import (
 from vdevd.devices.oms.layout import (
     Firmware as FwFlags,
 )
-from vdevd.devices.oms.motion import clip32
 from vdevd.devices.oms.mu import MessageUnit
 from vdevd.devices.oms.params import AXIS_TYPES, IMAGE_FORMAT
 from vdevd.region import Region
+from vdevd.rt import wrap_int32
 from vdevd.rt.axes import AxisFlag
 
-UPDATE_RATES = (1024, 2048, 4096, 8192)
 VERSION = "1.50"
 
 
@@ -290,9 +290,10 @@ class MaxkCard(Card):
         """Positions, status words and DACs as the host reads them every cycle [S Table 3-1]."""
         fw, n, words = self.fw, self.n, self.words
         m = fw.motion
-        words[MOTOR_WORDS[:n]] = clip32(fw.motor_position())
-        words[ENCODER_WORDS[:n]] = clip32(fw.encoder_position())
-        words[DAC_WORDS[:n]] = np.rint(np.clip(m.core.axes.out, -32767, 32767))
+        encoder = fw.encoder_position()
+        words[MOTOR_WORDS[:n]] = wrap_int32(fw.motor_position())
+        words[ENCODER_WORDS[:n]] = wrap_int32(encoder)
+        words[DAC_WORDS[:n]] = self._dac()
         mem = self.mem
         rings.put_u32(mem, Shm.LIMITS, fw.limit_word())
         rings.put_u32(mem, Shm.HOMES, home_word(m.home_level))
@@ -300,14 +301,18 @@ class MaxkCard(Card):
         rings.put_u32(mem, Shm.GPIO, fw.gpio_levels())
         rings.put_u32(mem, Shm.W_FLAGS, fw.wk_flags[0])
         rings.put_u32(mem, Shm.K_FLAGS, fw.wk_flags[1])
-        words[SSI_WORDS[:n]] = fw.ssi.words(fw.encoder_position())
+        words[SSI_WORDS[:n]] = fw.ssi.words(encoder)
 
     def snapshot(self) -> None:
         """The position request: motor, encoder and DAC of every axis from the same cycle."""
         fw, n, words = self.fw, self.n, self.words
-        words[COHERENT_MOTOR_WORDS[:n]] = clip32(fw.motor_position())
-        words[COHERENT_ENCODER_WORDS[:n]] = clip32(fw.encoder_position())
-        words[COHERENT_DAC_WORDS[:n]] = np.rint(np.clip(fw.motion.core.axes.out, -32767, 32767))
+        words[COHERENT_MOTOR_WORDS[:n]] = wrap_int32(fw.motor_position())
+        words[COHERENT_ENCODER_WORDS[:n]] = wrap_int32(fw.encoder_position())
+        words[COHERENT_DAC_WORDS[:n]] = self._dac()
+
+    def _dac(self) -> np.ndarray:
+        """The servo outputs as the DAC words hold them: counts, +-32767 = +-10 V."""
+        return np.rint(np.clip(self.fw.motion.core.axes.out, -32767, 32767))
 
     def capture(self, a: int, home_bits: int = 0, rising: int = 0, falling: int = 0,
                 position: int | None = None) -> None:
@@ -348,7 +353,7 @@ class MaxkCard(Card):
         if negative is not None:
             m.limit_neg_level[a] = high if negative else not high
         m.apply_limits()
-        self.fw.on_motion_events(1)
+        self.fw.on_motion_events(0)
         self.publish()
 
     @control()

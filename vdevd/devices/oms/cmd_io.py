@@ -80,14 +80,9 @@ def home_level(fw: Firmware, cmd: Command) -> None:
     fw.motion.apply_limits()
 
 
-@command("QL")
+@command("QL", "RL")
 def query_limits(fw: Firmware, cmd: Command) -> str:
-    """The limit word (Table 3-2, raw levels) in hex."""
-    return f"{fw.limit_word():x}"
-
-
-@command("RL")
-def report_limits(fw: Firmware, cmd: Command) -> str:
+    """The limit word (Table 3-2, raw levels) in hex (RL: the same report, spec §4.3)."""
     return f"{fw.limit_word():x}"
 
 

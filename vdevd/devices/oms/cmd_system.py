@@ -4,14 +4,13 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from vdevd.devices.oms.layout import AXIS_LETTERS
+from vdevd.devices.oms.layout import AXIS_LETTERS, UPDATE_RATES
 from vdevd.devices.oms.syntax import Command, Operand
 from vdevd.devices.oms.table import CommandError, command
 
 if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
 
-UPDATE_RATES = (1024, 2048, 4096, 8192)  # #UR [S §2.13]
 
 
 def _select_axis(fw: Firmware, cmd: Command) -> None:

@@ -26,6 +26,7 @@ from vdevd.devices.oms.capture import Capture
 from vdevd.devices.oms.contour import Contour
 from vdevd.devices.oms.faults import FAULT_EVENTS, react_to_faults
 from vdevd.devices.oms.layout import AXIS_LETTERS, Doorbell
+from vdevd.devices.oms.layout import limit_word as pack_limit_word
 from vdevd.devices.oms.motion import OmsMotion
 from vdevd.devices.oms.params import UNIT_OPERANDS, Params
 from vdevd.devices.oms.queue import AxisQueue, Group, Item, Run
@@ -302,9 +303,8 @@ class Firmware:
         return (self.gpio_out & self.gpio_dir) | (self.gpio_in & ~self.gpio_dir & 0xFFFF)
 
     def limit_word(self) -> int:
-        from vdevd.devices.oms.layout import limit_word
         m = self.motion
-        return limit_word(m.limit_neg_level, m.limit_pos_level)
+        return pack_limit_word(m.limit_neg_level, m.limit_pos_level)
 
     def set_update_rate(self, hz: int) -> None:
         """#UR: kept and reported; the card's cycle keeps the configured `update_hz` (the rack's

@@ -19,6 +19,7 @@ CAPTURE_ENTRIES = 55  # [S Table 3-5]
 CAPTURE_ENTRY = 10
 AXIS_LETTERS = "XYZTUVRSWK"  # canonical order [S App C]
 MAX_AXES = 10
+UPDATE_RATES = (1024, 2048, 4096, 8192)  # Hz, as #UR sets them [S §2.13]
 
 
 class Shm(enum.IntEnum):

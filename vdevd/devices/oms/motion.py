@@ -273,11 +273,3 @@ class OmsMotion:
 
     def stopped_by_limit(self, a: int) -> bool:
         return bool(self.core.axes.flags[a] & AxisFlag.STOPPED_BY_LIMIT)
-
-
-def clip32(values: np.ndarray) -> np.ndarray:
-    """Positions as the 32-bit counters show them (wrapping)."""
-    v = np.asarray(values, dtype=np.float64)
-    v = np.where(np.isfinite(v), v, 0.0)
-    return ((v.astype(np.int64) + 2**31) % 2**32 - 2**31).astype(np.int64)
-
