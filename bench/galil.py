@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import ctypes
-import random
 import sys
 import tempfile
 from collections.abc import Callable
@@ -40,7 +39,6 @@ from bench.common import (  # noqa: E402
     child,
     connect,
     daemon,
-    dist,
     dist_row,
     free_port,
     install_signal_handlers,
@@ -51,7 +49,7 @@ from bench.common import (  # noqa: E402
     verdict,
     write_json,
 )
-from bench.rtt import RAW, time_block  # noqa: E402
+from bench.rtt import RAW, ratios_to_raw, time_interleaved, warm_up  # noqa: E402
 
 GOAL_P50 = 2.5
 COMMAND = "TPX"
@@ -94,7 +92,6 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
     server_cpus, client_cpus, where = placement(pin)
     pin_self(client_cpus)
     ctx: zmq.Context[Any] = zmq.Context.instance()
-    series: dict[str, list[list[int]]] = {}
     with contextlib.ExitStack() as stack:
         tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="vdevd-bench-")))
         raw_ep = f"tcp://127.0.0.1:{free_port()}"
@@ -142,38 +139,11 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
         dmc()
         card_ns = rack.sim.now_ns() - now0
 
-        names = list(fns)
-        rng = random.Random(seed)
-        for _ in range(max(1, warmup // block)):  # warm-up, interleaved like the timed part
-            for name in names:
-                time_block(fns[name], block, [])
-        for _ in range(repeats):
-            runs: dict[str, list[int]] = {name: [] for name in names}
-            for _ in range(max(1, n // block)):
-                order = names[:]
-                rng.shuffle(order)  # a fresh order every block: no series always follows another
-                for name in order:
-                    time_block(fns[name], block, runs[name])
-            for name in names:
-                series.setdefault(name, []).append(runs[name])
+        warm_up(fns, warmup, block)
+        series = time_interleaved(fns, n, repeats, block, seed)
         stats = rack.stats()
 
-    def us(samples: list[int]) -> list[float]:
-        return [s / 1000 for s in samples]
-
-    dists = {name: dist(us([s for run_ in runs for s in run_])) for name, runs in series.items()}
-    raw = dists[RAW]
-    per_repeat = []
-    for i, raw_run in enumerate(series[RAW]):
-        raw_r = dist(us(raw_run))
-        row = {"raw_p50": raw_r["p50"], "raw_p99": raw_r["p99"]}
-        for key, name in (("dmc", DMC), ("gclib", GCLIB)):
-            d_r = dist(us(series[name][i]))
-            row[f"{key}_ratio_p50"] = d_r["p50"] / raw_r["p50"]
-            row[f"{key}_ratio_p99"] = d_r["p99"] / raw_r["p99"]
-        per_repeat.append(row)
-    ratios = {name: {"p50": dists[name]["p50"] / raw["p50"], "p99": dists[name]["p99"] / raw["p99"]}
-              for name in (DMC, GCLIB)}
+    dists, per_repeat, ratios = ratios_to_raw(series, {"dmc": DMC, "gclib": GCLIB})
     return {
         "figure": "galil",
         "placement": where,

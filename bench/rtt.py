@@ -96,12 +96,62 @@ def time_block(fn: Callable[[], Any], n: int, out: list[int]) -> None:
         out.append(clock() - t0)
 
 
+def warm_up(fns: dict[str, Callable[[], Any]], warmup: int, block: int) -> None:
+    """Call every series in blocks, interleaved like the timed part, before timing."""
+    for _ in range(max(1, warmup // block)):
+        for fn in fns.values():
+            time_block(fn, block, [])
+
+
+def time_interleaved(fns: dict[str, Callable[[], Any]], n: int, repeats: int, block: int,
+                     seed: int) -> dict[str, list[list[int]]]:
+    """Per series, one list of call times (ns) per repeat: each repeat times about `n` calls of
+    every series in blocks of `block`, in a fresh random order per block (no series always
+    follows another)."""
+    names = list(fns)
+    rng = random.Random(seed)
+    series: dict[str, list[list[int]]] = {name: [] for name in names}
+    for _ in range(repeats):
+        runs: dict[str, list[int]] = {name: [] for name in names}
+        for _ in range(max(1, n // block)):
+            order = names[:]
+            rng.shuffle(order)
+            for name in order:
+                time_block(fns[name], block, runs[name])
+        for name in names:
+            series[name].append(runs[name])
+    return series
+
+
+def us(samples: list[int]) -> list[float]:
+    return [s / 1000 for s in samples]
+
+
+def ratios_to_raw(series: dict[str, list[list[int]]], compared: dict[str, str]
+                  ) -> tuple[dict[str, Any], list[dict[str, float]], dict[str, dict[str, float]]]:
+    """The distributions of every series (us), and for the series `compared` (row key -> series
+    name) their p50/p99 ratios to the RAW series: per repeat and over all repeats."""
+    dists = {name: dist(us([s for run_ in runs for s in run_])) for name, runs in series.items()}
+    raw = dists[RAW]
+    per_repeat = []
+    for i, raw_run in enumerate(series[RAW]):
+        raw_r = dist(us(raw_run))
+        row = {"raw_p50": raw_r["p50"], "raw_p99": raw_r["p99"]}
+        for key, name in compared.items():
+            d_r = dist(us(series[name][i]))
+            row[f"{key}_ratio_p50"] = d_r["p50"] / raw_r["p50"]
+            row[f"{key}_ratio_p99"] = d_r["p99"] / raw_r["p99"]
+        per_repeat.append(row)
+    ratios = {name: {"p50": dists[name]["p50"] / raw["p50"], "p99": dists[name]["p99"] / raw["p99"]}
+              for name in compared.values()}
+    return dists, per_repeat, ratios
+
+
 def run(n: int = 5000, repeats: int = 3, warmup: int = 2000, block: int = 5,
         pin: str = "split", offset: int = OFFSET, diag: bool = True, seed: int = 1) -> dict[str, Any]:
     server_cpus, client_cpus, where = placement(pin)
     pin_self(client_cpus)
     ctx: zmq.Context[Any] = zmq.Context.instance()
-    series: dict[str, list[list[int]]] = {}
     with contextlib.ExitStack() as stack:
         tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="vdevd-bench-")))
         raw_ep = f"tcp://127.0.0.1:{free_port()}"
@@ -146,25 +196,10 @@ def run(n: int = 5000, repeats: int = 3, warmup: int = 2000, block: int = 5,
             if len(fn()) != 4:
                 raise RuntimeError(f"{name}: the reply is not 4 bytes")
 
-        names = list(fns)
-        rng = random.Random(seed)
-        for _ in range(max(1, warmup // block)):  # warm-up, interleaved like the timed part
-            for name in names:
-                time_block(fns[name], block, [])
+        warm_up(fns, warmup, block)
         stats_before = rack.stats()["requests"]["by_op"].get("read", 0)
-        for _ in range(repeats):
-            runs: dict[str, list[int]] = {name: [] for name in names}
-            for _ in range(max(1, n // block)):
-                order = names[:]
-                rng.shuffle(order)  # a fresh order every block: no series always follows another
-                for name in order:
-                    time_block(fns[name], block, runs[name])
-            for name in names:
-                series.setdefault(name, []).append(runs[name])
+        series = time_interleaved(fns, n, repeats, block, seed)
         stats = rack.stats()
-
-    def us(samples: list[int]) -> list[float]:
-        return [s / 1000 for s in samples]
 
     dists = {name: dist(us([s for run_ in runs for s in run_])) for name, runs in series.items()}
     raw_name, vdev_name = RAW, VDEV
