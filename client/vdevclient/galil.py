@@ -510,12 +510,7 @@ def DMCGetDataRecord(hdmc: Any, usGeneralOffset: int, usAxisInfoOffset: int, pus
         return DMCERROR_DATARECORD
     general, axis = int(usGeneralOffset), int(usAxisInfoOffset)
     data_type = int(_target(pusDataType).value) or standard_type(general, axis)
-    _set(pusDataType, data_type)
-    value = record_item(c.record, c.record_size, general, axis, data_type)
-    if value is None:
-        return DMCERROR_DATARECORD
-    _set(plData, value)
-    return DMCNOERROR
+    return _deliver_item(c.record, c.record_size, general, axis, data_type, pusDataType, plData)
 
 
 @_guarded
@@ -533,8 +528,16 @@ def DMCGetDataRecordByItemId(hdmc: Any, usItemId: int, usAxisId: int, pusDataTyp
     if place is None:
         return DMCERROR_DATARECORD
     general, axis, data_type = place
-    _set(pusDataType, int(data_type))
-    value = record_item(c.record, c.record_size, general, axis, int(data_type))
+    return _deliver_item(c.record, c.record_size, general, axis, int(data_type), pusDataType,
+                         plData)
+
+
+def _deliver_item(record: bytes, size: int, general: int, axis: int, data_type: int,
+                  pusDataType: Any, plData: Any) -> int:
+    """Fill the two output parameters of DMCGetDataRecord(ByItemId): the item's type and its
+    value in the record."""
+    _set(pusDataType, data_type)
+    value = record_item(record, size, general, axis, data_type)
     if value is None:
         return DMCERROR_DATARECORD
     _set(plData, value)
