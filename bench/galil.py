@@ -35,21 +35,24 @@ import zmq  # noqa: E402
 
 from bench.common import (  # noqa: E402
     BENCH_DIR,
-    DIST_HEADERS,
     child,
     connect,
     daemon,
-    dist_row,
     free_port,
     install_signal_handlers,
     ns_dist_to_us,
     pin_self,
     placement,
-    table,
-    verdict,
     write_json,
 )
-from bench.rtt import RAW, ratios_to_raw, time_interleaved, warm_up  # noqa: E402
+from bench.rtt import (  # noqa: E402
+    RAW,
+    ratios_to_raw,
+    report_against_raw,
+    report_ratio_goals,
+    time_interleaved,
+    warm_up,
+)
 
 GOAL_P50 = 2.5
 COMMAND = "TPX"
@@ -211,21 +214,9 @@ def count_round_trips(rack_class: Any, fns: dict[str, Callable[[], Any]], n: int
 
 def report(r: dict[str, Any]) -> None:
     p = r["params"]
-    raw = r["series"][RAW]
-    table([*DIST_HEADERS, "p50/raw", "p99/raw"],
-          [[*dist_row(name, d), d["p50"] / raw["p50"], d["p99"] / raw["p99"]]
-           for name, d in r["series"].items()],
-          title=f'Galil "{p["command"]}" round trip (lockstep), us; {p["repeats"]} x {p["n"]} per '
-                f"series, placement {r['placement']}")
-    rows = [[i + 1, x["raw_p50"], x["dmc_ratio_p50"], x["gclib_ratio_p50"], x["raw_p99"],
-             x["dmc_ratio_p99"], x["gclib_ratio_p99"]] for i, x in enumerate(r["per_repeat"])]
-    table(["repeat", "raw p50", "DMC p50/raw", "gclib p50/raw", "raw p99", "DMC p99/raw",
-           "gclib p99/raw"], rows)
-    trips = ", ".join(f"{name}: {c['mean']:.2f} (max {c['max']})" for name, c in r["round_trips"].items())
-    print(f"round trips per call: {trips}; card time per command {r['card_ns_per_command'] / 1e6:g} ms")
-    lat = r["daemon_latency_us"]
-    print(f"daemon's own handling time per request (stats, last 64k): p50 {lat.get('p50', 0):.1f} us, "
-          f"p99 {lat.get('p99', 0):.1f} us")
+    report_against_raw(r, f'Galil "{p["command"]}" round trip (lockstep), us; {p["repeats"]} x '
+                          f'{p["n"]} per series, placement {r["placement"]}',
+                       {"dmc": "DMC", "gclib": "gclib"})
     if r["batch_ops"]:
         p50 = {name: d["p50"] for name, d in r["series"].items()}
         print(f"where the p50 goes: galil library {p50[DMC] - p50[REPLAY]:+.1f} us (DMCCommand vs its "
@@ -233,9 +224,7 @@ def report(r: dict[str, Any]) -> None:
               f"{p50[REPLAY] - p50[READ]:+.1f} us (vs a one-op read), vdevd round trip "
               f"{p50[READ] - p50[RAW]:+.1f} us (vs raw REQ/REP); a lockstep tick would add "
               f"{p50[TICK] - p50[READ]:+.1f} us (sim step vs a one-op read)")
-    for name, ratio in r["ratios"].items():
-        print(f"{name} / raw: p50 {ratio['p50']:.2f}x (goal <= {GOAL_P50}), p99 {ratio['p99']:.2f}x"
-              f"  ->  {verdict(ratio['p50'] <= GOAL_P50)}")
+    report_ratio_goals(r, GOAL_P50)
 
 
 def main() -> None:

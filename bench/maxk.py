@@ -33,22 +33,25 @@ import zmq  # noqa: E402
 
 from bench.common import (  # noqa: E402
     BENCH_DIR,
-    DIST_HEADERS,
     child,
     connect,
     daemon,
-    dist_row,
     free_port,
     install_signal_handlers,
     ns_dist_to_us,
     pin_self,
     placement,
-    table,
-    verdict,
     write_json,
 )
 from bench.galil import count_round_trips, raw_client  # noqa: E402
-from bench.rtt import RAW, ratios_to_raw, time_interleaved, warm_up  # noqa: E402
+from bench.rtt import (  # noqa: E402
+    RAW,
+    ratios_to_raw,
+    report_against_raw,
+    report_ratio_goals,
+    time_interleaved,
+    warm_up,
+)
 
 GOAL_P50 = 2.5
 COMMAND = "AX RP"
@@ -186,30 +189,16 @@ def replay_of(card: Any) -> tuple[Callable[[], Any], int]:
 
 def report(r: dict[str, Any]) -> None:
     p = r["params"]
-    raw = r["series"][RAW]
-    table([*DIST_HEADERS, "p50/raw", "p99/raw"],
-          [[*dist_row(name, d), d["p50"] / raw["p50"], d["p99"] / raw["p99"]]
-           for name, d in r["series"].items()],
-          title=f'MAXk "{p["command"]}" round trip (lockstep), us; {p["repeats"]} x {p["n"]} per '
-                f"series, placement {r['placement']}")
-    rows = [[i + 1, x["raw_p50"], x["maxk_ratio_p50"], x["eager_ratio_p50"], x["raw_p99"],
-             x["maxk_ratio_p99"], x["eager_ratio_p99"]] for i, x in enumerate(r["per_repeat"])]
-    table(["repeat", "raw p50", "maxk p50/raw", "eager p50/raw", "raw p99", "maxk p99/raw",
-           "eager p99/raw"], rows)
-    trips = ", ".join(f"{name}: {c['mean']:.2f} (max {c['max']})" for name, c in r["round_trips"].items())
-    print(f"round trips per call: {trips}; card time per command {r['card_ns_per_command'] / 1e6:g} ms")
-    lat = r["daemon_latency_us"]
-    print(f"daemon's own handling time per request (stats, last 64k): p50 {lat.get('p50', 0):.1f} us, "
-          f"p99 {lat.get('p99', 0):.1f} us")
+    report_against_raw(r, f'MAXk "{p["command"]}" round trip (lockstep), us; {p["repeats"]} x '
+                          f'{p["n"]} per series, placement {r["placement"]}',
+                       {"maxk": "maxk", "eager": "eager"})
     if r["batch_ops"]:
         p50 = {name: d["p50"] for name, d in r["series"].items()}
         print(f"where the p50 goes: maxk library {p50[MAXK] - p50[REPLAY]:+.1f} us (the call vs its "
               f"batch replayed), the batch's {r['batch_ops']} ops and the card's parsing "
               f"{p50[REPLAY] - p50[READ]:+.1f} us (vs a one-op read), vdevd round trip "
               f"{p50[READ] - p50[RAW]:+.1f} us (vs raw REQ/REP)")
-    for name, ratio in r["ratios"].items():
-        print(f"{name} / raw: p50 {ratio['p50']:.2f}x (goal <= {GOAL_P50}), p99 {ratio['p99']:.2f}x"
-              f"  ->  {verdict(ratio['p50'] <= GOAL_P50)}")
+    report_ratio_goals(r, GOAL_P50)
 
 
 def main() -> None:

@@ -147,6 +147,32 @@ def ratios_to_raw(series: dict[str, list[list[int]]], compared: dict[str, str]
     return dists, per_repeat, ratios
 
 
+def report_against_raw(r: dict[str, Any], title: str, compared: dict[str, str]) -> None:
+    """Print a command figure's series (us, and their ratios to RAW), the per-repeat ratios of
+    the series `compared` (row key -> label), the round trips per call and the daemon's own
+    handling time (the result of a run that used `ratios_to_raw`)."""
+    raw = r["series"][RAW]
+    table([*DIST_HEADERS, "p50/raw", "p99/raw"],
+          [[*dist_row(name, d), d["p50"] / raw["p50"], d["p99"] / raw["p99"]]
+           for name, d in r["series"].items()], title=title)
+    rows = [[i + 1, x["raw_p50"], *(x[f"{k}_ratio_p50"] for k in compared), x["raw_p99"],
+             *(x[f"{k}_ratio_p99"] for k in compared)] for i, x in enumerate(r["per_repeat"])]
+    table(["repeat", "raw p50", *(f"{label} p50/raw" for label in compared.values()), "raw p99",
+           *(f"{label} p99/raw" for label in compared.values())], rows)
+    trips = ", ".join(f"{name}: {c['mean']:.2f} (max {c['max']})" for name, c in r["round_trips"].items())
+    print(f"round trips per call: {trips}; card time per command {r['card_ns_per_command'] / 1e6:g} ms")
+    lat = r["daemon_latency_us"]
+    print(f"daemon's own handling time per request (stats, last 64k): p50 {lat.get('p50', 0):.1f} us, "
+          f"p99 {lat.get('p99', 0):.1f} us")
+
+
+def report_ratio_goals(r: dict[str, Any], goal_p50: float) -> None:
+    """One verdict line per compared series: its p50 ratio against the goal."""
+    for name, ratio in r["ratios"].items():
+        print(f"{name} / raw: p50 {ratio['p50']:.2f}x (goal <= {goal_p50}), p99 {ratio['p99']:.2f}x"
+              f"  ->  {verdict(ratio['p50'] <= goal_p50)}")
+
+
 def run(n: int = 5000, repeats: int = 3, warmup: int = 2000, block: int = 5,
         pin: str = "split", offset: int = OFFSET, diag: bool = True, seed: int = 1) -> dict[str, Any]:
     server_cpus, client_cpus, where = placement(pin)
