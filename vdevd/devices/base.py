@@ -192,6 +192,15 @@ class Card:
             raise VdevError(ErrorCode.BAD_PARAM, f"{action}: {exc}") from None
 
 
+def axis_number(axis: str | int, letters: str, n: int) -> int:
+    """A backdoor's axis argument, a letter of `letters` (any case) or a number, as an index of
+    one of the card's `n` axes; ValueError otherwise."""
+    a = letters.index(axis.upper()) if isinstance(axis, str) else int(axis)
+    if not 0 <= a < n:
+        raise ValueError(f"no axis {axis!r} on this {n}-axis card")
+    return a
+
+
 def _signature(fn: Callable[..., Any]) -> dict[str, str]:
     doc = inspect.getdoc(fn) or ""
     return {"params": str(inspect.signature(fn)), "doc": doc.splitlines()[0] if doc else ""}

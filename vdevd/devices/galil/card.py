@@ -12,7 +12,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vdevd.devices.base import Card, CardContext, Option, control
+from vdevd.devices.base import Card, CardContext, Option, axis_number, control
 from vdevd.devices.galil import syntax
 from vdevd.devices.galil.bus import FREEZE_MODES, WINDOW_SIZE, A16Reg, A16Window
 from vdevd.devices.galil.errors import TC, GalilError
@@ -322,10 +322,7 @@ class GalilCard(Card):
 
     # -- backdoor ----------------------------------------------------------------------------------
     def _axis(self, axis: str | int) -> int:
-        a = AXIS_LETTERS.index(axis.upper()) if isinstance(axis, str) else int(axis)
-        if not 0 <= a < self.n:
-            raise ValueError(f"no axis {axis!r} on this {self.n}-axis card")
-        return a
+        return axis_number(axis, AXIS_LETTERS, self.n)
 
     @control()
     def set_switches(self, axis: str, forward_limit: bool | None = None,

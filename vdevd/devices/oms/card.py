@@ -15,7 +15,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vdevd.devices.base import Card, CardContext, Option, control
+from vdevd.devices.base import Card, CardContext, Option, axis_number, control
 from vdevd.devices.oms import rings
 from vdevd.devices.oms.firmware import Firmware
 from vdevd.devices.oms.layout import (
@@ -337,10 +337,7 @@ class MaxkCard(Card):
 
     # -- backdoor ------------------------------------------------------------------------------------
     def _axis(self, axis: str | int) -> int:
-        a = AXIS_LETTERS.index(axis.upper()) if isinstance(axis, str) else int(axis)
-        if not 0 <= a < self.n:
-            raise ValueError(f"no axis {axis!r} on this {self.n}-axis card")
-        return a
+        return axis_number(axis, AXIS_LETTERS, self.n)
 
     @control()
     def set_limits(self, axis: str, positive: bool | None = None,

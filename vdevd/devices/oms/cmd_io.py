@@ -97,13 +97,18 @@ def _bit(cmd: Command) -> int:
     return bit
 
 
+def _hex_word(cmd: Command, what: str) -> int:
+    """The one 16-bit hex operand of BD / BW."""
+    words = hex_words(cmd.operand) if cmd.operand else []
+    if len(words) != 1 or words[0] is None or words[0] > 0xFFFF:
+        raise CommandError(f"one 16-bit hex {what}")
+    return words[0]
+
+
 @command("BD", operand=Operand.HEX)
 def bit_direction(fw: Firmware, cmd: Command) -> None:
     """Directions of the 16 I/O bits, 1 = output (`BD%04x`) [S §4.4]."""
-    words = hex_words(cmd.operand) if cmd.operand else []
-    if len(words) != 1 or words[0] is None or words[0] > 0xFFFF:
-        raise CommandError("one 16-bit hex mask")
-    fw.gpio_dir = words[0]
+    fw.gpio_dir = _hex_word(cmd, "mask")
 
 
 @command("IO", operand=Operand.NUMBERS)
@@ -129,10 +134,7 @@ def bit_high_low(fw: Firmware, cmd: Command) -> None:
 @command("BW", operand=Operand.HEX)
 def bit_write(fw: Firmware, cmd: Command) -> None:
     """Write all output bits at once (hex)."""
-    words = hex_words(cmd.operand) if cmd.operand else []
-    if len(words) != 1 or words[0] is None or words[0] > 0xFFFF:
-        raise CommandError("one 16-bit hex word")
-    fw.gpio_out = words[0]
+    fw.gpio_out = _hex_word(cmd, "word")
 
 
 @command("BX")
