@@ -55,6 +55,7 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None) -> None:
         with suppress(NotImplementedError, RuntimeError, ValueError):
             loop.add_signal_handler(sig, stop.set)
     server.start(loop)
+    await server.rack.open_services()
     cards = ", ".join(f"{c.name} ({c.type_name})" for c in server.rack.cards.values())
     if not cards:
         cards = "none"
@@ -69,6 +70,7 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None) -> None:
         if watchdog is not None:
             watchdog.cancel()
         sd_notify("STOPPING=1")
+        await server.rack.close_services()
         server.close()
         log.info("stopped")
 

@@ -157,6 +157,18 @@ class Rack:
         else:
             loop.call_later(self.wake_ns / 1e9, self._pass)
 
+    async def open_services(self) -> None:
+        """Each card's own listeners (e.g. the PMAC Ethernet port), after `start`."""
+        for card in self.cards.values():
+            await card.open_services()
+
+    async def close_services(self) -> None:
+        for card in self.cards.values():
+            try:
+                await card.close_services()
+            except Exception:  # one card's listener must not keep the others open
+                log.exception("closing the services of %s", card.name)
+
     def stop(self) -> None:
         self._stop.set()
         if self._thread is not None:

@@ -43,6 +43,9 @@ class DaemonThread:
         if cfg is None:
             self.cfg.clock = clock  # type: ignore[assignment]
             self.cfg.endpoint, self.cfg.events = endpoint, events
+            for spec in self.cfg.cards:  # listeners of the cards on free ports too
+                if spec.options.get("ethernet"):
+                    spec.options["ethernet"] = "tcp://127.0.0.1:*"
         self._rack = rack
         self.endpoint = ""
         self.events = ""
@@ -78,10 +81,12 @@ class DaemonThread:
                              ctx=self._ctx, curve=self.cfg.curve)
         self.endpoint, self.events = self.server.endpoint, self.server.events
         self.server.start(self._loop)
+        await rack.open_services()
         self._ready.set()
         try:
             await self._stop.wait()
         finally:
+            await rack.close_services()
             self.server.close()
 
     def stop(self) -> None:

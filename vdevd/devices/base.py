@@ -143,6 +143,13 @@ class Card:
     def reset(self) -> None:
         """Power-on reset of the firmware (override)."""
 
+    async def open_services(self) -> None:
+        """Start what the card serves beside its regions, on the daemon's loop (override: the
+        PMAC's Ethernet protocol port). A failure is the card's to log; the daemon runs on."""
+
+    async def close_services(self) -> None:
+        """Stop what `open_services` started (override)."""
+
     def nvram(self) -> dict[str, Any]:
         """What the card keeps in flash, to be saved atomically (override)."""
         return {}
