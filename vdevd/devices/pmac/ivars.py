@@ -83,6 +83,7 @@ GLOBAL: dict[int, IVar] = {
     55: _FLAG, 56: _FLAG, 57: _FLAG,
     58: _int(0, 1, 1),          # DPRAM ASCII enable, set at reset when DPRAM is present [A L3250]
     59: _int(0, 3, 0),
+    60: _int(0, 255, 15),       # filtered-velocity sample time [SRM p.65]
     63: _FLAG,                  # echo ^X
     65: _int(0, 0xFFFFFF, 0),   # user identity
     68: _int(0, 15, 15),        # coordinate systems activated - 1

@@ -1,0 +1,364 @@
+"""The virtual Delta Tau Turbo PMAC (type `pmac-turbo`): PCI DPRAM and host port, interrupts, the
+on-line interpreter, motors, and the Ethernet protocol on its own TCP port [spec pmac.md].
+
+Regions: `dpram` (16 KiB, little-endian: ASCII command/response handshake, reporting buffers,
+the rest open memory at PMAC addresses $060000-$060FFF) and `host` (the host-port byte registers
+and the interrupt controller). Line `inta`. Ports: the DPRAM ASCII channel, the host port and
+each Ethernet connection have their own `#n`/`&n` addressing (online.PortState).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from vdevd.devices.base import Card, CardContext, Option, control
+from vdevd.devices.pmac import dpram
+from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
+from vdevd.devices.pmac.ethernet_server import EthernetServer
+from vdevd.devices.pmac.firmware import Firmware, Identity
+from vdevd.devices.pmac.hostport import (
+    IR_MASK,
+    IR_STATUS,
+    HostIrq,
+    HostPort,
+    InterruptController,
+)
+from vdevd.devices.pmac.hostport import SIZE as HOST_SIZE
+from vdevd.devices.pmac.online import PortState
+from vdevd.devices.pmac.reply import Reply, frame
+from vdevd.devices.pmac.status import MotorStatus2
+from vdevd.region import Region
+from vdevd.security import is_local
+
+log = logging.getLogger("vdevd.pmac")
+
+#: I10 default 3,713,707 / 8,388,608 ms = 0.44271 ms [PMAC1-SRM p.46]
+SERVO_PERIOD_NS = 442_710
+_IN_POSITION, _WARN_FE, _FATAL_FE = (int(MotorStatus2.IN_POSITION),
+                                     int(MotorStatus2.WARNING_FOLLOWING_ERROR),
+                                     int(MotorStatus2.FATAL_FOLLOWING_ERROR))
+
+
+class CommandPort:
+    """A serial-style port (Ethernet connection, host port): framed replies as I3/I6 make them."""
+
+    def __init__(self, card: PmacCard) -> None:
+        self.card = card
+        self.state = PortState()
+
+    def reply(self, line: str) -> Reply:
+        """Run a line; control characters in it act first and report ahead of its data."""
+        fw = self.card.fw
+        controls = [c for c in line if ord(c) < 27]
+        texts = [fw.control(self.state, ord(c)) for c in controls]
+        rest = "".join(c for c in line if ord(c) >= 27) if controls else line
+        reply = fw.execute(self.state, rest) if rest.strip() else Reply()
+        reply.lines[:0] = [t for t in texts if t]
+        return reply
+
+    def command(self, line: str) -> bytes:
+        iv = self.card.fw.ivars.values
+        return frame(self.reply(line), int(iv[3]), int(iv[6]))
+
+    def control(self, ch: int) -> bytes:
+        text = self.card.fw.control(self.state, ch)
+        return (text + "\r").encode("latin-1") if text else b""
+
+    def dpram_read(self, offset: int, count: int) -> bytes:
+        self._check(offset, count)
+        return self.card.dpram.read(offset, count)
+
+    def dpram_write(self, offset: int, data: bytes) -> None:
+        self._check(offset, len(data))
+        self.card.dpram.write(offset, data)
+
+    def _check(self, offset: int, count: int) -> None:
+        if offset < 0 or count < 0 or offset + count > dpram.SIZE:
+            raise ValueError(f"DPRAM {offset:#x}+{count} outside {dpram.SIZE:#x}")
+
+    def host_port_read(self, offset: int) -> int:
+        return self.card.host_read(offset)
+
+    def host_port_write(self, offset: int, value: int) -> None:
+        self.card.host_write(offset, value)
+
+    def close(self) -> None:
+        """Nothing is held per connection beyond the addressing (no program buffers yet)."""
+
+
+class DpramMemory:
+    """The DPRAM seen from the PMAC side: address A is host offset 4(A - $060000), the Y word
+    the low 16 bits and the X word the high 16 bits [PMAC1 DPRAM UM p.29; digest §2.10]."""
+
+    def __init__(self, region: Region) -> None:
+        self.region = region
+
+    def read_word(self, space: str, addr: int) -> int:
+        off = 4 * (addr - dpram.BASE) + (2 if space == "X" else 0)
+        return self.region.get(off, 2)
+
+    def write_word(self, space: str, addr: int, value: int) -> None:
+        off = 4 * (addr - dpram.BASE) + (2 if space == "X" else 0)
+        self.region.set(off, value & 0xFFFF, 2)
+        self.region_written(off, 2)
+
+    def region_written(self, offset: int, size: int) -> None:
+        """Writes from the PMAC side do not trigger the host handshakes."""
+
+
+class PmacCard(Card):
+    type_name: ClassVar[str] = "pmac-turbo"
+    endian: ClassVar[str] = "little"
+    default_period_ns: ClassVar[int] = SERVO_PERIOD_NS
+    options: ClassVar[Mapping[str, Option]] = {
+        "device": Option(int, 0, min=0, max=15, help="PComm32 device number (OpenPmacDevice)"),
+        "motors": Option(int, 8, min=1, max=32, help="motors processed (Ixx00 = 1)"),
+        "cid": Option(int, 603382, min=0, max=999999,
+                      help="card ID (603382 Geo Brick: DLS tools count 8 on-board axes)"),
+        "ethernet": Option(str, "tcp://127.0.0.1:1025",
+                           help="endpoint of the Ethernet protocol; empty: off"),
+        "ethernet_allow": Option(list, None,
+                                 help="client addresses allowed on a non-loopback Ethernet endpoint"),
+        "plant": Option(str, "servo", choices=("servo", "ideal"),
+                        help="servo: amplifier and motor model; ideal: motors follow exactly"),
+    }
+
+    def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
+        super().__init__(name, config, ctx)
+        cfg = self.config
+        self.device = int(cfg.get("device") or 0)
+        self.motors = int(cfg.get("motors") or 8)
+        self.ethernet = str(cfg.get("ethernet") or "")
+        self.allow = [str(a) for a in cfg.get("ethernet_allow") or []]
+        if self.ethernet and not is_local(self.ethernet) and not self.allow:
+            raise ValueError("ethernet: a non-loopback endpoint needs ethernet_allow "
+                             "(the PMAC protocol has no authentication)")
+        self.ethernet_endpoint = ""
+        self.ethernet_error = ""
+        self._server: EthernetServer | None = None
+        self.dpram = self.add_region(Region(
+            "dpram", dpram.SIZE, widths=(1, 2, 4), endian="little",
+            description="DPRAM: ASCII command/response buffers, reporting buffers (UM p.402)"))
+        self.dpram.hook(dpram.CMD_CONTROL, 2, on_write=self._dpram_control)
+        self.dpram.hook(dpram.RESP_CONTROL, 2, on_write=self._dpram_control)
+        self.host = self.add_region(Region(
+            "host", HOST_SIZE, widths=(1,), endian="little",
+            description="host port (HI08 bytes 0-7) and interrupt controller (8 status, 9 mask)"))
+        self.host.hook(0, HOST_SIZE, on_read=lambda o, n: bytes([self.host_read(o)]),
+                       on_write=lambda o, d: self.host_write(o, d[0]),
+                       peek=lambda o, n: bytes([self._host_peek(o)]))
+        self.inta = self.add_irq("inta")
+        self.irq = InterruptController(self.inta.trigger, self.inta.clear)
+        store = ctx.nvram
+        self.fw = Firmware(self.motors, self.period_ns, str(cfg.get("plant") or "servo"),
+                           Identity(cid=int(cfg.get("cid") or 603382)), store=self._store)
+        self.fw.memory.mount(dpram.BASE, dpram.BASE + dpram.SIZE // 4 - 1, DpramMemory(self.dpram))
+        self.dpram_port = PortState()
+        self.ascii = AsciiChannel(self.dpram.buf, self._dpram_execute, self._dpram_controlchar,
+                                  lambda: self.irq.raise_(HostIrq.ASCII_READY))
+        self.reporting = Reporting(self.dpram.buf)
+        self.host_port_state = CommandPort(self)
+        self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)
+        self._last_status2 = np.zeros(self.motors, dtype=np.int64)
+        self.fw.restore((store.load(name) if store is not None else None) or {})
+        self.fw.on_reset = self._firmware_reset
+        self.dpram.buf[:] = bytes(dpram.SIZE)
+        self.ascii.reset()
+        self._firmware_reset()
+
+    # -- power-up ---------------------------------------------------------------------------------
+    def _firmware_reset(self) -> None:
+        """After `$$$`, `$$$***` and at start: the host port, the interrupt controller and the
+        ports' addressing start afresh; I58 = 1 since a DPRAM is present [A L3250]. The DPRAM
+        bytes stay (the reset command's own acknowledgement is still to be posted)."""
+        self.hostport.reset()
+        self.irq.reset()
+        self.dpram_port.motor, self.dpram_port.cs = 1, 1
+        self.host_port_state.state = PortState()
+        self.fw.ivars.values[58] = 1
+
+    def reset(self) -> None:
+        """The rack's reset: power cycle, DPRAM cleared."""
+        self.fw.power_on_reset()
+        self.dpram.buf[:] = bytes(dpram.SIZE)
+        self.ascii.reset()
+
+    def _store(self, image: dict[str, Any]) -> None:
+        if self.ctx.nvram is not None:
+            self.ctx.nvram.save(self.name, image)
+
+    def nvram(self) -> dict[str, Any]:
+        return self.fw.saved
+
+    # -- ticks ------------------------------------------------------------------------------------
+    def step(self) -> None:
+        fw = self.fw
+        fw.tick(self.now_ns)
+        cycle = fw.servo_cycles
+        iv = fw.ivars.values
+        rep = self.reporting
+        if iv[48] and rep.due(cycle, iv[47], iv[48], dpram.REALTIME):
+            self._report_realtime(cycle)
+        if iv[50] and rep.due(cycle, iv[49], iv[50], dpram.BACKGROUND):
+            rep.background(cycle, fw.global_status(), [fw.cs_status(c) for c in range(1, 17)],
+                           fw.feed)
+        if self.irq.mask & (HostIrq.IN_POSITION | HostIrq.WARNING_FOLLOWING_ERROR
+                            | HostIrq.FATAL_FOLLOWING_ERROR | HostIrq.COMPARE_EQU1
+                            | HostIrq.COMPARE_EQU5):
+            self._irq_sources()
+
+    def _report_realtime(self, cycle: int) -> None:
+        fw, mot = self.fw, self.fw.motors
+        scale = fw.ivars.motor(8) * 32
+        self.reporting.realtime(
+            cycle, mot.status_words(),
+            [mot.commanded() * scale, mot.position() * scale, mot.following_error() * scale],
+            mot.velocity() * fw.ivars.motor(9) * 32, mot.dac())
+
+    def _irq_sources(self) -> None:
+        """Rising edges of in-position and following-error bits of any motor, compare outputs."""
+        w2 = self.fw.motors.status_words()[1].astype(np.int64)
+        rising = w2 & ~self._last_status2
+        self._last_status2 = w2
+        bits = 0
+        if (rising & _IN_POSITION).any():
+            bits |= HostIrq.IN_POSITION
+        if (rising & _WARN_FE).any():
+            bits |= HostIrq.WARNING_FOLLOWING_ERROR
+        if (rising & _FATAL_FE).any():
+            bits |= HostIrq.FATAL_FOLLOWING_ERROR
+        equ = self.fw.servo_ic.equ_outputs()
+        if len(equ) > 0 and equ[0]:
+            bits |= HostIrq.COMPARE_EQU1
+        if len(equ) > 4 and equ[4]:
+            bits |= HostIrq.COMPARE_EQU5
+        if bits:
+            self.irq.raise_(bits)
+
+    # -- DPRAM ------------------------------------------------------------------------------------
+    def _dpram_control(self, offset: int, data: bytes) -> None:
+        self.dpram.buf[offset:offset + len(data)] = data
+        self.ascii.after_write(offset, len(data))
+
+    def _dpram_execute(self, line: str) -> tuple[list[str], int | None]:
+        reply = self.fw.execute(self.dpram_port, line)
+        return reply.lines, reply.error
+
+    def _dpram_controlchar(self, ch: int) -> str:
+        return self.fw.control(self.dpram_port, ch)
+
+    # -- host port --------------------------------------------------------------------------------
+    def host_read(self, offset: int) -> int:
+        if not 0 <= offset < HOST_SIZE:
+            raise ValueError(f"host port offset {offset} outside 0-{HOST_SIZE - 1}")
+        if offset == IR_STATUS:
+            return self.irq.status
+        if offset == IR_MASK:
+            return self.irq.mask
+        if offset >= 8:
+            return 0
+        return self.hostport.read(offset)
+
+    def _host_peek(self, offset: int) -> int:
+        if offset == IR_STATUS:
+            return self.irq.status
+        if offset == IR_MASK:
+            return self.irq.mask
+        if offset == 2:
+            return self.hostport.read(2)
+        if offset == 7:
+            return self.hostport.out[0] if self.hostport.out else 0
+        return self.hostport.regs[offset] if offset < 8 else 0
+
+    def host_write(self, offset: int, value: int) -> None:
+        if not 0 <= offset < HOST_SIZE:
+            raise ValueError(f"host port offset {offset} outside 0-{HOST_SIZE - 1}")
+        if offset == IR_STATUS:
+            self.irq.write_status(value)
+        elif offset == IR_MASK:
+            self.irq.write_mask(value)
+        elif offset < 8:
+            self.hostport.write(offset, value)
+
+    # -- Ethernet ---------------------------------------------------------------------------------
+    async def open_services(self) -> None:
+        """Listen for the Ethernet protocol; a port in use is logged and the card runs on."""
+        if not self.ethernet:
+            return
+        try:
+            self._server = await EthernetServer.start(self.ethernet, lambda: CommandPort(self),
+                                                      allow=self.allow)
+        except OSError as exc:
+            self.ethernet_error = f"{self.ethernet}: {exc.strerror or exc}"
+            log.error("%s: Ethernet protocol not served: %s", self.name, self.ethernet_error)
+            return
+        self.ethernet_endpoint = self._server.endpoint
+        log.info("%s: PMAC Ethernet protocol on %s", self.name, self.ethernet_endpoint)
+
+    async def close_services(self) -> None:
+        if self._server is not None:
+            self._server.close()
+            await self._server.wait_closed()
+            self._server = None
+
+    def describe(self) -> dict[str, Any]:
+        info = super().describe()
+        info.update(device=self.device, motors=self.motors, ethernet=self.ethernet_endpoint)
+        if self.ethernet_error:
+            info["ethernet_error"] = self.ethernet_error
+        return info
+
+    # -- backdoor ---------------------------------------------------------------------------------
+    def _motor(self, motor: int) -> int:
+        if not 1 <= int(motor) <= self.motors:
+            raise ValueError(f"no motor {motor} on this {self.motors}-motor card")
+        return int(motor) - 1
+
+    @control()
+    def set_limits(self, motor: int, plus: bool | None = None, minus: bool | None = None) -> None:
+        """The overtravel-limit flags of motor n (1-based), True = limit tripped."""
+        self.fw.motors.set_flags(self._motor(motor), plus_limit=plus, minus_limit=minus)
+
+    @control()
+    def set_home(self, motor: int, active: bool) -> None:
+        """The home flag (HMFL) of motor n, True = active."""
+        self.fw.motors.set_flags(self._motor(motor), home=active)
+
+    @control()
+    def set_amp_fault(self, motor: int, active: bool) -> None:
+        """The amplifier-fault flag of motor n."""
+        self.fw.motors.set_flags(self._motor(motor), amp_fault=active)
+
+    @control()
+    def set_encoder_loss(self, motor: int, active: bool) -> None:
+        """The encoder of motor n stops counting while active."""
+        self.fw.motors.set_encoder_loss(self._motor(motor), active)
+
+    @control()
+    def set_index(self, motor: int, period: int = 4096) -> None:
+        """The encoder index (C channel) of motor n every `period` counts."""
+        self.fw.motors.set_index(self._motor(motor), int(period))
+
+    @control()
+    def set_input(self, line: int, level: bool) -> None:
+        """The electrical level of JIO line 0-31 (reads follow direction and inversion)."""
+        self.fw.gpio.set_input(int(line), bool(level))
+
+    @control()
+    def set_analog(self, channel: int, volts: float) -> None:
+        """The voltage at ANAI00-15 (JANA)."""
+        self.fw.gpio.set_analog(int(channel), float(volts))
+
+    @control()
+    def get_outputs(self) -> int:
+        """The 32 JIO lines as the card drives them."""
+        return int(self.fw.gpio.outputs())
+
+    @control()
+    def set_phase_clock_error(self, active: bool) -> None:
+        """X:$000006 bit 3: while set, enabling a motor answers ERR018 [A L3320]."""
+        self.fw.set_phase_clock_error(bool(active))

@@ -1,0 +1,416 @@
+"""The Turbo PMAC firmware state of one card, without I/O: memory, variables, motors, the on-line
+interpreter's operations, control characters, SAVE and reset [spec pmac.md §2].
+
+The card (card.py) owns one `Firmware`, ticks it every servo cycle and connects its ports (DPRAM
+ASCII, host port, Ethernet sessions) to `Interpreter.execute` and `control`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from vdevd.devices.pmac.comp2d import CompError, CompTables
+from vdevd.devices.pmac.ect import ConversionTable
+from vdevd.devices.pmac.gpio import GeneralIO
+from vdevd.devices.pmac.ivars import IVars
+from vdevd.devices.pmac.memory import TOP, Memory
+from vdevd.devices.pmac.motors import MotorError, Motors
+from vdevd.devices.pmac.mvars import MVars
+from vdevd.devices.pmac.numbers import format_hex, format_value, quantize_float
+from vdevd.devices.pmac.online import ERR_DATA, ERR_PHASE, CommandError, Interpreter, PortState
+from vdevd.devices.pmac.registers import (
+    MOTOR_BASE,
+    MOTOR_STRIDE,
+    P_BASE,
+    Q_BASE,
+    FloatVariables,
+    GlobalRegisters,
+    MotorBlocks,
+)
+from vdevd.devices.pmac.servo_ic import ServoIC
+
+VARIABLES = 8192
+CS_COUNT = 16
+#: X:$000006 global status word 1 bits [digest §2.1]
+PHASE_CLOCK_ERROR = 1 << 3
+FIRMWARE_CHECKSUM_ERROR = 1 << 12
+COMP_ACTIVE = 1 << 14
+CPU_DSP56311 = 1 << 21
+
+
+@dataclass(frozen=True)
+class Identity:
+    """What CID, VERSION, DATE, TYPE and CPU answer [DLS-lib, EPICS-HW; digest §2.4]."""
+
+    cid: int = 603382
+    version: str = "1.940"
+    date: str = "06/26/2003"
+    type: str = "TURBO2"
+    cpu: str = "DSP56321"
+
+
+class Firmware:
+    """One card's firmware: everything the on-line commands read and write."""
+
+    def __init__(self, motors: int, period_ns: int, plant: str = "servo",
+                 identity: Identity | None = None,
+                 store: Callable[[dict[str, Any]], None] | None = None) -> None:
+        self.identity_ = identity or Identity()
+        self.period_ns = period_ns
+        self.now_ns = 0
+        self.servo_cycles = 0
+        self.global_bits = 0
+        self.locks = 0
+        self._store = store
+        #: called after a power-on or factory reset (the card resets its ports)
+        self.on_reset: Callable[[], None] | None = None
+        self.saved: dict[str, Any] = {}
+        self.ivars = IVars(motors)
+        self.memory = Memory()
+        self.mvars = MVars(self.memory)
+        self.p = np.zeros(VARIABLES)
+        self.q = np.zeros((CS_COUNT, VARIABLES))
+        self.feed = np.full(CS_COUNT, 100.0)
+        self.motors = Motors(self.ivars, period_ns, plant)
+        mem = self.memory
+        mem.mount(0x000000, MOTOR_BASE - 1, GlobalRegisters(self))
+        mem.mount(MOTOR_BASE, MOTOR_BASE + 32 * MOTOR_STRIDE - 1, MotorBlocks(self))
+        mem.mount(P_BASE, P_BASE + VARIABLES - 1, FloatVariables(P_BASE, self.p))
+        mem.mount(Q_BASE, Q_BASE + VARIABLES - 1, FloatVariables(Q_BASE, self.q[0]))
+        self.servo_ic = ServoIC(mem, self.ivars, self.motors)
+        self.ect = ConversionTable(mem, self.ivars, self.servo_ic)
+        self.gpio = GeneralIO(mem, self.ivars)
+        self.comp = CompTables(self.ivars, self.ivars.motors)
+        self.interpreter = Interpreter(self)
+
+    # -- time -------------------------------------------------------------------------------------
+    def tick(self, now_ns: int) -> int:
+        """One servo cycle: conversion table, motors, compare and I/O. Compensation tables are
+        computed when read (Mxx69); they do not yet move their target motor (README "Left")."""
+        self.now_ns = now_ns
+        self.servo_cycles += 1
+        self.ect.tick()
+        events = self.motors.tick()
+        self.servo_ic.tick()
+        self.gpio.tick()
+        return events
+
+    def comp_correction(self, motor: int) -> float:
+        """Mxx69: the compensation tables' correction of `motor` (0-based), counts."""
+        if not self.comp.tables:
+            return 0.0
+        return float(self.comp.correction(self.motors.position(), self.motors.commanded())[motor])
+
+    # -- on-line interface --------------------------------------------------------------------------
+    def execute(self, port: PortState, line: str) -> Any:
+        return self.interpreter.execute(port, line)
+
+    def env(self, port: PortState) -> _Env:
+        return _Env(self, port)
+
+    @property
+    def i9(self) -> int:
+        return int(self.ivars.values[9])
+
+    def variable_count(self, kind: str) -> int:
+        return VARIABLES
+
+    def get_variable(self, port: PortState, kind: str, n: int) -> float:
+        match kind:
+            case "I":
+                return float(self.ivars.values[n])
+            case "P":
+                return float(self.p[n])
+            case "Q":
+                return float(self.q[port.cs - 1, n])
+        return self.mvars.read(n)
+
+    def format_variable(self, port: PortState, kind: str, n: int) -> str:
+        value = self.get_variable(port, kind, n)
+        if kind == "I" and self.i9 & 2 and self.ivars.hex(n):
+            return format_hex(value)
+        return format_value(value)
+
+    def set_variable(self, port: PortState, kind: str, n: int, value: float) -> None:
+        match kind:
+            case "I":
+                self.set_ivar(n, value)
+            case "P":
+                self.p[n] = quantize_float(value)
+            case "Q":
+                self.q[port.cs - 1, n] = quantize_float(value)
+            case _:
+                self.mvars.write(n, value)
+
+    def set_ivar(self, n: int, value: float) -> None:
+        """Write I-variable n with its range check (ERR003 outside it) [digest §2.2]."""
+        if n == 44:  # PMAC Ladder: standard firmware keeps 0, silently [A L1452]
+            return
+        if 100 <= n < 3300 and n % 100 == 75 and value < 0:
+            # Ixx75: -Ixx71 <= v <= 0 is stored as Ixx71 + v since V1.939 [A L2191-2224]
+            i71 = self.ivars.values[n - 75 + 71]
+            if value < -i71:
+                raise CommandError(ERR_DATA, "Ixx75 below -Ixx71")
+            value += i71
+        stored = self.ivars.check(n, value)
+        if stored is None:
+            raise CommandError(ERR_DATA, f"I{n}={value} out of range")
+        self.ivars.values[n] = stored
+        self.on_ivar(n)
+
+    def on_ivar(self, n: int) -> None:
+        if 100 <= n < 3300:
+            self.motors.on_ivar(n)
+
+    def address_of_ivar(self, n: int) -> float:
+        """`I{a}=@I{b}`: the address of I-variable b; only the conversion table's setup lines
+        have one ($3501 + k for I(8000+k)) [A L2549, L3266]."""
+        if 8000 <= n < 8192:
+            return float(0x3501 + n - 8000)
+        raise CommandError(ERR_DATA, f"I{n} has no address")
+
+    # -- motors -----------------------------------------------------------------------------------
+    def motor_index(self, motor: int) -> int:
+        if motor > self.ivars.motors:
+            raise CommandError(ERR_DATA, f"motor {motor} is not on this card")
+        return motor - 1
+
+    def motor_call(self, name: str, motor: int, *args: Any) -> None:
+        m = self.motor_index(motor)
+        if not self.ivars.values[100 * motor]:
+            return  # Ixx00 = 0: the motor is not processed
+        try:
+            getattr(self.motors, name)(m, *args)
+        except MotorError as exc:
+            raise CommandError(exc.code) from None
+
+    def motor_report(self, what: str, motor: int) -> str:
+        m = self.motor_index(motor)
+        mot = self.motors
+        if what == "P":
+            return format_value(round(float(mot.position()[m]) * 32) / 32)
+        if what == "F":
+            return format_value(round(float(mot.following_error()[m]) * 32) / 32)
+        return format_value(round(float(mot.velocity()[m]), 1))
+
+    def motor_status(self, motor: int) -> tuple[int, int]:
+        if motor > self.ivars.motors:
+            return 0, 0
+        w1, w2 = self.motors.status_words()
+        return int(w1[motor - 1]), int(w2[motor - 1])
+
+    def abort_cs(self, cs: int) -> None:
+        """`A` of a coordinate system: its motors. Axis definitions come in a later issue, so no
+        motor belongs to a coordinate system yet and the command acts on none."""
+
+    def cs_status(self, cs: int) -> tuple[int, int, int]:
+        """`&n??`: word 2 bit 17 "in position" is the AND over the C.S.'s motors (none yet)."""
+        return 0, 1 << 17, 0
+
+    def global_status(self) -> tuple[int, int]:
+        bits = self.global_bits & ~(COMP_ACTIVE | CPU_DSP56311)
+        if self.ivars.values[51] and self.comp.tables:
+            bits |= COMP_ACTIVE
+        return bits, 0
+
+    def set_phase_clock_error(self, on: bool) -> None:
+        self.global_bits = self.global_bits | PHASE_CLOCK_ERROR if on else \
+            self.global_bits & ~PHASE_CLOCK_ERROR
+        self.motors.set_phase_clock_error(on)
+
+    # -- control characters -----------------------------------------------------------------------
+    def control(self, port: PortState, ch: int) -> str:
+        """A control character's action and its text [digest §2.4 "Control characters"]."""
+        mot = self.motors
+        group = range(8 * (port.group - 1), min(8 * port.group, self.ivars.motors))
+        match ch:
+            case 0x01:  # ^A abort all
+                for m in range(self.ivars.motors):
+                    if self.ivars.values[100 * (m + 1)]:
+                        mot.abort(m)
+                return ""
+            case 0x02:  # ^B status of the eight motors
+                w1, w2 = mot.status_words()
+                return " ".join(f"{int(w1[m]):06X}{int(w2[m]):06X}" for m in group)
+            case 0x03:  # ^C status of every coordinate system
+                return " ".join("".join(f"{w:06X}" for w in self.cs_status(cs))
+                                for cs in range(1, CS_COUNT + 1))
+            case 0x06:  # ^F following errors
+                fe = mot.following_error()
+                return " ".join(format_value(round(float(fe[m]) * 32) / 32) for m in group)
+            case 0x07:  # ^G global status
+                return "".join(f"{w:06X}" for w in self.global_status())
+            case 0x0B:  # ^K kill all
+                mot.kill_all()
+                return ""
+            case 0x10:  # ^P positions
+                pos = mot.position()
+                return " ".join(format_value(round(float(pos[m]) * 32) / 32) for m in group)
+            case 0x16:  # ^V velocities
+                vel = mot.velocity()
+                return " ".join(format_value(round(float(vel[m]), 1)) for m in group)
+            case 0x18:  # ^X cancel: the port flushes; echoed when I63 = 1
+                port.table_left = 0
+                return "\x18" if self.ivars.values[63] else ""
+        return ""  # ^D ^O ^N ^Z and the rest: nothing to report
+
+    # -- memory words (RX/WX ...) ----------------------------------------------------------------
+    def read_words(self, space: str, addr: int, count: int) -> list[str]:
+        if not 1 <= count <= 256 or addr < 0 or addr + count - 1 > TOP:
+            raise CommandError(ERR_DATA)
+        mem = self.memory
+        if space == "L":
+            return [format_value(mem.read_float(a)) for a in range(addr, addr + count)]
+        if space == "D":
+            return [format_value(mem.read_fixed(a)) for a in range(addr, addr + count)]
+        return [f"${mem.read(space, a):06X}" for a in range(addr, addr + count)]
+
+    def write_words(self, space: str, addr: int, values: list[int]) -> None:
+        if not values or addr < 0 or addr + len(values) - 1 > TOP:
+            raise CommandError(ERR_DATA)
+        mem = self.memory
+        for k, v in enumerate(values):
+            if space in "LD":  # raw 48-bit words (EPICS WL:$addr,$…) [digest §3.4]
+                mem.write("X", addr + k, (v >> 24) & 0xFFFFFF)
+                mem.write("Y", addr + k, v & 0xFFFFFF)
+            else:
+                mem.write(space, addr + k, v)
+
+    # -- compensation tables (DEFINE COMP) [A L3118-3219] ----------------------------------------------
+    def define_comp(self, motor: int, text: str) -> int:
+        """`#n DEFINE COMP ...`; the number of entries still expected."""
+        self.motor_index(motor)
+        try:
+            self.comp.define(motor, text)
+        except CompError as exc:
+            raise CommandError(exc.code) from None
+        return self.comp.pending
+
+    def comp_entry(self, motor: int, value: int) -> int:
+        """One entry constant; the number still expected."""
+        try:
+            self.comp.feed(value)
+        except CompError as exc:
+            raise CommandError(exc.code) from None
+        return self.comp.pending
+
+    def delete_comp(self, motor: int) -> None:
+        try:
+            self.comp.delete(motor)
+        except CompError as exc:
+            raise CommandError(exc.code) from None
+
+    def list_comp(self, motor: int, definition: bool = False) -> list[str]:
+        text = self.comp.list_definition(motor) if definition else self.comp.list_text(motor)
+        return [] if text is None else text.rstrip("\n").split("\n")
+
+    def _comp_image(self) -> list[dict[str, Any]]:
+        return [{"motor": m, "define": d.text(), "entries": self.comp.entries[m][1:].tolist()}
+                for m, d in sorted(self.comp.tables.items())]
+
+    def _comp_restore(self, image: list[dict[str, Any]]) -> None:
+        for table in sorted(image, key=lambda t: -int(t["motor"])):  # high to low [A L3139]
+            self.comp.define(int(table["motor"]), str(table["define"]))
+            for v in table["entries"]:
+                self.comp.feed(v)
+
+    # -- identity, SAVE, reset ------------------------------------------------------------------------
+    def identity(self, name: str) -> str:
+        ident = self.identity_
+        return {"CID": str(ident.cid), "VER": ident.version, "VERSION": ident.version,
+                "DATE": ident.date, "TYPE": ident.type, "CPU": ident.cpu, "VID": "1"}[name]
+
+    def image(self) -> dict[str, Any]:
+        """What SAVE writes to flash: I-variables that differ from the factory, M-definitions,
+        P- and Q-variables that are not zero, compensation tables."""
+        iv = self.ivars
+        changed = np.nonzero(iv.values != iv.defaults)[0]
+        return {
+            "ivars": {str(int(n)): float(iv.values[n]) for n in changed},
+            "mdefs": self.mvars.image(),
+            "p": {str(int(n)): float(self.p[n]) for n in np.nonzero(self.p)[0]},
+            "q": {f"{int(c)},{int(n)}": float(self.q[c, n]) for c, n in np.argwhere(self.q)},
+            "comp": self._comp_image(),
+        }
+
+    def save(self) -> None:
+        self.saved = self.image()
+        if self._store is not None:
+            self._store(self.saved)
+
+    def restore(self, image: dict[str, Any]) -> None:
+        """Power-up: factory state, then the saved image over it."""
+        self.saved = image
+        self._factory_state()
+        for n, v in image.get("ivars", {}).items():
+            if math.isfinite(v) and 0 <= int(n) < VARIABLES:
+                self.ivars.values[int(n)] = v
+        self.mvars.restore(image.get("mdefs", {}))
+        for n, v in image.get("p", {}).items():
+            self.p[int(n)] = v
+        for key, v in image.get("q", {}).items():
+            c, n = (int(k) for k in key.split(","))
+            self.q[c, n] = v
+        self._comp_restore(image.get("comp", []))
+        self._reset_hardware()
+
+    def power_on_reset(self) -> None:
+        """`$$$`: reload what was saved, reset the motors and the ports' state."""
+        self.restore(self.saved)
+
+    def factory_reset(self) -> None:
+        """`$$$***`: factory I-variables, no M-definitions, variables and tables cleared; the
+        saved image is untouched until the next SAVE."""
+        self._factory_state()
+        self._reset_hardware()
+
+    def _factory_state(self) -> None:
+        self.ivars.factory()
+        self.mvars.clear()
+        self.p[:] = 0
+        self.q[:] = 0
+        self.feed[:] = 100
+        self.comp.clear()
+        self.locks = 0
+
+    def _reset_hardware(self) -> None:
+        self.memory.clear()
+        self.motors.reset()
+        for n in range(100, 100 * (self.ivars.motors + 1)):
+            self.motors.on_ivar(n)
+        self.servo_ic.reset()
+        self.gpio.reset()
+        self.ect.reset()
+        if self.on_reset is not None:
+            self.on_reset()
+
+
+class _Env:
+    """The expression environment of one port: variables and the addressed C.S.'s Q0."""
+
+    __slots__ = ("fw", "port")
+
+    def __init__(self, fw: Firmware, port: PortState) -> None:
+        self.fw, self.port = fw, port
+
+    def get(self, kind: str, n: int) -> float:
+        if not 0 <= n < VARIABLES:
+            from vdevd.devices.pmac.expr import ExprError
+
+            raise ExprError(ERR_DATA)
+        return self.fw.get_variable(self.port, kind, n)
+
+    def q0(self) -> float:
+        return float(self.fw.q[self.port.cs - 1, 0])
+
+    @property
+    def radians(self) -> bool:
+        return bool(self.fw.ivars.values[15])
+
+
+__all__ = ["ERR_PHASE", "Firmware", "Identity"]

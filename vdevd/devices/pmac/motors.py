@@ -1,0 +1,743 @@
+"""The motors of one Turbo PMAC card over the shared motion core [spec pmac.md §2.6, §2.7, §1.5].
+
+Units. The core works in encoder counts and seconds; the I-variables are in counts/ms (Ixx16,
+Ixx22, Ixx23), counts/ms^2 (Ixx15, Ixx19), ms (Ixx20, Ixx21) and 1/16 count (Ixx11, Ixx12, Ixx26,
+Ixx28), converted here. The core's position is the raw (unwrapped) encoder count since power-up;
+the *motor* position is that minus the home origin, which the home search sets to the captured
+trigger + Ixx26/16 (EncoderPos = MotorPos + HomeCapture + Ixx26/16 [A L900-914]), so homing never
+renumbers the encoder.
+
+Servo loop [§2.7, PMAC1-UM p.108]: with K = Ixx30 * 2^-19 (16-bit DAC units),
+    DAC = K * (Ixx08 * (FE + (Ixx32*CV + Ixx35*CA)/128 + Ixx33*IE/2^23) - Ixx09*Ixx31*AV/128)
+(CV, CA, AV per servo cycle). The derivative acts on the actual velocity AV = CV - (FE - FE_prev),
+so it maps onto the core's PID (derivative on the error) as kd = K*Ixx09*Ixx31/128 and a velocity
+feed-forward reduced by kd. Output clamped to Ixx69, integrator held while the output saturates
+or (Ixx34 = 1) while the commanded velocity is not zero (`PmacPid`).
+
+Plant (servo): a torque-mode amplifier and an almost frictionless motor (`PLANT_AMP_GAIN`,
+`PLANT_VISCOUS`), chosen so the factory gains (Ixx30 2000, Ixx31 = Ixx32 1280, Ixx33 0) close the
+loop at about 50 Hz, well damped; a 32 counts/ms jog then follows within a few counts. "ideal":
+the actual position is the commanded one.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vdevd.devices.pmac import status
+from vdevd.devices.pmac.ivars import SERVO_IC_BASE, IVars
+from vdevd.devices.pmac.status import MotorStatus1 as S1
+from vdevd.devices.pmac.status import pack
+from vdevd.rt import AxisFlag, MotionCore, Pid, PlantKind
+from vdevd.rt.axes import MOTION_STICKY
+
+DAC_FULL_SCALE = 32767  # 16-bit DAC, +-10 V [§2.7]
+#: servo plant: counts/s^2 per DAC unit (full scale ~ 8.9e9 counts/s^2) and viscous damping 1/s
+PLANT_AMP_GAIN = 2.7e5
+PLANT_VISCOUS = 10.0
+ENCODER_MASK = 0xFFFFFF  # the Servo IC's 24-bit counter [§1.5 register table]
+
+# Ixx24 flag-mode bits [A L1811-1877]
+IXX24_LIMITS_OFF = 1 << 17
+IXX24_AMP_FAULT_OFF = 1 << 20
+IXX24_ACTION_SHIFT = 21
+IXX24_FAULT_HIGH_TRUE = 1 << 23
+
+# Servo IC X:b+0 flag register bits [§1.5 register table, M-vars]
+FLAG_CAPTURED = 1 << 11
+FLAG_CHC = 1 << 14
+FLAG_FAULT = 1 << 15
+FLAG_HMFL = 1 << 16
+FLAG_PLIM = 1 << 17
+FLAG_MLIM = 1 << 18
+
+ERR_PHASE_CLOCK = 18  # ERR018: enabling refused with the phase-clock error bit set [A L3320]
+
+_FE_TRIP = int(AxisFlag.FE_TRIP)
+_STOPPED = int(AxisFlag.STOPPED_BY_LIMIT)
+
+
+class MotorError(Exception):
+    """A command refused with a PMAC error number (`code`, e.g. 18 = ERR018)."""
+
+    def __init__(self, code: int, message: str = "") -> None:
+        super().__init__(f"ERR{code:03d}" + (f": {message}" if message else ""))
+        self.code = code
+
+
+class PmacPid(Pid):
+    """The core's PID with PMAC's integrator hold [§2.7]: the error is not integrated while the
+    output is saturated at Ixx69, nor (Ixx34 = 1, `hold_moving`) while the commanded velocity is
+    not zero. Costs nothing while no motor has an integral gain (`integrating`)."""
+
+    def __init__(self, n: int, terms: np.ndarray) -> None:
+        super().__init__(n, terms)
+        self.hold_moving = np.zeros(n, dtype=bool)
+        self.integrating = False
+        self._hold = np.zeros(n, dtype=bool)
+        self._sat = np.zeros(n, dtype=bool)
+        self._abs = np.zeros(n)
+
+    def update(self, out: np.ndarray) -> None:
+        if self.integrating:  # `out` still holds the previous output here
+            hold, sat = self._hold, self._sat
+            np.not_equal(self.cmd_vel, 0.0, out=hold)
+            hold &= self.hold_moving
+            np.abs(out, out=self._abs)
+            np.greater_equal(self._abs, self.out_limit, out=sat)
+            hold |= sat
+            self.integ -= self.e * hold  # the parent adds e back: no net integration
+        super().update(out)
+
+
+def _ic_channel(address: int, motor: int) -> tuple[int, int]:
+    """(Servo IC, channel 1-4) of a PMAC2 flag address (Ixx25) [A Ixx25 table]; for any other
+    address (MACRO, PMAC(1) style) the motor's own on-board channel."""
+    for ic, base in enumerate(SERVO_IC_BASE):
+        offset = address - base
+        if 0 <= offset < 32 and offset % 8 == 0:
+            return ic, offset // 8 + 1
+    ic, ch = divmod(motor - 1, 4)
+    return ic % len(SERVO_IC_BASE), ch + 1
+
+
+class Motors:
+    """The motors of one card: closed/open loop, jog, home, limits, following error, status.
+
+    Motor index m is 0-based. Commands plan at command time; `tick()` is vectorised over motors
+    (per-motor Python only at the servo cycle a trigger or fault happens).
+    """
+
+    def __init__(self, ivars: IVars, period_ns: int, plant: str = "servo") -> None:
+        if plant not in ("servo", "ideal"):
+            raise ValueError(f"plant must be 'servo' or 'ideal', not {plant!r}")
+        self.ivars = ivars
+        self.n = n = ivars.motors
+        self.period_ms = period_ns / 1e6
+        kind = PlantKind.SERVO if plant == "servo" else PlantKind.IDEAL
+        self.core = MotionCore(n, period_ns, kind)
+        self.pid = PmacPid(n, self.core.axes.pid_terms)
+        self.core.pid = self.pid
+        self.core.plant.set(slice(None), amp_gain=PLANT_AMP_GAIN, viscous=PLANT_VISCOUS)
+        self._ix = 100 * np.arange(1, n + 1)  # I-variable number of Ixx00 per motor
+        #: Mxx72 variable jog position/distance, counts (J=* J:* J^*)
+        self.jog_register = np.zeros(n)
+        #: coordinate system (1-16, 0 none) and axis definition code, set by the card [§2.6]
+        self.cs = np.zeros(n, dtype=np.int64)
+        self.axis_code = np.zeros(n, dtype=np.int64)
+        # raw flag inputs (1 = the input reads 1): limits read 0 when clear [A L1847]
+        self.plim = np.zeros(n, dtype=bool)
+        self.mlim = np.zeros(n, dtype=bool)
+        self.hmfl = np.zeros(n, dtype=bool)
+        self.amp_fault_in = np.zeros(n, dtype=bool)  # the amplifier reports a fault (logical)
+        self.index_period = np.zeros(n, dtype=np.int64)  # set_index (0: no index pulses)
+        self.phase_clock_error = False
+        self._alloc_state()
+        self._apply()
+        self.reset()
+
+    def _alloc_state(self) -> None:
+        n = self.n
+        self.origin = np.zeros(n)  # core counts of motor position 0
+        self.amp_enabled = np.zeros(n, dtype=bool)
+        self.open_out = np.zeros(n)  # O{c}: DAC output of open-loop enabled motors
+        self.home_complete = np.zeros(n, dtype=bool)
+        self.searching = np.zeros(n, dtype=bool)
+        self.captured = np.zeros(n, dtype=bool)  # X:b+0 bit 11
+        self.capture_counts = np.zeros(n, dtype=np.int64)  # X:b+3 / Mxx73
+        self.timed = np.zeros(n, dtype=bool)  # a move with a defined end (move timer)
+        self.abort_decel = np.zeros(n, dtype=bool)
+        self.fatal_error = np.zeros(n, dtype=bool)
+        self.amp_error = np.zeros(n, dtype=bool)
+        self.prejog = np.zeros(n)  # motor position before the last jog (J=)
+        self.limit_bits = np.zeros(n, dtype=np.int64)  # word-1 bits 21/22 frozen while killed
+        self._soft_hi_hit = np.zeros(n, dtype=bool)
+        self._soft_lo_hit = np.zeros(n, dtype=bool)
+        self._enc_prev = np.zeros(n, dtype=np.int64)
+        self._inpos_scans = np.zeros(n, dtype=np.int64)
+        self._vbuf = np.zeros((16, n))
+        self._vel = np.zeros(n)
+        self._vslot = 0
+        self._vcount = 0
+        self._tmp = np.zeros(n)
+        self._any_open = False
+        self._any_search = False
+
+    # -- I-variables -------------------------------------------------------------------------------
+    def _iv(self, yy: int) -> np.ndarray:
+        return self.ivars.values[self._ix + yy]
+
+    def on_ivar(self, n: int) -> None:
+        """An I-variable changed: refresh what is derived from it (motor Ixx, I13, I60, I7mnx)."""
+        if n in (13, 60) or 100 <= n < 100 * (self.n + 1) or 7000 <= n < 8000:
+            self._apply()
+
+    def _apply(self) -> None:
+        """Gains, limits, flags and modes from the I-variables [§2.2, §2.7, §1.5]."""
+        core = self.core
+        k = self._iv(30) * 2.0**-19  # gains per servo cycle, 16-bit DAC units
+        i08, i09 = self._iv(8), self._iv(9)
+        kp = k * i08
+        kd = k * i09 * self._iv(31) / 128
+        vff = k * i08 * self._iv(32) / 128
+        aff = k * i08 * self._iv(35) / 128
+        ki = k * i08 * self._iv(33) / 2**23
+        dt = core.dt
+        # Ixx63 limits the integrator register IPOS = Ixx33*Ixx08*32*2^-23 * sum(FE) [UM p.179]
+        scale = self._iv(33) * i08 * 32 / 2**23
+        il = np.divide(np.abs(self._iv(63)), np.abs(scale), out=np.full(self.n, np.inf),
+                       where=scale != 0)
+        self.out_limit = np.minimum(self._iv(69), DAC_FULL_SCALE)
+        self.pid.set(slice(None), kp=kp, kd=kd, ki=ki, il=il, vff=(vff - kd) * dt,
+                     aff=aff * dt * dt, offset=self._iv(29), out_limit=self.out_limit)
+        self.pid.hold_moving[:] = self._iv(34) == 1
+        self.pid.integrating = bool(ki.any())
+        self.friction = self._iv(68)
+        self._any_friction = bool(self.friction.any())
+        core.set_fe_limit(slice(None), self._iv(11) / 16)
+        ix15 = self._iv(15) * 1e6
+        core.limits.limit_dec[:] = np.where(ix15 > 0, ix15, np.inf)
+        self.flag_mode = self._iv(24).astype(np.int64)
+        self.active = self._iv(0) == 1
+        self._count_inpos = bool((self._iv(88) > 0).any())
+        i60 = int(self.ivars.values[60])
+        self._vperiod = i60 + 1 if i60 >= 0 else 1
+        self._capture_ivar = np.array([self._channel_ivar(m) for m in range(self.n)])
+        for m in np.flatnonzero(~self.active & self.amp_enabled).tolist():
+            self._kill(np.array([m]))
+        self._push_inputs()
+
+    def _channel_ivar(self, m: int) -> int:
+        """I7mn0's number for the Servo IC channel of motor m's flags (Ixx25)."""
+        ic, ch = _ic_channel(int(self.ivars.values[100 * (m + 1) + 25]), m + 1)
+        return 7000 + 100 * ic + 10 * ch
+
+    # -- power-up --------------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """$$$ / power-up: counters and positions zero, home complete cleared, every motor killed
+        except those with Ixx80 bit 0 = 1, which close their loop at position 0 [SRM Ixx80 p.136]."""
+        core = self.core
+        everyone = np.arange(self.n)
+        core.servo_off(everyone)
+        core.axes.vel[:] = 0.0
+        core.set_position(everyone, 0.0)
+        core.axes.flags &= ~int(MOTION_STICKY)
+        self._alloc_state()
+        self._push_inputs()
+        up = np.flatnonzero(self.active & ((self._iv(80).astype(np.int64) & 1) == 1))
+        if len(up) and not self.phase_clock_error:
+            self._enable(up)
+
+    # -- enabling and killing ----------------------------------------------------------------------
+    def _closed(self) -> np.ndarray:
+        return self.core.servo_on_mask
+
+    def _enable(self, idx: np.ndarray) -> np.ndarray:
+        """Close the loop of the motors of `idx` that are not closed, at their present actual
+        position; returns those now closed. ERR018 while the phase clock error is set."""
+        idx = idx[self.active[idx]]
+        todo = idx[~self._closed()[idx]]
+        if len(todo) and self.phase_clock_error:
+            raise MotorError(ERR_PHASE_CLOCK, "phase clock error")
+        if len(todo):
+            self._stop_open(todo)
+            self.core.servo_on(todo)
+            on = todo[self._closed()[todo]]  # refused while the amplifier faults
+            self.amp_enabled[on] = True
+            self.fatal_error[on] = False
+            self.amp_error[on] = False
+        return idx[self._closed()[idx]]
+
+    def _stop_open(self, idx: np.ndarray) -> None:
+        self.open_out[idx] = 0.0
+        self._any_open = bool(self.open_out.any())
+
+    def _kill(self, idx: np.ndarray) -> None:
+        """Open loop, output 0, amplifier disabled [§2.7]; the limit bits freeze [SRM p.189]."""
+        self.limit_bits[idx] = self._limit_bits_now()[idx]
+        self._stop_open(idx)
+        self.core.servo_off(idx)
+        self.amp_enabled[idx] = False
+        self.searching[idx] = False
+        self.timed[idx] = False
+        self.abort_decel[idx] = False
+        self._any_search = bool(self.searching.any())
+
+    def kill(self, m: int) -> None:
+        """K: kill motor m."""
+        self._kill(np.array([m]))
+
+    def kill_all(self) -> None:
+        """^K: kill every motor."""
+        self._kill(np.arange(self.n))
+
+    def _fault_kill(self, offenders: np.ndarray) -> None:
+        """Kill per Ixx24 bits 21-22 of each offender: 00 all motors, 01 the motors of its
+        coordinate system (itself when in none), 10 itself; 11 (reserved) as 00 [A L1863-1871]."""
+        victims = np.zeros(self.n, dtype=bool)
+        for m in offenders.tolist():
+            action = (int(self.flag_mode[m]) >> IXX24_ACTION_SHIFT) & 3
+            if action == 2:
+                victims[m] = True
+            elif action == 1:
+                victims |= (self.cs == self.cs[m]) if self.cs[m] else np.arange(self.n) == m
+            else:
+                victims[:] = True
+        self._kill(np.flatnonzero(victims & (self.amp_enabled | self._closed())))
+
+    def set_phase_clock_error(self, on: bool) -> None:
+        """X:$000006 bit 3: while set, enabling any motor is refused with ERR018 [A L3320]."""
+        self.phase_clock_error = bool(on)
+
+    def open_loop(self, m: int, percent: float) -> None:
+        """O{c}: open loop with the amplifier enabled, output c % of Ixx69 (c clipped to +-100)."""
+        if not self.active[m]:
+            return
+        if not self.amp_enabled[m] and self.phase_clock_error:
+            raise MotorError(ERR_PHASE_CLOCK, "phase clock error")
+        if self.core.amp_fault[m]:
+            return
+        a = np.array([m])
+        self.searching[m] = self.timed[m] = self.abort_decel[m] = False
+        self._any_search = bool(self.searching.any())
+        if self._closed()[m]:
+            self.core.servo_off(a)
+        self.amp_enabled[m] = True
+        self.open_out[m] = float(np.clip(percent, -100.0, 100.0)) / 100 * float(self.out_limit[m])
+        self._any_open = True
+        self.core.axes.out[m] = self.open_out[m]
+
+    # -- jog profiles ------------------------------------------------------------------------------------
+    def _accel(self, m: int, dv: float) -> tuple[float, float]:
+        """(acceleration counts/s^2, jerk counts/s^3) for a jog-type velocity change of dv
+        counts/ms [SRM p.100-101]: accel time Ixx20, S-curve time Ixx21 (pure S-curve of 2*Ixx21
+        when Ixx21 > Ixx20/2), every time lengthened in proportion so that the peak acceleration
+        does not exceed Ixx19; Ixx20 = Ixx21 = 0 is taken as 1 ms."""
+        base = 100 * (m + 1)
+        v = self.ivars.values
+        ta, ts, amax = float(v[base + 20]), float(v[base + 21]), float(v[base + 19])
+        if ta <= 0 and ts <= 0:
+            ta = 1.0
+        total = max(ta, 2 * ts)
+        ts = min(ts, total / 2)
+        acc = abs(dv) / (total - ts) if dv else (amax if amax > 0 else 1.0)
+        if amax > 0 and acc > amax:
+            ts *= acc / amax
+            acc = amax
+        jerk = acc / ts if ts > 0 else 0.0
+        return acc * 1e6, jerk * 1e9
+
+    def _start(self, m: int) -> bool:
+        """Before a jog or home: the motor must be active; a killed motor closes its loop."""
+        if not self.active[m]:
+            return False
+        self.searching[m] = False
+        self._any_search = bool(self.searching.any())
+        self.abort_decel[m] = False
+        return bool(len(self._enable(np.array([m]))))
+
+    def _jog_speed(self, m: int) -> float:
+        return abs(float(self.ivars.values[100 * (m + 1) + 22]))
+
+    def _jog_at(self, m: int, velocity: float) -> None:
+        """Run at `velocity` counts/ms with the jog accelerations."""
+        now = float(self.core.axes.cmd_vel[m]) / 1000
+        reverse = now * velocity < 0
+        dv = max(abs(now), abs(velocity)) if reverse else abs(velocity - now)
+        acc, jerk = self._accel(m, dv)
+        self.core.jog(m, velocity * 1000, acc, acc, jerk)
+
+    def _note_prejog(self, m: int) -> None:
+        self.prejog[m] = float(self.core.axes.cmd_pos[m] - self.origin[m])
+
+    def jog(self, m: int, direction: int) -> None:
+        """J+ / J-: jog indefinitely at Ixx22 in `direction` (+1/-1) [SRM Ixx22]; a killed motor
+        closes its loop first."""
+        if not self._start(m):
+            return
+        self._note_prejog(m)
+        self.timed[m] = False
+        self._jog_at(m, math.copysign(self._jog_speed(m), direction))
+        self._after_command(m)
+
+    def jog_stop(self, m: int) -> None:
+        """J/: stop a jog with the jog deceleration; a killed or open-loop motor closes its loop
+        and holds its present position."""
+        if not self.active[m]:
+            return
+        if not self._closed()[m]:
+            self._start(m)
+            return
+        self.searching[m] = False
+        self._any_search = bool(self.searching.any())
+        self.timed[m] = False
+        if self.core.profile.moving[m]:
+            acc, jerk = self._accel(m, abs(float(self.core.axes.cmd_vel[m])) / 1000)
+            self.core.last_jerk[m] = jerk
+            self.core.stop(m, acc)
+
+    def _move_to(self, m: int, motor_counts: float) -> None:
+        """A jog-to-position move (move timer active) to a motor position."""
+        speed = self._jog_speed(m)
+        if speed <= 0:
+            return
+        acc, jerk = self._accel(m, speed)
+        self.timed[m] = True
+        self.core.move_absolute(m, float(self.origin[m]) + motor_counts, speed * 1000, acc, acc, jerk)
+        self._after_command(m)
+
+    def jog_to(self, m: int, counts: float | None) -> None:
+        """J= (counts None: back to the pre-jog position) / J={counts} (motor position)."""
+        if not self._start(m):
+            return
+        if counts is None:
+            target = float(self.prejog[m])
+        else:
+            self._note_prejog(m)
+            target = float(counts)
+        self._move_to(m, target)
+
+    def jog_relative(self, m: int, counts: float, from_actual: bool) -> None:
+        """J:{counts} from the present commanded position / J^{counts} from the actual one."""
+        if not self._start(m):
+            return
+        self._note_prejog(m)
+        base = self.position()[m] if from_actual else self.commanded()[m]
+        self._move_to(m, float(base) + counts)
+
+    def jog_variable(self, m: int, kind: str) -> None:
+        """J=* (to Mxx72), J:* (Mxx72 from commanded), J^* (Mxx72 from actual); `kind` is "=",
+        ":" or "^"."""
+        value = float(self.jog_register[m])
+        if kind == "=":
+            self.jog_to(m, value)
+        elif kind in (":", "^"):
+            self.jog_relative(m, value, from_actual=kind == "^")
+        else:
+            raise ValueError(f"jog kind must be '=', ':' or '^', not {kind!r}")
+
+    def abort(self, m: int) -> None:
+        """A / ^A: decelerate at Ixx15 and hold in closed loop; a killed motor closes its loop
+        at its present position."""
+        if not self.active[m]:
+            return
+        if not self._closed()[m]:
+            self._start(m)
+            return
+        self.searching[m] = False
+        self._any_search = bool(self.searching.any())
+        self.timed[m] = False
+        moving = bool(self.core.profile.moving[m])
+        ix15 = float(self.ivars.values[100 * (m + 1) + 15]) * 1e6
+        self.core.abort(m, ix15 if ix15 > 0 else None)
+        self.abort_decel[m] = moving and ix15 > 0
+
+    def round_commanded(self, m: int) -> None:
+        """J!: the commanded position of a closed-loop motor at rest to the nearest whole count
+        (motor position), whatever the following error [A L3251]."""
+        core = self.core
+        if not self._closed()[m] or core.profile.moving[m]:
+            return
+        target = float(np.rint(core.axes.cmd_pos[m] - self.origin[m]) + self.origin[m])
+        core.profile.hold(m, target)
+        core.profile.commit()
+
+    # -- homing ------------------------------------------------------------------------------------------
+    def home(self, m: int) -> None:
+        """HM: home search at |Ixx23| toward sign(Ixx23) with the jog accelerations until the
+        capture trigger of I7mn2/I7mn3; then the motor moves to trigger + Ixx26/16, which is
+        motor position 0 [SRM p.101, UM "Homing"]. Software limits are off during the search.
+        Ixx23 = 0 homes where the motor is (as HMZ)."""
+        if not self._start(m):
+            return
+        speed = float(self.ivars.values[100 * (m + 1) + 23])
+        self.home_complete[m] = False
+        self.timed[m] = False
+        if speed == 0:
+            self.home_zero(m)
+            return
+        self.searching[m] = True
+        self._any_search = True
+        self.captured[m] = False
+        self._enc_prev[m] = self.core.axes.encoder[m]
+        self._push_inputs()
+        self._jog_at(m, speed)
+        self._after_command(m)
+        self._check_triggers(initial=True)
+
+    def home_zero(self, m: int) -> None:
+        """HMZ: the present commanded position becomes motor position 0, home complete set
+        (the actual position then reads minus the following error); no motion."""
+        core = self.core
+        self.searching[m] = False
+        self._any_search = bool(self.searching.any())
+        here = core.axes.cmd_pos[m] if self._closed()[m] else core.axes.fb[m]
+        self.origin[m] = float(here)
+        self.home_complete[m] = True
+        self._push_inputs()
+
+    def _capture_level(self, idx: np.ndarray, initial: bool) -> np.ndarray:
+        """The capture condition of I7mn2 (bit 0 index, bit 1 flag, bits 2/3 their low-true
+        polarity; 0/4/8/12 immediate) on the flag I7mn3 selects (HMFL, PLIM, MLIM, USER), for
+        the motors `idx` [SRM p.222-223]; level-triggered as on a PMAC2-style IC. The index is
+        high when the encoder crossed (or sits on) a multiple of the index period this cycle."""
+        v = self.ivars.values
+        civ = self._capture_ivar[idx]
+        ctrl = v[civ + 2].astype(np.int64)
+        sel = v[civ + 3].astype(np.int64)
+        flag = np.choose(np.clip(sel, 0, 3), [self.hmfl[idx], self.plim[idx], self.mlim[idx],
+                                               np.zeros(len(idx), dtype=bool)])
+        flag = np.where((ctrl & 8) != 0, ~flag, flag)
+        period = self.index_period[idx]
+        enc = self.core.axes.encoder[idx]
+        safe = np.where(period > 0, period, 1)
+        prev = enc if initial else self._enc_prev[idx]
+        crossed = (np.floor_divide(enc, safe) != np.floor_divide(prev, safe)) | (enc % safe == 0)
+        index = (period > 0) & crossed
+        index = np.where((ctrl & 4) != 0, ~index, index)
+        use_index, use_flag = (ctrl & 1) != 0, (ctrl & 2) != 0
+        immediate = ~use_index & ~use_flag
+        return immediate | ((index | ~use_index) & (flag | ~use_flag))
+
+    def _check_triggers(self, initial: bool = False) -> int:
+        """Searching motors whose capture condition holds: latch the capture, set home complete,
+        make trigger + Ixx26/16 motor position 0 and move there [§2.7]."""
+        core = self.core
+        self.searching &= core.profile.moving  # a limit or a stop ended the search
+        idx = np.flatnonzero(self.searching)
+        if not len(idx):
+            self._any_search = False
+            return 0
+        hit = idx[self._capture_level(idx, initial)]
+        events = 0
+        for m in hit.tolist():
+            capture = self._capture_value(m, initial)
+            self.capture_counts[m] = capture
+            self.captured[m] = True
+            self.searching[m] = False
+            self.home_complete[m] = True
+            self.origin[m] = capture + float(self.ivars.values[100 * (m + 1) + 26]) / 16
+            speed = abs(float(self.ivars.values[100 * (m + 1) + 23]))
+            acc, jerk = self._accel(m, speed)
+            self.timed[m] = True
+            self.abort_decel[m] = False
+            core.move_absolute(m, float(self.origin[m]), speed * 1000, acc, acc, jerk)
+            events |= int(AxisFlag.HOMED)
+        np.copyto(self._enc_prev, core.axes.encoder)
+        self._any_search = bool(self.searching.any())
+        if len(hit):
+            self._push_inputs()
+        return events
+
+    def _capture_value(self, m: int, initial: bool) -> int:
+        """The counter value latched: the index position crossed, else the present count."""
+        enc = int(self.core.axes.encoder[m])
+        ctrl = int(self.ivars.values[int(self._capture_ivar[m]) + 2])
+        period = int(self.index_period[m])
+        if ctrl & 1 and not ctrl & 4 and period > 0:
+            prev = enc if initial else int(self._enc_prev[m])
+            k = max(enc // period, prev // period) if enc % period else enc // period
+            return k * period
+        return enc
+
+    # -- inputs ----------------------------------------------------------------------------------------
+    def set_flags(self, m: int, *, plus_limit: bool | None = None, minus_limit: bool | None = None,
+                  home: bool | None = None, amp_fault: bool | None = None) -> None:
+        """Backdoor: drive motor m's flag inputs. plus/minus_limit: the PMAC2 PLIMn/MLIMn inputs
+        read 1 (switch open = at the limit; PLIM stops positive motion); home: HMFLn reads 1;
+        amp_fault: the amplifier reports a fault; the emulated amplifier is wired to match Ixx24
+        bit 23, so the FAULTn bit reads 1 with that bit set and 0 with it clear."""
+        if plus_limit is not None:
+            self.plim[m] = plus_limit
+        if minus_limit is not None:
+            self.mlim[m] = minus_limit
+        if home is not None:
+            self.hmfl[m] = home
+        if amp_fault is not None:
+            self.amp_fault_in[m] = amp_fault
+        self._push_inputs()
+        if self._any_search and home is not None:
+            self._check_triggers(initial=True)
+
+    def set_encoder_loss(self, m: int, lost: bool) -> None:
+        """Backdoor: the encoder of motor m stops counting while `lost`."""
+        loss = self.core.encoder_loss.copy()
+        loss[m] = lost
+        self.core.set_inputs(encoder_loss=loss)
+
+    def set_index(self, m: int, period_counts: int) -> None:
+        """Backdoor: an index pulse (CHC) at every multiple of `period_counts` encoder counts
+        (0: none)."""
+        self.index_period[m] = max(int(period_counts), 0)
+
+    def _amp_faults(self) -> np.ndarray:
+        """The amplifier faults the motors act on: not with Ixx24 bit 20 (input unused)."""
+        return self.amp_fault_in & ((self.flag_mode & IXX24_AMP_FAULT_OFF) == 0) & self.active
+
+    def _fault_raw(self) -> np.ndarray:
+        """The FAULTn input bit: the fault in the polarity of Ixx24 bit 23 [A L1873-1877]."""
+        return self.amp_fault_in == ((self.flag_mode & IXX24_FAULT_HIGH_TRUE) != 0)
+
+    def _push_inputs(self) -> None:
+        """Feed limits (hardware unless Ixx24 bit 17, software Ixx13/Ixx14 hit by the actual
+        position, off during a home search) and amplifier faults to the core; a new fault
+        kills per Ixx24 [A L1863-1875]."""
+        core = self.core
+        use = (self.flag_mode & IXX24_LIMITS_OFF) == 0
+        pos = (self.plim & use) | (self._soft_hi_hit & ~self.searching)
+        neg = (self.mlim & use) | (self._soft_lo_hit & ~self.searching)
+        fault = self._amp_faults()
+        rising = np.flatnonzero(fault & ~core.amp_fault)
+        lim = core.limits
+        if not (np.array_equal(lim.hard_pos, pos) and np.array_equal(lim.hard_neg, neg)):
+            core.set_inputs(hard_limit_pos=pos, hard_limit_neg=neg)
+            stopped = (core.axes.flags & _STOPPED) != 0
+            self.abort_decel |= stopped & core.profile.moving  # a limit stop at Ixx15
+            self.searching &= core.profile.moving
+        if not np.array_equal(fault, core.amp_fault):
+            core.set_inputs(amp_fault=fault)
+        if len(rising):
+            self.amp_error[rising[self.amp_enabled[rising]]] = True
+            self._fault_kill(rising)
+        self._update_soft_limits()
+
+    def _update_soft_limits(self) -> None:
+        """Software limits in core counts: origin + Ixx13 / origin + Ixx14 (0 disables)."""
+        hi, lo = self._iv(13), self._iv(14)
+        self._soft_hi = np.where(hi != 0, self.origin + hi, np.inf)
+        self._soft_lo = np.where(lo != 0, self.origin + lo, -np.inf)
+        self._soft_on = bool(np.isfinite(self._soft_hi).any() or np.isfinite(self._soft_lo).any())
+
+    def _check_soft_limits(self) -> None:
+        fb = self.core.axes.fb
+        hi = np.greater(fb, self._soft_hi)
+        lo = np.less(fb, self._soft_lo)
+        if not (np.array_equal(hi, self._soft_hi_hit) and np.array_equal(lo, self._soft_lo_hit)):
+            self._soft_hi_hit, self._soft_lo_hit = hi, lo
+            self._push_inputs()
+
+    def _after_command(self, m: int) -> None:
+        """A motion command refused or stopped at once by a limit is not an abort deceleration."""
+        self.abort_decel[m] = False
+
+    # -- the tick ------------------------------------------------------------------------------------------
+    def tick(self) -> int:
+        """One servo cycle; the AxisFlag bits of what happened (FE_TRIP on a fatal following
+        error, HOMED at a home trigger, the core's DONE/limit/amp-fault events)."""
+        core = self.core
+        events = core.tick()
+        if self._any_open:
+            np.copyto(core.axes.out, self.open_out, where=self.open_out != 0)
+        if self._any_friction:
+            out = core.axes.out
+            out += self.friction * np.sign(core.axes.cmd_vel) * core.servo_on_mask
+            np.clip(out, -self.out_limit, self.out_limit, out=out)
+        if self._soft_on and core.profile.active:
+            self._check_soft_limits()
+        if self._any_search:
+            events |= self._check_triggers()
+        if events & _FE_TRIP:
+            trip = ((core.axes.flags & _FE_TRIP) != 0) & self._closed()
+            if trip.any():
+                offenders = np.flatnonzero(trip)
+                self.fatal_error[offenders] = True
+                self._fault_kill(offenders)
+        self._vcount += 1
+        if self._vcount >= self._vperiod:  # I60: 16-slot velocity buffer [SRM I60]
+            self._vcount = 0
+            old = self._vbuf[self._vslot]
+            np.subtract(core.axes.fb, old, out=self._vel)
+            self._vel /= 16 * self._vperiod
+            old[:] = core.axes.fb
+            self._vslot = (self._vslot + 1) % 16
+        if self._count_inpos:
+            ok = self._in_position_now()
+            self._inpos_scans = np.where(ok, self._inpos_scans + 1, 0)
+        return events
+
+    # -- reports ---------------------------------------------------------------------------------------------
+    def position(self) -> np.ndarray:
+        """Actual motor position, counts (encoder - home origin)."""
+        return self.core.axes.fb - self.origin
+
+    def velocity(self) -> np.ndarray:
+        """Filtered actual velocity, counts per servo cycle, over 16*(I60+1) cycles [SRM I60]."""
+        return self._vel.copy()
+
+    def commanded(self) -> np.ndarray:
+        """Commanded motor position, counts (the actual position while the loop is open)."""
+        ax = self.core.axes
+        return np.where(self._closed(), ax.cmd_pos, ax.fb) - self.origin
+
+    def following_error(self) -> np.ndarray:
+        """Commanded - actual, counts (0 while the loop is open)."""
+        return self.commanded() - self.position()
+
+    def target(self) -> np.ndarray:
+        """The end of the present move (Mxx63), else the commanded position, motor counts."""
+        core = self.core
+        ends = core.profile.moving & core.target_valid & self._closed()
+        return np.where(ends, core.target - self.origin, self.commanded())
+
+    def dac(self) -> np.ndarray:
+        """The servo output in 16-bit DAC units (Mxx68/Mxx79)."""
+        return np.clip(np.rint(self.core.axes.out), -DAC_FULL_SCALE - 1, DAC_FULL_SCALE)
+
+    def encoder(self) -> np.ndarray:
+        """The 24-bit encoder counter (X:b+1), unsigned, wrapping."""
+        return self.core.axes.encoder & ENCODER_MASK
+
+    def capture(self) -> np.ndarray:
+        """The counter value latched by the last home trigger (X:b+3 low 24 bits, Mxx73)."""
+        return self.capture_counts.copy()
+
+    def flags(self) -> np.ndarray:
+        """The Servo IC flag register X:b+0: 11 position captured, 14 CHC (index now), 15 FAULT,
+        16 HMFL, 17 PLIM, 18 MLIM (raw input levels)."""
+        enc, period = self.core.axes.encoder, self.index_period
+        chc = (period > 0) & (enc % np.where(period > 0, period, 1) == 0)
+        return pack(self.n, ((FLAG_CAPTURED, self.captured), (FLAG_CHC, chc),
+                             (FLAG_FAULT, self._fault_raw()), (FLAG_HMFL, self.hmfl),
+                             (FLAG_PLIM, self.plim), (FLAG_MLIM, self.mlim)))
+
+    def _limit_bits_now(self) -> np.ndarray:
+        """Word-1 bits 21/22: a used hardware limit input, or the actual position beyond Ixx13 /
+        Ixx14 [§2.6]."""
+        use = (self.flag_mode & IXX24_LIMITS_OFF) == 0
+        fb = self.core.axes.fb
+        pos = (self.plim & use) | (fb > self._soft_hi)
+        neg = (self.mlim & use) | (fb < self._soft_lo)
+        return pack(self.n, ((S1.POS_END_LIMIT, pos), (S1.NEG_END_LIMIT, neg)))
+
+    def _in_position_now(self) -> np.ndarray:
+        """Loop closed, desired velocity zero, no timed move, |FE| < Ixx28 [SRM p.283]."""
+        band = self._iv(28) / 16
+        return self._closed() & ~self.core.profile.moving & (self._abs_ferr() < band)
+
+    def _abs_ferr(self) -> np.ndarray:
+        """|commanded - actual| now (the core's ferr row is refreshed only by the tick)."""
+        ax = self.core.axes
+        np.subtract(ax.cmd_pos, ax.fb, out=self._tmp)
+        return np.abs(self._tmp, out=self._tmp)
+
+    def status_words(self) -> tuple[np.ndarray, np.ndarray]:
+        """(word 1, word 2) of every motor as `#n?` reports them [§2.6]; 0 for a motor that is
+        not activated (Ixx00 = 0)."""
+        core, n = self.core, self.n
+        closed = self._closed()
+        w1 = status.word1(
+            n, iv={yy: self._iv(yy) for yy in (1, 6, 34, 90, 96, 97)}, closed=closed,
+            amp_enabled=self.amp_enabled, moving=core.profile.moving, searching=self.searching,
+            abort_decel=self.abort_decel, timed=self.timed,
+            limits=np.where(self.amp_enabled, self._limit_bits_now(), self.limit_bits))
+        inpos = self._inpos_scans > self._iv(88) if self._count_inpos else self._in_position_now()
+        warn_limit = self._iv(12) / 16
+        warning = (closed & (warn_limit > 0) & (self._abs_ferr() > warn_limit)) | self.fatal_error
+        w2 = status.word2(
+            n, in_position=inpos, warning=warning, fatal=self.fatal_error, amp_fault=self.amp_error,
+            home_complete=self.home_complete,
+            stopped_on_limit=(core.axes.flags & _STOPPED) != 0,
+            foreground=bool(self.ivars.values[13] == 1), cs=self.cs, axis_code=self.axis_code)
+        return np.where(self.active, w1, 0), np.where(self.active, w2, 0)

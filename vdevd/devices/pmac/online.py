@@ -1,0 +1,495 @@
+"""The on-line command interpreter: one command line in, a `Reply` out [spec pmac.md §2.4, §2.5].
+
+A line is a run of commands with or without spaces between them (`#1J+`, `i65???&1??%#1?PVF m190
+p99` is twelve commands); case does not matter and `;` starts a comment. Commands run left to
+right against the firmware state; the first invalid one ends the line with its error number and
+the lines already produced stay in the reply. The `#n`/`&n` addressing and a pending table
+download belong to the port (`PortState`), so each port addresses its own motor.
+
+Commands that belong to motion programs, PLCs, coordinate-system axis definitions and data
+gathering come in a later issue; until then they answer the error the card gives for a command
+it cannot execute (README "Not yet").
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from vdevd.devices.pmac import expr
+from vdevd.devices.pmac.mvars import MDefError, parse_definition
+from vdevd.devices.pmac.numbers import format_value
+from vdevd.devices.pmac.reply import Reply
+
+if TYPE_CHECKING:
+    from vdevd.devices.pmac.firmware import Firmware
+
+#: error numbers [DLS-lib PMAC_errors, Turbo SRM I6; digest §2.4]
+ERR_RUNNING, ERR_DATA, ERR_NOT_OPEN, ERR_IN_USE, ERR_MACRO = 1, 3, 5, 7, 8
+ERR_NO_PROGRAM, ERR_PHASE = 15, 18
+
+_INT = re.compile(r"\d+")
+_SIGNED = re.compile(r"\s*(-?\d+)")
+_HEXNUM = re.compile(r"\s*(\$[0-9A-F]+|-?\d+)")
+#: words answered by the card's identity [DLS-lib, EPICS-HW; digest §2.4]
+_IDENTITY = ("VERSION", "VER", "CID", "CPU", "TYPE", "DATE", "VID")
+#: words of later issues (motion programs, PLCs, gathering, C.S. definitions) -> error number
+_LATER = {
+    "OPEN": ERR_DATA, "CLOSE": ERR_NOT_OPEN, "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
+    "GATHER": ERR_DATA, "ENDGATHER": ERR_DATA, "ENABLE": ERR_DATA, "ENA": ERR_DATA,
+    "DISABLE": ERR_DATA, "DIS": ERR_DATA, "UNDEFINE": ERR_DATA, "UNDEF": ERR_DATA,
+    "ABR": ERR_NO_PROGRAM, "MOVETIME": ERR_DATA, "SETPHASE": ERR_DATA,
+}
+
+
+class CommandError(Exception):
+    """An invalid command: `code` is the ERRnnn number."""
+
+    def __init__(self, code: int = ERR_DATA, message: str = "") -> None:
+        super().__init__(message or f"ERR{code:03d}")
+        self.code = code
+
+
+@dataclass
+class PortState:
+    """What one communications port remembers between lines [digest §2.4 "Ports"]."""
+
+    motor: int = 1          # #n, 1-based
+    cs: int = 1             # &n
+    group: int = 1          # ##n: which eight motors ^B ^F ^P ^V report
+    table_motor: int = 0    # a DEFINE COMP download in progress: its motor (0 = none)
+    table_left: int = 0
+
+
+class Line:
+    """A cursor over one upper-cased command line."""
+
+    def __init__(self, text: str) -> None:
+        self.s = text.upper()
+        self.i = 0
+
+    def skip(self) -> None:
+        s, i, n = self.s, self.i, len(self.s)
+        while i < n and s[i] in " \t":
+            i += 1
+        self.i = i
+
+    def peek(self, k: int = 0) -> str:
+        j = self.i + k
+        return self.s[j] if j < len(self.s) else ""
+
+    def take(self, word: str) -> bool:
+        if self.s.startswith(word, self.i):
+            self.i += len(word)
+            return True
+        return False
+
+    def integer(self) -> int | None:
+        m = _INT.match(self.s, self.i)
+        if m is None:
+            return None
+        self.i = m.end()
+        return int(m.group())
+
+    def signed(self) -> int | None:
+        m = _SIGNED.match(self.s, self.i)
+        if m is None:
+            return None
+        self.i = m.end()
+        return int(m.group(1))
+
+    def expression(self, env: expr.Env) -> float:
+        try:
+            tree, self.i = expr.parse(self.s, self.i)
+            return tree.eval(env)
+        except expr.ExprError as exc:
+            raise CommandError(exc.code) from None
+
+    def word(self) -> str:
+        j = self.i
+        while j < len(self.s) and self.s[j].isalpha():
+            j += 1
+        return self.s[self.i:j]
+
+
+Handler = Callable[["Interpreter", Line, PortState, list[str]], None]
+
+
+class Interpreter:
+    """Runs command lines against one card's firmware state."""
+
+    def __init__(self, fw: Firmware) -> None:
+        self.fw = fw
+
+    # -- entry ---------------------------------------------------------------------------------
+    def execute(self, port: PortState, text: str) -> Reply:
+        text = text.split(";", 1)[0]  # comments, including characters > 127 [A L3311]
+        reply = Reply()
+        line = Line(text)
+        try:
+            while True:
+                line.skip()
+                c = line.peek()
+                if not c:
+                    break
+                if port.table_left and (c.isdigit() or c == "-"):
+                    self._table_entry(line, port)
+                    continue
+                handler = _DISPATCH.get(c)
+                if handler is None:
+                    raise CommandError(ERR_DATA, f"unrecognised {c!r}")
+                handler(self, line, port, reply.lines)
+        except CommandError as exc:
+            reply.error = exc.code
+        return reply
+
+    # -- addressing ------------------------------------------------------------------------------
+    def _motor(self, line: Line, port: PortState, out: list[str]) -> None:
+        line.take("#")
+        if line.take("#"):  # ##n: the group of eight for the control-character reports
+            n = line.integer()
+            if n is None:
+                out.append(str(port.group))
+            elif 1 <= n <= 4:
+                port.group = n
+            else:
+                raise CommandError(ERR_DATA)
+            return
+        n = line.integer()
+        if n is None:
+            out.append(str(port.motor))
+            return
+        if not 1 <= n <= 32:
+            raise CommandError(ERR_DATA)
+        port.motor = n
+        line.skip()
+        if line.take("->"):  # axis definitions: coordinate systems come in a later issue
+            raise CommandError(ERR_DATA, "axis definitions are not supported yet")
+
+    def _cs(self, line: Line, port: PortState, out: list[str]) -> None:
+        line.take("&")
+        n = line.integer()
+        if n is None:
+            out.append(str(port.cs))
+        elif 1 <= n <= 16:
+            port.cs = n
+        else:
+            raise CommandError(ERR_DATA)
+
+    # -- status ----------------------------------------------------------------------------------
+    def _status(self, line: Line, port: PortState, out: list[str]) -> None:
+        k = 0
+        while line.take("?"):
+            k += 1
+        fw = self.fw
+        if k == 1:
+            w1, w2 = fw.motor_status(port.motor)
+            out.append(f"{w1:06X}{w2:06X}")
+        elif k == 2:
+            out.append("".join(f"{w:06X}" for w in fw.cs_status(port.cs)))
+        else:
+            out.append("".join(f"{w:06X}" for w in fw.global_status()))
+
+    # -- letters ---------------------------------------------------------------------------------
+    def _letter(self, line: Line, port: PortState, out: list[str]) -> None:
+        c, nxt = line.peek(), line.peek(1)
+        if c in "IPQM" and (nxt.isdigit() or nxt == "("):
+            self._variable(line, port, out)
+            return
+        word = line.word()
+        for name in _WORDS:
+            if word.startswith(name):
+                line.i += len(name)
+                _WORDS[name](self, line, port, out)
+                return
+        raise CommandError(ERR_DATA, f"unrecognised {word!r}")
+
+    # variables -----------------------------------------------------------------------------------
+    def _variable(self, line: Line, port: PortState, out: list[str]) -> None:
+        fw = self.fw
+        kind = line.peek()
+        line.i += 1
+        if line.peek() == "(":
+            line.i += 1
+            first = int(line.expression(fw.env(port)))
+            line.skip()
+            if not line.take(")"):
+                raise CommandError(ERR_DATA)
+        else:
+            first = line.integer() or 0
+        numbers = [first]
+        if line.take(".."):
+            last = line.integer()
+            if last is None or last < first:
+                raise CommandError(ERR_DATA)
+            numbers = list(range(first, last + 1))
+        elif line.peek() == "," and line.peek(1).isdigit():
+            line.i += 1
+            count = line.integer()
+            step = 1
+            if line.take(","):
+                step = line.integer() or 0
+            if count is None or count < 1 or step < 1:
+                raise CommandError(ERR_DATA)
+            numbers = [first + k * step for k in range(count)]
+        limit = fw.variable_count(kind)
+        if numbers[-1] >= limit or numbers[0] < 0:
+            raise CommandError(ERR_DATA, f"{kind}{numbers[-1]} does not exist")
+        line.skip()
+        if kind == "M" and line.take("->"):
+            self._m_definition(line, numbers, out)
+            return
+        if line.peek() == "=" and line.peek(1) != "=":
+            line.i += 1
+            line.skip()
+            if kind == "I" and line.take("*"):
+                for n in numbers:
+                    fw.set_ivar(n, fw.ivars.defaults[n])
+                return
+            if kind == "I" and line.take("@I"):
+                src = line.integer()
+                if src is None:
+                    raise CommandError(ERR_DATA)
+                for n in numbers:
+                    fw.set_ivar(n, fw.address_of_ivar(src))
+                return
+            value = line.expression(fw.env(port))
+            for n in numbers:
+                fw.set_variable(port, kind, n, value)
+            return
+        long_form = fw.i9 & 1
+        for n in numbers:
+            text = fw.format_variable(port, kind, n)
+            out.append(f"{kind}{n}={text}" if long_form else text)
+
+    def _m_definition(self, line: Line, numbers: list[int], out: list[str]) -> None:
+        fw = self.fw
+        line.skip()
+        if not line.peek() or line.peek() == " " or line.peek() in "#&":
+            for n in numbers:
+                out.append(f"M{n}->{fw.mvars.defs[n].text()}")
+            return
+        try:
+            d, line.i = parse_definition(line.s, line.i)
+        except MDefError:
+            raise CommandError(ERR_DATA) from None
+        for n in numbers:
+            fw.mvars.define(n, d)
+
+    # motor reports and commands ----------------------------------------------------------------------
+    def _report(self, what: str) -> Handler:
+        def run(self: Interpreter, line: Line, port: PortState, out: list[str]) -> None:
+            out.append(self.fw.motor_report(what, port.motor))
+        return run
+
+    def _jog(self, line: Line, port: PortState, out: list[str]) -> None:
+        fw, m = self.fw, port.motor
+        c = line.peek()
+        line.i += 1 if c else 0
+        if c in "+-":
+            fw.motor_call("jog", m, 1 if c == "+" else -1)
+        elif c == "/":
+            fw.motor_call("jog_stop", m)
+        elif c == "!":
+            fw.motor_call("round_commanded", m)
+        elif c in "=:^":
+            if line.take("*"):
+                fw.motor_call("jog_variable", m, c)
+            elif c == "=" and not (line.peek().isdigit() or line.peek() in "-.$(PQIM"):
+                fw.motor_call("jog_to", m, None)
+            else:
+                value = line.expression(fw.env(port))
+                if c == "=":
+                    fw.motor_call("jog_to", m, value)
+                else:
+                    fw.motor_call("jog_relative", m, value, c == "^")
+        else:
+            raise CommandError(ERR_DATA, "J needs + - / ! = : or ^")
+
+    def _home(self, zero: bool) -> Handler:
+        def run(self: Interpreter, line: Line, port: PortState, out: list[str]) -> None:
+            self.fw.motor_call("home_zero" if zero else "home", port.motor)
+        return run
+
+    def _kill(self, line: Line, port: PortState, out: list[str]) -> None:
+        self.fw.motor_call("kill", port.motor)
+
+    def _open_loop(self, line: Line, port: PortState, out: list[str]) -> None:
+        if line.word().startswith("PEN"):
+            raise CommandError(ERR_DATA, "program buffers come in a later issue")
+        self.fw.motor_call("open_loop", port.motor, line.expression(self.fw.env(port)))
+
+    def _abort(self, line: Line, port: PortState, out: list[str]) -> None:
+        self.fw.abort_cs(port.cs)
+
+    def _dollar(self, line: Line, port: PortState, out: list[str]) -> None:
+        fw = self.fw
+        if line.take("$$$***"):
+            fw.factory_reset()
+        elif line.take("$$$"):
+            fw.power_on_reset()
+        elif line.take("$$*") or line.take("$$"):
+            fw.abort_cs(port.cs)
+        elif line.take("$*") or line.take("$"):
+            fw.motor_call("jog_stop", port.motor)
+        else:  # pragma: no cover - the dispatcher only calls with '$'
+            raise CommandError(ERR_DATA)
+
+    def _feed(self, line: Line, port: PortState, out: list[str]) -> None:
+        line.take("%")
+        line.skip()
+        if line.peek().isdigit() or line.peek() == ".":
+            value = line.expression(self.fw.env(port))
+            if not 0 <= value <= 838.8607:
+                raise CommandError(ERR_DATA)
+            self.fw.feed[port.cs - 1] = value
+        else:
+            out.append(format_value(round(self.fw.feed[port.cs - 1], 1)))
+
+    # words ---------------------------------------------------------------------------------------
+    def _identity(self, name: str) -> Handler:
+        def run(self: Interpreter, line: Line, port: PortState, out: list[str]) -> None:
+            out.append(self.fw.identity(name))
+        return run
+
+    def _save(self, line: Line, port: PortState, out: list[str]) -> None:
+        self.fw.save()
+
+    def _later(self, name: str) -> Handler:
+        def run(self: Interpreter, line: Line, port: PortState, out: list[str]) -> None:
+            raise CommandError(_LATER[name], f"{name} comes in a later issue")
+        return run
+
+    def _program_control(self, line: Line, port: PortState, out: list[str]) -> None:
+        raise CommandError(ERR_NO_PROGRAM, "no motion program buffers yet")
+
+    def _hold(self, line: Line, port: PortState, out: list[str]) -> None:
+        """H: feed hold of the addressed C.S.; with no axes defined it holds nothing."""
+
+    def _macro_station(self, line: Line, port: PortState, out: list[str]) -> None:
+        raise CommandError(ERR_MACRO, "no MACRO ring on this card")
+
+    def _list(self, line: Line, port: PortState, out: list[str]) -> None:
+        line.skip()
+        if line.take("COMP"):
+            line.skip()
+            out.extend(self.fw.list_comp(port.motor, definition=line.take("DEF")))
+            return
+        raise CommandError(ERR_DATA, "LIST of program buffers comes in a later issue")
+
+    def _define(self, line: Line, port: PortState, out: list[str]) -> None:
+        line.take("INE")
+        line.skip()
+        if not line.take("COMP"):
+            raise CommandError(ERR_DATA, "only DEFINE COMP is supported yet")
+        end = len(line.s)
+        port.table_left = self.fw.define_comp(port.motor, line.s[line.i:end])
+        port.table_motor = port.motor
+        line.i = end
+
+    def _delete(self, line: Line, port: PortState, out: list[str]) -> None:
+        line.take("ETE")
+        line.skip()
+        if line.take("COMP"):
+            self.fw.delete_comp(port.motor)
+        elif line.take("GATHER") or line.take("ROTARY") or line.take("ROT") \
+                or line.take("TCOMP") or line.take("BLCOMP") or line.take("TBUF"):
+            pass  # none of these buffers exists yet: deleting one is a no-op
+        else:
+            raise CommandError(ERR_DATA)
+
+    def _table_entry(self, line: Line, port: PortState) -> None:
+        value = line.signed()
+        if value is None:
+            raise CommandError(ERR_DATA)
+        port.table_left = self.fw.comp_entry(port.table_motor, value)
+        line.skip()
+        line.take(",")
+
+    def _memory(self, space: str, write: bool) -> Handler:
+        def run(self: Interpreter, line: Line, port: PortState, out: list[str]) -> None:
+            line.skip()
+            line.take(":")
+            m = _HEXNUM.match(line.s, line.i)
+            if m is None:
+                raise CommandError(ERR_DATA)
+            addr = _number(m.group(1))
+            line.i = m.end()
+            values: list[int] = []
+            while line.take(","):
+                m = _HEXNUM.match(line.s, line.i)
+                if m is None:
+                    raise CommandError(ERR_DATA)
+                values.append(_number(m.group(1)))
+                line.i = m.end()
+            if write:
+                self.fw.write_words(space, addr, values)
+            else:
+                count = values[0] if values else 1
+                out.extend(self.fw.read_words(space, addr, count))
+        return run
+
+    def _lock(self, unlock: bool) -> Handler:
+        def run(self: Interpreter, line: Line, port: PortState, out: list[str]) -> None:
+            n = line.integer()
+            if n is None or not 0 <= n <= 7:
+                raise CommandError(ERR_DATA)
+            line.skip()
+            if unlock:
+                self.fw.locks &= ~(1 << n)
+                return
+            if not line.take(",P"):
+                raise CommandError(ERR_DATA)
+            p = line.integer()
+            if p is None or p >= 8192:
+                raise CommandError(ERR_DATA)
+            # LOCK{n},P{m}: P{m} = 1 if the bit was already set, else 0 and the bit is set [A L3264]
+            held = bool(self.fw.locks >> n & 1)
+            self.fw.locks |= 1 << n
+            self.fw.p[p] = 1.0 if held else 0.0
+        return run
+
+    def _passthrough(self, line: Line, port: PortState, out: list[str]) -> None:
+        """A word accepted and ignored (PASSWORD on a card without one)."""
+        line.i = len(line.s)
+
+
+def _number(text: str) -> int:
+    return int(text[1:], 16) if text.startswith("$") else int(text)
+
+
+_DISPATCH: dict[str, Handler] = {"#": Interpreter._motor, "&": Interpreter._cs,
+                                 "?": Interpreter._status, "$": Interpreter._dollar,
+                                 "%": Interpreter._feed}
+for _c in "ABCDEFGHIJKLMNOPQRSTUVWXYZ":
+    _DISPATCH[_c] = Interpreter._letter
+
+_I = Interpreter
+#: the words, longest first where one is the prefix of another
+_WORDS: dict[str, Handler] = {
+    **{name: _I._identity(_I, name) for name in _IDENTITY},  # type: ignore[arg-type]
+    "SAVE": _I._save,
+    "DEFINE": _I._define, "DEF": _I._define,
+    "DELETE": _I._delete, "DEL": _I._delete,
+    "LIST": _I._list,
+    "LOCK": _I._lock(_I, False),  # type: ignore[arg-type]
+    "UNLOCK": _I._lock(_I, True),  # type: ignore[arg-type]
+    **{name: _I._later(_I, name) for name in _LATER},  # type: ignore[arg-type]
+    "PASSWORD": _I._passthrough,
+    "HOMEZ": _I._home(_I, True), "HMZ": _I._home(_I, True),  # type: ignore[arg-type]
+    "HOME": _I._home(_I, False), "HM": _I._home(_I, False),  # type: ignore[arg-type]
+    "MS": _I._macro_station,
+    "RX": _I._memory(_I, "X", False), "RY": _I._memory(_I, "Y", False),  # type: ignore[arg-type]
+    "RL": _I._memory(_I, "L", False), "RD": _I._memory(_I, "D", False),  # type: ignore[arg-type]
+    "WX": _I._memory(_I, "X", True), "WY": _I._memory(_I, "Y", True),  # type: ignore[arg-type]
+    "WL": _I._memory(_I, "L", True), "WD": _I._memory(_I, "D", True),  # type: ignore[arg-type]
+}
+# single letters last: they are prefixes of the words above
+_WORDS.update({
+    "J": _I._jog, "K": _I._kill, "O": _I._open_loop, "A": _I._abort, "H": _I._hold,
+    "P": _I._report(_I, "P"), "V": _I._report(_I, "V"), "F": _I._report(_I, "F"),  # type: ignore[arg-type]
+    "B": _I._program_control, "R": _I._program_control, "S": _I._program_control,
+    "Q": _I._program_control,
+})

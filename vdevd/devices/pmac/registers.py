@@ -1,0 +1,136 @@
+"""Firmware registers in data memory: the global words, the motor blocks, P- and Q-variables.
+
+Motor block n at $000080 + $80·(n−1) [spec pmac.md §2.1, suggested M-variables]: D:+$08 commanded
+position, D:+$0B actual position (both in 1/(Ixx08·32) count), X:+$1D actual velocity (1/(Ixx09·32)
+count per servo cycle), D:+$10 compensation correction (Mxx69), X:+$30 status word 1, X:+$3F servo
+output (16-bit DAC value in bits 8-23), Y:+$40 status word 2, D:+$47 target position, Y:+$4E home
+capture position (counts), L:+$57 variable jog position/distance (counts, Mxx72). Everything else
+in a block is plain storage. P-variable n is L:$006000+n [M-vars "M11->L:$6000"], Q-variable n of
+coordinate system 1 L:$008000+n (ASSUMPTION, README).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from vdevd.devices.pmac.numbers import from_pmac_float_words, pmac_float_words, round_to_int, wrap
+
+if TYPE_CHECKING:
+    from vdevd.devices.pmac.firmware import Firmware
+
+MOTOR_BASE, MOTOR_STRIDE = 0x80, 0x80
+P_BASE, Q_BASE = 0x6000, 0x8000
+WORD = 0xFFFFFF
+
+
+class GlobalRegisters:
+    """X:$000000 servo-cycle counter, X:$000006 global status word 1 (`???`), L:$000017 the
+    real-time clock in 1/1024 s [A L3268]; the rest of $0-$7F is storage."""
+
+    def __init__(self, fw: Firmware) -> None:
+        self.fw = fw
+        self.words: dict[tuple[str, int], int] = {}
+
+    def read_word(self, space: str, addr: int) -> int:
+        fw = self.fw
+        if space == "X" and addr == 0:
+            return fw.servo_cycles & WORD
+        if space == "X" and addr == 6:
+            return fw.global_status()[0]
+        if addr == 0x17:
+            clock = int(fw.now_ns * 1024 // 1_000_000_000)
+            return (clock >> 24) & WORD if space == "X" else clock & WORD
+        return self.words.get((space, addr), 0)
+
+    def write_word(self, space: str, addr: int, value: int) -> None:
+        if space == "X" and addr == 6:
+            self.fw.global_bits = value
+            return
+        self.words[(space, addr)] = value
+
+
+class MotorBlocks:
+    """The motor blocks of motors 1-32, served from the motors' state."""
+
+    def __init__(self, fw: Firmware) -> None:
+        self.fw = fw
+        self.words: dict[tuple[str, int], int] = {}
+
+    def read_word(self, space: str, addr: int) -> int:
+        motor, off = divmod(addr - MOTOR_BASE, MOTOR_STRIDE)
+        fw = self.fw
+        if motor >= fw.ivars.motors:
+            return self.words.get((space, addr), 0)
+        mot = fw.motors
+        scale = fw.ivars.values[100 * (motor + 1) + 8] * 32
+        fixed = {0x08: lambda: mot.commanded()[motor] * scale,
+                 0x0B: lambda: mot.position()[motor] * scale,
+                 0x10: lambda: fw.comp_correction(motor) * scale,
+                 0x47: lambda: mot.target()[motor] * scale}
+        if off in fixed:
+            v = wrap(round_to_int(fixed[off]()), 48, signed=False)
+            return v >> 24 if space == "X" else v & WORD
+        if space == "X" and off == 0x1D:
+            vscale = fw.ivars.values[100 * (motor + 1) + 9] * 32
+            return wrap(round_to_int(mot.velocity()[motor] * vscale), 24, signed=False)
+        if space == "X" and off == 0x30:
+            return int(mot.status_words()[0][motor])
+        if space == "Y" and off == 0x40:
+            return int(mot.status_words()[1][motor])
+        if space == "X" and off == 0x3F:
+            return wrap(round_to_int(mot.dac()[motor]), 16, signed=False) << 8
+        if space == "Y" and off == 0x4E:
+            return wrap(round_to_int(mot.capture()[motor]), 24, signed=False)
+        if off == 0x57:
+            x, y = pmac_float_words(float(mot.jog_register[motor]))
+            return x if space == "X" else y
+        return self.words.get((space, addr), 0)
+
+    def write_word(self, space: str, addr: int, value: int) -> None:
+        motor, off = divmod(addr - MOTOR_BASE, MOTOR_STRIDE)
+        if off == 0x57 and motor < self.fw.ivars.motors:
+            jog = self.fw.motors.jog_register
+            x, y = pmac_float_words(float(jog[motor]))
+            x, y = (value, y) if space == "X" else (x, value)
+            jog[motor] = from_pmac_float_words(x, y)
+            return
+        self.words[(space, addr)] = value
+
+    def read_float(self, addr: int) -> float:
+        motor, off = divmod(addr - MOTOR_BASE, MOTOR_STRIDE)
+        if off == 0x57 and motor < self.fw.ivars.motors:
+            return float(self.fw.motors.jog_register[motor])
+        return from_pmac_float_words(self.read_word("X", addr), self.read_word("Y", addr))
+
+    def write_float(self, addr: int, value: float) -> None:
+        motor, off = divmod(addr - MOTOR_BASE, MOTOR_STRIDE)
+        if off == 0x57 and motor < self.fw.ivars.motors:
+            self.fw.motors.jog_register[motor] = value
+            return
+        x, y = pmac_float_words(value)
+        self.words[("X", addr)], self.words[("Y", addr)] = x, y
+
+
+class FloatVariables:
+    """P- or Q-variables as L: words: each address is one float of `values`."""
+
+    def __init__(self, base: int, values: np.ndarray) -> None:
+        self.base = base
+        self.values = values
+
+    def read_float(self, addr: int) -> float:
+        return float(self.values[addr - self.base])
+
+    def write_float(self, addr: int, value: float) -> None:
+        self.values[addr - self.base] = value
+
+    def read_word(self, space: str, addr: int) -> int:
+        x, y = pmac_float_words(self.read_float(addr))
+        return x if space == "X" else y
+
+    def write_word(self, space: str, addr: int, value: int) -> None:
+        x, y = pmac_float_words(self.read_float(addr))
+        x, y = (value, y) if space == "X" else (x, value)
+        self.write_float(addr, from_pmac_float_words(x, y))
