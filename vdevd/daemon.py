@@ -55,13 +55,13 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None) -> None:
         with suppress(NotImplementedError, RuntimeError, ValueError):
             loop.add_signal_handler(sig, stop.set)
     server.start(loop)
-    await server.rack.open_services()
     cards = ", ".join(f"{c.name} ({c.type_name})" for c in server.rack.cards.values())
     if not cards:
         cards = "none"
         log.warning("the configuration has no [[card]]: the rack is empty")
     log.info("listening on %s, events on %s, clock %s; cards: %s",
              server.endpoint, server.events, cfg.clock, cards)
+    await server.rack.open_services()
     sd_notify("READY=1")
     watchdog = asyncio.create_task(_watchdog()) if os.environ.get("WATCHDOG_USEC") else None
     try:

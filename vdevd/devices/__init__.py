@@ -11,6 +11,7 @@ CARD_TYPES: dict[str, str] = {
     "generic-servo": "vdevd.devices.generic.card:GenericServoCard",
     "galil-dmc13x8": "vdevd.devices.galil.card:GalilCard",
     "oms-maxk": "vdevd.devices.oms.card:MaxkCard",
+    "pmac-turbo": "vdevd.devices.pmac.card:PmacCard",
 }
 
 #: the prefix of the default name of each type in the embedded default rack
@@ -18,6 +19,7 @@ DEFAULT_NAMES: dict[str, str] = {
     "generic-servo": "servo",
     "galil-dmc13x8": "galil",
     "oms-maxk": "maxk",
+    "pmac-turbo": "pmac",
 }
 
 

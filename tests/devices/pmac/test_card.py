@@ -198,3 +198,14 @@ def test_unknown_backdoor_motor_is_a_parameter_error(pmac: Pmac) -> None:
 def test_servo_period_follows_i10(pmac: Pmac) -> None:
     before = pmac.step(1)
     assert pmac.step(1) - before == PERIOD_NS
+
+
+def test_backdoor_flags_show_in_the_servo_ic_flag_register(pmac: Pmac) -> None:
+    """X:$078000 bits 16 HMFL, 17 PLIM, 18 MLIM, 15 FAULT of channel 1 [digest §1.5 table]."""
+    dls = pmac.dls()
+    dls.sendCommand("M120->X:$078000,15,4")
+    assert dls.sendCommand("M120")[0] == "0\r" + ACK
+    pmac.control("set_home", motor=1, active=True)
+    pmac.control("set_limits", motor=1, minus=True)
+    pmac.step(1)
+    assert dls.sendCommand("M120")[0] == "10\r" + ACK  # HMFL (bit 16) and MLIM (bit 18)

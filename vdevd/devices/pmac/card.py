@@ -30,6 +30,7 @@ from vdevd.devices.pmac.hostport import (
 from vdevd.devices.pmac.hostport import SIZE as HOST_SIZE
 from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.reply import Reply, frame
+from vdevd.devices.pmac.servo_ic import ChannelFlag
 from vdevd.devices.pmac.status import MotorStatus2
 from vdevd.region import Region
 from vdevd.security import is_local
@@ -321,17 +322,29 @@ class PmacCard(Card):
     @control()
     def set_limits(self, motor: int, plus: bool | None = None, minus: bool | None = None) -> None:
         """The overtravel-limit flags of motor n (1-based), True = limit tripped."""
-        self.fw.motors.set_flags(self._motor(motor), plus_limit=plus, minus_limit=minus)
+        m = self._motor(motor)
+        self.fw.motors.set_flags(m, plus_limit=plus, minus_limit=minus)
+        self._channel_flag(m, ChannelFlag.PLIM, plus)
+        self._channel_flag(m, ChannelFlag.MLIM, minus)
 
     @control()
     def set_home(self, motor: int, active: bool) -> None:
         """The home flag (HMFL) of motor n, True = active."""
-        self.fw.motors.set_flags(self._motor(motor), home=active)
+        m = self._motor(motor)
+        self.fw.motors.set_flags(m, home=active)
+        self._channel_flag(m, ChannelFlag.HMFL, active)
 
     @control()
     def set_amp_fault(self, motor: int, active: bool) -> None:
         """The amplifier-fault flag of motor n."""
-        self.fw.motors.set_flags(self._motor(motor), amp_fault=active)
+        m = self._motor(motor)
+        self.fw.motors.set_flags(m, amp_fault=active)
+        self._channel_flag(m, ChannelFlag.FAULT, active)
+
+    def _channel_flag(self, m: int, flag: ChannelFlag, level: bool | None) -> None:
+        """The same input as the motor's Servo IC channel shows it (X:b+0) and captures on it."""
+        if level is not None and m < self.fw.servo_ic.n:
+            self.fw.servo_ic.set_flag(m, flag, bool(level))
 
     @control()
     def set_encoder_loss(self, motor: int, active: bool) -> None:

@@ -90,13 +90,14 @@ class Firmware:
 
     # -- time -------------------------------------------------------------------------------------
     def tick(self, now_ns: int) -> int:
-        """One servo cycle: conversion table, motors, compare and I/O. Compensation tables are
-        computed when read (Mxx69); they do not yet move their target motor (README "Left")."""
+        """One servo cycle: motors, Servo IC registers and compare, conversion table, I/O.
+        Compensation tables are computed when read (Mxx69); they do not yet move their target
+        motor (README "Left")."""
         self.now_ns = now_ns
         self.servo_cycles += 1
-        self.ect.tick()
         events = self.motors.tick()
         self.servo_ic.tick()
+        self.ect.tick()
         self.gpio.tick()
         return events
 
