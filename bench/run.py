@@ -1,6 +1,6 @@
 """`make bench`: the figures of the issues' "Done when", each against a baseline of the same run.
 
-    python bench/run.py [--quick] [--only rtt,lockstep,realtime,galil,maxk] [--pin split|same|none]
+    python bench/run.py [--quick] [--only rtt,lockstep,realtime,galil,maxk,pmac] [--pin split|same|none]
                         [--json [FILE]]
 
 1. rtt       4-byte register read through vdevclient vs a raw pyzmq REQ/REP round trip
@@ -11,6 +11,9 @@
              pyzmq REQ/REP round trip (p50 <= 2.5x), bench/galil.py
 5. maxk      Maxk.send_and_get_string("AX RP") on a lockstep OMS MAXk vs a raw pyzmq REQ/REP
              round trip (p50 <= 2.5x), bench/maxk.py
+6. pmac      pmac-dpram: PComm PmacGetResponseA("#1P") on a lockstep Turbo PMAC vs a raw pyzmq
+             REQ/REP round trip; pmac-ethernet: dls-pmaclib sendCommand("#1P") on its Ethernet
+             port vs a raw TCP round trip (both p50 <= 2.5x), bench/pmac.py
 
 The defaults are the issue's (realtime runs 60 s; the whole takes ~2 min); `--quick` shortens
 everything for a smoke run (~20 s). Placement (default split: servers on cpu0, client on cpu1)
@@ -32,10 +35,10 @@ from typing import Any
 if __package__ in (None, ""):  # run as a script: python bench/run.py
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench import galil, lockstep, maxk, realtime, rtt  # noqa: E402
+from bench import galil, lockstep, maxk, pmac, realtime, rtt  # noqa: E402
 from bench.common import install_signal_handlers, machine_facts, table, verdict, write_json  # noqa: E402
 
-FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk")
+FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac")
 
 
 def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]], dict[str, Any],
@@ -53,6 +56,8 @@ def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]]
                               "warmup": 300 if q else 1000, "pin": a.pin}, galil.report),
         "maxk": (maxk.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
                             "warmup": 300 if q else 1000, "pin": a.pin}, maxk.report),
+        "pmac": (pmac.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
+                            "warmup": 300 if q else 1000, "pin": a.pin}, pmac.report),
     }
 
 
@@ -99,6 +104,15 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
             rows.append(["maxk send_and_get_string p50", f"<= {maxk.GOAL_P50}x raw",
                          f"{cmd['p50']:.0f} us", f"raw {raw['p50']:.0f} us -> {ratio:.2f}x, "
                          f"{trips} round trip(s)", verdict(ratio <= maxk.GOAL_P50)])
+        elif name == "pmac":
+            for figure, f in r["figures"].items():
+                (series, ratio), = f["ratios"].items()
+                raw = f["series"][rtt.RAW]
+                trips = f["round_trips"][series]["max"]
+                rows.append([f"{figure} p50", f"<= {pmac.GOAL_P50}x raw",
+                             f"{f['series'][series]['p50']:.0f} us",
+                             f"raw {raw['p50']:.0f} us -> {ratio['p50']:.2f}x, {trips} round trip(s)",
+                             verdict(ratio["p50"] <= pmac.GOAL_P50)])
     return rows
 
 
@@ -106,7 +120,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="short runs, for a smoke test")
     ap.add_argument("--only", default=",".join(FIGURES),
-                    help="comma list of rtt, lockstep, realtime, galil, maxk")
+                    help="comma list of rtt, lockstep, realtime, galil, maxk, pmac")
     ap.add_argument("--pin", choices=("split", "same", "none"), default="split")
     ap.add_argument("--realtime-seconds", type=float, help="override the realtime run's length")
     ap.add_argument("--wake-us", type=int, default=1000, help="realtime: [clock] wake_us")
