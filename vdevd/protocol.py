@@ -191,6 +191,10 @@ def request_from(msg: Any) -> Request:
 
 
 def _validate_batch_op(index: int, op: Any) -> Request:
+    if type(op) is dict and len(op) == 5:  # the usual read or write, checked in a few operations
+        fast = _plain_access(op)
+        if fast is not None:
+            return fast
     if not isinstance(op, dict):
         raise VdevError(ErrorCode.MALFORMED, f"batch op {index}: not a map")
     name = op.get("op")
@@ -201,6 +205,23 @@ def _validate_batch_op(index: int, op: Any) -> Request:
         return validate(name, op)
     except VdevError as exc:
         raise VdevError(exc.code, f"batch op {index}: {exc.message}") from None
+
+
+def _plain_access(op: dict[str, Any]) -> Request | None:
+    """A batch `read` {op, card, region, offset, size} or `write` {op, card, region, offset, data}
+    with the right types, as `validate` would pass it; None for anything else (the general path
+    then accepts or rejects it with its message). The op's own map becomes the args."""
+    name = op.get("op")
+    if name == "write":
+        last_ok = type(op.get("data")) in _BYTES
+    elif name == "read":
+        last_ok = type(op.get("size")) is int
+    else:
+        return None
+    if last_ok and type(op.get("card")) is str and type(op.get("region")) is str \
+            and type(op.get("offset")) is int:
+        return Request(None, name, op)
+    return None
 
 
 def _with_id(exc: VdevError, req_id: Any) -> VdevError:

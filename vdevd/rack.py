@@ -372,8 +372,13 @@ class Rack:
     def op_hello(self, args: dict[str, Any], reply: Reply) -> Any:
         return self.hello()
 
+    def _region_of(self, args: dict[str, Any]) -> Region:
+        """The region an access names (the dict lookup first, the checks only when it misses)."""
+        r = self._regions.get((args["card"], args["region"]))
+        return r if r is not None else self.region(args["card"], args["region"])
+
     def op_read(self, args: dict[str, Any], reply: Reply) -> Any:
-        region = self.region(args["card"], args["region"])
+        region = self._region_of(args)
         if args.get("rep"):
             return region.read_rep(args["offset"], args["size"])
         return region.read(args["offset"], args["size"])
@@ -394,7 +399,7 @@ class Rack:
             raise
 
     def op_write(self, args: dict[str, Any], reply: Reply) -> Any:
-        region = self.region(args["card"], args["region"])
+        region = self._region_of(args)
         if args.get("rep"):
             region.write_rep(args["offset"], args["data"])
         else:

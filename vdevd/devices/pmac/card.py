@@ -10,6 +10,7 @@ each Ethernet connection have their own `#n`/`&n` addressing (online.PortState).
 from __future__ import annotations
 
 import logging
+import re
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -36,9 +37,11 @@ from vdevd.region import Region
 from vdevd.security import is_local
 
 log = logging.getLogger("vdevd.pmac")
+_CONTROL = re.compile("[\x01-\x1a]")  # control characters act at once, wherever they are
 
 #: I10 default 3,713,707 / 8,388,608 ms = 0.44271 ms [PMAC1-SRM p.46]
 SERVO_PERIOD_NS = 442_710
+_ASCII_READY = int(HostIrq.ASCII_READY)  # plain ints: IntFlag operators are slow on 3.11
 _IN_POSITION, _WARN_FE, _FATAL_FE = (int(MotorStatus2.IN_POSITION),
                                      int(MotorStatus2.WARNING_FOLLOWING_ERROR),
                                      int(MotorStatus2.FATAL_FOLLOWING_ERROR))
@@ -54,9 +57,11 @@ class CommandPort:
     def reply(self, line: str) -> Reply:
         """Run a line; control characters in it act first and report ahead of its data."""
         fw = self.card.fw
-        controls = [c for c in line if ord(c) < 27]
+        controls = _CONTROL.findall(line)
+        if not controls:
+            return fw.execute(self.state, line)
         texts = [fw.control(self.state, ord(c)) for c in controls]
-        rest = "".join(c for c in line if ord(c) >= 27) if controls else line
+        rest = _CONTROL.sub("", line)
         reply = fw.execute(self.state, rest) if rest.strip() else Reply()
         reply.lines[:0] = [t for t in texts if t]
         return reply
@@ -160,7 +165,7 @@ class PmacCard(Card):
         self.fw.memory.mount(dpram.BASE, dpram.BASE + dpram.SIZE // 4 - 1, DpramMemory(self.dpram))
         self.dpram_port = PortState()
         self.ascii = AsciiChannel(self.dpram.buf, self._dpram_execute, self._dpram_controlchar,
-                                  lambda: self.irq.raise_(HostIrq.ASCII_READY))
+                                  lambda: self.irq.raise_(_ASCII_READY))
         self.reporting = Reporting(self.dpram.buf)
         self.host_port_state = CommandPort(self)
         self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)

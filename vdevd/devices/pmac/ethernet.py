@@ -218,6 +218,10 @@ class EthernetSession:
         """Feed raw TCP bytes; return the replies to the complete requests, one bytes per request."""
         if self.closed:
             return []
+        if not self._inbox and len(data) > ETHERNET_CMD_SIZE and data[1] == VR_PMAC_GETRESPONSE \
+                and data[0] == VR_DOWNLOAD and len(data) == ETHERNET_CMD_SIZE + (data[6] << 8 | data[7]):
+            # the common case, one whole GETRESPONSE in the segment: no header object, no buffering
+            return [self._response(data[ETHERNET_CMD_SIZE:]) or REPLY_EMPTY]
         self._inbox += data
         replies: list[bytes] = []
         while len(self._inbox) >= ETHERNET_CMD_SIZE:
@@ -295,8 +299,16 @@ class EthernetSession:
         return self._take(found.end())
 
     def _get_response(self, header: Header, data: bytes) -> bytes:
+        return self._response(data)
+
+    def _response(self, data: bytes) -> bytes:
+        """GETRESPONSE: earlier leftovers dropped, the reply up to its end (`_take_reply`)."""
         self._output.clear()
-        self._output += self._run(data)
+        out = self._run(data)
+        if len(out) < MAX_REPLY and out.endswith(b"\x06") and out.count(b"\x06") == 1 \
+                and _REPLY_END.search(out, 0, len(out) - 1) is None:
+            return out  # one complete reply, the usual case: nothing is left pending
+        self._output += out
         return self._take_reply()
 
     def _get_buffer(self, header: Header, data: bytes) -> bytes:

@@ -90,6 +90,8 @@ class InterruptController:
         self._update()
 
     def raise_(self, bits: int) -> None:
+        if self.status & bits == bits:
+            return  # already pending: no new event
         new = bits & ~self.status
         self.status |= bits
         if new & self.mask:

@@ -31,6 +31,8 @@ ERR_RUNNING, ERR_DATA, ERR_NOT_OPEN, ERR_IN_USE, ERR_MACRO = 1, 3, 5, 7, 8
 ERR_NO_PROGRAM, ERR_PHASE = 15, 18
 
 _INT = re.compile(r"\d+")
+_MOTOR = re.compile(r"#(\d+)(?![\d \t]*->)")
+_WORD = re.compile(r"[A-Z]+")
 _SIGNED = re.compile(r"\s*(-?\d+)")
 _HEXNUM = re.compile(r"\s*(\$[0-9A-F]+|-?\d+)")
 #: words answered by the card's identity [DLS-lib, EPICS-HW; digest §2.4]
@@ -128,12 +130,16 @@ class Interpreter:
         text = text.split(";", 1)[0]  # comments, including characters > 127 [A L3311]
         reply = Reply()
         line = Line(text)
+        s, n = line.s, len(line.s)
         try:
             while True:
-                line.skip()
-                c = line.peek()
-                if not c:
+                i = line.i
+                while i < n and s[i] in " \t":
+                    i += 1
+                if i >= n:
                     break
+                line.i = i
+                c = s[i]
                 if port.table_left and (c.isdigit() or c == "-"):
                     self._table_entry(line, port)
                     continue
@@ -147,6 +153,14 @@ class Interpreter:
 
     # -- addressing ------------------------------------------------------------------------------
     def _motor(self, line: Line, port: PortState, out: list[str]) -> None:
+        m = _MOTOR.match(line.s, line.i)  # `#n` alone, the common case
+        if m is not None:
+            motor = int(m.group(1))
+            if not 1 <= motor <= 32:
+                raise CommandError(ERR_DATA)
+            port.motor = motor
+            line.i = m.end()
+            return
         line.take("#")
         if line.take("#"):  # ##n: the group of eight for the control-character reports
             n = line.integer()
@@ -194,15 +208,17 @@ class Interpreter:
 
     # -- letters ---------------------------------------------------------------------------------
     def _letter(self, line: Line, port: PortState, out: list[str]) -> None:
-        c, nxt = line.peek(), line.peek(1)
-        if c in "IPQM" and (nxt.isdigit() or nxt == "("):
+        s, i = line.s, line.i
+        if s[i] in "IPQM" and i + 1 < len(s) and (s[i + 1].isdigit() or s[i + 1] == "("):
             self._variable(line, port, out)
             return
-        word = line.word()
-        for name in _WORDS:
-            if word.startswith(name):
-                line.i += len(name)
-                _WORDS[name](self, line, port, out)
+        m = _WORD.match(s, i)
+        word = m.group() if m is not None else ""
+        for k in range(min(len(word), _LONGEST), 0, -1):  # the longest word the letters start with
+            handler = _WORDS.get(word[:k])
+            if handler is not None:
+                line.i += k
+                handler(self, line, port, out)
                 return
         raise CommandError(ERR_DATA, f"unrecognised {word!r}")
 
@@ -467,7 +483,7 @@ for _c in "ABCDEFGHIJKLMNOPQRSTUVWXYZ":
     _DISPATCH[_c] = Interpreter._letter
 
 _I = Interpreter
-#: the words, longest first where one is the prefix of another
+#: the words; a run of letters is the longest of them it starts with
 _WORDS: dict[str, Handler] = {
     **{name: _I._identity(_I, name) for name in _IDENTITY},  # type: ignore[arg-type]
     "SAVE": _I._save,
@@ -486,10 +502,10 @@ _WORDS: dict[str, Handler] = {
     "WX": _I._memory(_I, "X", True), "WY": _I._memory(_I, "Y", True),  # type: ignore[arg-type]
     "WL": _I._memory(_I, "L", True), "WD": _I._memory(_I, "D", True),  # type: ignore[arg-type]
 }
-# single letters last: they are prefixes of the words above
 _WORDS.update({
     "J": _I._jog, "K": _I._kill, "O": _I._open_loop, "A": _I._abort, "H": _I._hold,
     "P": _I._report(_I, "P"), "V": _I._report(_I, "V"), "F": _I._report(_I, "F"),  # type: ignore[arg-type]
     "B": _I._program_control, "R": _I._program_control, "S": _I._program_control,
     "Q": _I._program_control,
 })
+_LONGEST = max(map(len, _WORDS))
