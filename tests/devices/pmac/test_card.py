@@ -209,3 +209,27 @@ def test_backdoor_flags_show_in_the_servo_ic_flag_register(pmac: Pmac) -> None:
     pmac.control("set_limits", motor=1, minus=True)
     pmac.step(1)
     assert dls.sendCommand("M120")[0] == "10\r" + ACK  # HMFL (bit 16) and MLIM (bit 18)
+
+
+def test_fatal_following_error_kills_every_motor(pmac_servo: Pmac) -> None:
+    """Ixx11 exceeded: word 2 bit 2, and with Ixx24 bits 21-22 = 0 every motor is killed
+    [§2.7; A L1863-1871]. Ixx12 sets the warning bit first."""
+    dls = pmac_servo.dls()
+    dls.sendCommand("#2J/ I111=160 I112=80 I122=100 I120=1 I121=0 I119=100")
+    pmac_servo.step_ms(20)
+    assert int(dls.sendCommand("#2?")[0][:6], 16) & (1 << 19)  # motor 2 enabled
+    dls.sendCommand("#1J+")
+    pmac_servo.step_ms(50)
+    w1, w2 = (int(dls.sendCommand("#1?")[0][k:k + 6], 16) for k in (0, 6))
+    assert w2 & (1 << 2) and w2 & (1 << 1)  # fatal and warning following error
+    assert not w1 & (1 << 19)  # killed
+    assert not int(dls.sendCommand("#2?")[0][:6], 16) & (1 << 19)  # motor 2 killed too
+
+
+def test_following_error_report_while_jogging_with_the_servo_plant(pmac_servo: Pmac) -> None:
+    dls = pmac_servo.dls()
+    dls.sendCommand("#1J+")
+    pmac_servo.step_ms(800)  # Ixx19 stretches the 100 ms S-curve to 410 ms; V averages 113 ms
+    fe = float(dls.sendCommand("#1F")[0].rstrip("\r\x06"))
+    assert 0 < abs(fe) < 16000 / 16  # below the factory warning limit Ixx12
+    assert 13 < float(dls.sendCommand("#1V")[0].rstrip("\r\x06")) < 15.5  # 32 cts/ms x 0.4427 ms

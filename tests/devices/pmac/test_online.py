@@ -311,3 +311,18 @@ def test_save_then_power_on_reset_and_factory_reset(card: Card) -> None:
     card.raw("$$$")  # the saved image is untouched by $$$***
     card.raw("I3=2")
     assert card.ask("I130") == "1234"
+
+
+def test_cs_block_time_base_is_the_feed_rate(card: Card) -> None:
+    """X:$002000 holds the host-commanded time base, I10·%/100 [M-vars; digest §2.8]."""
+    card.raw("M5197->X:$002000,0,24 &1%50")
+    assert card.ask("M5197") == str(round(3713707 / 2))
+    card.raw("M5197=3713707")
+    assert card.ask("&1%") == "100"
+    assert card.ask("&2%") == "100"
+
+
+def test_v1937_v1938_additions_without_programs(card: Card) -> None:
+    """MOVETIME reports 0 with no move running; UNDEFINE and SETPHASE are accepted [A L3262-3284]."""
+    assert card.ask("MOVETIME") == "0"
+    assert card.raw("UNDEFINE ALL &2 UNDEFINE #1 SETPHASE") == b"\x06"

@@ -24,10 +24,13 @@ from vdevd.devices.pmac.mvars import MVars
 from vdevd.devices.pmac.numbers import format_hex, format_value, quantize_float
 from vdevd.devices.pmac.online import ERR_DATA, ERR_PHASE, CommandError, Interpreter, PortState
 from vdevd.devices.pmac.registers import (
+    CS_BASE,
+    CS_STRIDE,
     MOTOR_BASE,
     MOTOR_STRIDE,
     P_BASE,
     Q_BASE,
+    CsBlocks,
     FloatVariables,
     GlobalRegisters,
     MotorBlocks,
@@ -80,6 +83,7 @@ class Firmware:
         mem = self.memory
         mem.mount(0x000000, MOTOR_BASE - 1, GlobalRegisters(self))
         mem.mount(MOTOR_BASE, MOTOR_BASE + 32 * MOTOR_STRIDE - 1, MotorBlocks(self))
+        mem.mount(CS_BASE, CS_BASE + CS_COUNT * CS_STRIDE - 1, CsBlocks(self))
         mem.mount(P_BASE, P_BASE + VARIABLES - 1, FloatVariables(P_BASE, self.p))
         mem.mount(Q_BASE, Q_BASE + VARIABLES - 1, FloatVariables(Q_BASE, self.q[0]))
         self.servo_ic = ServoIC(mem, self.ivars, self.motors)

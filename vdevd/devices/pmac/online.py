@@ -41,8 +41,7 @@ _IDENTITY = ("VERSION", "VER", "CID", "CPU", "TYPE", "DATE", "VID")
 _LATER = {
     "OPEN": ERR_DATA, "CLOSE": ERR_NOT_OPEN, "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
     "GATHER": ERR_DATA, "ENDGATHER": ERR_DATA, "ENABLE": ERR_DATA, "ENA": ERR_DATA,
-    "DISABLE": ERR_DATA, "DIS": ERR_DATA, "UNDEFINE": ERR_DATA, "UNDEF": ERR_DATA,
-    "ABR": ERR_NO_PROGRAM, "MOVETIME": ERR_DATA, "SETPHASE": ERR_DATA,
+    "DISABLE": ERR_DATA, "DIS": ERR_DATA, "ABR": ERR_NO_PROGRAM,
 }
 
 
@@ -467,6 +466,21 @@ class Interpreter:
             self.fw.p[p] = 1.0 if held else 0.0
         return run
 
+    def _movetime(self, line: Line, port: PortState, out: list[str]) -> None:
+        """MOVETIME: time left in the C.S.'s present move, ms (V1.937 [A L3262]); no program
+        runs yet, so 0."""
+        out.append("0")
+
+    def _undefine(self, line: Line, port: PortState, out: list[str]) -> None:
+        """UNDEFINE [ALL]: clears axis definitions, of the addressed C.S. only since V1.938
+        [A L3284]; none exist yet, so there is nothing to clear."""
+        line.skip()
+        line.take("ALL")
+
+    def _setphase(self, line: Line, port: PortState, out: list[str]) -> None:
+        """SETPHASE: Ixx75 into the phase position register [A L3263]; the motors here are not
+        commutated (Ixx01 = 0), so the register is not used."""
+
     def _passthrough(self, line: Line, port: PortState, out: list[str]) -> None:
         """A word accepted and ignored (PASSWORD on a card without one)."""
         line.i = len(line.s)
@@ -494,6 +508,8 @@ _WORDS: dict[str, Handler] = {
     "UNLOCK": _I._lock(_I, True),  # type: ignore[arg-type]
     **{name: _I._later(_I, name) for name in _LATER},  # type: ignore[arg-type]
     "PASSWORD": _I._passthrough,
+    "MOVETIME": _I._movetime, "UNDEFINE": _I._undefine, "UNDEF": _I._undefine,
+    "SETPHASE": _I._setphase,
     "HOMEZ": _I._home(_I, True), "HMZ": _I._home(_I, True),  # type: ignore[arg-type]
     "HOME": _I._home(_I, False), "HM": _I._home(_I, False),  # type: ignore[arg-type]
     "MS": _I._macro_station,

@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from vdevd.devices.pmac.firmware import Firmware
 
 MOTOR_BASE, MOTOR_STRIDE = 0x80, 0x80
+CS_BASE, CS_STRIDE = 0x2000, 0x100
 P_BASE, Q_BASE = 0x6000, 0x8000
 WORD = 0xFFFFFF
 
@@ -111,6 +112,36 @@ class MotorBlocks:
             return
         x, y = pmac_float_words(value)
         self.words[("X", addr)], self.words[("Y", addr)] = x, y
+
+
+class CsBlocks:
+    """The coordinate-system blocks of C.S. 1-16 at $002000 + $100·(s−1) [M-vars; digest §2.8]:
+    X:+$00 host-commanded time base and X:+$02 present time base (I10 units: I10·%/100; writing
+    the first sets the feed-rate override), X:+$40 status word 1, Y:+$3F status word 2; the rest
+    is storage."""
+
+    def __init__(self, fw: Firmware) -> None:
+        self.fw = fw
+        self.words: dict[tuple[str, int], int] = {}
+
+    def read_word(self, space: str, addr: int) -> int:
+        cs, off = divmod(addr - CS_BASE, CS_STRIDE)
+        fw = self.fw
+        if space == "X" and off in (0x00, 0x02):
+            return round_to_int(fw.ivars.values[10] * fw.feed[cs] / 100) & WORD
+        if space == "X" and off == 0x40:
+            return fw.cs_status(cs + 1)[0]
+        if space == "Y" and off == 0x3F:
+            return fw.cs_status(cs + 1)[1]
+        return self.words.get((space, addr), 0)
+
+    def write_word(self, space: str, addr: int, value: int) -> None:
+        cs, off = divmod(addr - CS_BASE, CS_STRIDE)
+        i10 = self.fw.ivars.values[10]
+        if space == "X" and off == 0x00 and i10:
+            self.fw.feed[cs] = value * 100 / i10
+            return
+        self.words[(space, addr)] = value
 
 
 class FloatVariables:
