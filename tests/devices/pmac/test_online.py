@@ -326,3 +326,25 @@ def test_v1937_v1938_additions_without_programs(card: Card) -> None:
     """MOVETIME reports 0 with no move running; UNDEFINE and SETPHASE are accepted [A L3262-3284]."""
     assert card.ask("MOVETIME") == "0"
     assert card.raw("UNDEFINE ALL &2 UNDEFINE #1 SETPHASE") == b"\x06"
+
+
+def test_comp_table_moves_its_target_motor_when_i51_is_set() -> None:
+    """A 1x1 table on motor 1 driven by motor 2: the correction (1/16 count entries) moves motor
+    1's loop by that much; P keeps the commanded frame; Mxx69 shows it [A L3118-3219]. The
+    servo plant: an ideal plant follows its command whatever the loop sees."""
+    card = Card(plant="servo")
+    card.raw("I3=2")
+    card.raw("#1 DEFINE COMP 1.1,#2,#2,#1,1000,1000")
+    card.raw("1600 1600 1600")  # E1 E2 E3 of the 2x2 grid (E0 = 0): 100 counts at the far corner
+    card.raw("#2J=500 #1J/")
+    card.tick(2000)
+    base = int(card.ask("RX:$078001")[1:], 16)  # motor 1's encoder counter
+    card.raw("M169->D:$000090 I51=1")
+    card.tick(500)
+    moved = int(card.ask("RX:$078001")[1:], 16) - base
+    correction = int(card.ask("M169")) / (96 * 32)
+    assert moved == round(correction) and 30 < moved < 100  # bilinear between 0 and 100
+    assert abs(float(card.ask("#1P"))) <= 1
+    card.raw("I51=0")
+    card.tick(500)
+    assert int(card.ask("RX:$078001")[1:], 16) == base

@@ -36,6 +36,7 @@ from vdevd.devices.pmac.registers import (
     MotorBlocks,
 )
 from vdevd.devices.pmac.servo_ic import ServoIC
+from vdevd.rt import PlantKind
 
 VARIABLES = 8192
 CS_COUNT = 16
@@ -69,6 +70,7 @@ class Firmware:
         self.servo_cycles = 0
         self.global_bits = 0
         self.locks = 0
+        self._comp_applied = False
         self._store = store
         #: called after a power-on or factory reset (the card resets its ports)
         self.on_reset: Callable[[], None] | None = None
@@ -94,16 +96,30 @@ class Firmware:
 
     # -- time -------------------------------------------------------------------------------------
     def tick(self, now_ns: int) -> int:
-        """One servo cycle: motors, Servo IC registers and compare, conversion table, I/O.
-        Compensation tables are computed when read (Mxx69); they do not yet move their target
-        motor (README "Left")."""
+        """One servo cycle: compensation, motors, Servo IC registers and compare, conversion
+        table, I/O."""
         self.now_ns = now_ns
         self.servo_cycles += 1
+        if self.comp.tables or self._comp_applied:
+            self._compensate()
         events = self.motors.tick()
         self.servo_ic.tick()
         self.ect.tick()
         self.gpio.tick()
         return events
+
+    def _compensate(self) -> None:
+        """Move each target motor by its tables' correction, to the nearest count: the loop sees
+        its feedback offset by the correction (the motion core's encoder offset), so the motor
+        runs at commanded + correction while P and F report the commanded frame, as a
+        leadscrew table does [A L3118-3219; README "DEFINE COMP"]. I51 = 0 or no table: none."""
+        core = self.motors.core
+        want = np.rint(self.comp.correction(self.motors.position(), self.motors.commanded()))
+        want[core.kinds != int(PlantKind.SERVO)] = 0  # an ideal motor follows its command only
+        delta = want - core.encoder_slip
+        if delta.any():
+            core.slip_encoder(np.flatnonzero(delta), delta[delta != 0])
+        self._comp_applied = bool(want.any())
 
     def comp_correction(self, motor: int) -> float:
         """Mxx69: the compensation tables' correction of `motor` (0-based), counts."""

@@ -686,8 +686,12 @@ class Motors:
         return np.clip(np.rint(self.core.axes.out), -DAC_FULL_SCALE - 1, DAC_FULL_SCALE)
 
     def encoder(self) -> np.ndarray:
-        """The 24-bit encoder counter (X:b+1), unsigned, wrapping."""
-        return self.core.axes.encoder & ENCODER_MASK
+        """The 24-bit encoder counter (X:b+1), unsigned, wrapping: the hardware count, without
+        the offset a compensation table puts on the loop's feedback (firmware._compensate)."""
+        core = self.core
+        if core._any_slip:
+            return (core.axes.encoder + core.encoder_slip.astype(np.int64)) & ENCODER_MASK
+        return core.axes.encoder & ENCODER_MASK
 
     def capture(self) -> np.ndarray:
         """The counter value latched by the last home trigger (X:b+3 low 24 bits, Mxx73)."""
