@@ -362,17 +362,25 @@ class Motors:
         self._jog_at(m, math.copysign(self._jog_speed(m), direction))
         self._after_command(m)
 
-    def jog_stop(self, m: int) -> None:
-        """J/: stop a jog with the jog deceleration; a killed or open-loop motor closes its loop
-        and holds its present position."""
+    def _halt(self, m: int) -> bool:
+        """What J/ and A share: an inactive motor is left alone and a killed or open-loop one
+        closes its loop at its present position (False: nothing more to do); otherwise the
+        home search and move timer end and the caller stops the motion (True)."""
         if not self.active[m]:
-            return
+            return False
         if not self._closed()[m]:
             self._start(m)
-            return
+            return False
         self.searching[m] = False
         self._any_search = bool(self.searching.any())
         self.timed[m] = False
+        return True
+
+    def jog_stop(self, m: int) -> None:
+        """J/: stop a jog with the jog deceleration; a killed or open-loop motor closes its loop
+        and holds its present position."""
+        if not self._halt(m):
+            return
         if self.core.profile.moving[m]:
             acc, jerk = self._accel(m, abs(float(self.core.axes.cmd_vel[m])) / 1000)
             self.core.last_jerk[m] = jerk
@@ -421,14 +429,8 @@ class Motors:
     def abort(self, m: int) -> None:
         """A / ^A: decelerate at Ixx15 and hold in closed loop; a killed motor closes its loop
         at its present position."""
-        if not self.active[m]:
+        if not self._halt(m):
             return
-        if not self._closed()[m]:
-            self._start(m)
-            return
-        self.searching[m] = False
-        self._any_search = bool(self.searching.any())
-        self.timed[m] = False
         moving = bool(self.core.profile.moving[m])
         ix15 = float(self.ivars.values[100 * (m + 1) + 15]) * 1e6
         self.core.abort(m, ix15 if ix15 > 0 else None)

@@ -162,34 +162,16 @@ class Interpreter:
             return
         line.take("#")
         if line.take("#"):  # ##n: the group of eight for the control-character reports
-            n = line.integer()
-            if n is None:
-                out.append(str(port.group))
-            elif 1 <= n <= 4:
-                port.group = n
-            else:
-                raise CommandError(ERR_DATA)
+            port.group = _select(line, out, port.group, 4)
             return
-        n = line.integer()
-        if n is None:
-            out.append(str(port.motor))
-            return
-        if not 1 <= n <= 32:
-            raise CommandError(ERR_DATA)
-        port.motor = n
+        port.motor = _select(line, out, port.motor, 32)
         line.skip()
         if line.take("->"):  # axis definitions: coordinate systems come in a later issue
             raise CommandError(ERR_DATA, "axis definitions are not supported yet")
 
     def _cs(self, line: Line, port: PortState, out: list[str]) -> None:
         line.take("&")
-        n = line.integer()
-        if n is None:
-            out.append(str(port.cs))
-        elif 1 <= n <= 16:
-            port.cs = n
-        else:
-            raise CommandError(ERR_DATA)
+        port.cs = _select(line, out, port.cs, 16)
 
     # -- status ----------------------------------------------------------------------------------
     def _status(self, line: Line, port: PortState, out: list[str]) -> None:
@@ -484,6 +466,18 @@ class Interpreter:
     def _passthrough(self, line: Line, port: PortState, out: list[str]) -> None:
         """A word accepted and ignored (PASSWORD on a card without one)."""
         line.i = len(line.s)
+
+
+def _select(line: Line, out: list[str], current: int, top: int) -> int:
+    """`#n`, `&n`, `##n`: the number 1..top that follows, or, with none, the current one reported
+    and kept; ERR003 outside the range."""
+    n = line.integer()
+    if n is None:
+        out.append(str(current))
+        return current
+    if not 1 <= n <= top:
+        raise CommandError(ERR_DATA)
+    return n
 
 
 def _number(text: str) -> int:
