@@ -348,3 +348,12 @@ def test_comp_table_moves_its_target_motor_when_i51_is_set() -> None:
     card.raw("I51=0")
     card.tick(500)
     assert int(card.ask("RX:$078001")[1:], 16) == base
+
+
+def test_motors_above_the_card_count_are_deactivated() -> None:
+    """A 4-motor card: #5 exists in the firmware (32 motors) but is not processed: commands are
+    ignored, reports read 0, its status words 0 [digest §2.6 word 1 bit 23]."""
+    c = Card(motors=4)
+    c.raw("I3=2")
+    assert c.ask("#5J+ #5P #5V #5F #5?") == "0\r0\r0\r000000000000"
+    assert c.ask("I500 I400") == "0\r1"

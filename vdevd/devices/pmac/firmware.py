@@ -196,23 +196,22 @@ class Firmware:
         raise CommandError(ERR_DATA, f"I{n} has no address")
 
     # -- motors -----------------------------------------------------------------------------------
-    def motor_index(self, motor: int) -> int:
-        if motor > self.ivars.motors:
-            raise CommandError(ERR_DATA, f"motor {motor} is not on this card")
-        return motor - 1
-
     def motor_call(self, name: str, motor: int, *args: Any) -> None:
-        m = self.motor_index(motor)
-        if not self.ivars.values[100 * motor]:
-            return  # Ixx00 = 0: the motor is not processed
+        """A motor command; a motor that is not processed (Ixx00 = 0, or above the card's
+        `motors`) ignores it, as a deactivated motor does."""
+        if motor > self.ivars.motors or not self.ivars.values[100 * motor]:
+            return
         try:
-            getattr(self.motors, name)(m, *args)
+            getattr(self.motors, name)(motor - 1, *args)
         except MotorError as exc:
             raise CommandError(exc.code) from None
 
     def motor_report(self, what: str, motor: int) -> str:
-        m = self.motor_index(motor)
-        mot = self.motors
+        """P, F (counts, to 1/32) or V (counts per servo cycle, to 0.1); 0 for a motor that is not
+        processed."""
+        if motor > self.ivars.motors:
+            return "0"
+        m, mot = motor - 1, self.motors
         if what == "P":
             return format_value(round(float(mot.position()[m]) * 32) / 32)
         if what == "F":
@@ -305,7 +304,6 @@ class Firmware:
     # -- compensation tables (DEFINE COMP) [A L3118-3219] ----------------------------------------------
     def define_comp(self, motor: int, text: str) -> int:
         """`#n DEFINE COMP ...`; the number of entries still expected."""
-        self.motor_index(motor)
         try:
             self.comp.define(motor, text)
         except CompError as exc:
