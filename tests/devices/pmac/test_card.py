@@ -233,3 +233,14 @@ def test_following_error_report_while_jogging_with_the_servo_plant(pmac_servo: P
     fe = float(dls.sendCommand("#1F")[0].rstrip("\r\x06"))
     assert 0 < abs(fe) < 16000 / 16  # below the factory warning limit Ixx12
     assert 13 < float(dls.sendCommand("#1V")[0].rstrip("\r\x06")) < 15.5  # 32 cts/ms x 0.4427 ms
+
+
+def test_mldt_timer_reads_the_magnet_distance(pmac: Pmac) -> None:
+    """I7mn0 = 12: the Y:b+0 timer latches distance x 0.35 us/mm x 117.96 MHz once per PFM period
+    [A L94-435; digest §1.1 "Emulator model"]; the base distance comes from the backdoor."""
+    dls = pmac.dls()
+    pmac.control("set_mldt_base", motor=1, mm=100.0)
+    dls.sendCommand("I7010=12 I7016=3 M107->Y:$078004,8,16,S M107=11 M100->Y:$078000,0,24")
+    pmac.step_ms(10)
+    expected = round(100.0 * 0.35e-6 * 117.96e6)  # about 4129 timer counts
+    assert abs(int(dls.sendCommand("M100")[0].rstrip("\r\x06")) - expected) <= 1

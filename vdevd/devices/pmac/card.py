@@ -42,6 +42,9 @@ _CONTROL = re.compile("[\x01-\x1a]")  # control characters act at once, wherever
 #: I10 default 3,713,707 / 8,388,608 ms = 0.44271 ms [PMAC1-SRM p.46]
 SERVO_PERIOD_NS = 442_710
 _ASCII_READY = int(HostIrq.ASCII_READY)  # plain ints: IntFlag operators are slow on 3.11
+#: the sources evaluated each servo cycle while their mask bit is set
+_MOTOR_SOURCES = int(HostIrq.IN_POSITION | HostIrq.WARNING_FOLLOWING_ERROR
+                     | HostIrq.FATAL_FOLLOWING_ERROR | HostIrq.COMPARE_EQU1 | HostIrq.COMPARE_EQU5)
 _IN_POSITION, _WARN_FE, _FATAL_FE = (int(MotorStatus2.IN_POSITION),
                                      int(MotorStatus2.WARNING_FOLLOWING_ERROR),
                                      int(MotorStatus2.FATAL_FOLLOWING_ERROR))
@@ -212,9 +215,7 @@ class PmacCard(Card):
         if iv[50] and rep.due(cycle, iv[49], iv[50], dpram.BACKGROUND):
             rep.background(cycle, fw.global_status(), [fw.cs_status(c) for c in range(1, 17)],
                            fw.feed)
-        if self.irq.mask & (HostIrq.IN_POSITION | HostIrq.WARNING_FOLLOWING_ERROR
-                            | HostIrq.FATAL_FOLLOWING_ERROR | HostIrq.COMPARE_EQU1
-                            | HostIrq.COMPARE_EQU5):
+        if self.irq.mask & _MOTOR_SOURCES:
             self._irq_sources()
 
     def _report_realtime(self, cycle: int) -> None:
@@ -286,6 +287,9 @@ class PmacCard(Card):
         if offset == IR_STATUS:
             self.irq.write_status(value)
         elif offset == IR_MASK:
+            if value & _MOTOR_SOURCES and not self.irq.mask & _MOTOR_SOURCES:
+                # the edges are counted from now: what is already in position is no edge
+                self._last_status2 = self.fw.motors.status_words()[1].astype(np.int64)
             self.irq.write_mask(value)
         elif offset < 8:
             self.hostport.write(offset, value)
@@ -375,6 +379,15 @@ class PmacCard(Card):
     def get_outputs(self) -> int:
         """The 32 JIO lines as the card drives them."""
         return int(self.fw.gpio.outputs())
+
+    @control()
+    def set_mldt_base(self, motor: int, mm: float) -> None:
+        """MLDT: the magnet's distance from the sensor head at encoder count 0 of motor n's
+        channel, mm (the timer reads base + encoder count, one count per timer LSB)."""
+        m = self._motor(motor)
+        if m >= self.fw.servo_ic.n:
+            raise ValueError(f"motor {motor} has no on-board channel")
+        self.fw.servo_ic.set_mldt_base(m, float(mm))
 
     @control()
     def set_phase_clock_error(self, active: bool) -> None:

@@ -88,7 +88,7 @@ class Firmware:
         mem.mount(CS_BASE, CS_BASE + CS_COUNT * CS_STRIDE - 1, CsBlocks(self))
         mem.mount(P_BASE, P_BASE + VARIABLES - 1, FloatVariables(P_BASE, self.p))
         mem.mount(Q_BASE, Q_BASE + VARIABLES - 1, FloatVariables(Q_BASE, self.q[0]))
-        self.servo_ic = ServoIC(mem, self.ivars, self.motors)
+        self.servo_ic = ServoIC(mem, self.ivars, _FineEncoders(self.motors))
         self.ect = ConversionTable(mem, self.ivars, self.servo_ic)
         self.gpio = GeneralIO(mem, self.ivars)
         self.comp = CompTables(self.ivars, self.ivars.motors)
@@ -178,6 +178,8 @@ class Firmware:
             if value < -i71:
                 raise CommandError(ERR_DATA, "Ixx75 below -Ixx71")
             value += i71
+        elif 100 <= n < 3300 and n % 100 == 75 and value > self.ivars.values[n - 75 + 71]:
+            raise CommandError(ERR_DATA, "Ixx75 above Ixx71")  # rejected [A L2222]
         stored = self.ivars.check(n, value)
         if stored is None:
             raise CommandError(ERR_DATA, f"I{n}={value} out of range")
@@ -407,6 +409,18 @@ class Firmware:
         self.ect.reset()
         if self.on_reset is not None:
             self.on_reset()
+
+
+class _FineEncoders:
+    """The motors as the Servo ICs read them: counters with their sub-count fraction."""
+
+    __slots__ = ("motors",)
+
+    def __init__(self, motors: Motors) -> None:
+        self.motors = motors
+
+    def encoder(self) -> np.ndarray:
+        return self.motors.encoder_fine()
 
 
 class _Env:

@@ -594,6 +594,7 @@ class Motors:
         rising = np.flatnonzero(fault & ~core.amp_fault)
         lim = core.limits
         if not (np.array_equal(lim.hard_pos, pos) and np.array_equal(lim.hard_neg, neg)):
+            core.last_jerk[:] = 0.0  # a limit stop is a plain Ixx15 deceleration, no S-curve
             core.set_inputs(hard_limit_pos=pos, hard_limit_neg=neg)
             stopped = (core.axes.flags & _STOPPED) != 0
             self.abort_decel |= stopped & core.profile.moving  # a limit stop at Ixx15
@@ -694,6 +695,15 @@ class Motors:
         if core._any_slip:
             return (core.axes.encoder + core.encoder_slip.astype(np.int64)) & ENCODER_MASK
         return core.axes.encoder & ENCODER_MASK
+
+    def encoder_fine(self) -> np.ndarray:
+        """The encoder counter with the sub-count position of the motor behind it (counts, float):
+        what the Servo IC's 1/T timers, extended compare and sub-count capture measure. A lost
+        encoder has no fraction."""
+        pos = self.core.axes.pos
+        frac = pos - np.floor(pos)
+        frac[self.core.encoder_loss] = 0.0
+        return self.encoder() + frac
 
     def capture(self) -> np.ndarray:
         """The counter value latched by the last home trigger (X:b+3 low 24 bits, Mxx73)."""
