@@ -357,3 +357,26 @@ def test_motors_above_the_card_count_are_deactivated() -> None:
     c.raw("I3=2")
     assert c.ask("#5J+ #5P #5V #5F #5?") == "0\r0\r0\r000000000000"
     assert c.ask("I500 I400") == "0\r1"
+
+
+def test_ixx03_closes_the_loop_on_an_mldt_conversion_table_entry() -> None:
+    """MLDT feedback [A L336-365, L301-335]: a direct MLDT entry ($378000, $013000, max change)
+    puts the timer into X:$3503 and I103 points the motor there. A jump of the magnet reading
+    (the base distance moved 10 mm) is a position change the loop corrects: the motor moves back
+    by the same count while P returns to the commanded 0."""
+    card = Card(plant="servo")
+    card.raw("I3=2")
+    card.fw.servo_ic.set_mldt_base(0, 100.0)
+    card.raw("I7010=12 I7016=3 M107->Y:$078004,8,16,S M107=11")
+    card.raw("I8000=$378000 I8001=$013000 I8002=100000 #1J/")
+    card.tick(200)
+    card.raw("I103=$3503")
+    card.tick(200)
+    assert abs(float(card.ask("#1P"))) <= 1
+    counter = int(card.ask("RX:$078001")[1:], 16)
+    card.fw.servo_ic.set_mldt_base(0, 110.0)  # 10 mm = 413 timer counts
+    jump = round(10.0 * 0.35e-6 * 117.96e6)
+    card.tick(3000)
+    moved = (int(card.ask("RX:$078001")[1:], 16) - counter + (1 << 23)) % (1 << 24) - (1 << 23)
+    assert abs(moved + jump) <= 2
+    assert abs(float(card.ask("#1P"))) <= 1

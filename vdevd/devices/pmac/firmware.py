@@ -16,6 +16,7 @@ import numpy as np
 
 from vdevd.devices.pmac.comp2d import CompError, CompTables
 from vdevd.devices.pmac.ect import ConversionTable
+from vdevd.devices.pmac.feedback import FeedbackSelect
 from vdevd.devices.pmac.gpio import GeneralIO
 from vdevd.devices.pmac.ivars import IVars
 from vdevd.devices.pmac.memory import TOP, Memory
@@ -92,6 +93,7 @@ class Firmware:
         self.ect = ConversionTable(mem, self.ivars, self.servo_ic)
         self.gpio = GeneralIO(mem, self.ivars)
         self.comp = CompTables(self.ivars, self.ivars.motors)
+        self.feedback = FeedbackSelect(mem, self.ivars)
         self.interpreter = Interpreter(self)
 
     # -- time -------------------------------------------------------------------------------------
@@ -100,26 +102,34 @@ class Firmware:
         table, I/O."""
         self.now_ns = now_ns
         self.servo_cycles += 1
-        if self.comp.tables or self._comp_applied:
-            self._compensate()
+        if self.comp.tables or self._comp_applied or self.feedback.active:
+            self._offset_feedback()
         events = self.motors.tick()
         self.servo_ic.tick()
         self.ect.tick()
         self.gpio.tick()
         return events
 
-    def _compensate(self) -> None:
-        """Move each target motor by its tables' correction, to the nearest count: the loop sees
-        its feedback offset by the correction (the motion core's encoder offset), so the motor
-        runs at commanded + correction while P and F report the commanded frame, as a
-        leadscrew table does [A L3118-3219; README "DEFINE COMP"]. I51 = 0 or no table: none."""
+    def _offset_feedback(self) -> None:
+        """What the loops see beside their own encoder, as an offset of the motion core's encoder
+        reading (to the nearest count):
+        - compensation tables: the target motor's loop runs at commanded + correction while P and
+          F report the commanded frame, as a leadscrew table does [A L3118-3219; README
+          "DEFINE COMP"] (I51 = 0 or no table: none; an ideal motor follows its command only);
+        - Ixx03 pointed at another conversion-table result: the loop reads that result
+          (feedback.py)."""
         core = self.motors.core
         want = np.rint(self.comp.correction(self.motors.position(), self.motors.commanded()))
-        want[core.kinds != int(PlantKind.SERVO)] = 0  # an ideal motor follows its command only
+        want[core.kinds != int(PlantKind.SERVO)] = 0
+        self._comp_applied = bool(want.any())
+        if self.feedback.active:
+            source = self.feedback.offsets()
+            chosen = ~np.isnan(source)
+            true = core.axes.encoder + core.encoder_slip
+            want[chosen] += np.rint(true[chosen] - source[chosen])
         delta = want - core.encoder_slip
         if delta.any():
             core.slip_encoder(np.flatnonzero(delta), delta[delta != 0])
-        self._comp_applied = bool(want.any())
 
     def comp_correction(self, motor: int) -> float:
         """Mxx69: the compensation tables' correction of `motor` (0-based), counts."""
@@ -189,6 +199,9 @@ class Firmware:
     def on_ivar(self, n: int) -> None:
         if 100 <= n < 3300:
             self.motors.on_ivar(n)
+            if n % 100 == 3:
+                core = self.motors.core
+                self.feedback.refresh(core.axes.encoder + core.encoder_slip)
 
     def address_of_ivar(self, n: int) -> float:
         """`I{a}=@I{b}`: the address of I-variable b; only the conversion table's setup lines
@@ -407,6 +420,9 @@ class Firmware:
         self.servo_ic.reset()
         self.gpio.reset()
         self.ect.reset()
+        self.feedback.reset()
+        core = self.motors.core
+        self.feedback.refresh(core.axes.encoder + core.encoder_slip)
         if self.on_reset is not None:
             self.on_reset()
 
