@@ -27,6 +27,9 @@ from typing import Any
 
 import zmq
 
+from vdevclient._cargs import put_text
+from vdevclient._cargs import target as _target
+from vdevclient._cargs import text as _text
 from vdevclient._galil_bus import (
     CARD_TYPE,
     DmcBus,
@@ -132,46 +135,13 @@ def _handle(hdmc: Any) -> _Controller | None:
     return _controllers.get(value) if isinstance(value, int) else None
 
 
-def _target(param: Any) -> Any:
-    """The ctypes object behind an output parameter: byref(x), pointer(x) or x."""
-    if hasattr(param, "_obj"):  # ctypes.byref
-        return param._obj
-    if isinstance(param, ctypes._Pointer):
-        return param.contents
-    return param
-
-
 def _set(param: Any, value: int) -> None:
     _target(param).value = value
 
 
 def _put(buffer: Any, size: int, data: bytes) -> bool:
     """Copy `data` NUL-terminated into a char buffer of `size` bytes; False if it was cut."""
-    target = _target(buffer)
-    if (isinstance(target, ctypes.Array) and target._type_ is ctypes.c_char
-            and len(data) < min(size, len(target))):
-        target.value = data  # the common case, and the quickest copy ctypes has
-        return True
-    room = min(int(size), ctypes.sizeof(target) if isinstance(target, ctypes.Array) else len(target))
-    if room <= 0:
-        return not data
-    n = min(len(data), room - 1)
-    if isinstance(target, bytearray):
-        target[:n + 1] = data[:n] + b"\0"
-    else:
-        ctypes.memmove(ctypes.addressof(target), data[:n] + b"\0", n + 1)
-    return n == len(data)
-
-
-def _text(value: Any) -> bytes:
-    """A command string as bytes: str (latin-1, so ^R^V etc. pass), bytes up to NUL, ctypes."""
-    value = _target(value)
-    if isinstance(value, str):
-        return value.encode("latin-1")
-    if isinstance(value, ctypes.c_char_p) or (
-            isinstance(value, ctypes.Array) and value._type_ is ctypes.c_char):
-        return bytes(value.value or b"")
-    return bytes(value).split(b"\0", 1)[0]
+    return put_text(buffer, size, data) == len(data)
 
 
 def _ascii_command(command: Any) -> bytes:

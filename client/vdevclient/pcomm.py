@@ -51,6 +51,9 @@ from typing import Any
 
 import zmq
 
+from vdevclient._cargs import put_text as _put_text
+from vdevclient._cargs import target as _target
+from vdevclient._cargs import text as _text
 from vdevclient._pmac_bus import (
     ACK,
     BACKGROUND,
@@ -166,48 +169,6 @@ _NS_PER_MS = 1_000_000
 
 
 # -- output parameters ------------------------------------------------------------------------------
-def _target(param: Any) -> Any:
-    """The object behind an output parameter: byref(x), pointer(x) or x."""
-    if hasattr(param, "_obj"):
-        return param._obj
-    if isinstance(param, ctypes._Pointer):
-        return param.contents
-    return param
-
-
-def _put_text(buffer: Any, maxchar: int, data: bytes) -> int:
-    """Copy `data` into a text buffer of `maxchar` bytes, NUL-terminated; the characters copied."""
-    target = _target(buffer)
-    if target is None:
-        return len(data)
-    if isinstance(target, list):
-        n = min(len(data), max(int(maxchar) - 1, 0))
-        target[:] = [data[:n].decode("latin-1")]
-        return n
-    room = min(int(maxchar), ctypes.sizeof(target) if isinstance(target, ctypes.Array) else len(target))
-    if room <= 0:
-        return 0
-    n = min(len(data), room - 1)
-    if isinstance(target, bytearray):
-        target[:n + 1] = data[:n] + b"\0"
-    else:
-        ctypes.memmove(ctypes.addressof(target), data[:n] + b"\0", n + 1)
-    return n
-
-
-def _text(value: Any) -> bytes:
-    """A command string as bytes: str (latin-1), bytes up to a NUL, a ctypes char buffer."""
-    value = _target(value)
-    if value is None:
-        return b""
-    if isinstance(value, str):
-        return value.encode("latin-1")
-    if isinstance(value, ctypes.c_char_p) or (
-            isinstance(value, ctypes.Array) and value._type_ is ctypes.c_char):
-        return bytes(value.value or b"")
-    return bytes(value).split(b"\0", 1)[0]
-
-
 def _char(value: Any) -> int:
     if isinstance(value, int):
         return value & 0xFF
