@@ -247,14 +247,18 @@ class Region:
         return None
 
     def _pieces(self, offset: int, size: int) -> list[tuple[int, int]]:
-        """Split a block access: plain runs whole, hooked spans in accesses of the bus unit."""
+        """Split a block access: plain runs whole; a register the block covers whole, in one access
+        of its size when the bus allows that width; other hooked spans in accesses of the bus
+        unit."""
         pieces: list[tuple[int, int]] = []
         pos, end = offset, offset + size
         while pos < end:
             h = self._hook_at(pos)
             if h is not None:
-                pieces.append((pos, self._unit))
-                pos += self._unit
+                step = h.size if (pos == h.offset and h.end <= end and h.size in self.widths) \
+                    else self._unit
+                pieces.append((pos, step))
+                pos += step
                 continue
             i = bisect.bisect_right(self._starts, pos)
             stop = min(end, self._starts[i]) if i < len(self._starts) else end
