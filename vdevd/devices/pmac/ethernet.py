@@ -260,6 +260,8 @@ class EthernetSession:
 
     def _run(self, data: bytes) -> bytes:
         """Run the command text of a request: cut at NUL, one port line per CR-separated line."""
+        if b"\0" not in data and b"\r" not in data:  # one line, as clients send it
+            return self._command(data.decode("latin-1"))
         text = data.split(b"\0", 1)[0].decode("latin-1")
         if text.endswith("\r"):
             text = text[:-1]

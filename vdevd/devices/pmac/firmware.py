@@ -228,7 +228,7 @@ class Firmware:
             return "0"
         m, mot = motor - 1, self.motors
         if what == "P":
-            return format_value(round(float(mot.position()[m]) * 32) / 32)
+            return format_value(round(mot.position_of(m) * 32) / 32)
         if what == "F":
             return format_value(round(float(mot.following_error()[m]) * 32) / 32)
         return format_value(round(float(mot.velocity()[m]), 1))

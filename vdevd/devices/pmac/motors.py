@@ -665,6 +665,10 @@ class Motors:
         """Actual motor position, counts (encoder - home origin)."""
         return self.core.axes.fb - self.origin
 
+    def position_of(self, m: int) -> float:
+        """`position()[m]` without computing every motor's (the on-line P report)."""
+        return float(self.core.axes.fb[m] - self.origin[m])
+
     def velocity(self) -> np.ndarray:
         """Filtered actual velocity, counts per servo cycle, over 16*(I60+1) cycles [SRM I60]."""
         return self._vel.copy()
