@@ -380,3 +380,15 @@ def test_ixx03_closes_the_loop_on_an_mldt_conversion_table_entry() -> None:
     moved = (int(card.ask("RX:$078001")[1:], 16) - counter + (1 << 23)) % (1 << 24) - (1 << 23)
     assert abs(moved + jump) <= 2
     assert abs(float(card.ask("#1P"))) <= 1
+
+
+def test_jog_to_position_saturates_at_768m_over_ixx08_counts_per_second(card: Card) -> None:
+    """V1.938: jog-to-position velocity saturates at 768M/Ixx08 counts/s [A L3286]; an
+    indefinite jog (J+) runs at Ixx22 as set."""
+    card.raw("I122=100000 I119=1000 I120=1 I121=0 #1J=100000000")
+    card.tick(700)  # 300 ms
+    per_cycle = 768e6 / 96 * PERIOD_NS * 1e-9  # 8000 counts/ms x 0.44271 ms
+    assert abs(float(card.ask("#1V")) - per_cycle) < 0.2
+    card.raw("I222=100000 I219=1000 I220=1 I221=0 #2J+")
+    card.tick(700)
+    assert float(card.ask("#2V")) > 2 * per_cycle

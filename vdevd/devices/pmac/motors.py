@@ -338,8 +338,13 @@ class Motors:
         self.abort_decel[m] = False
         return bool(len(self._enable(np.array([m]))))
 
-    def _jog_speed(self, m: int) -> float:
-        return abs(float(self.ivars.values[100 * (m + 1) + 22]))
+    def _jog_speed(self, m: int, to_position: bool = False) -> float:
+        """|Ixx22|, counts/ms; a jog to a position saturates at 768M/Ixx08 counts/s (V1.938,
+        was 256M/Ixx08 [A L3286])."""
+        speed = abs(float(self.ivars.values[100 * (m + 1) + 22]))
+        if to_position:
+            speed = min(speed, 768e6 / float(self.ivars.values[100 * (m + 1) + 8]) / 1000)
+        return speed
 
     def _jog_at(self, m: int, velocity: float) -> None:
         """Run at `velocity` counts/ms with the jog accelerations."""
@@ -388,7 +393,7 @@ class Motors:
 
     def _move_to(self, m: int, motor_counts: float) -> None:
         """A jog-to-position move (move timer active) to a motor position."""
-        speed = self._jog_speed(m)
+        speed = self._jog_speed(m, to_position=True)
         if speed <= 0:
             return
         acc, jerk = self._accel(m, speed)
