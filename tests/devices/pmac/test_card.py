@@ -244,3 +244,15 @@ def test_mldt_timer_reads_the_magnet_distance(pmac: Pmac) -> None:
     pmac.step_ms(10)
     expected = round(100.0 * 0.35e-6 * 117.96e6)  # about 4129 timer counts
     assert abs(int(dls.sendCommand("M100")[0].rstrip("\r\x06")) - expected) <= 1
+
+
+def test_a_non_loopback_ethernet_endpoint_needs_an_allow_list() -> None:
+    """The PMAC protocol has no authentication (README "Configuration")."""
+    from vdevd.devices.base import CardContext
+    from vdevd.devices.pmac.card import PmacCard
+
+    with pytest.raises(ValueError, match="ethernet_allow"):
+        PmacCard("pmac0", {"ethernet": "tcp://0.0.0.0:1025"}, CardContext(emit=lambda e: None))
+    card = PmacCard("pmac0", {"ethernet": "tcp://0.0.0.0:1025", "ethernet_allow": ["10.0.0.0/8"]},
+                    CardContext(emit=lambda e: None))
+    assert card.allow == ["10.0.0.0/8"]
