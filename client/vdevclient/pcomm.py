@@ -39,52 +39,65 @@ ends at 0x0F3F): a one-line reply is five ops.
 from __future__ import annotations
 
 import ctypes
-import functools
 import logging
 import math
-import struct
-import threading
-from collections import OrderedDict
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import zmq
 
 from vdevclient._cargs import put_text as _put_text
-from vdevclient._cargs import target as _target
 from vdevclient._cargs import text as _text
+from vdevclient._pcomm_codes import (
+    COMM_ANYERR,
+    COMM_EOT,
+    COMM_ERROR,
+    COMM_FAIL,
+    COMM_OK,
+    COMM_TIMEOUT,
+    COMM_UNSOLICITED,
+    INTRBUFFER,
+    MAX_COMM_BUFFER,
+    MAX_DPRBUFFER,
+    MAX_DPRREADBUFFER,
+    CommResult,
+)
+from vdevclient._pcomm_codes import COMM_CHARS as COMM_CHARS
+from vdevclient._pcomm_codes import COMM_STATUS as COMM_STATUS
+from vdevclient._pcomm_codes import IS_COMM_EOT as IS_COMM_EOT
+from vdevclient._pcomm_codes import IS_COMM_ERROR as IS_COMM_ERROR
+from vdevclient._pcomm_codes import IS_COMM_FAIL as IS_COMM_FAIL
+from vdevclient._pcomm_codes import IS_COMM_TIMEOUT as IS_COMM_TIMEOUT
+from vdevclient._pcomm_device import _NS_PER_MS, _Device, _devices, _guarded, _Interrupts, _number, _reply
+from vdevclient._pcomm_device import DEFAULT_TIMEOUT_MS as DEFAULT_TIMEOUT_MS
+from vdevclient._pcomm_device import MAX_READS as MAX_READS
+from vdevclient._pcomm_device import MEMO_SIZE as MEMO_SIZE
+from vdevclient._pcomm_download import DOWNLOAD_CHUNK as DOWNLOAD_CHUNK
+from vdevclient._pcomm_download import PmacDownloadA
+from vdevclient._pcomm_dpr import (
+    PmacDPRAvailable,
+    PmacDPRBackgroundEx,
+    PmacDPRFloat,
+    PmacDPRGetFloat,
+    PmacDPRGetGlobalStatus,
+    PmacDPRGetMem,
+    PmacDPRLFixed,
+    PmacDPRPosition,
+    PmacDPRRealTimeEx,
+    PmacDPRSetFloat,
+    PmacDPRSetMem,
+)
 from vdevclient._pmac_bus import (
-    ACK,
-    BACKGROUND,
     CARD_TYPE,
-    CMD_CHAR,
-    CMD_CONTROL,
     CMD_MAX,
     CR,
-    DPRAM,
-    DPRAM_SIZE,
     HOST,
     IR_MASK,
-    IR_STATUS,
-    LINE,
-    READY,
-    REALTIME,
     RESP_CONTROL,
-    RESP_SLOT,
-    RT_MOTOR,
     HostIrq,
     MotorReport,
-    Posted,
-    PreprocessError,
-    command_bytes,
     error_text,
-    join48,
-    motor_report,
     parse_slot,
-    pmac_float,
-    preprocess,
-    realtime_motor,
 )
 from vdevclient.core import Rack, connect
 from vdevclient.errors import VdevClientError
@@ -104,71 +117,11 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-# -- return codes and sizes (PComm32 runtime header) -------------------------------------------------
-COMM_EOT = 0x80000000  # the response ended with ACK
-COMM_TIMEOUT = 0xC0000000
-COMM_ERROR = 0xE0000000  # the card answered BELL ERRnnn
-COMM_FAIL = 0xF0000000
-COMM_ANYERR = 0x70000000
-COMM_UNSOLICITED = 0x10000000
-COMM_OK = 1
-MAX_COMM_BUFFER = 256
-MAX_DPRBUFFER = 160
-MAX_DPRREADBUFFER = 256
-
-
-def COMM_CHARS(c: int) -> int:
-    return c & 0x0FFFFFFF
-
-
-def COMM_STATUS(c: int) -> int:
-    return c & 0xF0000000
-
-
-def IS_COMM_EOT(c: int) -> bool:
-    return COMM_STATUS(c) == COMM_EOT
-
-
-def IS_COMM_ERROR(c: int) -> bool:
-    return COMM_STATUS(c) == COMM_ERROR
-
-
-def IS_COMM_TIMEOUT(c: int) -> bool:
-    return COMM_STATUS(c) == COMM_TIMEOUT
-
-
-def IS_COMM_FAIL(c: int) -> bool:
-    return COMM_STATUS(c) == COMM_FAIL
-
-
-class INTRBUFFER(ctypes.Structure):
-    """What a PMACINTRPROC receives a pointer to; `dwInterruptType` is the IR number (0-7)."""
-
-    _fields_ = [("lpData", ctypes.c_char_p), ("dwBufferLength", ctypes.c_ulong),
-                ("dwInterruptType", ctypes.c_ulong)]
-
-
-class CommResult(int):
-    """A PComm status code (`COMM_EOT | count` ...) that also carries the response as `.text`."""
-
-    text: str
-
-    def __new__(cls, value: int, text: str = "") -> CommResult:
-        obj = super().__new__(cls, value)
-        obj.text = text
-        return obj
-
-
-DEFAULT_TIMEOUT_MS = 1000  # card time a missing line is waited for
-MEMO_SIZE = 256  # commands whose reply length (slots posted) is remembered
-MAX_READS = 64  # response slots read ahead in one batch
-DOWNLOAD_CHUNK = 32  # download lines sent per batch
 #: PmacGetPmacType's answer from TYPE (ASSUMPTION: PComm32's PMACDEVICETYPE numbering was not found)
 PMAC_TYPES = {"PMAC1": 0, "PMAC2": 1, "PMACUL": 2, "TURBO1": 3, "TURBO2": 4, "TURBOUL": 5}
-_NS_PER_MS = 1_000_000
 
 
-# -- output parameters ------------------------------------------------------------------------------
+# -- control-character parameters -----------------------------------------------------------------------
 def _char(value: Any) -> int:
     if isinstance(value, int):
         return value & 0xFF
@@ -176,184 +129,7 @@ def _char(value: Any) -> int:
     return data[0] if data else 0
 
 
-def _bytes_of(val: Any, count: int) -> bytes:
-    """`count` bytes of a source parameter: bytes-like, a ctypes object, a list of byte values."""
-    val = _target(val)
-    if isinstance(val, list | tuple):
-        return bytes(int(v) & 0xFF for v in val[:count])
-    if isinstance(val, ctypes._SimpleCData | ctypes.Array | ctypes.Structure):
-        return ctypes.string_at(ctypes.addressof(val), min(count, ctypes.sizeof(val)))
-    return bytes(val)[:count]
-
-
-def _fill(val: Any, data: bytes) -> None:
-    """Copy `data` into a destination parameter (ctypes object, bytearray or list)."""
-    target = _target(val)
-    if target is None:
-        return
-    if isinstance(target, list):
-        target[:len(data)] = list(data)
-    elif isinstance(target, bytearray | memoryview):
-        target[:len(data)] = data
-    else:
-        ctypes.memmove(ctypes.addressof(target), data, min(len(data), ctypes.sizeof(target)))
-
-
-# -- devices ----------------------------------------------------------------------------------------
-class _Device:
-    """An open device: its connection, the ops the next batch runs first (the deferred
-    acknowledgement), the reply lengths seen, and the interrupt thread."""
-
-    def __init__(self, number: int, rack: Rack, info: dict[str, Any]) -> None:
-        self.number = number
-        self.rack = rack
-        self.card = str(info["name"])
-        self.motors = int(info.get("motors") or 8)
-        self.ethernet = str(info.get("ethernet") or "")
-        self.timeout_ms = DEFAULT_TIMEOUT_MS
-        self.lock = threading.RLock()
-        where = {"card": self.card, "region": DPRAM}
-        self.where = where
-        self.ack = {"op": "write", "offset": RESP_CONTROL, "data": b"\0\0", **where}
-        self.slot = {"op": "read", "offset": RESP_CONTROL, "size": RESP_SLOT, **where}
-        self.go = {"op": "write", "offset": CMD_CONTROL, "data": b"\1\0", **where}
-        self.gate = {"op": "wait", "on": "value", "offset": RESP_CONTROL, "size": 2, "mask": 0xFFFF,
-                     "value": ACK, "cmp": "eq", "timeout_ns": 0, **where}
-        self.pending: list[dict[str, Any]] = []
-        self.memo: OrderedDict[bytes, int] = OrderedDict()
-        self.scale: dict[int, float] = {}  # motor -> Ixx08 * 32
-        self.interrupts: _Interrupts | None = None
-        self.drain()
-
-    # -- ops and batches ----------------------------------------------------------------------------
-    def write(self, offset: int, data: bytes) -> dict[str, Any]:
-        return {"op": "write", "offset": offset, "data": data, **self.where}
-
-    def read(self, offset: int, size: int) -> dict[str, Any]:
-        return {"op": "read", "offset": offset, "size": size, **self.where}
-
-    def batch(self, ops: list[dict[str, Any]], wait_ns: int = 0) -> list[Any]:
-        return self.rack.call({"op": "batch", "ops": ops}, wait_ns / 1e9)
-
-    def begin(self) -> list[dict[str, Any]]:
-        ops, self.pending = self.pending, []
-        return ops
-
-    def wait_posted(self) -> dict[str, Any]:
-        return {"op": "wait", "on": "value", "offset": RESP_CONTROL, "size": 2, "mask": 0xFFFF,
-                "value": 0, "cmp": "ne", "timeout_ns": self.timeout_ms * _NS_PER_MS, **self.where}
-
-    def drain(self) -> None:
-        """Acknowledge what a previous host left in the response slot (at most a reply's worth)."""
-        ops = [self.slot]
-        for _ in range(MAX_COMM_BUFFER):
-            if parse_slot(self.batch(ops)[-1]) is None:
-                return
-            ops = [self.ack, self.slot]
-
-    # -- the ASCII handshake ------------------------------------------------------------------------
-    def collect(self, ops: list[dict[str, Any]], key: bytes | None, posted: list[Posted] | None = None,
-                need_ack: bool = False) -> tuple[list[Posted], bool]:
-        """Run `ops` (they make the card post lines) and read the response slot until the reply's
-        end (ACK or an error): (the lines, True), or (the lines so far, False) on a time-out."""
-        posted = posted if posted is not None else []
-        n = self.memo.get(key, 2) if key is not None else 2
-        waiting = False
-        while True:
-            first = len(ops)
-            if waiting:
-                ops.append(self.wait_posted())
-            reads = []
-            for _ in range(n):
-                if need_ack:
-                    ops.append(self.ack)
-                reads.append(len(ops))
-                ops.append(self.slot)
-                need_ack = True
-            res = self.batch(ops, self.timeout_ms * _NS_PER_MS if waiting else 0)
-            if waiting and not res[first]["fired"]:
-                return posted, False
-            ops = []
-            for j, at in enumerate(reads):
-                line = parse_slot(res[at])
-                if line is None:  # not posted yet: wait for it (the ack before this read ran)
-                    need_ack, waiting, n = False, True, 1
-                    break
-                posted.append(line)
-                if line.terminator != CR:
-                    if j == len(reads) - 1:
-                        self.pending.append(self.ack)  # deferred into the next call's batch
-                    if key is not None:
-                        self.memo[key] = len(posted)
-                        self.memo.move_to_end(key)
-                        if len(self.memo) > MEMO_SIZE:
-                            self.memo.popitem(last=False)
-                    return posted, True
-            else:
-                waiting, n = False, min(2 * n, MAX_READS)
-
-    def command_ops(self, line: bytes, ops: list[dict[str, Any]]) -> list[dict[str, Any]]:
-        """`ops` (the pending ones) then the command: its bytes at 0x0E9E and 0x0E9C := 1. A
-        pending acknowledgement as the last op rides in the bytes' write instead, padded up to
-        0x0F40 (the buffer ends where the response control word starts): one op less."""
-        data = command_bytes(line)
-        if ops and ops[-1] is self.ack:
-            ops.pop()
-            data = data.ljust(RESP_CONTROL - CMD_CHAR, b"\0") + b"\0\0"
-        ops += (self.write(CMD_CHAR, data), self.go)
-        return ops
-
-    def control_ops(self, ch: int) -> list[dict[str, Any]]:
-        return [self.write(CMD_CHAR, bytes([ch])), self.go]
-
-    def response(self, line: bytes) -> tuple[bytes, int]:
-        """A command line's reply (CR-terminated lines, the error text) and its COMM status."""
-        ops = self.command_ops(line, self.begin())
-        return _reply(*self.collect(ops, line))
-
-    def get_variable(self, ch: str, num: int) -> str | None:
-        data, status = self.response(f"{ch}{num}".encode("latin-1"))
-        return data.decode("latin-1").strip() if status == COMM_EOT else None
-
-
-def _reply(posted: list[Posted], complete: bool) -> tuple[bytes, int]:
-    data = b"".join(p.text + b"\r" for p in posted if p.terminator == CR)
-    if not complete:
-        return data, COMM_TIMEOUT
-    last = posted[-1]
-    if last.terminator is None:
-        return data + error_text(last.error), COMM_ERROR
-    return data, COMM_EOT
-
-
-_devices: dict[int, _Device] = {}
-
-
-def _device(dwDevice: Any) -> _Device | None:
-    return _devices.get(int(getattr(dwDevice, "value", dwDevice)))
-
-
-def _guarded(fail: Any) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """A closed device gives `fail`, and so does a transport failure (logged), as a driver error."""
-
-    def wrap(fn: Callable[..., Any]) -> Callable[..., Any]:
-        @functools.wraps(fn)
-        def call(dwDevice: Any, *args: Any, **kwargs: Any) -> Any:
-            dev = _device(dwDevice)
-            if dev is None:
-                return fail() if callable(fail) else fail
-            try:
-                with dev.lock:
-                    return fn(dev, *args, **kwargs)
-            except (VdevClientError, zmq.ZMQError) as exc:
-                log.warning("%s(%s): %s", fn.__name__, dev.number, exc)
-                return fail() if callable(fail) else fail
-
-        return call
-
-    return wrap
-
-
+# -- opening ------------------------------------------------------------------------------------------
 def _pmac_cards(rack: Rack) -> list[dict[str, Any]]:
     return [c for c in rack.info["cards"] if c["type"] == CARD_TYPE]
 
@@ -366,7 +142,6 @@ def _with_rack(endpoint: str | None, fn: Callable[[Rack], Any]) -> Any:
         rack.close()
 
 
-# -- opening ------------------------------------------------------------------------------------------
 def OpenPmacDevice(dwDevice: int, *, endpoint: str | None = None, events: str | None = None) -> bool:
     """Open device `dwDevice`: the pmac-turbo card whose `device` is that number. False when no
     such card is configured or the daemon does not answer. Opening an open device is True."""
@@ -512,15 +287,6 @@ def PmacGetVariableDouble(dev: _Device, ch: Any, num: int, default: float = 0.0)
     return number if number is not None else float(default)
 
 
-def _number(text: str | None) -> float | None:
-    if not text:
-        return None
-    try:
-        return float(int(text[1:], 16)) if text.startswith("$") else float(text)
-    except ValueError:
-        return None
-
-
 @_guarded(-1)
 def PmacGetPmacType(dev: _Device) -> int:
     """The card's type from `TYPE` (PMAC_TYPES: TURBO2 is 4); -1 when unknown."""
@@ -548,267 +314,7 @@ def PmacGetRomDateA(dev: _Device, s: Any, maxchar: int) -> str:
     return text
 
 
-# -- download -----------------------------------------------------------------------------------------
-@_guarded(0)
-def PmacDownloadA(dev: _Device, msgproc: Any, getproc: Any, progress: Any, filename: Any,
-                  macro: bool = True, map: bool = False, log: bool = False, dnld: bool = True) -> int:
-    """Download a file of on-line commands: preprocess it (comments after `;` or `//`, blank
-    lines, `#define NAME value` replaced as whole words when `macro`), then send it line by line
-    when `dnld`; stop at the first ERRnnn. 1 when every line was accepted, 0 otherwise.
-
-    `msgproc(str, newline)` receives the error ("file:line: text: ERRnnn") and a closing
-    message, `progress(percent)` the progress after each batch. With an empty `filename`, lines
-    come from `getproc(index, buffer, maxlen)` (a ctypes buffer it fills; 0 ends) instead.
-    Not supported (PreprocessError, reported through msgproc): #include, #ifdef and the other
-    conditionals, #undef, macros with arguments. `map` and `log` (the map and log files PComm
-    writes) are ignored. Lines go DOWNLOAD_CHUNK to a batch; a line that answers data or an
-    error ends its batch early (a zero-time `wait` for the ACK gates the next line)."""
-    name = _text(filename).decode("latin-1")
-    say = _messenger(msgproc)
-    try:
-        source = Path(name).read_text(encoding="latin-1") if name else _from_getproc(getproc)
-        lines = preprocess(source, bool(macro))
-    except (OSError, PreprocessError) as exc:
-        say(f"{name or 'download'}: {exc}")
-        return 0
-    if not dnld:
-        return 1
-    i = 0
-    while i < len(lines):
-        chunk = lines[i:i + DOWNLOAD_CHUNK]
-        ops = dev.begin()
-        marks = []
-        for _, text in chunk:
-            dev.command_ops(text.encode("latin-1")[:CMD_MAX - 1], ops)
-            marks.append(len(ops))
-            ops += (dev.slot, dev.gate, dev.ack)
-        res = dev.batch(ops)
-        for k, at in enumerate(marks):
-            if res[at + 1] is not None and res[at + 1]["fired"]:
-                continue
-            first = parse_slot(res[at])  # this line answered data, an error or nothing yet
-            if first is not None and first.terminator != CR:
-                posted, done = [first], True
-                dev.pending.append(dev.ack)
-            else:
-                posted, done = dev.collect([], None, [first] if first else [], need_ack=first is not None)
-            data, status = _reply(posted, done)
-            if status != COMM_EOT:
-                number, text = chunk[k]
-                what = data.decode("latin-1").strip("\x07\r").split("\r")[-1] or "no response"
-                say(f"{name or 'download'}:{number}: {text}: {what}")
-                return 0
-            i += k + 1
-            break
-        else:
-            i += len(chunk)
-        if progress is not None:
-            progress(100 * i // len(lines))
-    say(f"{name or 'download'}: {len(lines)} lines downloaded")
-    return 1
-
-
-def _messenger(msgproc: Any) -> Callable[[str], None]:
-    def say(text: str) -> None:
-        log.info("PmacDownloadA: %s", text)
-        if msgproc is not None:
-            # a ctypes callback (it has argtypes) takes LPSTR as bytes, a Python one a str
-            msgproc(text.encode("latin-1") if hasattr(msgproc, "argtypes") else text, True)
-
-    return say
-
-
-def _from_getproc(getproc: Any) -> str:
-    if getproc is None:
-        return ""
-    out = []
-    buf = ctypes.create_string_buffer(MAX_COMM_BUFFER)
-    for index in range(1 << 20):
-        if getproc(index, buf, MAX_COMM_BUFFER) <= 0:
-            break
-        out.append(buf.value.decode("latin-1"))
-    return "\n".join(out)
-
-
-# -- DPRAM ----------------------------------------------------------------------------------------------
-def _pieces(offset: int, count: int) -> list[tuple[int, int]]:
-    """A 2- or 4-byte access the bus would refuse misaligned, as a byte and a block."""
-    if count in (2, 4) and offset % count:
-        return [(offset, 1), (offset + 1, count - 1)]
-    return [(offset, count)]
-
-
-@_guarded(False)
-def PmacDPRAvailable(dev: _Device) -> bool:
-    """The card has a DPRAM (every pmac-turbo has)."""
-    return True
-
-
-@_guarded(None)
-def PmacDPRGetMem(dev: _Device, offset: int, count: int, val: Any = None) -> bytes | None:
-    """`count` bytes at host byte `offset`, copied into `val` (a ctypes object, bytearray or list)
-    and returned; None when the range is outside the DPRAM or the device is not open."""
-    offset, count = int(offset), int(count)
-    if count <= 0 or offset < 0 or offset + count > DPRAM_SIZE:
-        return None
-    res = dev.batch(dev.begin() + [dev.read(o, n) for o, n in _pieces(offset, count)])
-    data = b"".join(res[-len(_pieces(offset, count)):])
-    _fill(val, data)
-    return data
-
-
-@_guarded(None)
-def PmacDPRSetMem(dev: _Device, offset: int, count: int, val: Any) -> Any:
-    """Write `count` bytes of `val` (bytes-like, ctypes object, list of byte values) at host byte
-    `offset`; returns `val`, None when outside the DPRAM. A write of the handshake words acts."""
-    offset = int(offset)
-    data = _bytes_of(val, int(count))
-    if not data or offset < 0 or offset + len(data) > DPRAM_SIZE:
-        return None
-    dev.batch(dev.begin() + [dev.write(o, data[o - offset:o - offset + n])
-                             for o, n in _pieces(offset, len(data))])
-    return val
-
-
-@_guarded(0.0)
-def PmacDPRGetFloat(dev: _Device, offset: int) -> float:
-    """The 32-bit IEEE float at host byte `offset` (`F:` format)."""
-    res = dev.batch(dev.begin() + [dev.read(o, n) for o, n in _pieces(int(offset), 4)])
-    return float(struct.unpack("<f", b"".join(r for r in res if isinstance(r, bytes))[-4:])[0])
-
-
-@_guarded(None)
-def PmacDPRSetFloat(dev: _Device, offset: int, val: float) -> None:
-    data = struct.pack("<f", float(val))
-    dev.batch(dev.begin() + [dev.write(o, data[o - int(offset):o - int(offset) + n])
-                             for o, n in _pieces(int(offset), 4)])
-
-
-def _halves(d: Any) -> tuple[int, int]:
-    d = _target(d)
-    return int(getattr(d[0], "value", d[0])), int(getattr(d[1], "value", d[1]))
-
-
-def PmacDPRFloat(d: Any, scale: float) -> float:
-    """A 48-bit PMAC float given as its two sign-extended 24-bit DPRAM words (low, high), times
-    `scale`."""
-    return pmac_float(*_halves(d)) * scale
-
-
-def PmacDPRLFixed(d: Any, scale: float) -> float:
-    """A 48-bit fixed-point value given as its two sign-extended 24-bit words, times `scale`."""
-    return join48(*_halves(d)) * scale
-
-
-@_guarded(False)
-def PmacDPRRealTimeEx(dev: _Device, mask: int, period: int, on: int) -> bool:
-    """Switch the real-time motor buffer on (I47 = `period` servo cycles, I48 = 1; the handshake
-    cleared so the first sample comes at once) or off (I48 = 0). The card reports all its motors:
-    `mask` is accepted and not used."""
-    line = f"I47={max(int(period), 1)} I48=1" if on else "I48=0"
-    ops = dev.command_ops(line.encode(), [*dev.begin(), dev.write(REALTIME, b"\0\0")])
-    return _reply(*dev.collect(ops, line.encode()))[1] == COMM_EOT
-
-
-@_guarded(False)
-def PmacDPRBackgroundEx(dev: _Device, on: int, period: int, crd: int) -> bool:
-    """Switch the background buffer (global and C.S. status) on (I49 = `period`, I50 = 1) or off.
-    The card reports all 16 coordinate systems: `crd` is accepted and not used."""
-    line = f"I49={max(int(period), 1)} I50=1" if on else "I50=0"
-    ops = dev.command_ops(line.encode(), [*dev.begin(), dev.write(BACKGROUND, b"\0\0")])
-    return _reply(*dev.collect(ops, line.encode()))[1] == COMM_EOT
-
-
-def _sample(dev: _Device, buffer: int, offset: int, size: int) -> bytes:
-    """`size` bytes at `offset` of a reporting buffer (`buffer`: its handshake word) from the card's
-    next sample: one batch [clear the handshake, wait for the card to set bit 15, read]. The card
-    posts only while the bit is clear, so a read without the wait would give the sample taken
-    just after the previous clear. In lockstep the wait advances time to the next sample (I47 or
-    I49 servo cycles); with reporting off it ends after `timeout_ms` and the stale data is read."""
-    timeout_ns = dev.timeout_ms * _NS_PER_MS
-    wait = {"op": "wait", "on": "value", "offset": buffer, "size": 2, "mask": READY, "value": READY,
-            "cmp": "eq", "timeout_ns": timeout_ns, **dev.where}
-    res = dev.batch(dev.begin() + [dev.write(buffer, b"\0\0"), wait, dev.read(offset, size)], timeout_ns)
-    if res[-2]["fired"]:
-        return bytes(res[-1])
-    log.warning("%s: no sample in the reporting buffer at %#x (reporting off?)", dev.card, buffer)
-    return bytes(dev.batch([dev.read(offset, size)])[-1])
-
-
-@_guarded(0.0)
-def PmacDPRPosition(dev: _Device, mtr: int, units: float) -> float:
-    """Motor `mtr`'s (1-based) actual position from the card's next real-time sample (see
-    `_sample`; PmacDPRRealTimeEx must be on), in counts times `units`. Ixx08 is read once per
-    motor, on its first use (one more round trip)."""
-    mtr = int(mtr)
-    if not 1 <= mtr <= dev.motors:
-        return 0.0
-    if mtr not in dev.scale:
-        dev.scale[mtr] = 32.0 * (_number(dev.get_variable("I", 100 * mtr + 8)) or 1.0)
-    return motor_report(_sample(dev, REALTIME, realtime_motor(mtr), RT_MOTOR)).actual / dev.scale[mtr] * units
-
-
-@_guarded(None)
-def PmacDPRGetGlobalStatus(dev: _Device, gs: Any = None) -> tuple[int, int] | None:
-    """The two global status words of the next background sample (PmacDPRBackgroundEx on), into
-    `gs` (DWORD[2], ctypes array or list) and returned."""
-    words = struct.unpack_from("<II", _sample(dev, BACKGROUND, BACKGROUND + 8, 8))
-    target = _target(gs)
-    if target is not None:
-        target[0], target[1] = words
-    return words
-
-
 # -- interrupts -----------------------------------------------------------------------------------------
-class _Interrupts:
-    """A thread on its own connection that receives the card's `inta` events, acknowledges the
-    interrupt controller's status bits of `mask` (W1C at host byte 8) and calls the callback once
-    per bit, IR0 first."""
-
-    def __init__(self, dev: _Device, callback: Any, msg: int, mask: int) -> None:
-        self.callback, self.msg, self.mask = callback, msg, mask
-        self.rack = connect(dev.rack.endpoint, dev.rack.events_endpoint or None)
-        try:
-            self.card = self.rack.card(dev.card)
-            self.host = self.card.region(HOST)
-            self.card.irq.subscribe()
-        except BaseException:
-            self.rack.close()
-            raise
-        self.stopping = threading.Event()
-        self.thread = threading.Thread(target=self._run, name=f"pcomm-intr-{dev.number}", daemon=True)
-        self.thread.start()
-
-    def _run(self) -> None:
-        try:
-            while not self.stopping.is_set():
-                for event in self.card.irq.events(timeout_s=0.05):
-                    if event.get("line") == LINE:
-                        self._deliver(int(event.get("status", 0)) & self.mask)
-                    if self.stopping.is_set():
-                        break
-        except (VdevClientError, zmq.ZMQError) as exc:
-            if not self.stopping.is_set():
-                log.warning("interrupt thread: %s", exc)
-
-    def _deliver(self, bits: int) -> None:
-        if not bits:
-            return
-        self.host.write(IR_STATUS, bytes([bits]))
-        for irq in range(8):
-            if bits >> irq & 1:
-                buffer = INTRBUFFER(None, 0, irq)
-                try:
-                    self.callback(self.msg, ctypes.pointer(buffer))
-                except Exception:
-                    log.exception("interrupt callback for IR%d", irq)
-
-    def stop(self) -> None:
-        self.stopping.set()
-        self.thread.join(5.0)
-        self.rack.close()
-
-
 @_guarded(False)
 def PmacINTRFuncCallInit(dev: _Device, callback: Any, msg: int, ulMask: int) -> bool:
     """Call `callback(msg, pointer(INTRBUFFER))` for every interrupt of the card's controller bits

@@ -3,9 +3,9 @@
 Units. The core works in encoder counts and seconds; the I-variables are in counts/ms (Ixx16,
 Ixx22, Ixx23), counts/ms^2 (Ixx15, Ixx19), ms (Ixx20, Ixx21) and 1/16 count (Ixx11, Ixx12, Ixx26,
 Ixx28), converted here. The core's position is the raw (unwrapped) encoder count since power-up;
-the *motor* position is that minus the home origin, which the home search sets to the captured
-trigger + Ixx26/16 (EncoderPos = MotorPos + HomeCapture + Ixx26/16 [A L900-914]), so homing never
-renumbers the encoder.
+the *motor* position is that minus the home origin, which the home search (homing.py) sets to the
+captured trigger + Ixx26/16 (EncoderPos = MotorPos + HomeCapture + Ixx26/16 [A L900-914]), so
+homing never renumbers the encoder.
 
 Servo loop [§2.7, PMAC1-UM p.108]: with K = Ixx30 * 2^-19 (16-bit DAC units),
     DAC = K * (Ixx08 * (FE + (Ixx32*CV + Ixx35*CA)/128 + Ixx33*IE/2^23) - Ixx09*Ixx31*AV/128)
@@ -27,7 +27,8 @@ import math
 import numpy as np
 
 from vdevd.devices.pmac import status
-from vdevd.devices.pmac.ivars import SERVO_IC_BASE, IVars
+from vdevd.devices.pmac.homing import HomeSearch
+from vdevd.devices.pmac.ivars import IVars
 from vdevd.devices.pmac.status import MotorStatus1 as S1
 from vdevd.devices.pmac.status import pack
 from vdevd.rt import AxisFlag, MotionCore, Pid, PlantKind
@@ -92,17 +93,6 @@ class PmacPid(Pid):
         super().update(out)
 
 
-def _ic_channel(address: int, motor: int) -> tuple[int, int]:
-    """(Servo IC, channel 1-4) of a PMAC2 flag address (Ixx25) [A Ixx25 table]; for any other
-    address (MACRO, PMAC(1) style) the motor's own on-board channel."""
-    for ic, base in enumerate(SERVO_IC_BASE):
-        offset = address - base
-        if 0 <= offset < 32 and offset % 8 == 0:
-            return ic, offset // 8 + 1
-    ic, ch = divmod(motor - 1, 4)
-    return ic % len(SERVO_IC_BASE), ch + 1
-
-
 class Motors:
     """The motors of one card: closed/open loop, jog, home, limits, following error, status.
 
@@ -132,8 +122,8 @@ class Motors:
         self.mlim = np.zeros(n, dtype=bool)
         self.hmfl = np.zeros(n, dtype=bool)
         self.amp_fault_in = np.zeros(n, dtype=bool)  # the amplifier reports a fault (logical)
-        self.index_period = np.zeros(n, dtype=np.int64)  # set_index (0: no index pulses)
         self.phase_clock_error = False
+        self.homing = HomeSearch(self)  # HM, HMZ, the capture registers and index pulses
         self._alloc_state()
         self._apply()
         self.reset()
@@ -143,10 +133,7 @@ class Motors:
         self.origin = np.zeros(n)  # core counts of motor position 0
         self.amp_enabled = np.zeros(n, dtype=bool)
         self.open_out = np.zeros(n)  # O{c}: DAC output of open-loop enabled motors
-        self.home_complete = np.zeros(n, dtype=bool)
-        self.searching = np.zeros(n, dtype=bool)
-        self.captured = np.zeros(n, dtype=bool)  # X:b+0 bit 11
-        self.capture_counts = np.zeros(n, dtype=np.int64)  # X:b+3 / Mxx73
+        self.homing.clear()
         self.timed = np.zeros(n, dtype=bool)  # a move with a defined end (move timer)
         self.abort_decel = np.zeros(n, dtype=bool)
         self.fatal_error = np.zeros(n, dtype=bool)
@@ -155,7 +142,6 @@ class Motors:
         self.limit_bits = np.zeros(n, dtype=np.int64)  # word-1 bits 21/22 frozen while killed
         self._soft_hi_hit = np.zeros(n, dtype=bool)
         self._soft_lo_hit = np.zeros(n, dtype=bool)
-        self._enc_prev = np.zeros(n, dtype=np.int64)
         self._inpos_scans = np.zeros(n, dtype=np.int64)
         self._vbuf = np.zeros((16, n))
         self._vel = np.zeros(n)
@@ -163,7 +149,6 @@ class Motors:
         self._vcount = 0
         self._tmp = np.zeros(n)
         self._any_open = False
-        self._any_search = False
 
     # -- I-variables -------------------------------------------------------------------------------
     def _iv(self, yy: int) -> np.ndarray:
@@ -204,15 +189,10 @@ class Motors:
         self._count_inpos = bool((self._iv(88) > 0).any())
         i60 = int(self.ivars.values[60])
         self._vperiod = i60 + 1 if i60 >= 0 else 1
-        self._capture_ivar = np.array([self._channel_ivar(m) for m in range(self.n)])
+        self.homing.map_channels()
         for m in np.flatnonzero(~self.active & self.amp_enabled).tolist():
             self._kill(np.array([m]))
         self._push_inputs()
-
-    def _channel_ivar(self, m: int) -> int:
-        """I7mn0's number for the Servo IC channel of motor m's flags (Ixx25)."""
-        ic, ch = _ic_channel(int(self.ivars.values[100 * (m + 1) + 25]), m + 1)
-        return 7000 + 100 * ic + 10 * ch
 
     # -- power-up --------------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -260,10 +240,9 @@ class Motors:
         self._stop_open(idx)
         self.core.servo_off(idx)
         self.amp_enabled[idx] = False
-        self.searching[idx] = False
+        self.homing.end(idx)
         self.timed[idx] = False
         self.abort_decel[idx] = False
-        self._any_search = bool(self.searching.any())
 
     def kill(self, m: int) -> None:
         """K: kill motor m."""
@@ -300,8 +279,8 @@ class Motors:
         if self.core.amp_fault[m]:
             return
         a = np.array([m])
-        self.searching[m] = self.timed[m] = self.abort_decel[m] = False
-        self._any_search = bool(self.searching.any())
+        self.homing.end(m)
+        self.timed[m] = self.abort_decel[m] = False
         if self._closed()[m]:
             self.core.servo_off(a)
         self.amp_enabled[m] = True
@@ -333,8 +312,7 @@ class Motors:
         """Before a jog or home: the motor must be active; a killed motor closes its loop."""
         if not self.active[m]:
             return False
-        self.searching[m] = False
-        self._any_search = bool(self.searching.any())
+        self.homing.end(m)
         self.abort_decel[m] = False
         return bool(len(self._enable(np.array([m]))))
 
@@ -376,8 +354,7 @@ class Motors:
         if not self._closed()[m]:
             self._start(m)
             return False
-        self.searching[m] = False
-        self._any_search = bool(self.searching.any())
+        self.homing.end(m)
         self.timed[m] = False
         return True
 
@@ -451,103 +428,14 @@ class Motors:
         core.profile.hold(m, target)
         core.profile.commit()
 
-    # -- homing ------------------------------------------------------------------------------------------
+    # -- homing (homing.py) -----------------------------------------------------------------------------
     def home(self, m: int) -> None:
-        """HM: home search at |Ixx23| toward sign(Ixx23) with the jog accelerations until the
-        capture trigger of I7mn2/I7mn3; then the motor moves to trigger + Ixx26/16, which is
-        motor position 0 [SRM p.101, UM "Homing"]. Software limits are off during the search.
-        Ixx23 = 0 homes where the motor is (as HMZ)."""
-        if not self._start(m):
-            return
-        speed = float(self.ivars.values[100 * (m + 1) + 23])
-        self.home_complete[m] = False
-        self.timed[m] = False
-        if speed == 0:
-            self.home_zero(m)
-            return
-        self.searching[m] = True
-        self._any_search = True
-        self.captured[m] = False
-        self._enc_prev[m] = self.core.axes.encoder[m]
-        self._push_inputs()
-        self._jog_at(m, speed)
-        self._after_command(m)
-        self._check_triggers(initial=True)
+        """HM: home search at Ixx23 to the I7mn2/I7mn3 capture trigger (`HomeSearch.start`)."""
+        self.homing.start(m)
 
     def home_zero(self, m: int) -> None:
-        """HMZ: the present commanded position becomes motor position 0, home complete set
-        (the actual position then reads minus the following error); no motion."""
-        core = self.core
-        self.searching[m] = False
-        self._any_search = bool(self.searching.any())
-        here = core.axes.cmd_pos[m] if self._closed()[m] else core.axes.fb[m]
-        self.origin[m] = float(here)
-        self.home_complete[m] = True
-        self._push_inputs()
-
-    def _capture_level(self, idx: np.ndarray, initial: bool) -> np.ndarray:
-        """The capture condition of I7mn2 (bit 0 index, bit 1 flag, bits 2/3 their low-true
-        polarity; 0/4/8/12 immediate) on the flag I7mn3 selects (HMFL, PLIM, MLIM, USER), for
-        the motors `idx` [SRM p.222-223]; level-triggered as on a PMAC2-style IC. The index is
-        high when the encoder crossed (or sits on) a multiple of the index period this cycle."""
-        v = self.ivars.values
-        civ = self._capture_ivar[idx]
-        ctrl = v[civ + 2].astype(np.int64)
-        sel = v[civ + 3].astype(np.int64)
-        flag = np.choose(np.clip(sel, 0, 3), [self.hmfl[idx], self.plim[idx], self.mlim[idx],
-                                               np.zeros(len(idx), dtype=bool)])
-        flag = np.where((ctrl & 8) != 0, ~flag, flag)
-        period = self.index_period[idx]
-        enc = self.core.axes.encoder[idx]
-        safe = np.where(period > 0, period, 1)
-        prev = enc if initial else self._enc_prev[idx]
-        crossed = (np.floor_divide(enc, safe) != np.floor_divide(prev, safe)) | (enc % safe == 0)
-        index = (period > 0) & crossed
-        index = np.where((ctrl & 4) != 0, ~index, index)
-        use_index, use_flag = (ctrl & 1) != 0, (ctrl & 2) != 0
-        immediate = ~use_index & ~use_flag
-        return immediate | ((index | ~use_index) & (flag | ~use_flag))
-
-    def _check_triggers(self, initial: bool = False) -> int:
-        """Searching motors whose capture condition holds: latch the capture, set home complete,
-        make trigger + Ixx26/16 motor position 0 and move there [§2.7]."""
-        core = self.core
-        self.searching &= core.profile.moving  # a limit or a stop ended the search
-        idx = np.flatnonzero(self.searching)
-        if not len(idx):
-            self._any_search = False
-            return 0
-        hit = idx[self._capture_level(idx, initial)]
-        events = 0
-        for m in hit.tolist():
-            capture = self._capture_value(m, initial)
-            self.capture_counts[m] = capture
-            self.captured[m] = True
-            self.searching[m] = False
-            self.home_complete[m] = True
-            self.origin[m] = capture + float(self.ivars.values[100 * (m + 1) + 26]) / 16
-            speed = abs(float(self.ivars.values[100 * (m + 1) + 23]))
-            acc, jerk = self._accel(m, speed)
-            self.timed[m] = True
-            self.abort_decel[m] = False
-            core.move_absolute(m, float(self.origin[m]), speed * 1000, acc, acc, jerk)
-            events |= int(AxisFlag.HOMED)
-        np.copyto(self._enc_prev, core.axes.encoder)
-        self._any_search = bool(self.searching.any())
-        if len(hit):
-            self._push_inputs()
-        return events
-
-    def _capture_value(self, m: int, initial: bool) -> int:
-        """The counter value latched: the index position crossed, else the present count."""
-        enc = int(self.core.axes.encoder[m])
-        ctrl = int(self.ivars.values[int(self._capture_ivar[m]) + 2])
-        period = int(self.index_period[m])
-        if ctrl & 1 and not ctrl & 4 and period > 0:
-            prev = enc if initial else int(self._enc_prev[m])
-            k = max(enc // period, prev // period) if enc % period else enc // period
-            return k * period
-        return enc
+        """HMZ: the present commanded position becomes motor position 0 (`HomeSearch.zero`)."""
+        self.homing.zero(m)
 
     # -- inputs ----------------------------------------------------------------------------------------
     def set_flags(self, m: int, *, plus_limit: bool | None = None, minus_limit: bool | None = None,
@@ -565,8 +453,8 @@ class Motors:
         if amp_fault is not None:
             self.amp_fault_in[m] = amp_fault
         self._push_inputs()
-        if self._any_search and home is not None:
-            self._check_triggers(initial=True)
+        if self.homing.any_searching and home is not None:
+            self.homing.check(initial=True)
 
     def set_encoder_loss(self, m: int, lost: bool) -> None:
         """Backdoor: the encoder of motor m stops counting while `lost`."""
@@ -577,7 +465,7 @@ class Motors:
     def set_index(self, m: int, period_counts: int) -> None:
         """Backdoor: an index pulse (CHC) at every multiple of `period_counts` encoder counts
         (0: none)."""
-        self.index_period[m] = max(int(period_counts), 0)
+        self.homing.index_period[m] = max(int(period_counts), 0)
 
     def _amp_faults(self) -> np.ndarray:
         """The amplifier faults the motors act on: not with Ixx24 bit 20 (input unused)."""
@@ -593,8 +481,9 @@ class Motors:
         kills per Ixx24 [A L1863-1875]."""
         core = self.core
         use = (self.flag_mode & IXX24_LIMITS_OFF) == 0
-        pos = (self.plim & use) | (self._soft_hi_hit & ~self.searching)
-        neg = (self.mlim & use) | (self._soft_lo_hit & ~self.searching)
+        searching = self.homing.searching
+        pos = (self.plim & use) | (self._soft_hi_hit & ~searching)
+        neg = (self.mlim & use) | (self._soft_lo_hit & ~searching)
         fault = self._amp_faults()
         rising = np.flatnonzero(fault & ~core.amp_fault)
         lim = core.limits
@@ -603,7 +492,7 @@ class Motors:
             core.set_inputs(hard_limit_pos=pos, hard_limit_neg=neg)
             stopped = (core.axes.flags & _STOPPED) != 0
             self.abort_decel |= stopped & core.profile.moving  # a limit stop at Ixx15
-            self.searching &= core.profile.moving
+            self.homing.searching &= core.profile.moving
         if not np.array_equal(fault, core.amp_fault):
             core.set_inputs(amp_fault=fault)
         if len(rising):
@@ -644,8 +533,8 @@ class Motors:
             np.clip(out, -self.out_limit, self.out_limit, out=out)
         if self._soft_on and core.profile.active:
             self._check_soft_limits()
-        if self._any_search:
-            events |= self._check_triggers()
+        if self.homing.any_searching:
+            events |= self.homing.check()
         if events & _FE_TRIP:
             trip = ((core.axes.flags & _FE_TRIP) != 0) & self._closed()
             if trip.any():
@@ -716,14 +605,13 @@ class Motors:
 
     def capture(self) -> np.ndarray:
         """The counter value latched by the last home trigger (X:b+3 low 24 bits, Mxx73)."""
-        return self.capture_counts.copy()
+        return self.homing.capture_counts.copy()
 
     def flags(self) -> np.ndarray:
         """The Servo IC flag register X:b+0: 11 position captured, 14 CHC (index now), 15 FAULT,
         16 HMFL, 17 PLIM, 18 MLIM (raw input levels)."""
-        enc, period = self.core.axes.encoder, self.index_period
-        chc = (period > 0) & (enc % np.where(period > 0, period, 1) == 0)
-        return pack(self.n, ((FLAG_CAPTURED, self.captured), (FLAG_CHC, chc),
+        home = self.homing
+        return pack(self.n, ((FLAG_CAPTURED, home.captured), (FLAG_CHC, home.index_now()),
                              (FLAG_FAULT, self._fault_raw()), (FLAG_HMFL, self.hmfl),
                              (FLAG_PLIM, self.plim), (FLAG_MLIM, self.mlim)))
 
@@ -754,15 +642,15 @@ class Motors:
         closed = self._closed()
         w1 = status.word1(
             n, iv={yy: self._iv(yy) for yy in (1, 6, 34, 90, 96, 97)}, closed=closed,
-            amp_enabled=self.amp_enabled, moving=core.profile.moving, searching=self.searching,
-            abort_decel=self.abort_decel, timed=self.timed,
+            amp_enabled=self.amp_enabled, moving=core.profile.moving,
+            searching=self.homing.searching, abort_decel=self.abort_decel, timed=self.timed,
             limits=np.where(self.amp_enabled, self._limit_bits_now(), self.limit_bits))
         inpos = self._inpos_scans > self._iv(88) if self._count_inpos else self._in_position_now()
         warn_limit = self._iv(12) / 16
         warning = (closed & (warn_limit > 0) & (self._abs_ferr() > warn_limit)) | self.fatal_error
         w2 = status.word2(
             n, in_position=inpos, warning=warning, fatal=self.fatal_error, amp_fault=self.amp_error,
-            home_complete=self.home_complete,
+            home_complete=self.homing.home_complete,
             stopped_on_limit=(core.axes.flags & _STOPPED) != 0,
             foreground=bool(self.ivars.values[13] == 1), cs=self.cs, axis_code=self.axis_code)
         return np.where(self.active, w1, 0), np.where(self.active, w2, 0)

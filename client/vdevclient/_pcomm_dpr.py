@@ -1,0 +1,179 @@
+"""PComm32's DPRAM functions (spec pmac.md §3.1): raw memory, IEEE and PMAC floats, and the real-time
+and background reporting buffers. Re-exported from `vdevclient.pcomm`."""
+
+from __future__ import annotations
+
+import ctypes
+import logging
+import struct
+from typing import Any
+
+from vdevclient._cargs import target as _target
+from vdevclient._pcomm_codes import COMM_EOT
+from vdevclient._pcomm_device import _NS_PER_MS, _Device, _guarded, _number, _reply
+from vdevclient._pmac_bus import (
+    BACKGROUND,
+    DPRAM_SIZE,
+    READY,
+    REALTIME,
+    RT_MOTOR,
+    join48,
+    motor_report,
+    pmac_float,
+    realtime_motor,
+)
+
+log = logging.getLogger("vdevclient.pcomm")  # the public module's logger
+
+
+# -- source and destination parameters -------------------------------------------------------------
+def _bytes_of(val: Any, count: int) -> bytes:
+    """`count` bytes of a source parameter: bytes-like, a ctypes object, a list of byte values."""
+    val = _target(val)
+    if isinstance(val, list | tuple):
+        return bytes(int(v) & 0xFF for v in val[:count])
+    if isinstance(val, ctypes._SimpleCData | ctypes.Array | ctypes.Structure):
+        return ctypes.string_at(ctypes.addressof(val), min(count, ctypes.sizeof(val)))
+    return bytes(val)[:count]
+
+
+def _fill(val: Any, data: bytes) -> None:
+    """Copy `data` into a destination parameter (ctypes object, bytearray or list)."""
+    target = _target(val)
+    if target is None:
+        return
+    if isinstance(target, list):
+        target[:len(data)] = list(data)
+    elif isinstance(target, bytearray | memoryview):
+        target[:len(data)] = data
+    else:
+        ctypes.memmove(ctypes.addressof(target), data, min(len(data), ctypes.sizeof(target)))
+
+
+# -- DPRAM ----------------------------------------------------------------------------------------------
+def _pieces(offset: int, count: int) -> list[tuple[int, int]]:
+    """A 2- or 4-byte access the bus would refuse misaligned, as a byte and a block."""
+    if count in (2, 4) and offset % count:
+        return [(offset, 1), (offset + 1, count - 1)]
+    return [(offset, count)]
+
+
+@_guarded(False)
+def PmacDPRAvailable(dev: _Device) -> bool:
+    """The card has a DPRAM (every pmac-turbo has)."""
+    return True
+
+
+@_guarded(None)
+def PmacDPRGetMem(dev: _Device, offset: int, count: int, val: Any = None) -> bytes | None:
+    """`count` bytes at host byte `offset`, copied into `val` (a ctypes object, bytearray or list)
+    and returned; None when the range is outside the DPRAM or the device is not open."""
+    offset, count = int(offset), int(count)
+    if count <= 0 or offset < 0 or offset + count > DPRAM_SIZE:
+        return None
+    res = dev.batch(dev.begin() + [dev.read(o, n) for o, n in _pieces(offset, count)])
+    data = b"".join(res[-len(_pieces(offset, count)):])
+    _fill(val, data)
+    return data
+
+
+@_guarded(None)
+def PmacDPRSetMem(dev: _Device, offset: int, count: int, val: Any) -> Any:
+    """Write `count` bytes of `val` (bytes-like, ctypes object, list of byte values) at host byte
+    `offset`; returns `val`, None when outside the DPRAM. A write of the handshake words acts."""
+    offset = int(offset)
+    data = _bytes_of(val, int(count))
+    if not data or offset < 0 or offset + len(data) > DPRAM_SIZE:
+        return None
+    dev.batch(dev.begin() + [dev.write(o, data[o - offset:o - offset + n])
+                             for o, n in _pieces(offset, len(data))])
+    return val
+
+
+@_guarded(0.0)
+def PmacDPRGetFloat(dev: _Device, offset: int) -> float:
+    """The 32-bit IEEE float at host byte `offset` (`F:` format)."""
+    res = dev.batch(dev.begin() + [dev.read(o, n) for o, n in _pieces(int(offset), 4)])
+    return float(struct.unpack("<f", b"".join(r for r in res if isinstance(r, bytes))[-4:])[0])
+
+
+@_guarded(None)
+def PmacDPRSetFloat(dev: _Device, offset: int, val: float) -> None:
+    data = struct.pack("<f", float(val))
+    dev.batch(dev.begin() + [dev.write(o, data[o - int(offset):o - int(offset) + n])
+                             for o, n in _pieces(int(offset), 4)])
+
+
+def _halves(d: Any) -> tuple[int, int]:
+    d = _target(d)
+    return int(getattr(d[0], "value", d[0])), int(getattr(d[1], "value", d[1]))
+
+
+def PmacDPRFloat(d: Any, scale: float) -> float:
+    """A 48-bit PMAC float given as its two sign-extended 24-bit DPRAM words (low, high), times
+    `scale`."""
+    return pmac_float(*_halves(d)) * scale
+
+
+def PmacDPRLFixed(d: Any, scale: float) -> float:
+    """A 48-bit fixed-point value given as its two sign-extended 24-bit words, times `scale`."""
+    return join48(*_halves(d)) * scale
+
+
+@_guarded(False)
+def PmacDPRRealTimeEx(dev: _Device, mask: int, period: int, on: int) -> bool:
+    """Switch the real-time motor buffer on (I47 = `period` servo cycles, I48 = 1; the handshake
+    cleared so the first sample comes at once) or off (I48 = 0). The card reports all its motors:
+    `mask` is accepted and not used."""
+    line = f"I47={max(int(period), 1)} I48=1" if on else "I48=0"
+    ops = dev.command_ops(line.encode(), [*dev.begin(), dev.write(REALTIME, b"\0\0")])
+    return _reply(*dev.collect(ops, line.encode()))[1] == COMM_EOT
+
+
+@_guarded(False)
+def PmacDPRBackgroundEx(dev: _Device, on: int, period: int, crd: int) -> bool:
+    """Switch the background buffer (global and C.S. status) on (I49 = `period`, I50 = 1) or off.
+    The card reports all 16 coordinate systems: `crd` is accepted and not used."""
+    line = f"I49={max(int(period), 1)} I50=1" if on else "I50=0"
+    ops = dev.command_ops(line.encode(), [*dev.begin(), dev.write(BACKGROUND, b"\0\0")])
+    return _reply(*dev.collect(ops, line.encode()))[1] == COMM_EOT
+
+
+def _sample(dev: _Device, buffer: int, offset: int, size: int) -> bytes:
+    """`size` bytes at `offset` of a reporting buffer (`buffer`: its handshake word) from the card's
+    next sample: one batch [clear the handshake, wait for the card to set bit 15, read]. The card
+    posts only while the bit is clear, so a read without the wait would give the sample taken
+    just after the previous clear. In lockstep the wait advances time to the next sample (I47 or
+    I49 servo cycles); with reporting off it ends after `timeout_ms` and the stale data is read."""
+    timeout_ns = dev.timeout_ms * _NS_PER_MS
+    wait = {"op": "wait", "on": "value", "offset": buffer, "size": 2, "mask": READY, "value": READY,
+            "cmp": "eq", "timeout_ns": timeout_ns, **dev.where}
+    res = dev.batch(dev.begin() + [dev.write(buffer, b"\0\0"), wait, dev.read(offset, size)], timeout_ns)
+    if res[-2]["fired"]:
+        return bytes(res[-1])
+    log.warning("%s: no sample in the reporting buffer at %#x (reporting off?)", dev.card, buffer)
+    return bytes(dev.batch([dev.read(offset, size)])[-1])
+
+
+@_guarded(0.0)
+def PmacDPRPosition(dev: _Device, mtr: int, units: float) -> float:
+    """Motor `mtr`'s (1-based) actual position from the card's next real-time sample (see
+    `_sample`; PmacDPRRealTimeEx must be on), in counts times `units`. Ixx08 is read once per
+    motor, on its first use (one more round trip)."""
+    mtr = int(mtr)
+    if not 1 <= mtr <= dev.motors:
+        return 0.0
+    if mtr not in dev.scale:
+        dev.scale[mtr] = 32.0 * (_number(dev.get_variable("I", 100 * mtr + 8)) or 1.0)
+    return motor_report(_sample(dev, REALTIME, realtime_motor(mtr), RT_MOTOR)).actual / dev.scale[mtr] * units
+
+
+@_guarded(None)
+def PmacDPRGetGlobalStatus(dev: _Device, gs: Any = None) -> tuple[int, int] | None:
+    """The two global status words of the next background sample (PmacDPRBackgroundEx on), into
+    `gs` (DWORD[2], ctypes array or list) and returned."""
+    words = struct.unpack_from("<II", _sample(dev, BACKGROUND, BACKGROUND + 8, 8))
+    target = _target(gs)
+    if target is not None:
+        target[0], target[1] = words
+    return words

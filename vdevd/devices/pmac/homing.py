@@ -1,0 +1,178 @@
+"""The home search and position capture of the Turbo PMAC's motors [spec pmac.md §2.7, §1.5;
+SRM p.101, p.222-223; UM "Homing"].
+
+HM jogs at |Ixx23| toward sign(Ixx23) until the capture condition of the motor's flag channel
+(Ixx25) holds: I7mn2 on the flag I7mn3 selects, and the index pulse. The Servo IC latches the
+counter (X:b+3, Mxx73) and sets the position-captured flag; trigger + Ixx26/16 becomes motor
+position 0 and the motor moves there (EncoderPos = MotorPos + HomeCapture + Ixx26/16
+[A L900-914]). HMZ makes the present commanded position 0 without motion. Homing moves the
+motor's origin (`Motors.origin`), never the encoder count.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from vdevd.devices.pmac.ivars import SERVO_IC_BASE
+from vdevd.rt import AxisFlag
+
+if TYPE_CHECKING:
+    from vdevd.devices.pmac.motors import Motors
+
+
+def _ic_channel(address: int, motor: int) -> tuple[int, int]:
+    """(Servo IC, channel 1-4) of a PMAC2 flag address (Ixx25) [A Ixx25 table]; for any other
+    address (MACRO, PMAC(1) style) the motor's own on-board channel."""
+    for ic, base in enumerate(SERVO_IC_BASE):
+        offset = address - base
+        if 0 <= offset < 32 and offset % 8 == 0:
+            return ic, offset // 8 + 1
+    ic, ch = divmod(motor - 1, 4)
+    return ic % len(SERVO_IC_BASE), ch + 1
+
+
+class HomeSearch:
+    """The home searches of the motors of one card, with the capture registers and index pulses
+    they trigger on. It is part of its `Motors`: it starts the search with their jog profile,
+    reads their flag inputs and sets their origin. Per-motor Python only at the servo cycle a
+    trigger happens."""
+
+    def __init__(self, motors: Motors) -> None:
+        self.motors = motors
+        self.index_period = np.zeros(motors.n, dtype=np.int64)  # set_index (0: no index pulses)
+        #: I7mn0's number for the Servo IC channel of each motor's flags (Ixx25)
+        self.capture_ivar = np.zeros(motors.n, dtype=np.int64)
+        self.clear()
+
+    def clear(self) -> None:
+        """Power-up: no search, home complete and position captured cleared, capture register 0."""
+        n = self.motors.n
+        self.home_complete = np.zeros(n, dtype=bool)
+        self.searching = np.zeros(n, dtype=bool)
+        self.captured = np.zeros(n, dtype=bool)  # X:b+0 bit 11
+        self.capture_counts = np.zeros(n, dtype=np.int64)  # X:b+3 / Mxx73
+        self.any_searching = False  # False: no motor searching (True may be stale until `check`)
+        self._enc_prev = np.zeros(n, dtype=np.int64)
+
+    def map_channels(self) -> None:
+        """Each motor's flag channel from Ixx25 (after an I-variable change)."""
+        values = self.motors.ivars.values
+        channels = [_ic_channel(int(values[100 * (m + 1) + 25]), m + 1)
+                    for m in range(self.motors.n)]
+        self.capture_ivar = np.array([7000 + 100 * ic + 10 * ch for ic, ch in channels])
+
+    def end(self, idx: int | np.ndarray) -> None:
+        """The search of the motors `idx` ends (killed, open loop, another command)."""
+        self.searching[idx] = False
+        self.any_searching = bool(self.searching.any())
+
+    def index_now(self) -> np.ndarray:
+        """CHC: the encoder sits on an index pulse (a multiple of the index period)."""
+        enc, period = self.motors.core.axes.encoder, self.index_period
+        return (period > 0) & (enc % np.where(period > 0, period, 1) == 0)
+
+    # -- HM and HMZ ------------------------------------------------------------------------------
+    def start(self, m: int) -> None:
+        """HM: home search at |Ixx23| toward sign(Ixx23) with the jog accelerations until the
+        capture trigger of I7mn2/I7mn3; then the motor moves to trigger + Ixx26/16, which is
+        motor position 0 [SRM p.101, UM "Homing"]. Software limits are off during the search.
+        Ixx23 = 0 homes where the motor is (as HMZ)."""
+        mo = self.motors
+        if not mo._start(m):
+            return
+        speed = float(mo.ivars.values[100 * (m + 1) + 23])
+        self.home_complete[m] = False
+        mo.timed[m] = False
+        if speed == 0:
+            self.zero(m)
+            return
+        self.searching[m] = True
+        self.any_searching = True
+        self.captured[m] = False
+        self._enc_prev[m] = mo.core.axes.encoder[m]
+        mo._push_inputs()
+        mo._jog_at(m, speed)
+        mo._after_command(m)
+        self.check(initial=True)
+
+    def zero(self, m: int) -> None:
+        """HMZ: the present commanded position becomes motor position 0, home complete set
+        (the actual position then reads minus the following error); no motion."""
+        mo = self.motors
+        core = mo.core
+        self.end(m)
+        here = core.axes.cmd_pos[m] if core.servo_on_mask[m] else core.axes.fb[m]
+        mo.origin[m] = float(here)
+        self.home_complete[m] = True
+        mo._push_inputs()
+
+    # -- the trigger -----------------------------------------------------------------------------
+    def check(self, initial: bool = False) -> int:
+        """Searching motors whose capture condition holds: latch the capture, set home complete,
+        make trigger + Ixx26/16 motor position 0 and move there [§2.7]. `initial`: at the
+        command or an input change, not after a servo cycle (no index crossed since the last
+        check). Returns AxisFlag.HOMED if a motor triggered."""
+        mo = self.motors
+        core, values = mo.core, mo.ivars.values
+        self.searching &= core.profile.moving  # a limit or a stop ended the search
+        idx = np.flatnonzero(self.searching)
+        if not len(idx):
+            self.any_searching = False
+            return 0
+        hit = idx[self._capture_level(idx, initial)]
+        events = 0
+        for m in hit.tolist():
+            capture = self._capture_value(m, initial)
+            self.capture_counts[m] = capture
+            self.captured[m] = True
+            self.searching[m] = False
+            self.home_complete[m] = True
+            mo.origin[m] = capture + float(values[100 * (m + 1) + 26]) / 16
+            speed = abs(float(values[100 * (m + 1) + 23]))
+            acc, jerk = mo._accel(m, speed)
+            mo.timed[m] = True
+            mo.abort_decel[m] = False
+            core.move_absolute(m, float(mo.origin[m]), speed * 1000, acc, acc, jerk)
+            events |= int(AxisFlag.HOMED)
+        np.copyto(self._enc_prev, core.axes.encoder)
+        self.any_searching = bool(self.searching.any())
+        if len(hit):
+            mo._push_inputs()
+        return events
+
+    def _capture_level(self, idx: np.ndarray, initial: bool) -> np.ndarray:
+        """The capture condition of I7mn2 (bit 0 index, bit 1 flag, bits 2/3 their low-true
+        polarity; 0/4/8/12 immediate) on the flag I7mn3 selects (HMFL, PLIM, MLIM, USER), for
+        the motors `idx` [SRM p.222-223]; level-triggered as on a PMAC2-style IC. The index is
+        high when the encoder crossed (or sits on) a multiple of the index period this cycle."""
+        mo = self.motors
+        v = mo.ivars.values
+        civ = self.capture_ivar[idx]
+        ctrl = v[civ + 2].astype(np.int64)
+        sel = v[civ + 3].astype(np.int64)
+        flag = np.choose(np.clip(sel, 0, 3), [mo.hmfl[idx], mo.plim[idx], mo.mlim[idx],
+                                               np.zeros(len(idx), dtype=bool)])
+        flag = np.where((ctrl & 8) != 0, ~flag, flag)
+        period = self.index_period[idx]
+        enc = mo.core.axes.encoder[idx]
+        safe = np.where(period > 0, period, 1)
+        prev = enc if initial else self._enc_prev[idx]
+        crossed = (np.floor_divide(enc, safe) != np.floor_divide(prev, safe)) | (enc % safe == 0)
+        index = (period > 0) & crossed
+        index = np.where((ctrl & 4) != 0, ~index, index)
+        use_index, use_flag = (ctrl & 1) != 0, (ctrl & 2) != 0
+        immediate = ~use_index & ~use_flag
+        return immediate | ((index | ~use_index) & (flag | ~use_flag))
+
+    def _capture_value(self, m: int, initial: bool) -> int:
+        """The counter value latched: the index position crossed, else the present count."""
+        enc = int(self.motors.core.axes.encoder[m])
+        ctrl = int(self.motors.ivars.values[int(self.capture_ivar[m]) + 2])
+        period = int(self.index_period[m])
+        if ctrl & 1 and not ctrl & 4 and period > 0:
+            prev = enc if initial else int(self._enc_prev[m])
+            k = max(enc // period, prev // period) if enc % period else enc // period
+            return k * period
+        return enc
