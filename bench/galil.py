@@ -87,6 +87,26 @@ def raw_client(stack: contextlib.ExitStack, ctx: zmq.Context[Any], endpoint: str
     return raw_read
 
 
+def start_raw_server(stack: contextlib.ExitStack, tmp: Path, cpus: set[int] | None) -> tuple[Any, str]:
+    """bench/raw_server.py on the server cpus: (the child, its endpoint)."""
+    endpoint = f"tcp://127.0.0.1:{free_port()}"
+    server = stack.enter_context(child(
+        [sys.executable, str(BENCH_DIR / "raw_server.py"), endpoint], cpus, tmp / "raw.log"))
+    return server, endpoint
+
+
+def checked_raw_client(stack: contextlib.ExitStack, ctx: zmq.Context[Any], server: Any,
+                       endpoint: str) -> Callable[[], Any]:
+    """`raw_client`, after one request has proved the raw server answers."""
+    raw_read = raw_client(stack, ctx, endpoint)
+    try:
+        raw_read()
+    except zmq.Again:
+        server.check_alive("raw server")
+        raise RuntimeError("the raw REP server did not answer") from None
+    return raw_read
+
+
 def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin: str = "split",
         diag: bool = True, seed: int = 1) -> dict[str, Any]:
     from vdevclient import galil, gclib
@@ -97,17 +117,10 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
     ctx: zmq.Context[Any] = zmq.Context.instance()
     with contextlib.ExitStack() as stack:
         tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="vdevd-bench-")))
-        raw_ep = f"tcp://127.0.0.1:{free_port()}"
-        raw_server = stack.enter_context(child(
-            [sys.executable, str(BENCH_DIR / "raw_server.py"), raw_ep], server_cpus, tmp / "raw.log"))
+        raw_server, raw_ep = start_raw_server(stack, tmp, server_cpus)
         d = stack.enter_context(daemon(galil_card(), "lockstep", server_cpus))
         pin_self(client_cpus)  # zmq's I/O threads exist now; keep them with the client
-        raw_read = raw_client(stack, ctx, raw_ep)
-        try:
-            raw_read()
-        except zmq.Again:
-            raw_server.check_alive("raw server")
-            raise RuntimeError("the raw REP server did not answer") from None
+        raw_read = checked_raw_client(stack, ctx, raw_server, raw_ep)
 
         rack = connect(d)  # waits until the daemon answers
         stack.callback(rack.close)

@@ -32,18 +32,15 @@ if __package__ in (None, ""):  # run as a script: python bench/maxk.py
 import zmq  # noqa: E402
 
 from bench.common import (  # noqa: E402
-    BENCH_DIR,
-    child,
     connect,
     daemon,
-    free_port,
     install_signal_handlers,
     ns_dist_to_us,
     pin_self,
     placement,
     write_json,
 )
-from bench.galil import count_round_trips, raw_client  # noqa: E402
+from bench.galil import checked_raw_client, count_round_trips, start_raw_server  # noqa: E402
 from bench.rtt import (  # noqa: E402
     RAW,
     ratios_to_raw,
@@ -78,19 +75,12 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
     ctx: zmq.Context[Any] = zmq.Context.instance()
     with contextlib.ExitStack() as stack:
         tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="vdevd-bench-")))
-        raw_ep = f"tcp://127.0.0.1:{free_port()}"
-        raw_server = stack.enter_context(child(
-            [sys.executable, str(BENCH_DIR / "raw_server.py"), raw_ep], server_cpus, tmp / "raw.log"))
+        raw_server, raw_ep = start_raw_server(stack, tmp, server_cpus)
         # one card per client: a host owns a card's rings (their indices live in the client)
         cards = maxk_card(CARD, 1) + maxk_card("maxk1", 2) + maxk_card("maxk2", 3)
         d = stack.enter_context(daemon(cards, "lockstep", server_cpus))
         pin_self(client_cpus)  # zmq's I/O threads exist now; keep them with the client
-        raw_read = raw_client(stack, ctx, raw_ep)
-        try:
-            raw_read()
-        except zmq.Again:
-            raw_server.check_alive("raw server")
-            raise RuntimeError("the raw REP server did not answer") from None
+        raw_read = checked_raw_client(stack, ctx, raw_server, raw_ep)
 
         rack = connect(d)  # waits until the daemon answers
         stack.callback(rack.close)
