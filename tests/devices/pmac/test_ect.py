@@ -2,21 +2,13 @@
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
+from tests.devices.pmac.fakes import FakeEncoders
 from vdevd.devices.pmac.ect import ConversionTable, setup_address, sext
 from vdevd.devices.pmac.ivars import IVars
 from vdevd.devices.pmac.memory import WORD, Memory
 from vdevd.devices.pmac.servo_ic import ChannelFlag, ServoIC
-
-
-class FakeEncoders:
-    def __init__(self, n: int = 8) -> None:
-        self.counts = np.zeros(n)
-
-    def encoder(self) -> np.ndarray:
-        return self.counts
 
 
 class Card:

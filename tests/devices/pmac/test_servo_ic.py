@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
+from tests.devices.pmac.fakes import FakeEncoders
 from vdevd.devices.pmac.ivars import IVars
 from vdevd.devices.pmac.memory import Memory
 from vdevd.devices.pmac.mvars import MVars, parse_definition
@@ -17,14 +17,6 @@ SUGGESTED = {
     111: "X:$078005,11", 112: "X:$078005,12", 113: "X:$078000,9", 114: "X:$078005,18,1",
     188: "Y:$078000,0,12,U", 189: "Y:$078001,0,12,U",
 }
-
-
-class FakeEncoders:
-    def __init__(self, n: int = 8) -> None:
-        self.counts = np.zeros(n)
-
-    def encoder(self) -> np.ndarray:
-        return self.counts
 
 
 class Card:
