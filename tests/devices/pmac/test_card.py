@@ -256,3 +256,15 @@ def test_a_non_loopback_ethernet_endpoint_needs_an_allow_list() -> None:
     card = PmacCard("pmac0", {"ethernet": "tcp://0.0.0.0:1025", "ethernet_allow": ["10.0.0.0/8"]},
                     CardContext(emit=lambda e: None))
     assert card.allow == ["10.0.0.0/8"]
+
+
+def test_ethernet_port_in_use_is_reported_and_the_card_runs_on() -> None:
+    """A taken port does not stop the daemon: hello reports `ethernet_error`, DPRAM still works."""
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        with pmac_card(ethernet=f"tcp://127.0.0.1:{port}") as pmac:
+            info = next(c for c in pmac.rack.info["cards"] if c["name"] == "pmac0")
+            assert info["ethernet"] == "" and str(port) in info["ethernet_error"]
+            assert pmac.dpram_lines("VER") == [(0x0D, "1.940"), (0x06, "")]
