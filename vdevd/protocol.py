@@ -171,6 +171,14 @@ _CONTAINERS = (dict, list)
 
 def request_from(msg: Any) -> Request:
     """Validate an unpacked request (see `decode_request`)."""
+    if type(msg) is dict and len(msg) == 3 and msg.get("op") == "batch" and "id" in msg:
+        ops, req_id = msg.get("ops"), msg["id"]  # {id, op, ops}: what clients send for a batch
+        if type(ops) is list and type(req_id) not in _CONTAINERS:
+            try:
+                return Request(req_id, "batch",
+                               {"ops": [_validate_batch_op(i, o) for i, o in enumerate(ops)]})
+            except VdevError as exc:
+                raise _with_id(exc, req_id) from None
     if not isinstance(msg, dict):
         raise _with_id(VdevError(ErrorCode.MALFORMED, "a request is a msgpack map"), None)
     req_id = msg.get("id")

@@ -122,6 +122,9 @@ class Rack:
         self.errors = 0
         self.latency = Samples()
         self.events_published = 0
+        #: the ops a batch may hold besides `wait` (protocol.BATCHABLE)
+        self._batchable: dict[str, Callable[[dict[str, Any], Reply], Any]] = {
+            "read": self.op_read, "write": self.op_write, "control": self.op_control}
 
     def add_card(self, card: Card) -> None:
         if card.name in self.cards:
@@ -440,7 +443,7 @@ class Rack:
                 self._add_waiter(waiter)
                 return
             try:
-                results.append(getattr(self, "op_" + op.op)(op.args, reply))
+                results.append(self._batchable[op.op](op.args, reply))
             except VdevError as exc:
                 raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
         reply(results)
