@@ -17,6 +17,7 @@ import numpy as np
 
 from vdevd.devices.base import Card, CardContext, Option, axis_number, control
 from vdevd.devices.oms import rings
+from vdevd.devices.oms.defaults import IMAGE_FORMATS
 from vdevd.devices.oms.firmware import Firmware
 from vdevd.devices.oms.layout import (
     AXIS_LETTERS,
@@ -39,7 +40,7 @@ from vdevd.devices.oms.layout import (
     Firmware as FwFlags,
 )
 from vdevd.devices.oms.mu import MessageUnit
-from vdevd.devices.oms.params import AXIS_TYPES, IMAGE_FORMAT
+from vdevd.devices.oms.params import AXIS_TYPES
 from vdevd.region import Region
 from vdevd.rt import wrap_int32
 from vdevd.rt.axes import AxisFlag
@@ -109,17 +110,17 @@ class MaxkCard(Card):
 
     # -- power-up -------------------------------------------------------------------------------------
     def power_up(self) -> None:
-        """Firmware start [S §2.14; spec §2.3]: positions 0, the working parameters from the
-        power-up defaults `APP` stored when their archive is valid, else the factory set."""
+        """Firmware start [S §2.14; spec §2.3]: positions 0, outputs off, the working parameters
+        and I/O configuration from the power-up defaults `APP` stored when their archive is
+        valid, else the factory set."""
         self.mem[:] = bytes(SHM_SIZE)
         self.mu.reset()
         self.inta.clear()
         image = None if self.defaults_bad() else self.saved
-        self.fw = Firmware(self.n, self.types, self.period_ns, ideal=self.ideal,
-                           ring=self.mu.ring, version=VERSION, serial=self.serial,
-                           save=self._save_defaults, saved=image)
+        self.fw = Firmware(self.n, self.types, self.period_ns, update_hz=self.update_hz,
+                           ideal=self.ideal, ring=self.mu.ring, version=VERSION,
+                           serial=self.serial, save=self._save_defaults, saved=image)
         self.fw.now_ns = self.now_ns
-        self.fw.update_hz = self.update_hz
         self.publish()
 
     def reset(self) -> None:
@@ -136,7 +137,8 @@ class MaxkCard(Card):
 
     def _load_defaults(self) -> tuple[dict[str, Any] | None, bool]:
         """The stored power-up defaults and whether their archive is damaged: a file that
-        cannot be read, or an image of another format, is a checksum error (bit 12)."""
+        cannot be read, or an image of a format this firmware does not read (defaults.py), is a
+        checksum error (bit 12)."""
         store = self.ctx.nvram
         if store is None:
             return None, False
@@ -144,7 +146,7 @@ class MaxkCard(Card):
         image = store.load(self.name)
         if image is None:
             return None, existed
-        if image.get("format") != IMAGE_FORMAT:
+        if image.get("format") not in IMAGE_FORMATS:
             return None, True
         return image, False
 

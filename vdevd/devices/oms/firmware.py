@@ -24,6 +24,8 @@ from vdevd.devices.oms import (  # noqa: F401 (they register their commands)
 )
 from vdevd.devices.oms.capture import Capture
 from vdevd.devices.oms.contour import Contour
+from vdevd.devices.oms.defaults import image as defaults_image
+from vdevd.devices.oms.defaults import load_io
 from vdevd.devices.oms.faults import FAULT_EVENTS, react_to_faults
 from vdevd.devices.oms.layout import AXIS_LETTERS, Doorbell
 from vdevd.devices.oms.layout import limit_word as pack_limit_word
@@ -40,7 +42,7 @@ _LEXER_TABLE = {name: spec.operand for name, spec in TABLE.items()}
 class Firmware:
     """One card's firmware state; `ring(bits)` rings the outbound doorbell."""
 
-    def __init__(self, n: int, types: list[str], period_ns: int, *, ideal: bool,
+    def __init__(self, n: int, types: list[str], period_ns: int, *, update_hz: int, ideal: bool,
                  ring: Callable[[int], None], version: str, serial: int,
                  save: Callable[[dict[str, Any]], None], saved: dict[str, Any] | None) -> None:
         self.n = n
@@ -55,8 +57,9 @@ class Firmware:
         self.replies: deque[bytes] = deque()
         self.last_error = ""
         self.errors = 0
-        self.update_hz = 1024
-        self.gpio_dir = 0xFF00  # 1 = output; factory IO0-7 in, IO8-15 out [spec §8.18]
+        self.factory_hz = update_hz  # the card's update rate, what RDF makes #UR report
+        self.update_hz = update_hz  # what #UR reports
+        self.gpio_dir = 0  # 1 = output (load_io: factory IO0-7 in, IO8-15 out [spec §8.18])
         self.gpio_out = 0
         self.gpio_in = 0xFFFF  # input levels (open inputs pulled high)
         self.analog_channels = 4 if n > 5 else 2  # [S Table 6-2]
@@ -70,6 +73,7 @@ class Firmware:
             self.loaded = "power_up"
         self.power_on()
         self.configure_axes()
+        load_io(self, saved)
 
     def power_on(self) -> None:
         """Positions 0, queues empty, the working parameters as they are."""
@@ -331,15 +335,17 @@ class Firmware:
 
     # -- stored defaults [S §2.13-2.14; spec §1.4, §2.3] -------------------------------------------
     def store_defaults(self) -> None:
-        """APP: the working parameters become the power-up defaults (written to the card's
-        flash, the NVRAM file, at once); which set is loaded does not change until a restart."""
-        image = self.params.image()
+        """APP: the working parameters and I/O configuration become the power-up defaults
+        (written to the card's flash, the NVRAM file, at once; defaults.py); which set is
+        loaded does not change until a restart."""
+        image = defaults_image(self)
         self.save(image)
         self.saved = image
 
     def restore_defaults(self, factory: bool) -> None:
-        """RDF (factory) / RDP (the stored power-up set) into working memory; RDP without a
-        stored set is refused."""
+        """RDF (factory) / RDP (the stored power-up set) into working memory, parameters and
+        I/O configuration (what the stored set lacks: factory); RDP without a stored set is
+        refused."""
         if not factory and self.saved is None:
             raise CommandError("no power-up defaults stored")
         params = Params(self.n, self.factory_types)
@@ -349,6 +355,7 @@ class Firmware:
         self.params.__dict__.update(params.__dict__)
         self.loaded = "factory" if factory else "power_up"
         self.configure_axes()
+        load_io(self, None if factory else self.saved)
 
     def configure_axes(self) -> None:
         """Make the axes what the working parameters say: type, loop, encoder ratio, gains,

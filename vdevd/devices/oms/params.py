@@ -2,7 +2,8 @@
 
 Numeric parameters are float arrays, one element per axis (`Params.values["VL"]`); the axis
 configuration (type, polarities, limit mode, closed loop) is kept beside them as small arrays.
-The whole set is what `APP` stores as the power-up defaults and `RDF`/`RDP` restore [S §2.14].
+The whole set is, with the I/O configuration (defaults.py), what `APP` stores as the power-up
+defaults and `RDF`/`RDP` restore [S §2.14].
 User units (UU) and the encoder ratio (ER) change how operands and replies read (`scale`,
 `format`); inside, everything stays in counts.
 """
@@ -66,7 +67,6 @@ UNIT_OPERANDS = {
                             "VB", "HV", "AC")},
     "LPE": "encoder",
 }
-IMAGE_FORMAT = 1  # the layout of what APP stores
 
 
 class Params:
@@ -109,9 +109,8 @@ class Params:
 
     # -- the stored defaults -----------------------------------------------------------------------
     def image(self) -> dict[str, Any]:
-        """What APP stores (msgpack-friendly)."""
+        """The parameter part of what APP stores (msgpack-friendly, defaults.py)."""
         return {
-            "format": IMAGE_FORMAT,
             "values": {k: v.tolist() for k, v in self.values.items()},
             "ptype": self.ptype,
             "limit_high": self.limit_high.tolist(),
