@@ -83,8 +83,10 @@ def test_i6_0_reports_a_bare_bell(card: Card) -> None:
 
 
 def test_comment_is_ignored_even_with_bytes_above_127(card: Card) -> None:
-    """V1.939: characters > 127 are accepted inside comments [A L3311]."""
+    """V1.939: characters > 127 are accepted inside comments [A L3311]; elsewhere one is ERR004
+    (illegal character) [digest §2.4 error list]."""
     assert card.ask("I130 ; gain \xb5 ok") == "2000"
+    assert card.raw("I130 \xb5") == b"2000\r\x07ERR004\r"
 
 
 # -- identification --------------------------------------------------------------------------------

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from vdevd.devices.pmac.firmware import Firmware
 
 #: error numbers [DLS-lib PMAC_errors, Turbo SRM I6; digest §2.4]
-ERR_RUNNING, ERR_DATA, ERR_NOT_OPEN, ERR_IN_USE, ERR_MACRO = 1, 3, 5, 7, 8
+ERR_RUNNING, ERR_DATA, ERR_ILLEGAL, ERR_NOT_OPEN, ERR_IN_USE, ERR_MACRO = 1, 3, 4, 5, 7, 8
 ERR_NO_PROGRAM, ERR_PHASE = 15, 18
 
 _INT = re.compile(r"\d+")
@@ -144,7 +144,9 @@ class Interpreter:
                     continue
                 handler = _DISPATCH.get(c)
                 if handler is None:
-                    raise CommandError(ERR_DATA, f"unrecognised {c!r}")
+                    # ERR004: a character above 127 outside a comment [digest §2.4; A L3311]
+                    raise CommandError(ERR_ILLEGAL if ord(c) > 127 else ERR_DATA,
+                                       f"unrecognised {c!r}")
                 handler(self, line, port, reply.lines)
         except CommandError as exc:
             reply.error = exc.code
