@@ -252,7 +252,8 @@ class Firmware:
 
     def advance_contours(self) -> None:
         """One update cycle of each running contour: the path coordinate at the override-
-        stretched time, the axes held there, VIO outputs at segment starts."""
+        stretched time, the axes held there, VIO outputs at segment starts. At its end the axes
+        hold the nearest whole counts (an arc ends between counts; see hold_whole_counts)."""
         dt = self.period_ns / 1e9
         profile = self.motion.core.profile
         for task, c in list(self.running_contours.items()):
@@ -261,9 +262,10 @@ class Firmware:
             io = c.segments[seg]
             if io.io_on or io.io_off:
                 self.gpio_out = (self.gpio_out | io.io_on) & ~io.io_off
+            ended = c.t >= c.duration
             for a in c.axes:
-                profile.hold(a, pos[a])
-            if c.t >= c.duration:
+                profile.hold(a, float(round(pos[a])) if ended else pos[a])
+            if ended:
                 del self.running_contours[task]
             c.t += dt * self.override.get(task, 1.0)
         profile.commit()

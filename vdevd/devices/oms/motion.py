@@ -7,8 +7,10 @@ exactly. Moves from rest are the linear profile with base velocity (profile.py):
 inputs are raw TTL levels; LTH/LTL give the active level, the limit mode (hard: stop at once;
 soft: decelerate at AC; off: ignored) what a switch does [S §4.2]. Home searches: HM/HR/KM/KR run
 at VL until the home condition (the switch, or in HI mode the switch and an encoder index pulse)
-and load the operand into the position counter where it occurred [S §4.3, §4.8]. Encoder
-features (slip, runaway, index pulses, position maintenance) are in encoder.py.
+and load the operand into the position counter where it occurred [S §4.3, §4.8]. The card's
+commanded position is whole counts: an axis whose stop ended between two counts holds the nearer
+one (`hold_whole_counts`). Encoder features (slip, runaway, index pulses, position maintenance)
+are in encoder.py.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from vdevd.rt import MotionCore, PlantKind
 from vdevd.rt.axes import AxisFlag
 
 _KIND = {"O": PlantKind.STEPPER, "E": PlantKind.STEPPER, "M": PlantKind.SERVO}
+_DONE = int(AxisFlag.DONE)
 #: the deceleration of a stop "without deceleration" (hard limit, KM/KR, counts/s^2): the axis
 #: stands still within the update cycle
 HARD_STOP = 1e15
@@ -180,6 +183,8 @@ class OmsMotion:
 
     def tick(self) -> int:
         events = self.core.tick()
+        if events & _DONE:
+            self.hold_whole_counts()
         self.servo.after_tick()
         enc = self.encoders
         if enc.watching:
@@ -192,6 +197,23 @@ class OmsMotion:
         if enc.maintaining:
             enc.maintain()
         return events
+
+    def hold_whole_counts(self) -> None:
+        """Axes at rest under control (steppers, CL1 servos) hold a whole count, the one RP
+        reports. The core's stops (ST, a limit, a home ramp-down, a kill) end where the
+        deceleration takes them, between two counts; a servo commanded there hunts one encoder
+        count around it forever. Run when a profile ends (a DONE event); an axis that a contour
+        holds is held on its path again before the next tick, so this does not touch a running
+        contour."""
+        core = self.core
+        cmd = core.axes.cmd_pos
+        whole = np.rint(cmd)
+        snap = np.flatnonzero(~core.profile.moving & core.servo_on_mask & (whole != cmd))
+        if not len(snap):
+            return
+        for a in snap.tolist():
+            core.profile.hold(a, float(whole[a]))
+        core.profile.commit()
 
     def set_home_mode(self, a: int, index: bool) -> None:
         """HI (home = switch AND encoder index pulse) or HS (the switch alone)."""
