@@ -284,7 +284,8 @@ def test_control_characters(card: Card) -> None:
 # -- not yet (README "Not yet") -----------------------------------------------------------------------
 @pytest.mark.parametrize(("line", "error"), [
     ("OPEN PROG 1", b"ERR003"), ("&1B1R", b"ERR015"), ("MS0,I910", b"ERR008"),
-    ("#1->1000X", b"ERR003"), ("ENABLE PLC 1", b"ERR003"), ("CLOSE", b"ERR005"),
+    ("#1->1000X", b"ERR003"), ("&1#1->X", b"ERR003"), ("ENABLE PLC 1", b"ERR003"),
+    ("CLOSE", b"ERR005"),
 ])
 def test_later_issue_commands_answer_an_error(card: Card, line: str, error: bytes) -> None:
     assert card.raw(line) == b"\x07" + error + b"\r"
@@ -394,3 +395,10 @@ def test_jog_to_position_saturates_at_768m_over_ixx08_counts_per_second(card: Ca
     card.raw("I222=100000 I219=1000 I220=1 I221=0 #2J+")
     card.tick(700)
     assert float(card.ask("#2V")) > 2 * per_cycle
+
+
+def test_axis_definition_query_answers_none_yet(card: Card) -> None:
+    """EPICS pmac asks `&1#1->` for each motor's axis [EPICS-HW]; with no axis definitions
+    (a later issue) the card answers 0."""
+    assert card.ask("&1#1->") == "0"
+    assert card.ask("#2-> #3->#") == "0\r0\r3"

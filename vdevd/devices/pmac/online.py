@@ -168,7 +168,12 @@ class Interpreter:
             return
         port.motor = _select(line, out, port.motor, 32)
         line.skip()
-        if line.take("->"):  # axis definitions: coordinate systems come in a later issue
+        if line.take("->"):
+            line.skip()
+            if line.peek() in ("", "#", "&"):  # `#n->`: the axis definition, none yet (EPICS asks)
+                out.append("0")
+                return
+            # defining one waits for coordinate systems (a later issue)
             raise CommandError(ERR_DATA, "axis definitions are not supported yet")
 
     def _cs(self, line: Line, port: PortState, out: list[str]) -> None:
