@@ -15,7 +15,8 @@ from typing import Any
 import numpy as np
 
 from vdevd.devices.pmac.comp2d import CompError, CompTables
-from vdevd.devices.pmac.ect import ConversionTable
+from vdevd.devices.pmac.ect import ConversionTable, setup_address
+from vdevd.devices.pmac.expr import ExprError
 from vdevd.devices.pmac.feedback import FeedbackSelect
 from vdevd.devices.pmac.gpio import GeneralIO
 from vdevd.devices.pmac.ivars import IVars
@@ -205,10 +206,11 @@ class Firmware:
 
     def address_of_ivar(self, n: int) -> float:
         """`I{a}=@I{b}`: the address of I-variable b; only the conversion table's setup lines
-        have one ($3501 + k for I(8000+k)) [A L2549, L3266]."""
-        if 8000 <= n < 8192:
-            return float(0x3501 + n - 8000)
-        raise CommandError(ERR_DATA, f"I{n} has no address")
+        have one (ect.setup_address) [A L2549, L3266]."""
+        addr = setup_address(n)
+        if addr is None:
+            raise CommandError(ERR_DATA, f"I{n} has no address")
+        return float(addr)
 
     # -- motors -----------------------------------------------------------------------------------
     def motor_call(self, name: str, motor: int, *args: Any) -> None:
@@ -228,10 +230,10 @@ class Firmware:
             return "0"
         m, mot = motor - 1, self.motors
         if what == "P":
-            return format_value(round(mot.position_of(m) * 32) / 32)
+            return report_counts(mot.position_of(m))
         if what == "F":
-            return format_value(round(float(mot.following_error()[m]) * 32) / 32)
-        return format_value(round(float(mot.velocity()[m]), 1))
+            return report_counts(float(mot.following_error()[m]))
+        return report_velocity(float(mot.velocity()[m]))
 
     def motor_status(self, motor: int) -> tuple[int, int]:
         if motor > self.ivars.motors:
@@ -277,7 +279,7 @@ class Firmware:
                                 for cs in range(1, CS_COUNT + 1))
             case 0x06:  # ^F following errors
                 fe = mot.following_error()
-                return " ".join(format_value(round(float(fe[m]) * 32) / 32) for m in group)
+                return " ".join(report_counts(float(fe[m])) for m in group)
             case 0x07:  # ^G global status
                 return "".join(f"{w:06X}" for w in self.global_status())
             case 0x0B:  # ^K kill all
@@ -285,10 +287,10 @@ class Firmware:
                 return ""
             case 0x10:  # ^P positions
                 pos = mot.position()
-                return " ".join(format_value(round(float(pos[m]) * 32) / 32) for m in group)
+                return " ".join(report_counts(float(pos[m])) for m in group)
             case 0x16:  # ^V velocities
                 vel = mot.velocity()
-                return " ".join(format_value(round(float(vel[m]), 1)) for m in group)
+                return " ".join(report_velocity(float(vel[m])) for m in group)
             case 0x18:  # ^X cancel: the port flushes; echoed when I63 = 1
                 port.table_left = 0
                 return "\x18" if self.ivars.values[63] else ""
@@ -427,6 +429,16 @@ class Firmware:
             self.on_reset()
 
 
+def report_counts(v: float) -> str:
+    """A position or following error as P, F, ^P and ^F print it: counts to 1/32 [SRM p.260]."""
+    return format_value(round(v * 32) / 32)
+
+
+def report_velocity(v: float) -> str:
+    """A velocity as V and ^V print it: counts per servo cycle to 0.1 [PMAC1-SRM p.175]."""
+    return format_value(round(v, 1))
+
+
 class _FineEncoders:
     """The motors as the Servo ICs read them: counters with their sub-count fraction."""
 
@@ -449,8 +461,6 @@ class _Env:
 
     def get(self, kind: str, n: int) -> float:
         if not 0 <= n < VARIABLES:
-            from vdevd.devices.pmac.expr import ExprError
-
             raise ExprError(ERR_DATA)
         return self.fw.get_variable(self.port, kind, n)
 

@@ -24,6 +24,8 @@ MOTOR_BASE, MOTOR_STRIDE = 0x80, 0x80
 CS_BASE, CS_STRIDE = 0x2000, 0x100
 P_BASE, Q_BASE = 0x6000, 0x8000
 WORD = 0xFFFFFF
+#: motor-block D: registers -> the Motors report they show (0x10, Mxx69, is the firmware's)
+_FIXED = {0x08: "commanded", 0x0B: "position", 0x10: "", 0x47: "target"}
 
 
 class GlobalRegisters:
@@ -65,13 +67,10 @@ class MotorBlocks:
         if motor >= fw.ivars.motors:
             return self.words.get((space, addr), 0)
         mot = fw.motors
-        scale = fw.ivars.values[100 * (motor + 1) + 8] * 32
-        fixed = {0x08: lambda: mot.commanded()[motor] * scale,
-                 0x0B: lambda: mot.position()[motor] * scale,
-                 0x10: lambda: fw.comp_correction(motor) * scale,
-                 0x47: lambda: mot.target()[motor] * scale}
-        if off in fixed:
-            v = wrap(round_to_int(fixed[off]()), 48, signed=False)
+        if off in _FIXED:  # 48-bit positions in 1/(Ixx08·32) count
+            counts = fw.comp_correction(motor) if off == 0x10 else getattr(mot, _FIXED[off])()[motor]
+            scale = fw.ivars.values[100 * (motor + 1) + 8] * 32
+            v = wrap(round_to_int(counts * scale), 48, signed=False)
             return v >> 24 if space == "X" else v & WORD
         if space == "X" and off == 0x1D:
             vscale = fw.ivars.values[100 * (motor + 1) + 9] * 32
