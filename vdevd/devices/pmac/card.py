@@ -159,7 +159,7 @@ class PmacCard(Card):
             description="host port (HI08 bytes 0-7) and interrupt controller (8 status, 9 mask)"))
         self.host.hook(0, HOST_SIZE, on_read=lambda o, n: bytes([self.host_read(o)]),
                        on_write=lambda o, d: self.host_write(o, d[0]),
-                       peek=lambda o, n: bytes([self._host_peek(o)]))
+                       peek=lambda o, n: bytes([self.host_read(o, peek=True)]))
         self.inta = self.add_irq("inta")
         self.irq = InterruptController(self.inta.trigger, self.inta.clear)
         store = ctx.nvram
@@ -259,7 +259,8 @@ class PmacCard(Card):
         return self.fw.control(self.dpram_port, ch)
 
     # -- host port --------------------------------------------------------------------------------
-    def host_read(self, offset: int) -> int:
+    def host_read(self, offset: int, peek: bool = False) -> int:
+        """A host-port byte; `peek` reads the data register without taking its character."""
         if not 0 <= offset < HOST_SIZE:
             raise ValueError(f"host port offset {offset} outside 0-{HOST_SIZE - 1}")
         if offset == IR_STATUS:
@@ -268,18 +269,7 @@ class PmacCard(Card):
             return self.irq.mask
         if offset >= 8:
             return 0
-        return self.hostport.read(offset)
-
-    def _host_peek(self, offset: int) -> int:
-        if offset == IR_STATUS:
-            return self.irq.status
-        if offset == IR_MASK:
-            return self.irq.mask
-        if offset == 2:
-            return self.hostport.read(2)
-        if offset == 7:
-            return self.hostport.out[0] if self.hostport.out else 0
-        return self.hostport.regs[offset] if offset < 8 else 0
+        return self.hostport.peek(offset) if peek else self.hostport.read(offset)
 
     def host_write(self, offset: int, value: int) -> None:
         if not 0 <= offset < HOST_SIZE:

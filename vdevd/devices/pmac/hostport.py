@@ -59,6 +59,12 @@ class HostPort:
             return self.out.popleft() if self.out else 0
         return self.regs[offset]
 
+    def peek(self, offset: int) -> int:
+        """`read` without taking a character from the data register."""
+        if offset == DATA:
+            return self.out[0] if self.out else 0
+        return self.read(offset)
+
     def write(self, offset: int, value: int) -> None:
         if offset != DATA:
             self.regs[offset] = value
