@@ -210,9 +210,9 @@ class PmacCard(Card):
         cycle = fw.servo_cycles
         iv = fw.ivars.values
         rep = self.reporting
-        if iv[48] and rep.due(cycle, iv[47], iv[48], dpram.REALTIME):
+        if iv[48] and rep.due(cycle, iv[47], dpram.REALTIME):
             self._report_realtime(cycle)
-        if iv[50] and rep.due(cycle, iv[49], iv[50], dpram.BACKGROUND):
+        if iv[50] and rep.due(cycle, iv[49], dpram.BACKGROUND):
             rep.background(cycle, fw.global_status(), [fw.cs_status(c) for c in range(1, 17)],
                            fw.feed)
         if self.irq.mask & _MOTOR_SOURCES:

@@ -125,8 +125,9 @@ class Reporting:
     def __init__(self, mem: bytearray) -> None:
         self.mem = mem
 
-    def due(self, cycle: int, period: float, enabled: float, offset: int) -> bool:
-        if not enabled or self.mem[offset + 1] & 0x80:
+    def due(self, cycle: int, period: float, offset: int) -> bool:
+        """A buffer the host has read (handshake bit 15 clear) at a multiple of its period."""
+        if self.mem[offset + 1] & 0x80:
             return False
         return cycle % max(int(period), 1) == 0
 
