@@ -150,31 +150,15 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
             fns[TICK] = lambda: rack.sim.step(ticks=1)
             fns[REPLAY], batch_ops = replay_of(dmc, rack)
 
-        counts = count_round_trips(Rack, {DMC: dmc, GCLIB: gcommand}, 200)
-        now0 = rack.sim.now_ns()
-        dmc()
-        card_ns = rack.sim.now_ns() - now0
+        series, counts, card_ns, stats = measure_commands(
+            rack, Rack, fns, {DMC: dmc, GCLIB: gcommand}, n, repeats, warmup, block, seed)
 
-        warm_up(fns, warmup, block)
-        series = time_interleaved(fns, n, repeats, block, seed)
-        stats = rack.stats()
-
-    dists, per_repeat, ratios = ratios_to_raw(series, {"dmc": DMC, "gclib": GCLIB})
-    return {
-        "figure": "galil",
-        "placement": where,
-        "params": {"n": n, "repeats": repeats, "warmup": warmup, "block": block,
-                   "command": COMMAND, "transport": "tcp loopback", "clock": "lockstep"},
-        "series": dists,
-        "per_repeat": per_repeat,
-        "ratios": ratios,
-        "round_trips": counts,
-        "batch_ops": batch_ops,
-        "card_ns_per_command": card_ns,
-        "daemon_latency_us": ns_dist_to_us(stats["requests"]["latency_ns"]),
-        "goal": f"p50 <= {GOAL_P50}x raw REQ/REP",
-        "pass": all(r["p50"] <= GOAL_P50 for r in ratios.values()),
-    }
+    measured = ratios_to_raw(series, {"dmc": DMC, "gclib": GCLIB})
+    return command_figure(
+        "galil", where, {"n": n, "repeats": repeats, "warmup": warmup, "block": block,
+                         "command": COMMAND, "transport": "tcp loopback", "clock": "lockstep"},
+        measured, counts, card_ns, stats, f"p50 <= {GOAL_P50}x raw REQ/REP",
+        all(r["p50"] <= GOAL_P50 for r in measured[2].values()), batch_ops=batch_ops)
 
 
 def replay_of(dmc: Callable[[], Any], rack: Any) -> tuple[Callable[[], Any], int]:
@@ -199,6 +183,36 @@ def replay_of(dmc: Callable[[], Any], rack: Any) -> tuple[Callable[[], Any], int
         return rack.call({"op": "batch", "ops": ops}, 1.0)
 
     return replay, len(ops)
+
+
+def measure_commands(rack: Any, rack_class: Any, fns: dict[str, Callable[[], Any]],
+                     counted: dict[str, Callable[[], Any]], n: int, repeats: int, warmup: int,
+                     block: int, seed: int) -> tuple[dict[str, Any], dict[str, Any], int, dict[str, Any]]:
+    """What every command bench measures, in order: the round trips per call of `counted`, the
+    card time one call of the first of them takes, then the interleaved block timing of `fns`.
+    Returns (series, round trips, card ns per command, the daemon's stats)."""
+    counts = count_round_trips(rack_class, counted, 200)
+    now0 = rack.sim.now_ns()
+    next(iter(counted.values()))()
+    card_ns = rack.sim.now_ns() - now0
+    warm_up(fns, warmup, block)
+    series = time_interleaved(fns, n, repeats, block, seed)
+    return series, counts, card_ns, rack.stats()
+
+
+def command_figure(figure: str, where: str, params: dict[str, Any], measured: tuple[Any, ...],
+                   counts: dict[str, Any], card_ns: int, stats: dict[str, Any], goal: str,
+                   passed: bool, **extra: Any) -> dict[str, Any]:
+    """A command figure's result record; `measured` is ratios_to_raw's (dists, per repeat,
+    ratios)."""
+    dists, per_repeat, ratios = measured
+    return {
+        "figure": figure, "placement": where, "params": params, "series": dists,
+        "per_repeat": per_repeat, "ratios": ratios, "round_trips": counts, **extra,
+        "card_ns_per_command": card_ns,
+        "daemon_latency_us": ns_dist_to_us(stats["requests"]["latency_ns"]),
+        "goal": goal, "pass": passed,
+    }
 
 
 def count_round_trips(rack_class: Any, fns: dict[str, Callable[[], Any]], n: int) -> dict[str, Any]:

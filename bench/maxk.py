@@ -35,19 +35,16 @@ from bench.common import (  # noqa: E402
     connect,
     daemon,
     install_signal_handlers,
-    ns_dist_to_us,
     pin_self,
     placement,
     write_json,
 )
-from bench.galil import checked_raw_client, count_round_trips, start_raw_server  # noqa: E402
+from bench.galil import checked_raw_client, command_figure, measure_commands, start_raw_server  # noqa: E402
 from bench.rtt import (  # noqa: E402
     RAW,
     ratios_to_raw,
     report_against_raw,
     report_ratio_goals,
-    time_interleaved,
-    warm_up,
 )
 
 GOAL_P50 = 2.5
@@ -102,32 +99,15 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
             fns[READ] = lambda: shm.read(0x0F8, 4)
             fns[REPLAY], batch_ops = replay_of(stack.enter_context(maxk.open(3, endpoint=d.endpoint)))
 
-        counts = count_round_trips(Rack, {MAXK: command, EAGER: command_eager}, 200)
-        now0 = rack.sim.now_ns()
-        command()
-        card_ns = rack.sim.now_ns() - now0
+        series, counts, card_ns, stats = measure_commands(
+            rack, Rack, fns, {MAXK: command, EAGER: command_eager}, n, repeats, warmup, block, seed)
 
-        warm_up(fns, warmup, block)
-        series = time_interleaved(fns, n, repeats, block, seed)
-        stats = rack.stats()
-
-    dists, per_repeat, ratios = ratios_to_raw(series, {"maxk": MAXK, "eager": EAGER})
-    return {
-        "figure": "maxk",
-        "placement": where,
-        "params": {"n": n, "repeats": repeats, "warmup": warmup, "block": block,
-                   "command": COMMAND, "transport": "tcp loopback", "clock": "lockstep"},
-        "series": dists,
-        "per_repeat": per_repeat,
-        "ratios": ratios,
-        "round_trips": counts,
-        "batch_ops": batch_ops,
-        "card_ns_per_command": card_ns,
-        "daemon_latency_us": ns_dist_to_us(stats["requests"]["latency_ns"]),
-        "goal": f"p50 <= {GOAL_P50}x raw REQ/REP",
-        "pass": ratios[MAXK]["p50"] <= GOAL_P50,
-    }
-
+    measured = ratios_to_raw(series, {"maxk": MAXK, "eager": EAGER})
+    return command_figure(
+        "maxk", where, {"n": n, "repeats": repeats, "warmup": warmup, "block": block,
+                        "command": COMMAND, "transport": "tcp loopback", "clock": "lockstep"},
+        measured, counts, card_ns, stats, f"p50 <= {GOAL_P50}x raw REQ/REP",
+        measured[2][MAXK]["p50"] <= GOAL_P50, batch_ops=batch_ops)
 
 def replay_of(card: Any) -> tuple[Callable[[], Any], int]:
     """A call that sends the batch of `card.send_and_get_string(COMMAND)` through its rack, with

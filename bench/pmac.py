@@ -44,19 +44,16 @@ from bench.common import (  # noqa: E402
     daemon,
     free_port,
     install_signal_handlers,
-    ns_dist_to_us,
     pin_self,
     placement,
     write_json,
 )
-from bench.galil import checked_raw_client, count_round_trips, start_raw_server  # noqa: E402
+from bench.galil import checked_raw_client, command_figure, measure_commands, start_raw_server  # noqa: E402
 from bench.rtt import (  # noqa: E402
     RAW,
     ratios_to_raw,
     report_against_raw,
     report_ratio_goals,
-    time_interleaved,
-    warm_up,
 )
 
 GOAL_P50 = 2.5
@@ -178,34 +175,25 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
             region = rack.card(CARD).region("dpram")
             fns[READ] = lambda: region.read(0x0F40, 4)
 
-        counts = count_round_trips(Rack, {DPRAM: dpram}, 200)
-        now0 = rack.sim.now_ns()
-        dpram()
-        card_ns = rack.sim.now_ns() - now0
-
-        warm_up(fns, warmup, block)
-        series = time_interleaved(fns, n, repeats, block, seed)
-        stats = rack.stats()
+        series, counts, card_ns, stats = measure_commands(
+            rack, Rack, fns, {DPRAM: dpram}, n, repeats, warmup, block, seed)
 
     dpram_series = {k: v for k, v in series.items() if k not in (TCP_RAW, ETHERNET)}
-    dists, per_repeat, ratios = ratios_to_raw(dpram_series, {"dpram": DPRAM})
-    eth_dists, eth_repeat, eth_ratios = ratios_to_raw({RAW: series[TCP_RAW], ETHERNET: series[ETHERNET]},
-                                                      {"ethernet": ETHERNET})
-    latency = ns_dist_to_us(stats["requests"]["latency_ns"])
+    dpram_measured = ratios_to_raw(dpram_series, {"dpram": DPRAM})
+    eth_measured = ratios_to_raw({RAW: series[TCP_RAW], ETHERNET: series[ETHERNET]},
+                                 {"ethernet": ETHERNET})
+    ratios, eth_ratios = dpram_measured[2], eth_measured[2]
     params = {"n": n, "repeats": repeats, "warmup": warmup, "block": block, "command": COMMAND,
               "clock": "lockstep"}
     figures = {
-        "pmac-dpram": {"figure": "pmac-dpram", "placement": where, "series": dists,
-                       "per_repeat": per_repeat, "ratios": ratios, "round_trips": counts,
-                       "card_ns_per_command": card_ns, "daemon_latency_us": latency,
-                       "params": {**params, "transport": "zmq tcp loopback"},
-                       "goal": f"p50 <= {GOAL_P50}x raw REQ/REP", "pass": ratios[DPRAM]["p50"] <= GOAL_P50},
-        "pmac-ethernet": {"figure": "pmac-ethernet", "placement": where, "series": eth_dists,
-                          "per_repeat": eth_repeat, "ratios": eth_ratios,
-                          "round_trips": {ETHERNET: {"mean": 1.0, "max": 1}}, "card_ns_per_command": 0,
-                          "daemon_latency_us": latency, "params": {**params, "transport": "tcp loopback"},
-                          "goal": f"p50 <= {GOAL_P50}x raw TCP",
-                          "pass": eth_ratios[ETHERNET]["p50"] <= GOAL_P50},
+        "pmac-dpram": command_figure(
+            "pmac-dpram", where, {**params, "transport": "zmq tcp loopback"}, dpram_measured,
+            counts, card_ns, stats, f"p50 <= {GOAL_P50}x raw REQ/REP",
+            ratios[DPRAM]["p50"] <= GOAL_P50),
+        "pmac-ethernet": command_figure(
+            "pmac-ethernet", where, {**params, "transport": "tcp loopback"}, eth_measured,
+            {ETHERNET: {"mean": 1.0, "max": 1}}, 0, stats, f"p50 <= {GOAL_P50}x raw TCP",
+            eth_ratios[ETHERNET]["p50"] <= GOAL_P50),
     }
     return {"figure": "pmac", "placement": where, "params": params, "figures": figures,
             "ratios": {**ratios, **eth_ratios},
