@@ -25,12 +25,6 @@ def daemon() -> Iterator[DaemonThread]:
         yield d
 
 
-@pytest.fixture
-def rack(daemon: DaemonThread) -> Iterator[vdevclient.Rack]:
-    with vdevclient.connect(daemon.endpoint, daemon.events) as r:
-        yield r
-
-
 def open_controller(daemon: DaemonThread, number: int = 1, hwnd: Any = 0) -> ctypes.c_long:
     h = ctypes.c_long()
     assert galil.DMCOpen(number, hwnd, ctypes.byref(h), endpoint=daemon.endpoint) == OK

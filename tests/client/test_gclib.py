@@ -19,12 +19,6 @@ def daemon() -> Iterator[DaemonThread]:
 
 
 @pytest.fixture
-def rack(daemon: DaemonThread) -> Iterator[vdevclient.Rack]:
-    with vdevclient.connect(daemon.endpoint, daemon.events) as r:
-        yield r
-
-
-@pytest.fixture
 def g(daemon: DaemonThread) -> Iterator[gclib.py]:
     conn = gclib.py()
     conn.GOpen(f"galil0 --endpoint {daemon.endpoint}")

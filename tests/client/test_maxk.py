@@ -39,12 +39,6 @@ def daemon() -> Iterator[DaemonThread]:
 
 
 @pytest.fixture
-def rack(daemon: DaemonThread) -> Iterator[vdevclient.Rack]:
-    with vdevclient.connect(daemon.endpoint, daemon.events) as r:
-        yield r
-
-
-@pytest.fixture
 def m(daemon: DaemonThread) -> Iterator[maxk.Maxk]:
     with maxk.open(1, endpoint=daemon.endpoint) as board:
         yield board

@@ -39,12 +39,6 @@ def daemon() -> Iterator[DaemonThread]:
 
 
 @pytest.fixture
-def rack(daemon: DaemonThread) -> Iterator[vdevclient.Rack]:
-    with vdevclient.connect(daemon.endpoint, daemon.events) as r:
-        yield r
-
-
-@pytest.fixture
 def dev(daemon: DaemonThread) -> Iterator[int]:
     assert pcomm.OpenPmacDevice(DEVICE, endpoint=daemon.endpoint)
     try:
