@@ -175,8 +175,7 @@ def request_from(msg: Any) -> Request:
         ops, req_id = msg.get("ops"), msg["id"]  # {id, op, ops}: what clients send for a batch
         if type(ops) is list and type(req_id) not in _CONTAINERS:
             try:
-                return Request(req_id, "batch",
-                               {"ops": [_validate_batch_op(i, o) for i, o in enumerate(ops)]})
+                return Request(req_id, "batch", {"ops": _batch_ops(ops)})
             except VdevError as exc:
                 raise _with_id(exc, req_id) from None
     if not isinstance(msg, dict):
@@ -192,17 +191,34 @@ def request_from(msg: Any) -> Request:
     try:
         req = validate(msg.get("op"), msg, req_id)
         if req.op == "batch":
-            req.args["ops"] = [_validate_batch_op(i, o) for i, o in enumerate(req.args["ops"])]
+            req.args["ops"] = _batch_ops(req.args["ops"])
     except VdevError as exc:
         raise _with_id(exc, req_id) from None
     return req
 
 
+def _batch_ops(ops: list[Any]) -> list[Request]:
+    """A batch's ops, validated. The usual read or write ({op, card, region, offset, size|data
+    [, rep]} with the right types) is checked here in a few operations and its own map becomes
+    its args; anything else goes through `validate`, which accepts it or names what is wrong."""
+    out: list[Request] = []
+    append = out.append
+    for i, op in enumerate(ops):
+        if type(op) is dict:
+            name = op.get("op")
+            if type(name) is str and name in _PLAIN_KEYS:
+                keys, keys_rep, last, last_type = _PLAIN_KEYS[name]
+                found = op.keys()
+                if (found == keys or (found == keys_rep and type(op["rep"]) is bool)) \
+                        and type(op[last]) is last_type and type(op["card"]) is str \
+                        and type(op["region"]) is str and type(op["offset"]) is int:
+                    append(Request(None, name, op))
+                    continue
+        append(_validate_batch_op(i, op))
+    return out
+
+
 def _validate_batch_op(index: int, op: Any) -> Request:
-    if type(op) is dict and len(op) == 5:  # the usual read or write, checked in a few operations
-        fast = _plain_access(op)
-        if fast is not None:
-            return fast
     if not isinstance(op, dict):
         raise VdevError(ErrorCode.MALFORMED, f"batch op {index}: not a map")
     name = op.get("op")
@@ -215,21 +231,14 @@ def _validate_batch_op(index: int, op: Any) -> Request:
         raise VdevError(exc.code, f"batch op {index}: {exc.message}") from None
 
 
-def _plain_access(op: dict[str, Any]) -> Request | None:
-    """A batch `read` {op, card, region, offset, size} or `write` {op, card, region, offset, data}
-    with the right types, as `validate` would pass it; None for anything else (the general path
-    then accepts or rejects it with its message). The op's own map becomes the args."""
-    name = op.get("op")
-    if name == "write":
-        last_ok = type(op.get("data")) in _BYTES
-    elif name == "read":
-        last_ok = type(op.get("size")) is int
-    else:
-        return None
-    if last_ok and type(op.get("card")) is str and type(op.get("region")) is str \
-            and type(op.get("offset")) is int:
-        return Request(None, name, op)
-    return None
+#: the key sets of a plain batch access without and with `rep`, its last field and that
+#: field's type (as msgpack gives it)
+_PLAIN_KEYS: dict[str, tuple[frozenset[str], frozenset[str], str, type]] = {
+    "read": (frozenset({"op", "card", "region", "offset", "size"}),
+             frozenset({"op", "card", "region", "offset", "size", "rep"}), "size", int),
+    "write": (frozenset({"op", "card", "region", "offset", "data"}),
+              frozenset({"op", "card", "region", "offset", "data", "rep"}), "data", bytes),
+}
 
 
 def _with_id(exc: VdevError, req_id: Any) -> VdevError:

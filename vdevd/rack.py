@@ -21,7 +21,7 @@ from vdevd.devices.base import Card
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.irq import IrqEvent
 from vdevd.metrics import Samples
-from vdevd.protocol import CAPABILITIES, MAX_MESSAGE, MAX_WAIT_NS, VERSION, Request
+from vdevd.protocol import CAPABILITIES, MAX_MESSAGE, MAX_WAIT_NS, SCHEMA, VERSION, Request
 from vdevd.region import Region
 from vdevd.rt.scheduler import Scheduler
 
@@ -122,9 +122,9 @@ class Rack:
         self.errors = 0
         self.latency = Samples()
         self.events_published = 0
-        #: the ops a batch may hold besides `wait` (protocol.BATCHABLE)
-        self._batchable: dict[str, Callable[[dict[str, Any], Reply], Any]] = {
-            "read": self.op_read, "write": self.op_write, "control": self.op_control}
+        #: op -> its handler (every op of protocol.SCHEMA has an `op_<name>`)
+        self._handlers: dict[str, Callable[[dict[str, Any], Reply], Any]] = {
+            name: getattr(self, "op_" + name) for name in SCHEMA}
 
     def add_card(self, card: Card) -> None:
         if card.name in self.cards:
@@ -323,11 +323,12 @@ class Rack:
 
     def execute(self, req: Request, reply: Reply) -> None:
         """Serve one request; `reply` gets the result or a VdevError, exactly once."""
-        self.catch_up()
-        self.requests[req.op] = self.requests.get(req.op, 0) + 1
+        if self._paced:
+            self.catch_up()
+        op = req.op
+        self.requests[op] = self.requests.get(op, 0) + 1
         try:
-            handler = getattr(self, "op_" + req.op)
-            result = handler(req.args, reply)
+            result = self._handlers[op](req.args, reply)
         except VdevError as exc:
             self.errors += 1
             reply(exc)
@@ -417,6 +418,7 @@ class Rack:
 
     def _run_batch(self, ops: list[Request], start: int, results: list[Any], reply: Reply) -> None:
         """Run ops from `start`; a wait suspends the rest until it resolves (atomic after it)."""
+        regions = self._regions
         for i in range(start, len(ops)):
             op = ops[i]
             if op.op == "wait":
@@ -443,7 +445,23 @@ class Rack:
                 self._add_waiter(waiter)
                 return
             try:
-                results.append(self._batchable[op.op](op.args, reply))
+                if op.op == "control":
+                    results.append(self.op_control(op.args, reply))
+                    continue
+                args = op.args  # a read or a write: op_read or op_write, inline
+                region = regions.get((args["card"], args["region"]))
+                if region is None:
+                    region = self.region(args["card"], args["region"])
+                if op.op == "write":
+                    if args.get("rep"):
+                        region.write_rep(args["offset"], args["data"])
+                    else:
+                        region.write(args["offset"], args["data"])
+                    results.append(None)
+                elif args.get("rep"):
+                    results.append(region.read_rep(args["offset"], args["size"]))
+                else:
+                    results.append(region.read(args["offset"], args["size"]))
             except VdevError as exc:
                 raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
         reply(results)

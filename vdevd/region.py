@@ -11,7 +11,7 @@ import bisect
 import struct
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 from vdevd.errors import ErrorCode, VdevError
 
@@ -23,6 +23,11 @@ RepReadHook = Callable[[int, int], bytes]
 RepWriteHook = Callable[[int, bytes], None]
 
 _FORMATS = {1: "B", 2: "H", 4: "I", 8: "Q"}
+#: resolved accesses kept per region and kind (a client uses a handful of offsets and sizes)
+MAX_PLANS = 4096
+
+ReadPlan = Callable[[int, int], bytes]
+WritePlan = Callable[[int, bytes], None]
 
 
 @dataclass(frozen=True)
@@ -80,6 +85,13 @@ class Region:
         self._read_spans: list[tuple[int, int]] = []
         self._unit = min(self.widths)
         self._prefix = "<" if endian == "little" else ">"
+        # Each host access of an (offset, size) met before runs its plan: what the checks and
+        # the hook lookup decided the first time, as one callable. Hooks are declared before
+        # the card serves; declaring one forgets every plan.
+        self._read_plans: dict[tuple[int, int], ReadPlan] = {}
+        self._write_plans: dict[tuple[int, int], WritePlan] = {}
+        self._read_rep_plans: dict[tuple[int, int], ReadPlan] = {}
+        self._write_rep_plans: dict[tuple[int, int], WritePlan] = {}
 
     # -- declaration -------------------------------------------------------------------------
     def hook(
@@ -108,6 +120,9 @@ class Region:
         if on_read is not None:
             self._read_spans.append((offset, h.end))
             self._read_spans.sort()
+        for plans in (self._read_plans, self._write_plans, self._read_rep_plans,
+                      self._write_rep_plans):
+            plans.clear()
         return h
 
     def describe(self) -> dict[str, object]:
@@ -124,50 +139,100 @@ class Region:
     # -- bus accesses (from the host) -----------------------------------------------------------
     def read(self, offset: int, size: int) -> bytes:
         """A host read: plain memory from the buffer, hooked registers through their hook."""
-        single = self._check(offset, size)
-        if not self._read_spans or not self._reads_hooked(offset, offset + size):
-            return bytes(self.mem[offset : offset + size])
-        if single:
-            return self._read_one(offset, size)
-        return b"".join(self._read_one(o, n) for o, n in self._pieces(offset, size))
+        plan = self._read_plans.get((offset, size))
+        if plan is None:
+            plan = _keep(self._read_plans, (offset, size), self._plan_read(offset, size))
+        return plan(offset, size)
 
     def write(self, offset: int, data: bytes) -> None:
         """A host write: plain memory into the buffer, hooked registers through their hook."""
-        size = len(data)
-        single = self._check(offset, size)
-        if not self._hooks or not self._overlapping(offset, offset + size):
-            self.mem[offset : offset + size] = data
-            return
-        if single:
-            self._write_one(offset, data)
-            return
-        for o, n in self._pieces(offset, size):
-            self._write_one(o, data[o - offset : o - offset + n])
+        plan = self._write_plans.get((offset, len(data)))
+        if plan is None:
+            plan = _keep(self._write_plans, (offset, len(data)), self._plan_write(offset, len(data)))
+        plan(offset, data)
 
     def read_rep(self, offset: int, size: int) -> bytes:
         """A repeated read (string I/O, Linux `ioread8_rep`): `size` bytes read as single accesses
         of the bus's smallest width, all at `offset` (a FIFO port)."""
-        unit = self._unit
-        self._check_rep(offset, size)
-        h = self._register(offset, unit)
-        if h is not None and h.on_read_rep is not None:
-            data = h.on_read_rep(offset, size)
-            if len(data) != size:
-                raise VdevError(ErrorCode.INTERNAL, f"hook at {offset:#x} returned {len(data)} bytes")
-            return data
-        return b"".join(self._read_one(offset, unit) for _ in range(size // unit))
+        plan = self._read_rep_plans.get((offset, size))
+        if plan is None:
+            plan = _keep(self._read_rep_plans, (offset, size), self._plan_read_rep(offset, size))
+        return plan(offset, size)
 
     def write_rep(self, offset: int, data: bytes) -> None:
         """A repeated write: `data` written as single accesses of the smallest width, all at
         `offset` (a FIFO port), in order."""
+        plan = self._write_rep_plans.get((offset, len(data)))
+        if plan is None:
+            plan = _keep(self._write_rep_plans, (offset, len(data)),
+                         self._plan_write_rep(offset, len(data)))
+        plan(offset, data)
+
+    # -- access plans: the checks and the hook lookup of one (offset, size), done once ---------
+    def _plan_read(self, offset: int, size: int) -> ReadPlan:
+        single = self._check(offset, size)
+        if not self._read_spans or not self._reads_hooked(offset, offset + size):
+            return self._read_plain
+        if single:
+            return self._read_register(offset, size)
+        parts = [(o, n, self._read_register(o, n)) for o, n in self._pieces(offset, size)]
+        return lambda _offset, _size: b"".join(read(o, n) for o, n, read in parts)
+
+    def _plan_write(self, offset: int, size: int) -> WritePlan:
+        single = self._check(offset, size)
+        if not self._hooks or not self._overlapping(offset, offset + size):
+            return self._write_plain
+        if single:
+            return self._write_register(offset, size)
+        parts = [(o - offset, o, n, self._write_register(o, n)) for o, n in self._pieces(offset, size)]
+
+        def write_pieces(_offset: int, data: bytes) -> None:
+            for at, o, n, write in parts:
+                write(o, data[at : at + n])
+
+        return write_pieces
+
+    def _plan_read_rep(self, offset: int, size: int) -> ReadPlan:
         unit = self._unit
-        self._check_rep(offset, len(data))
+        self._check_rep(offset, size)
+        h = self._register(offset, unit)
+        if h is not None and h.on_read_rep is not None:
+            return _sized(h.on_read_rep, offset)
+        read = self._read_register(offset, unit)
+        return lambda _offset, _size: b"".join(read(offset, unit) for _ in range(size // unit))
+
+    def _plan_write_rep(self, offset: int, size: int) -> WritePlan:
+        unit = self._unit
+        self._check_rep(offset, size)
         h = self._register(offset, unit)
         if h is not None and h.on_write_rep is not None:
-            h.on_write_rep(offset, bytes(data))
-            return
-        for i in range(0, len(data), unit):
-            self._write_one(offset, data[i : i + unit])
+            return _as_bytes(h.on_write_rep)
+        write = self._write_register(offset, unit)
+
+        def write_each(_offset: int, data: bytes) -> None:
+            for i in range(0, len(data), unit):
+                write(offset, data[i : i + unit])
+
+        return write_each
+
+    def _read_register(self, offset: int, size: int) -> ReadPlan:
+        """One single access's read: its hook's, or the buffer's when it has none."""
+        h = self._register(offset, size)
+        if h is None or h.on_read is None:
+            return self._read_plain
+        return _sized(h.on_read, offset)
+
+    def _write_register(self, offset: int, size: int) -> WritePlan:
+        h = self._register(offset, size)
+        if h is None or h.on_write is None:
+            return self._write_plain
+        return _as_bytes(h.on_write)
+
+    def _read_plain(self, offset: int, size: int) -> bytes:
+        return bytes(self.mem[offset : offset + size])
+
+    def _write_plain(self, offset: int, data: bytes) -> None:
+        self.mem[offset : offset + len(data)] = data
 
     def _check_rep(self, offset: int, size: int) -> None:
         unit = self._unit
@@ -279,18 +344,32 @@ class Region:
             )
         return h
 
-    def _read_one(self, offset: int, size: int) -> bytes:
-        h = self._register(offset, size)
-        if h is None or h.on_read is None:
-            return bytes(self.mem[offset : offset + size])
-        data = h.on_read(offset, size)
+
+
+def _keep(plans: dict[tuple[int, int], Any], key: tuple[int, int], plan: Any) -> Any:
+    """Remember `plan` for `key`, within MAX_PLANS (all are forgotten when full)."""
+    if len(plans) >= MAX_PLANS:
+        plans.clear()
+    plans[key] = plan
+    return plan
+
+
+def _sized(hook: ReadHook, offset: int) -> ReadPlan:
+    """A read hook whose result must have the size asked for (a card bug otherwise)."""
+
+    def read(o: int, size: int) -> bytes:
+        data = hook(o, size)
         if len(data) != size:
             raise VdevError(ErrorCode.INTERNAL, f"hook at {offset:#x} returned {len(data)} bytes")
         return data
 
-    def _write_one(self, offset: int, data: bytes) -> None:
-        h = self._register(offset, len(data))
-        if h is None or h.on_write is None:
-            self.mem[offset : offset + len(data)] = data
-        else:
-            h.on_write(offset, bytes(data))
+    return read
+
+
+def _as_bytes(hook: WriteHook) -> WritePlan:
+    """A write hook, given `bytes` whatever buffer type the access carried."""
+
+    def write(o: int, data: bytes) -> None:
+        hook(o, data if type(data) is bytes else bytes(data))
+
+    return write
