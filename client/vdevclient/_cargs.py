@@ -8,9 +8,12 @@ import ctypes
 from typing import Any
 
 
+_BYREF = type(ctypes.byref(ctypes.c_int()))  # ctypes' CArgObject
+
+
 def target(param: Any) -> Any:
     """The object behind an output parameter: byref(x), pointer(x) or x."""
-    if hasattr(param, "_obj"):  # ctypes.byref
+    if type(param) is _BYREF:
         return param._obj
     if isinstance(param, ctypes._Pointer):
         return param.contents
@@ -20,6 +23,8 @@ def target(param: Any) -> Any:
 def text(value: Any) -> bytes:
     """A command string as bytes: str (latin-1, so control characters pass), bytes up to NUL,
     ctypes char arrays and c_char_p."""
+    if type(value) is str:  # the usual argument, first
+        return value.encode("latin-1")
     value = target(value)
     if isinstance(value, str):
         return value.encode("latin-1")

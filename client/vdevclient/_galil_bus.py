@@ -15,8 +15,7 @@ import struct
 import time
 from collections import OrderedDict
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 from vdevclient.core import Rack
 
@@ -66,8 +65,7 @@ IRQ_ENABLE_SEQUENCE = (0x02, 0x04)  # [M Ch4 §Setting up Interrupts]
 IRQ_STATUS_SELECT = 0x06  # then read N+3 [M Ch4 §Servicing Interrupts]
 
 
-@dataclass
-class Reply:
+class Reply(NamedTuple):
     """What an exchange brought back: the reply bytes, and whether a wait ran out first."""
 
     data: bytes
@@ -100,6 +98,9 @@ class DmcBus:
         #: (the card decodes on arrival); cleared when a card had nothing to read at all
         self.eager = True
         self._reply_len: OrderedDict[bytes, int] = OrderedDict()  # the oldest learnt goes first
+        #: line -> (its whole first batch, replies, reply length) for the common state: room
+        #: known, nothing stale or owed, eager. A line of one burst then needs no wait at all
+        self._quick: dict[bytes, tuple[dict[str, Any], int, int]] = {}
 
     # -- ops ------------------------------------------------------------------------------------
     def _wait(self, offset: int, mask: int, value: int, timeout_ns: int) -> dict[str, Any]:
@@ -161,39 +162,74 @@ class DmcBus:
         FIRST_READS per command; later batches read four times what came so far."""
         if self.stale:
             self.drain()
+        if self._room and self.eager and not self.owed:
+            quick = self._quick.get(data)
+            if quick is not None and quick[1] == replies:
+                return self._quick_command(data, quick)
         timeout_ns = self._timeout_ns()
         ops = self._send_ops(data, timeout_ns)
         sent = len(ops)
         waits = sum(1 for op in ops if op["op"] == "wait")
         owed, self.owed = self.owed, 0
-        want = owed + replies
         reads = self._reply_len.get(data, FIRST_READS * replies) + owed
+        ops.append(self._fifo_read(Reg.DATA, reads + 1))
+        if not self.eager:
+            ops.insert(-1, self._wait(Reg.CONTROL, _READ_EMPTY, 0, timeout_ns))
+            waits += 1
+        res = self.batch(ops, waits * timeout_ns)
+        if waits and sent and not _fired(res[:sent]):  # a burst found no room: part of the line is out
+            self.owed, self.stale = owed, True
+            return Reply(b"", timed_out=True)
+        if not self.eager and not res[-2]["fired"]:
+            return self._answer(data, owed, owed + replies, b"")
+        chunk = res[-1]
+        reply = self._collect(data, owed, owed + replies, chunk.split(b"\xff", 1)[0], chunk)
+        if (not owed and not reply.timed_out and self._room and self.eager
+                and len(data) <= WRITE_BURST):
+            self._learn_quick(data, replies)
+        return reply
+
+    def _quick_command(self, data: bytes, quick: tuple[dict[str, Any], int, int]) -> Reply:
+        """`command` in the common state with its prebuilt batch [the line's bytes, its reply
+        length + 1 reads]: the same exchange as the general path, less the building."""
+        message, replies, length = quick
+        self._room = False
+        chunk = self.rack.call(message)[-1]
+        got = chunk.split(b"\xff", 1)[0]
+        if len(got) == length and _count(got) >= replies:
+            self._room = True  # every reply came: the card took the whole line
+            self.stale = chunk[-1] != EMPTY_READ
+            return Reply(got)
+        reply = self._collect(data, 0, replies, got, chunk)
+        if not reply.timed_out and self._room and self.eager:
+            self._learn_quick(data, replies)  # the reply's new length
+        return reply
+
+    def _collect(self, data: bytes, owed: int, want: int, got: bytes, chunk: bytes) -> Reply:
+        """After the first batch brought `got` (its read `chunk`): further batches [wait bit 5 = 0,
+        reads] while replies are missing; then what is owed moves to `unsolicited`."""
+        if not got and want:
+            self.eager = False  # nothing to read at all: the card answers at its next sample
+        timeout_ns = self._timeout_ns()
         data_wait = self._wait(Reg.CONTROL, _READ_EMPTY, 0, timeout_ns)
-        got = b""
-        waited = not self.eager
         while True:
-            if waited:
-                ops.append(data_wait)
-                waits += 1
-            ops.append(self._fifo_read(Reg.DATA, reads + 1))
-            res = self.batch(ops, waits * timeout_ns)
-            if sent and not _fired(res[:sent]):  # a burst found no room: part of the line is out
-                self.owed, self.stale = owed, True
-                return Reply(b"", timed_out=True)
-            if waited and not res[-2]["fired"]:
-                break
-            chunk = res[-1]
-            got += chunk.split(b"\xff", 1)[0]
             if _count(got) >= want:
                 # Every reply came, so the card took every byte sent: the command FIFO is empty
                 # (only this host fills it). A 0xFF read means the READ FIFO was drained too.
                 self._room = True
                 self.stale = chunk[-1] != EMPTY_READ
                 break
-            if not waited and not got:
-                self.eager = False  # the card answers at its next sample: wait at once
-            ops, sent, waits, waited = [], 0, 0, True
             reads = min(max(FIRST_READS, 4 * len(got)), FIFO_SIZE)
+            res = self.batch([data_wait, self._fifo_read(Reg.DATA, reads + 1)], timeout_ns)
+            if not res[0]["fired"]:
+                break
+            chunk = res[-1]
+            got += chunk.split(b"\xff", 1)[0]
+        return self._answer(data, owed, want, got)
+
+    def _answer(self, data: bytes, owed: int, want: int, got: bytes) -> Reply:
+        """The reply of a line from what came (`got`): the `owed` replies before it go to
+        `unsolicited`; its length is learnt; a missing reply is owed (timed out)."""
         answered = _count(got)
         if answered < want:
             self.owed = want - answered  # the card may still answer: those replies are not ours
@@ -202,6 +238,13 @@ class DmcBus:
         if answered >= want:
             self._remember(data, len(own))
         return Reply(own, timed_out=answered < want)
+
+    def _learn_quick(self, data: bytes, replies: int) -> None:
+        """Keep the first batch of a one-burst line for the common state; its lines are those
+        whose reply length is remembered, so `_remember` bounds and refreshes it."""
+        length = self._reply_len[data]
+        ops = [self._fifo_write(data), self._fifo_read(Reg.DATA, length + 1)]
+        self._quick[data] = ({"op": "batch", "ops": ops}, replies, length)
 
     def send(self, data: bytes, replies: int) -> None:
         """Write without reading the reply (DMCFastCommand); the card owes `replies` answers."""
@@ -231,8 +274,9 @@ class DmcBus:
         memo = self._reply_len
         if memo.get(data) != length:
             memo[data] = max(length, 1)
+            self._quick.pop(data, None)  # its read was sized for the old length
             if len(memo) > MEMO_SIZE:
-                memo.popitem(last=False)
+                self._quick.pop(memo.popitem(last=False)[0], None)
 
     def drain(self) -> None:
         """Read whatever waits in the READ FIFO into the unsolicited buffer, until bit 5 reads 1."""

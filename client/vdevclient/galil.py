@@ -22,7 +22,7 @@ import ctypes
 import functools
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import zmq
@@ -104,6 +104,7 @@ DEFAULT_TIMEOUT_MS = 1000  # DMCGetTimeout: "The default is 1000."
 ZERO_TIMEOUT_BOUND_MS = 10_000
 DEFAULT_REFRESH_RATE = 4  # DR-4: a record every 2^4 samples, the library's default [dmclnx.c]
 OPEN_TRIES = 5  # DMCOpen writes ';' up to five times while the card answers '?' [dmclnx.c]
+LINES_MEMO_SIZE = 256  # command texts whose line is remembered, per controller
 
 
 # C enums put their members in the global namespace: so do these (DRIdAxis1, DRREV4GenOffAxis1...)
@@ -124,6 +125,8 @@ class _Controller:
     record_on: bool = False  # DR-n sent since open or the last reset
     record_size: int = 0  # from QZ
     record: bytes | None = None  # the last refreshed record
+    #: str/bytes command -> (the line DMCCommand sends, the replies it waits for); bounded
+    lines: dict[str | bytes, tuple[bytes, int]] = field(default_factory=dict)
 
 
 _controllers: dict[int, _Controller] = {}
@@ -150,6 +153,22 @@ def _ascii_command(command: Any) -> bytes:
     return data if data.endswith((b"\r", b";")) else data + b"\r"
 
 
+def _line(c: _Controller, command: Any) -> tuple[bytes, int]:
+    """The line DMCCommand sends for `command` and the replies it waits for (one per ';' or CR);
+    a str or bytes command's is remembered (a host repeats its polls), the oldest going first."""
+    if type(command) is not str and type(command) is not bytes:
+        data = _ascii_command(command)
+        return data, terminators(data)
+    line = c.lines.get(command)
+    if line is None:
+        data = _ascii_command(command)
+        line = (data, terminators(data))
+        if len(c.lines) >= LINES_MEMO_SIZE:
+            del c.lines[next(iter(c.lines))]
+        c.lines[command] = line
+    return line
+
+
 def _guarded(fn: Callable[..., int]) -> Callable[..., int]:
     """Transport failures (no daemon, a closed rack) become DMCERROR_DRIVER, as a driver error."""
 
@@ -165,15 +184,16 @@ def _guarded(fn: Callable[..., int]) -> Callable[..., int]:
 
 
 def _reply(c: _Controller, reply: Reply, response: Any, size: int) -> int:
-    """Hand a reply to the caller with DMCCommand's return code: '?' -> DMCERROR_COMMAND (even
-    after a time-out), a time-out, a reply cut to the buffer -> DMCERROR_BUFFERFULL (the rest is
+    """Hand a reply to the caller with DMCCommand's return code (see _outcome)."""
+    whole = _put(response, size, reply.data) if response is not None and size else True
+    return _outcome(c, reply, whole, size)
+
+
+def _outcome(c: _Controller, reply: Reply, whole: bool, size: int) -> int:
+    """DMCCommand's return code: '?' -> DMCERROR_COMMAND (even after a time-out), a time-out, a
+    reply cut to the buffer (`whole` false) -> DMCERROR_BUFFERFULL (the rest is
     DMCGetAdditionalResponse's)."""
-    c.additional = b""
-    whole = True
-    if response is not None and size:
-        whole = _put(response, size, reply.data)
-        if not whole:
-            c.additional = reply.data[max(int(size) - 1, 0):]
+    c.additional = b"" if whole else reply.data[max(int(size) - 1, 0):]
     if b"?" in reply.data:
         return DMCERROR_COMMAND
     if reply.timed_out and c.timeout_ms:
@@ -276,8 +296,23 @@ def DMCCommand(hdmc: Any, pszCommand: Any, pchResponse: Any, cbResponse: int) ->
     c = _handle(hdmc)
     if c is None:
         return DMCERROR_HANDLE
-    command = _ascii_command(pszCommand)
-    return _reply(c, c.bus.command(command, terminators(command)), pchResponse, cbResponse)
+    return _reply(c, c.bus.command(*_line(c, pszCommand)), pchResponse, cbResponse)
+
+
+def command_text(hdmc: Any, command: Any, size: int) -> tuple[int, bytes]:
+    """DMCCommand into a response buffer of `size` (> 0) bytes, without the buffer (for
+    vdevclient.gclib): its return code and the text the buffer would then hold."""
+    try:
+        c = _handle(hdmc)
+        if c is None:
+            return DMCERROR_HANDLE, b""
+        reply = c.bus.command(*_line(c, command))
+    except (VdevClientError, zmq.ZMQError) as exc:
+        log.warning("DMCCommand: %s", exc)
+        return DMCERROR_DRIVER, b""
+    whole = len(reply.data) < size
+    text = reply.data if whole else reply.data[:size - 1]
+    return _outcome(c, reply, whole, size), text.split(b"\0", 1)[0]  # a C string ends at NUL
 
 
 @_guarded

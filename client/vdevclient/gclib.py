@@ -164,9 +164,9 @@ class py:
 
     def GCommand(self, command: str) -> str:
         """Send a command and return its reply trimmed of the final ':' and of whitespace."""
-        self._cc()
-        _rc(galil.DMCCommand(self._gcon, command, self._buf, _BUF_SIZE))
-        response = self._buf.value.decode("latin-1")
+        rc, text = galil.command_text(self._gcon, command, _BUF_SIZE)
+        _rc(rc)  # no connection: DMCERROR_HANDLE, "connection to hardware not established"
+        response = text.decode("latin-1")
         return response[:-1].strip() if response.endswith(":") else response.strip()
 
     def GTimeout(self, timeout: int) -> None:

@@ -233,7 +233,7 @@ class A16Window:
     def response_space(self) -> int:
         return self.fifo_size - len(self._response)
 
-    def respond(self, data: bytes) -> int:
+    def respond(self, data: bytes | bytearray) -> int:
         """Append to the card->host FIFO as much of `data` as fits; returns the count taken."""
         taken = data[: self.response_space()]
         if taken:

@@ -8,6 +8,7 @@ the EI interrupt conditions and refreshes the secondary-FIFO data record (record
 from __future__ import annotations
 
 from collections.abc import Mapping
+from functools import lru_cache
 from typing import Any, ClassVar
 
 import numpy as np
@@ -28,6 +29,10 @@ from vdevd.devices.galil.params import COUNTS_PER_VOLT, PARAMS
 from vdevd.devices.galil.record import GeneralStatus, record_dtype
 from vdevd.region import Region
 from vdevd.rt import PlantKind, wrap_int32
+
+_DATA = int(A16Reg.DATA)  # a plain int: an enum member costs a lookup on every access
+#: a host repeats its lines (`TPX\r`): frame each content of the command FIFO once (pure)
+_next_frame = lru_cache(maxsize=256)(syntax.next_frame)
 
 
 class Condition:
@@ -135,18 +140,18 @@ class GalilCard(Card):
 
     def _host_write(self, offset: int, data: bytes) -> None:
         self.bus.write(offset, data[0])
-        if offset == A16Reg.DATA and self.decode_on_arrival:
+        if offset == _DATA and self.decode_on_arrival:
             self._serve()  # the command it completes is decoded at once
         elif self.irq.asserted and not self.bus.line_asserted:
             self.irq.clear()
 
     def _host_read_rep(self, offset: int, size: int) -> bytes:
-        if offset == A16Reg.DATA:
+        if offset == _DATA:
             return self.bus.read_data(size)
         return bytes(self._host_read(offset, 1)[0] for _ in range(size))
 
     def _host_write_rep(self, offset: int, data: bytes) -> None:
-        if offset == A16Reg.DATA:
+        if offset == _DATA:
             self.bus.write_data(data)
             if self.decode_on_arrival:
                 self._serve()
@@ -188,9 +193,8 @@ class GalilCard(Card):
         a trippoint or a full response FIFO holds the interpreter (spec §2.4, §5.7)."""
         bus = self.bus
         while True:
-            if self._out:
-                taken = bus.respond(bytes(self._out))
-                del self._out[:taken]
+            if self._out:  # self._out, no local name: RS replaces it
+                del self._out[:bus.respond(self._out)]
                 if self._out:
                     return
             if self._trip is not None:
@@ -202,7 +206,7 @@ class GalilCard(Card):
             buf = bus.command_bytes()
             if not buf:
                 return
-            frame, used = syntax.next_frame(buf)
+            frame, used = _next_frame(buf)
             if used:
                 bus.consume(used)
             if frame is None:

@@ -280,9 +280,10 @@ class Interpreter:
         digits, frac = REPORT_FORMATS[name]
 
         def handler(arg: str) -> bytes:
-            values = self.card.report(name)
-            return self.data(",".join(self.fmt(float(values[a]), digits, frac)
-                                      for a in self.axes(arg)))
+            values = self.card.report(name).tolist()
+            lz = not self.card.lz
+            return self.data(",".join([format_number(values[a], digits, frac, lz)
+                                       for a in _parse_axes(arg, self.n).axes]))
         return handler
 
     def _tc(self, arg: str) -> bytes:

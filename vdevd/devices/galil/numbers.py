@@ -59,6 +59,19 @@ def format_number(value: float, digits: int, frac: int, lz: bool = True) -> str:
     from zero) and printed only if `frac` > 0; negatives get '-', positives no sign; a value
     wider than `digits` prints all its digits [M Ch5 §Interrogation Commands, TP example].
     """
+    if MIN_VALUE <= value <= MAX_VALUE and value == int(value):
+        # a whole number (TP, TE, counts): nothing to round, so no Decimal
+        whole_value = int(value)
+        whole = str(abs(whole_value))
+        if lz:
+            whole = whole.zfill(digits)
+        sign = "-" if whole_value < 0 else ""
+        return sign + whole + ("." + "0" * frac if frac > 0 else "")
+    return _format_decimal(value, digits, frac, lz)
+
+
+def _format_decimal(value: float, digits: int, frac: int, lz: bool) -> str:
+    """format_number for any value: decimal rounding, halves away from zero."""
     quantum = Decimal(1).scaleb(-frac) if frac > 0 else Decimal(1)
     rounded = Decimal(value).quantize(quantum, rounding=ROUND_HALF_UP)
     whole, _, fraction = format(abs(rounded), "f").partition(".")

@@ -15,7 +15,7 @@ import re
 from collections.abc import Mapping, Sequence, Set
 from dataclasses import dataclass
 from decimal import Decimal
-from typing import Final
+from typing import Final, NamedTuple
 
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.numbers import GALIL_REAL_SIZE, from_galil_real, galil_real
@@ -24,8 +24,7 @@ from vdevd.devices.galil.numbers import GALIL_REAL_SIZE, from_galil_real, galil_
 # Framing
 
 
-@dataclass(frozen=True)
-class Frame:
+class Frame(NamedTuple):
     """One command from the host: ASCII text without its terminator, or a whole binary command."""
 
     data: bytes
@@ -36,6 +35,7 @@ CR = 0x0D
 SEMICOLON = 0x3B
 QUOTE = 0x22
 _SKIPPED = frozenset(b"\n\0 ")  # before a command: LF of CR LF, NUL padding, spaces
+_ASCII_STOPS = re.compile(rb'[\r;"]')  # the bytes an ASCII command's framing looks at
 BINARY_FIELD_SIZES: Final = frozenset({0, 1, 2, 4, GALIL_REAL_SIZE})
 BINARY_HEADER_SIZE = 4
 
@@ -77,12 +77,15 @@ def _ascii_frame(buf: bytes, start: int) -> tuple[Frame | None, int]:
         end = buf.find(b"\r", start)
         return (None, start) if end < 0 else (Frame(bytes(buf[start:end]), False), end + 1)
     quoted = False
-    for i in range(start, len(buf)):
+    stop = _ASCII_STOPS.search(buf, start)
+    while stop is not None:
+        i = stop.start()
         byte = buf[i]
         if byte == CR or (byte == SEMICOLON and not quoted):
             return Frame(bytes(buf[start:i]), False), i + 1
         if byte == QUOTE:
             quoted = not quoted
+        stop = _ASCII_STOPS.search(buf, i + 1)
     return None, start
 
 
