@@ -10,9 +10,10 @@ ratio of a raw baseline measured in the same run with the same placement:
 Goal: both p50 <= 2.5x their raw round trip.
 
 Method as bench/maxk.py (block timing, a fresh random order of the series in every block). One
-PmacGetResponseA of a one-line reply is one batch: [the last call's ACK acknowledged (0x0F40 := 0),
-the command bytes at 0x0E9E, 0x0E9C := 1 (the card answers in that write), the response slot,
-0x0F40 := 0, the slot again (the ACK)]. Diagnostic: a one-op DPRAM read (the round trip floor
+PmacGetResponseA of a one-line reply is one batch of five ops: [the command bytes at 0x0E9E, in
+a write that reaches 0x0F41 and so also acknowledges the last call's ACK (0x0F40 := 0),
+0x0E9C := 1 (the card answers in that write), the response slot, 0x0F40 := 0, the slot's head
+(the ACK: control word and count)]. Diagnostic: a one-op DPRAM read (the round trip floor
 through vdevd). The round trips per call are counted.
 
     python bench/pmac.py [--quick] [--json]

@@ -7,14 +7,13 @@ from __future__ import annotations
 import ctypes
 from typing import Any
 
-
 _BYREF = type(ctypes.byref(ctypes.c_int()))  # ctypes' CArgObject
 
 
 def target(param: Any) -> Any:
     """The object behind an output parameter: byref(x), pointer(x) or x."""
     if type(param) is _BYREF:
-        return param._obj
+        return param._obj  # type: ignore[attr-defined]
     if isinstance(param, ctypes._Pointer):
         return param.contents
     return param

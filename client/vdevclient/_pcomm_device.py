@@ -8,8 +8,8 @@ import ctypes
 import functools
 import logging
 import threading
-from collections import OrderedDict
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 import zmq
@@ -25,11 +25,13 @@ from vdevclient._pmac_bus import (
     IR_STATUS,
     LINE,
     RESP_CONTROL,
+    RESP_HEAD,
     RESP_SLOT,
     Posted,
     command_bytes,
     error_text,
     parse_slot,
+    slot_whole,
 )
 from vdevclient.core import Rack, connect
 from vdevclient.errors import VdevClientError
@@ -43,6 +45,16 @@ _NS_PER_MS = 1_000_000
 
 
 # -- devices ----------------------------------------------------------------------------------------
+@dataclass
+class _Seen:
+    """A command's reply length in response slots the last time, and the batch that sends it in
+    the steady state with its slot reads (built at its first use)."""
+
+    slots: int
+    ops: list[dict[str, Any]] | None = None
+    reads: list[int] = field(default_factory=list)
+
+
 class _Device:
     """An open device: its connection, the ops the next batch runs first (the deferred
     acknowledgement), the reply lengths seen, and the interrupt thread."""
@@ -59,11 +71,12 @@ class _Device:
         self.where = where
         self.ack = {"op": "write", "offset": RESP_CONTROL, "data": b"\0\0", **where}
         self.slot = {"op": "read", "offset": RESP_CONTROL, "size": RESP_SLOT, **where}
+        self.head = {"op": "read", "offset": RESP_CONTROL, "size": RESP_HEAD, **where}
         self.go = {"op": "write", "offset": CMD_CONTROL, "data": b"\1\0", **where}
         self.gate = {"op": "wait", "on": "value", "offset": RESP_CONTROL, "size": 2, "mask": 0xFFFF,
                      "value": ACK, "cmp": "eq", "timeout_ns": 0, **where}
         self.pending: list[dict[str, Any]] = []
-        self.memo: OrderedDict[bytes, int] = OrderedDict()
+        self.memo: dict[bytes, _Seen] = {}
         self.scale: dict[int, float] = {}  # motor -> Ixx08 * 32
         self.interrupts: _Interrupts | None = None
         self.drain()
@@ -99,41 +112,64 @@ class _Device:
                 need_ack: bool = False) -> tuple[list[Posted], bool]:
         """Run `ops` (they make the card post lines) and read the response slot until the reply's
         end (ACK or an error): (the lines, True), or (the lines so far, False) on a time-out."""
-        posted = posted if posted is not None else []
-        n = self.memo.get(key, 2) if key is not None else 2
-        waiting = False
+        seen = self.memo.get(key) if key is not None else None
+        reads = self._reads(ops, seen.slots if seen is not None else 2, need_ack)
+        return self._read_reply(ops, reads, key, [] if posted is None else posted)
+
+    def _reads(self, ops: list[dict[str, Any]], n: int, need_ack: bool) -> list[int]:
+        """Append `n` reads of the response slot to `ops`, each after an acknowledgement of the
+        line before it (the first only with `need_ack`); where the reads are. The last read takes
+        the slot's head alone: an ACK or an error is complete there, a data line is read again
+        whole by the next batch (nothing acknowledges it before)."""
+        reads = []
+        for _ in range(n):
+            if need_ack:
+                ops.append(self.ack)
+            reads.append(len(ops))
+            ops.append(self.slot)
+            need_ack = True
+        ops[-1] = self.head
+        return reads
+
+    def _read_reply(self, ops: list[dict[str, Any]], reads: list[int], key: bytes | None,
+                    posted: list[Posted], waiting: bool = False) -> tuple[list[Posted], bool]:
+        """Run `ops` and the batches after it until the reply's end (`collect`); `ops` is not
+        changed (the steady-state batches are reused)."""
         while True:
-            first = len(ops)
-            if waiting:
-                ops.append(self.wait_posted())
-            reads = []
-            for _ in range(n):
-                if need_ack:
-                    ops.append(self.ack)
-                reads.append(len(ops))
-                ops.append(self.slot)
-                need_ack = True
             res = self.batch(ops, self.timeout_ms * _NS_PER_MS if waiting else 0)
-            if waiting and not res[first]["fired"]:
+            if waiting and not res[0]["fired"]:
                 return posted, False
-            ops = []
-            for j, at in enumerate(reads):
-                line = parse_slot(res[at])
+            last = reads[-1]
+            for at in reads:
+                slot = res[at]
+                line = parse_slot(slot)
                 if line is None:  # not posted yet: wait for it (the ack before this read ran)
-                    need_ack, waiting, n = False, True, 1
+                    ops, waiting = [self.wait_posted()], True
+                    reads = self._reads(ops, 1, False)
+                    break
+                if at == last and not slot_whole(slot):  # a data line's head: read it whole
+                    ops, waiting = [], False
+                    reads = self._reads(ops, min(2 * len(reads), MAX_READS), False)
                     break
                 posted.append(line)
                 if line.terminator != CR:
-                    if j == len(reads) - 1:
+                    if at == last:
                         self.pending.append(self.ack)  # deferred into the next call's batch
                     if key is not None:
-                        self.memo[key] = len(posted)
-                        self.memo.move_to_end(key)
-                        if len(self.memo) > MEMO_SIZE:
-                            self.memo.popitem(last=False)
+                        self._learn(key, len(posted))
                     return posted, True
             else:
-                waiting, n = False, min(2 * n, MAX_READS)
+                ops, waiting = [], False
+                reads = self._reads(ops, min(2 * len(reads), MAX_READS), True)
+
+    def _learn(self, key: bytes, slots: int) -> None:
+        """Remember how many slots `key`'s reply took (MEMO_SIZE commands, the oldest go first)."""
+        seen = self.memo.get(key)
+        if seen is not None and seen.slots == slots:
+            return
+        if seen is None and len(self.memo) >= MEMO_SIZE:
+            del self.memo[next(iter(self.memo))]
+        self.memo[key] = _Seen(slots)
 
     def command_ops(self, line: bytes, ops: list[dict[str, Any]]) -> list[dict[str, Any]]:
         """`ops` (the pending ones) then the command: its bytes at 0x0E9E and 0x0E9C := 1. A
@@ -150,9 +186,18 @@ class _Device:
         return [self.write(CMD_CHAR, bytes([ch])), self.go]
 
     def response(self, line: bytes) -> tuple[bytes, int]:
-        """A command line's reply (CR-terminated lines, the error text) and its COMM status."""
-        ops = self.command_ops(line, self.begin())
-        return _reply(*self.collect(ops, line))
+        """A command line's reply (CR-terminated lines, the error text) and its COMM status.
+        In the steady state (the last reply's ACK still to acknowledge, a command seen before)
+        the batch is the one built the first time for this command."""
+        seen = self.memo.get(line)
+        pending = self.pending
+        if seen is None or len(pending) != 1 or pending[0] is not self.ack:
+            return _reply(*self.collect(self.command_ops(line, self.begin()), line))
+        if seen.ops is None:
+            seen.ops = self.command_ops(line, [self.ack])
+            seen.reads = self._reads(seen.ops, seen.slots, False)
+        self.pending = []
+        return _reply(*self._read_reply(seen.ops, seen.reads, line, []))
 
     def get_variable(self, ch: str, num: int) -> str | None:
         data, status = self.response(f"{ch}{num}".encode("latin-1"))
@@ -160,7 +205,7 @@ class _Device:
 
 
 def _reply(posted: list[Posted], complete: bool) -> tuple[bytes, int]:
-    data = b"".join(p.text + b"\r" for p in posted if p.terminator == CR)
+    data = b"".join([p.text + b"\r" for p in posted if p.terminator == CR])
     if not complete:
         return data, COMM_TIMEOUT
     last = posted[-1]
@@ -182,7 +227,7 @@ def _guarded(fail: Any) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     def wrap(fn: Callable[..., Any]) -> Callable[..., Any]:
         @functools.wraps(fn)
         def call(dwDevice: Any, *args: Any, **kwargs: Any) -> Any:
-            dev = _device(dwDevice)
+            dev = _devices.get(dwDevice) if type(dwDevice) is int else _device(dwDevice)
             if dev is None:
                 return fail() if callable(fail) else fail
             try:

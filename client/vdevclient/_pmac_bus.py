@@ -13,6 +13,7 @@ import math
 import re
 import struct
 from dataclasses import dataclass
+from typing import NamedTuple
 
 CARD_TYPE = "pmac-turbo"
 DPRAM, HOST, LINE = "dpram", "host", "inta"
@@ -24,6 +25,8 @@ CMD_CONTROL, CMD_CHAR, CMD_BUFFER, CMD_MAX = 0x0E9C, 0x0E9E, 0x0EA0, 160
 RESP_CONTROL, RESP_COUNT, RESP_BUFFER, RESP_MAX = 0x0F40, 0x0F42, 0x0F44, 255
 #: one read takes a whole response slot: control, count, up to 255 characters and their NUL
 RESP_SLOT = RESP_BUFFER - RESP_CONTROL + RESP_MAX + 1
+#: the slot's head, control word and count: all there is of an ACK, an error or an empty line
+RESP_HEAD = RESP_BUFFER - RESP_CONTROL
 REALTIME, BACKGROUND = 0x006A, 0x0676
 RT_HEADER, RT_MOTOR = 8, 48  # handshake u16, motors u16, servo counter u32; 48 bytes per motor
 BG_HEADER, BG_CS = 16, 16  # handshake u16, pad u16, servo counter u32, global status 2 x u32
@@ -49,8 +52,7 @@ class HostIrq(enum.IntFlag):
 
 
 # -- the ASCII response slot -----------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Posted:
+class Posted(NamedTuple):
     """One line the card posted in the response slot: `terminator` is CR (a data line), ACK (the
     end of the reply) or None for an error, whose number is `error`; `text` has no terminator."""
 
@@ -78,15 +80,21 @@ def error_number(word: int) -> int | None:
 def parse_slot(slot: bytes) -> Posted | None:
     """The line in a read of the response slot (0x0F40 on), or None when none is posted
     (control word 0)."""
-    word, count = struct.unpack_from("<HH", slot)
+    word = slot[0] | slot[1] << 8
     if not word:
         return None
-    n = max(0, min(count - 1, len(slot) - 4))
-    text = slot[4:4 + n].split(b"\0", 1)[0]
-    err = error_number(word)
-    if err is not None:
-        return Posted(text, None, err)
+    text = slot[4:3 + (slot[2] | slot[3] << 8)]  # the count includes the NUL
+    if b"\0" in text:
+        text = text[:text.index(b"\0")]
+    if word & 0x8000:
+        return Posted(text, None, error_number(word) or 0)
     return Posted(text, word & 0xFF)
+
+
+def slot_whole(slot: bytes) -> bool:
+    """A read of the response slot holds all of its line: every character of a data line (an
+    ACK or an error line has none)."""
+    return slot[0] != CR or slot[1] != 0 or (slot[2] | slot[3] << 8) - 1 <= len(slot) - RESP_HEAD
 
 
 def error_text(code: int) -> bytes:

@@ -31,9 +31,12 @@ Round trips: the card answers in the write of the command's control word, so a c
 `batch` (PROTOCOL.md) [the command bytes at 0x0E9E, 0x0E9C := 1, the response slot, 0x0F40 := 0,
 the slot ...], read ahead as far as this command's reply went the last time (two slots for a new
 command); a longer reply costs one more batch, a slot the card has not filled a batch that waits
-for it. The acknowledgement of the final ACK (0x0F40 := 0) is deferred into the next call's batch,
-as the MAXk client defers its release, and rides in the next command's write (the command buffer
-ends at 0x0F3F): a one-line reply is five ops.
+for it. The last slot of a batch is read by its head alone (control word and count: all of an ACK
+or an error); a data line found there is still posted, and the next batch reads it whole. The
+acknowledgement of the final ACK (0x0F40 := 0) is deferred into the next call's batch, as the
+MAXk client defers its release, and rides in the next command's write (the command buffer ends
+at 0x0F3F): a one-line reply is five ops, and a command sent again reuses the batch built for it
+the first time.
 """
 
 from __future__ import annotations
@@ -200,8 +203,15 @@ def PmacSelect(hwnd: Any = None, *, endpoint: str | None = None) -> int:
 def PmacGetResponseA(dev: _Device, s: Any, maxchar: int, outstr: Any) -> CommResult:
     """Send `outstr` and return its response (see the module docstring for the format and codes).
     Lines separated by CR in `outstr` go one after the other; an error stops there."""
+    text = outstr.encode("latin-1") if type(outstr) is str else _text(outstr)
+    if b"\r" in text or b"\n" in text:
+        lines = text.replace(b"\n", b"\r").split(b"\r")
+    elif len(text) < CMD_MAX:  # one line, the usual call
+        return _result(s, maxchar, *dev.response(text))
+    else:
+        lines = [text]
     data, status = b"", COMM_EOT
-    for line in _text(outstr).replace(b"\n", b"\r").split(b"\r") or [b""]:
+    for line in lines:
         if len(line) >= CMD_MAX:
             log.warning("PmacGetResponseA(%d): a command of %d characters (at most %d)",
                         dev.number, len(line), CMD_MAX - 1)

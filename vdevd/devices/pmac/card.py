@@ -70,8 +70,11 @@ class CommandPort:
         return reply
 
     def command(self, line: str) -> bytes:
-        iv = self.card.fw.ivars.values
-        return frame(self.reply(line), int(iv[3]), int(iv[6]))
+        fw = self.card.fw
+        # a printable line holds no control character: straight to the interpreter
+        reply = fw.interpreter.execute(self.state, line) if line.isprintable() else self.reply(line)
+        iv = fw.ivars.values
+        return frame(reply, int(iv[3]), int(iv[6]))
 
     def control(self, ch: int) -> bytes:
         text = self.card.fw.control(self.state, ch)
@@ -152,8 +155,6 @@ class PmacCard(Card):
         self.dpram = self.add_region(Region(
             "dpram", dpram.SIZE, widths=(1, 2, 4), endian="little",
             description="DPRAM: ASCII command/response buffers, reporting buffers (UM p.402)"))
-        self.dpram.hook(dpram.CMD_CONTROL, 2, on_write=self._dpram_control)
-        self.dpram.hook(dpram.RESP_CONTROL, 2, on_write=self._dpram_control)
         self.host = self.add_region(Region(
             "host", HOST_SIZE, widths=(1,), endian="little",
             description="host port (HI08 bytes 0-7) and interrupt controller (8 status, 9 mask)"))
@@ -169,6 +170,8 @@ class PmacCard(Card):
         self.dpram_port = PortState()
         self.ascii = AsciiChannel(self.dpram.buf, self._dpram_execute, self._dpram_controlchar,
                                   lambda: self.irq.raise_(_ASCII_READY))
+        self.dpram.hook(dpram.CMD_CONTROL, 2, on_write=self.ascii.command_control)
+        self.dpram.hook(dpram.RESP_CONTROL, 2, on_write=self.ascii.response_control)
         self.reporting = Reporting(self.dpram.buf)
         self.host_port_state = CommandPort(self)
         self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)
@@ -247,12 +250,8 @@ class PmacCard(Card):
             self.irq.raise_(bits)
 
     # -- DPRAM ------------------------------------------------------------------------------------
-    def _dpram_control(self, offset: int, data: bytes) -> None:
-        self.dpram.buf[offset:offset + len(data)] = data
-        self.ascii.after_write(offset, len(data))
-
     def _dpram_execute(self, line: str) -> tuple[list[str], int | None]:
-        reply = self.fw.execute(self.dpram_port, line)
+        reply = self.fw.interpreter.execute(self.dpram_port, line)
         return reply.lines, reply.error
 
     def _dpram_controlchar(self, ch: int) -> str:

@@ -39,6 +39,7 @@ RT_HEADER, RT_MOTOR = 8, 48
 BG_HEADER, BG_CS = 16, 16
 READY = 0x8000
 CR, ACK = 0x0D, 0x06
+_SLOT_HEAD = struct.Struct("<HH")  # a posted line: control word, characters + 1
 
 
 def error_word(code: int) -> int:
@@ -65,6 +66,7 @@ class AsciiChannel:
 
     `execute(line) -> (lines, error)` runs a command line; `control(ch) -> text` a control
     character; `post` is called with each line posted (the card raises IR4 there).
+    `command_control` and `response_control` are the write hooks of the two control words.
     """
 
     def __init__(self, mem: bytearray, execute: Callable[[str], tuple[list[str], int | None]],
@@ -73,50 +75,64 @@ class AsciiChannel:
         self._execute = execute
         self._control = control
         self._post = post
-        self.pending: deque[tuple[str, int]] = deque()
+        #: the lines still to post, each as the bytes of the response slot (`slot`)
+        self.pending: deque[bytes] = deque()
 
     def reset(self) -> None:
         self.pending.clear()
         self.mem[CMD_CONTROL:CMD_CONTROL + 4] = bytes(4)
         self.mem[RESP_CONTROL:RESP_CONTROL + 4] = bytes(4)
 
-    def word(self, offset: int) -> int:
-        return int(self.mem[offset] | self.mem[offset + 1] << 8)
-
-    def after_write(self, offset: int, size: int) -> None:
-        """The host wrote [offset, offset+size): act on the control words it touched."""
-        end = offset + size
-        if offset <= CMD_CONTROL + 1 and end > CMD_CONTROL and self.word(CMD_CONTROL):
+    def command_control(self, offset: int, data: bytes) -> None:
+        """The host wrote (part of) 0x0E9C: a non-zero word hands the command over."""
+        mem = self.mem
+        mem[offset:offset + len(data)] = data
+        if mem[CMD_CONTROL] or mem[CMD_CONTROL + 1]:
             self._take_command()
-        if offset <= RESP_CONTROL + 1 and end > RESP_CONTROL and not self.word(RESP_CONTROL):
+
+    def response_control(self, offset: int, data: bytes) -> None:
+        """The host wrote (part of) 0x0F40: 0 means it consumed the line, the next one follows."""
+        mem = self.mem
+        mem[offset:offset + len(data)] = data
+        if not (mem[RESP_CONTROL] or mem[RESP_CONTROL + 1]):
             self._post_next()
 
     def _take_command(self) -> None:
-        mem = self.mem
+        mem, pending = self.mem, self.pending
         ch = mem[CMD_CHAR]
         if ch:
             text = self._control(ch)
-            self.pending.extend((line, CR) for line in text.split("\r") if text)
-            self.pending.append(("", ACK))
+            if text:
+                pending.extend(slot(line, CR) for line in text.split("\r"))
+            pending.append(_ACK_SLOT)
         else:
-            raw = bytes(mem[CMD_BUFFER:CMD_BUFFER + CMD_MAX])
-            line = raw.split(b"\0", 1)[0].decode("latin-1")
+            end = mem.find(0, CMD_BUFFER, CMD_BUFFER + CMD_MAX)
+            line = mem[CMD_BUFFER:end if end >= 0 else CMD_BUFFER + CMD_MAX].decode("latin-1")
             lines, error = self._execute(line)
-            self.pending.extend((text, CR) for text in lines)
-            self.pending.append(("", error_word(error) if error is not None else ACK))
-        mem[CMD_CONTROL:CMD_CONTROL + 4] = bytes(4)  # command taken (and the control char)
-        if not self.word(RESP_CONTROL):
+            for text in lines:
+                pending.append(slot(text, CR))
+            pending.append(_ACK_SLOT if error is None else slot("", error_word(error)))
+        mem[CMD_CONTROL:CMD_CONTROL + 4] = _CLEAR  # command taken (and the control char)
+        if not (mem[RESP_CONTROL] or mem[RESP_CONTROL + 1]):
             self._post_next()
 
     def _post_next(self) -> None:
         if not self.pending:
             return
-        text, terminator = self.pending.popleft()
-        data = text.encode("latin-1")[:RESP_MAX - 1]
-        mem = self.mem
-        mem[RESP_BUFFER:RESP_BUFFER + len(data) + 1] = data + b"\0"
-        struct.pack_into("<HH", mem, RESP_CONTROL, terminator, len(data) + 1)
+        posted = self.pending.popleft()
+        self.mem[RESP_CONTROL:RESP_CONTROL + len(posted)] = posted
         self._post()
+
+
+def slot(text: str, terminator: int) -> bytes:
+    """A line as the card posts it from 0x0F40: the control word, the characters + 1, the
+    characters (at most 254) and their NUL."""
+    data = text.encode("latin-1")[:RESP_MAX - 1]
+    return _SLOT_HEAD.pack(terminator, len(data) + 1) + data + b"\0"
+
+
+_ACK_SLOT = slot("", ACK)
+_CLEAR = bytes(4)
 
 
 class Reporting:

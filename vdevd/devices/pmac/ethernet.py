@@ -305,9 +305,10 @@ class EthernetSession:
 
     def _response(self, data: bytes) -> bytes:
         """GETRESPONSE: earlier leftovers dropped, the reply up to its end (`_take_reply`)."""
-        self._output.clear()
+        if self._output:
+            self._output.clear()
         out = self._run(data)
-        if len(out) < MAX_REPLY and out.endswith(b"\x06") and out.count(b"\x06") == 1 \
+        if len(out) < MAX_REPLY and out.endswith(b"\x06") \
                 and _REPLY_END.search(out, 0, len(out) - 1) is None:
             return out  # one complete reply, the usual case: nothing is left pending
         self._output += out

@@ -9,10 +9,15 @@ download belong to the port (`PortState`), so each port addresses its own motor.
 Commands that belong to motion programs, PLCs, coordinate-system axis definitions and data
 gathering come in a later issue; until then they answer the error the card gives for a command
 it cannot execute (README "Not yet").
+
+Lines made only of reports and motor addressing (`#1P`, `#2?`, `#3?PVF`, `I130`, `P99`), what
+hosts poll, are compiled once into their steps and then run without the general parse; each step
+is the general handler's own effect (tests/devices/pmac/test_online_fastpath.py compares them).
 """
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -29,6 +34,8 @@ if TYPE_CHECKING:
 #: error numbers [DLS-lib PMAC_errors, Turbo SRM I6; digest §2.4]
 ERR_RUNNING, ERR_DATA, ERR_ILLEGAL, ERR_NOT_OPEN, ERR_IN_USE, ERR_MACRO = 1, 3, 4, 5, 7, 8
 ERR_NO_PROGRAM, ERR_PHASE = 15, 18
+#: compiled report lines kept per interpreter (the cache starts afresh when full)
+PLAN_CACHE = 256
 
 _INT = re.compile(r"\d+")
 _MOTOR = re.compile(r"#(\d+)(?![\d \t]*->)")
@@ -116,6 +123,9 @@ class Line:
 
 
 Handler = Callable[["Interpreter", Line, PortState, list[str]], None]
+#: one step of a compiled report line: what its general handler does
+Step = Callable[["Firmware", PortState, list[str]], None]
+Plan = tuple[Step, ...]
 
 
 class Interpreter:
@@ -123,9 +133,29 @@ class Interpreter:
 
     def __init__(self, fw: Firmware) -> None:
         self.fw = fw
+        self._plans: dict[str, Plan | None] = {}  # line -> its steps; None: not a report line
 
     # -- entry ---------------------------------------------------------------------------------
     def execute(self, port: PortState, text: str) -> Reply:
+        plans = self._plans
+        if text in plans:
+            plan = plans[text]
+        else:
+            if len(plans) >= PLAN_CACHE:
+                plans.clear()
+            plan = plans[text] = compile_reports(text)
+        if plan is not None and not port.table_left:
+            reply = Reply()
+            try:
+                for step in plan:
+                    step(self.fw, port, reply.lines)
+            except CommandError as exc:
+                reply.error = exc.code
+            return reply
+        return self.execute_general(port, text)
+
+    def execute_general(self, port: PortState, text: str) -> Reply:
+        """Parse and run `text` command by command (every line can take this path)."""
         text = text.split(";", 1)[0]  # comments, including characters > 127 [A L3311]
         reply = Reply()
         line = Line(text)
@@ -185,14 +215,7 @@ class Interpreter:
         k = 0
         while line.take("?"):
             k += 1
-        fw = self.fw
-        if k == 1:
-            w1, w2 = fw.motor_status(port.motor)
-            out.append(f"{w1:06X}{w2:06X}")
-        elif k == 2:
-            out.append("".join(f"{w:06X}" for w in fw.cs_status(port.cs)))
-        else:
-            out.append("".join(f"{w:06X}" for w in fw.global_status()))
+        out.append(status_text(self.fw, port, k))
 
     # -- letters ---------------------------------------------------------------------------------
     def _letter(self, line: Line, port: PortState, out: list[str]) -> None:
@@ -200,15 +223,12 @@ class Interpreter:
         if s[i] in "IPQM" and i + 1 < len(s) and (s[i + 1].isdigit() or s[i + 1] == "("):
             self._variable(line, port, out)
             return
-        m = _WORD.match(s, i)
-        word = m.group() if m is not None else ""
-        for k in range(min(len(word), _LONGEST), 0, -1):  # the longest word the letters start with
-            handler = _WORDS.get(word[:k])
-            if handler is not None:
-                line.i += k
-                handler(self, line, port, out)
-                return
-        raise CommandError(ERR_DATA, f"unrecognised {word!r}")
+        k, handler = _longest_word(s, i)
+        if handler is None:
+            m = _WORD.match(s, i)
+            raise CommandError(ERR_DATA, f"unrecognised {m.group() if m is not None else ''!r}")
+        line.i += k
+        handler(self, line, port, out)
 
     # variables -----------------------------------------------------------------------------------
     def _variable(self, line: Line, port: PortState, out: list[str]) -> None:
@@ -263,10 +283,8 @@ class Interpreter:
             for n in numbers:
                 fw.set_variable(port, kind, n, value)
             return
-        long_form = fw.i9 & 1
         for n in numbers:
-            text = fw.format_variable(port, kind, n)
-            out.append(f"{kind}{n}={text}" if long_form else text)
+            out.append(variable_text(fw, port, kind, n))
 
     def _m_definition(self, line: Line, numbers: list[int], out: list[str]) -> None:
         fw = self.fw
@@ -475,6 +493,97 @@ class Interpreter:
         line.i = len(line.s)
 
 
+def status_text(fw: Firmware, port: PortState, k: int) -> str:
+    """`?` (motor), `??` (coordinate system) or `???` (global) status as hex words [SRM]."""
+    if k == 1:
+        w1, w2 = fw.motor_status(port.motor)
+        return f"{w1:06X}{w2:06X}"
+    if k == 2:
+        return "".join(f"{w:06X}" for w in fw.cs_status(port.cs))
+    return "".join(f"{w:06X}" for w in fw.global_status())
+
+
+def variable_text(fw: Firmware, port: PortState, kind: str, n: int) -> str:
+    """A variable as its read prints it; `I{n}={value}` with I9 bit 0 (long form)."""
+    text = fw.format_variable(port, kind, n)
+    return f"{kind}{n}={text}" if fw.i9 & 1 else text
+
+
+def _longest_word(s: str, i: int) -> tuple[int, Handler | None]:
+    """The longest of the words the letters at `i` start with: its length and handler."""
+    m = _WORD.match(s, i)
+    word = m.group() if m is not None else ""
+    for k in range(min(len(word), _LONGEST), 0, -1):
+        handler = _WORDS.get(word[:k])
+        if handler is not None:
+            return k, handler
+    return 0, None
+
+
+def compile_reports(text: str) -> Plan | None:
+    """The steps of a line made only of `#n`, `P`, `V`, `F`, `?`/`??`/`???` and reads of
+    I/P/Q/M{n}, parsed as the general path parses them; None for any other line (it takes the
+    general path, which also gives every error)."""
+    if not text.isascii() or ";" in text:
+        return None
+    s, i, n = text.upper(), 0, len(text)
+    steps: list[Step] = []
+    while True:
+        while i < n and s[i] in " \t":
+            i += 1
+        if i >= n:
+            return tuple(steps)
+        c = s[i]
+        if c == "#":
+            m = _MOTOR.match(s, i)
+            if m is None or not 1 <= int(m.group(1)) <= 32:
+                return None
+            steps.append(functools.partial(_address_motor, int(m.group(1))))
+            i = m.end()
+        elif c == "?":
+            j = i
+            while j < n and s[j] == "?":
+                j += 1
+            steps.append(functools.partial(_report_status, j - i))
+            i = j
+        elif c in "IPQM" and i + 1 < n and (s[i + 1].isdigit() or s[i + 1] == "("):
+            m = _INT.match(s, i + 1)
+            if m is None or s[m.end():m.end() + 1] in (".", ","):
+                return None  # an expression index, a range or a list
+            j = m.end()
+            while j < n and s[j] in " \t":
+                j += 1
+            if s.startswith("=", j) or (c == "M" and s.startswith("->", j)):
+                return None  # an assignment, an M-variable definition
+            steps.append(functools.partial(_report_variable, c, int(m.group())))
+            i = j
+        else:
+            k, handler = _longest_word(s, i)
+            what = s[i:i + k]
+            if handler is None or _REPORTS.get(what) is not handler:
+                return None
+            steps.append(functools.partial(_report_motor, what))
+            i += k
+
+
+def _address_motor(motor: int, fw: Firmware, port: PortState, out: list[str]) -> None:
+    port.motor = motor
+
+
+def _report_status(k: int, fw: Firmware, port: PortState, out: list[str]) -> None:
+    out.append(status_text(fw, port, k))
+
+
+def _report_variable(kind: str, n: int, fw: Firmware, port: PortState, out: list[str]) -> None:
+    if n >= fw.variable_count(kind):
+        raise CommandError(ERR_DATA, f"{kind}{n} does not exist")
+    out.append(variable_text(fw, port, kind, n))
+
+
+def _report_motor(what: str, fw: Firmware, port: PortState, out: list[str]) -> None:
+    out.append(fw.motor_report(what, port.motor))
+
+
 def _select(line: Line, out: list[str], current: int, top: int) -> int:
     """`#n`, `&n`, `##n`: the number 1..top that follows, or, with none, the current one reported
     and kept; ERR003 outside the range."""
@@ -526,3 +635,5 @@ _WORDS.update({
     "Q": _I._program_control,
 })
 _LONGEST = max(map(len, _WORDS))
+#: the motor reports a compiled line may hold
+_REPORTS = {what: _WORDS[what] for what in "PVF"}

@@ -33,6 +33,8 @@ def error_text(code: int) -> str:
 
 def frame(reply: Reply, i3: int, i6: int) -> bytes:
     """The bytes a serial-style port (Ethernet, host port) sends for `reply`."""
+    if i3 == 2 and reply.error is None:  # what Ethernet clients set: DATA<CR>... <ACK>
+        return "".join([line + "\r" for line in reply.lines]).encode("latin-1") + ACK
     lead = LF if i3 in (1, 3) else b""
     out = b"".join(lead + line.encode("latin-1") + CR for line in reply.lines)
     if reply.error is not None:
