@@ -180,6 +180,8 @@ def ring_pieces(index: int, size: int) -> list[tuple[int, int, int]]:
     wraps: `data[start:start + length]` goes to `ring + offset`. Each piece is an access the bus
     takes: 2 or 4 bytes are one access of that width and must be aligned (PROTOCOL.md), so such
     a piece at an odd place is written as a byte and a block of the rest."""
+    if index + size <= RING_SIZE and (size not in (2, 4) or not index % size):
+        return [(index, 0, size)]  # the usual case: one piece
     first = min(size, RING_SIZE - index)
     pieces = [(index, 0, first)]
     if first < size:
@@ -193,7 +195,7 @@ def ring_pieces(index: int, size: int) -> list[tuple[int, int, int]]:
     return out
 
 
-def ring_slice(ring: bytes, start: int, end: int) -> bytes:
+def ring_slice(ring: bytes | memoryview, start: int, end: int) -> bytes:
     """The bytes of a 1024-byte ring between the indices `start` (inclusive) and `end`."""
     if start <= end:
         return bytes(ring[start:end])

@@ -291,25 +291,25 @@ class Maxk:
             if not reported:
                 self._sticky |= COMMAND_ERROR
 
-    def _send_ops(self, data: bytes, timeout_ns: int) -> tuple[list[dict[str, Any]], int]:
-        """The §2.4 procedure: the bytes at 0x100 + put (mod 1024), then the new put to 0x0F0
-        ("Message Sent"), after a wait for the card to consume the ring when `data` would
-        overfill it; (ops, waits among them)."""
-        ops = []
+    def _send_ops(self, ops: list[dict[str, Any]], data: bytes, timeout_ns: int) -> int:
+        """Append the §2.4 procedure to `ops`: the bytes at 0x100 + put (mod 1024), then the new
+        put to 0x0F0 ("Message Sent"), after a wait for the card to consume the ring when `data`
+        would overfill it; the number of waits among them (0 or 1, the first)."""
+        put, size = self._put, len(data)
         waits = 0
-        if (self._put - self._proc) % RING_SIZE + len(data) > MAX_MESSAGE:
-            ops.append(self._wait(Shm.COMMAND_PROCESS, 0xFFFF_FFFF, self._put, timeout_ns))
+        if (put - self._proc) % RING_SIZE + size > MAX_MESSAGE:
+            ops.append(self._wait(Shm.COMMAND_PROCESS, 0xFFFF_FFFF, put, timeout_ns))
             waits = 1
         ring = self._command_bytes
-        for offset, start, length in ring_pieces(self._put, len(data)):
+        for offset, start, length in ring_pieces(put, size):
             ops.append({**ring, "offset": _COMMAND_RING + offset, "data": data[start:start + length]})
-        self._put = (self._put + len(data)) % RING_SIZE
-        ops.append({**self._command_insert, "data": self._put.to_bytes(4, "big")})
-        return ops, waits
+        self._put = put = (put + size) % RING_SIZE
+        ops.append({**self._command_insert, "data": put.to_bytes(4, "big")})
+        return waits
 
-    def _check_sent(self, results: list[Any], waits: int) -> None:
-        """A room wait that ran out means nothing of the command was written."""
-        if waits and not results[0]["fired"]:
+    def _check_sent(self, results: list[Any], at: int) -> None:
+        """A room wait (`results[at]`) that ran out means nothing of the command was written."""
+        if not results[at]["fired"]:
             self._synced = False
             raise MaxkTimeout(f"{self.card}: the card did not empty the command ring")
 
@@ -326,15 +326,15 @@ class Maxk:
         data = frame(command)
         ops = self._begin()
         first = len(ops)
-        send, waits = self._send_ops(data, self._timeout_ns(None))
-        ops += send
+        waits = self._send_ops(ops, data, self._timeout_ns(None))
         ops += (self._window, self._odbr)
         res = self._batch(ops, waits * self._timeout_ns(None))
-        self._check_sent(res[first:], waits)
+        if waits:
+            self._check_sent(res, first)
         window = res[-2]
         ins = self._note_indices(window)
         if ins != self._fc:  # the housekeeping flush of E-drvMAXv send_mess, one call early
-            self._unsolicited(ring_slice(window[_RING:], self._fc, ins))
+            self._unsolicited(ring_slice(memoryview(window)[_RING:], self._fc, ins))
             self._release(ins)
         odbr = le32(res[-1])
         self._seen_error(odbr, reported=True)
@@ -354,16 +354,16 @@ class Maxk:
         ops = self._begin()
         first = len(ops)
         ops.append(self._indices)
-        send, waits = self._send_ops(data, timeout_ns)
-        ops += send
+        waits = self._send_ops(ops, data, timeout_ns)
         ops += (self._window, self._odbr)
         res = self._batch(ops, waits * timeout_ns)
-        self._check_sent(res[first + 1:], waits)
+        if waits:
+            self._check_sent(res, first + 1)
         start = self._fc
         window, odbr = res[-2], le32(res[-1])
         before = be32(res[first], 8)
         if before != start:  # the release let out a reply nobody asked for: ours is behind it
-            self._unsolicited(ring_slice(window[_RING:], start, before))
+            self._unsolicited(ring_slice(memoryview(window)[_RING:], start, before))
             self._release(before)
             start = before
         ins = self._note_indices(window)
@@ -371,7 +371,7 @@ class Maxk:
             window, odbr = self._await_reply(data, start, odbr, timeout_ns)
             ins = self._note_indices(window)
         self._seen_error(odbr, reported=False)  # a command of the string failed, another replied
-        reply = ring_slice(window[_RING:], start, ins)
+        reply = ring_slice(memoryview(window)[_RING:], start, ins)
         self._release(ins)
         if not self.defer_release:
             self._batch(self._begin())

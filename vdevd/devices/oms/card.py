@@ -46,6 +46,7 @@ from vdevd.rt import wrap_int32
 from vdevd.rt.axes import AxisFlag
 
 VERSION = "1.50"
+_SEMAPHORE, _CMD_INSERT, _RSP_PROCESS = int(Shm.SEMAPHORE), int(Shm.CMD_INSERT), int(Shm.RSP_PROCESS)
 
 
 def _default_types(n: int) -> list[str]:
@@ -92,10 +93,10 @@ class MaxkCard(Card):
         self.words = np.frombuffer(self.mem, dtype=">i4")
         for offset, fn in ((Shm.DIRECT_COMMAND, self._direct_command),
                            (Shm.POSITION_REQUEST, self._position_request),
-                           (Shm.SEMAPHORE, self._release),
+                           (Shm.SEMAPHORE, self._semaphore_written),
                            (Shm.W_FLAGS, self._wk_clear), (Shm.K_FLAGS, self._wk_clear),
                            (Shm.CMD_INSERT, self._commands_written),
-                           (Shm.RSP_PROCESS, self._release)):
+                           (Shm.RSP_PROCESS, self._response_released)):
             self.shm.hook(offset, 4, on_write=fn)
         self.mu_region = self.add_region(Region(
             "mu", MU_SIZE, widths=(4,), endian="little",
@@ -180,18 +181,26 @@ class MaxkCard(Card):
     def _store(self, offset: int, data: bytes, base: int) -> int | None:
         """Store a (possibly partial) write of the word at `base`; its value once the write
         reached the word's last byte, else None."""
-        self.mem[offset: offset + len(data)] = data
-        if offset + len(data) < base + 4:
+        size = len(data)
+        self.mem[offset: offset + size] = data
+        if size == 4:  # the whole word (a 4-byte access is aligned, so at `base`)
+            return int.from_bytes(data, "big")
+        if offset + size < base + 4:
             return None
         return rings.u32(self.mem, base)
 
     def _commands_written(self, offset: int, data: bytes) -> None:
-        if self._store(offset, data, Shm.CMD_INSERT) is not None and self.decode_on_arrival:
+        if self._store(offset, data, _CMD_INSERT) is not None and self.decode_on_arrival:
             self._serve()
 
-    def _release(self, offset: int, data: bytes) -> None:
-        base = Shm.SEMAPHORE if offset < Shm.RSP_PROCESS else Shm.RSP_PROCESS
-        if self._store(offset, data, base) is not None:
+    def _semaphore_written(self, offset: int, data: bytes) -> None:
+        """The host releases the semaphore: the next reply may go out (spec §2.5)."""
+        if self._store(offset, data, _SEMAPHORE) is not None:
+            self._post_reply()
+
+    def _response_released(self, offset: int, data: bytes) -> None:
+        """The host has read up to its new process index 0x0FC (spec §2.5)."""
+        if self._store(offset, data, _RSP_PROCESS) is not None:
             self._post_reply()
 
     def _wk_clear(self, offset: int, data: bytes) -> None:
@@ -227,7 +236,7 @@ class MaxkCard(Card):
 
     # -- the message unit -------------------------------------------------------------------------------
     def _mu_read(self, offset: int, size: int) -> bytes:
-        return struct.pack("<I", self.mu.read(offset))
+        return self.mu.read(offset).to_bytes(4, "little")
 
     def _mu_peek(self, offset: int, size: int) -> bytes:
         words = b"".join(struct.pack("<I", self.mu.read(o)) for o in range(offset & ~3,
@@ -236,7 +245,7 @@ class MaxkCard(Card):
         return words[skip: skip + size]
 
     def _mu_write(self, offset: int, data: bytes) -> None:
-        self.mu.write(offset, struct.unpack("<I", data)[0])
+        self.mu.write(offset, int.from_bytes(data, "little"))
 
     def _line(self, level: bool) -> None:
         if level:

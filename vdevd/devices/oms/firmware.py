@@ -37,6 +37,7 @@ from vdevd.devices.oms.syntax import Command, Lexer, numbers
 from vdevd.devices.oms.table import TABLE, CommandError
 
 _LEXER_TABLE = {name: spec.operand for name, spec in TABLE.items()}
+_HANDLERS = {name: spec.handler for name, spec in TABLE.items()}
 
 
 class Firmware:
@@ -113,7 +114,7 @@ class Firmware:
         try:
             if cmd.error:
                 raise CommandError(cmd.error)
-            reply = TABLE[cmd.mnemonic].handler(self, cmd)
+            reply = _HANDLERS[cmd.mnemonic](self, cmd)
         except CommandError as exc:
             self.command_error(f"{cmd.mnemonic}{cmd.operand}: {exc}")
             return
@@ -191,7 +192,8 @@ class Firmware:
     def report(self, values: np.ndarray, axes: list[int], kind: str = "motor") -> str:
         """RP/RE/RV/PP/PE: the values of `axes`, comma separated, in counts, or in user units
         (fixed point) when UU is on [spec §4.1, §4.2]."""
-        return ",".join(self.params.format(a, float(values[a]), kind) for a in axes)
+        fmt, listed = self.params.format, values.tolist()
+        return ",".join([fmt(a, float(listed[a]), kind) for a in axes])
 
     def enqueue(self, axes: list[int], label: str, make: Callable[[], Run],
                 units: int = 1, group: Group | None = None, kind: str = "",

@@ -13,6 +13,11 @@ from vdevd.devices.oms.layout import INTA_SOURCES, Mu, Omisr
 
 _OM0I, _OM1I, _ODI = int(Omisr.OM0I), int(Omisr.OM1I), int(Omisr.ODI)
 _DOORBELL_BITS = 0x1FFFFFFF  # bits 29-31 of the MPC824x doorbell are reserved
+_OMISR, _OMIMR, _ODBR, _IDBR = int(Mu.OMISR), int(Mu.OMIMR), int(Mu.ODBR), int(Mu.IDBR)
+_IMR0, _IMR1 = int(Mu.IMR0), int(Mu.IMR1)
+#: the registers that read back what is stored in them, by offset
+_STORED = {_OMIMR: "omimr", int(Mu.OMR0): "omr0", int(Mu.OMR1): "omr1", _ODBR: "odbr",
+           _IMR0: "imr0", _IMR1: "imr1"}
 
 
 class MessageUnit:
@@ -54,25 +59,25 @@ class MessageUnit:
         return self.messages | (_ODI if self.odbr else 0)
 
     def read(self, offset: int) -> int:
-        values = {Mu.OMISR: self.omisr, Mu.OMIMR: self.omimr, Mu.OMR0: self.omr0,
-                  Mu.OMR1: self.omr1, Mu.ODBR: self.odbr, Mu.IMR0: self.imr0,
-                  Mu.IMR1: self.imr1}
-        return values.get(offset, 0)  # type: ignore[call-overload]
+        if offset == _OMISR:
+            return self.omisr
+        name = _STORED.get(offset)
+        return 0 if name is None else int(getattr(self, name))
 
     def write(self, offset: int, value: int) -> None:
         """Host write: OMISR and ODBR clear the bits written as ones; OMIMR masks; IDBR kicks
         the firmware (spec §2.9); the other registers are stored or ignored."""
-        if offset == Mu.OMISR:
+        if offset == _OMISR:
             self.messages &= ~value
-        elif offset == Mu.ODBR:
+        elif offset == _ODBR:
             self.odbr &= ~value
-        elif offset == Mu.OMIMR:
+        elif offset == _OMIMR:
             self.omimr = value & 0xFFFFFFFF
-        elif offset == Mu.IMR0:
+        elif offset == _IMR0:
             self.imr0 = value
-        elif offset == Mu.IMR1:
+        elif offset == _IMR1:
             self.imr1 = value
-        elif offset == Mu.IDBR and self.on_inbound is not None:
+        elif offset == _IDBR and self.on_inbound is not None:
             self.on_inbound(value)
         self._update()
 

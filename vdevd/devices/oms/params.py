@@ -100,8 +100,10 @@ class Params:
     def format(self, a: int, counts: float, kind: str = "motor") -> str:
         """A position or velocity as RP/RE/RV reply it: whole counts; in user units when UU is
         on, fixed point with ceil(log10(UU)) decimals, 1 to 6 (at UU 1000 one count is 0.001)."""
-        value = counts / self.scale(a, kind)
         uu = float(self.user_units[a])
+        if not uu and (kind != "motor" or self.ptype[a] != "E"):
+            return str(int(round(counts)))  # scale 1: counts as they are
+        value = counts / self.scale(a, kind)
         if not uu:
             return str(int(round(value)))
         decimals = min(6, max(1, math.ceil(math.log10(uu))))

@@ -16,6 +16,10 @@ from vdevd.devices.oms.layout import CAPTURE_ENTRIES, CAPTURE_ENTRY, RING_SIZE, 
 
 _U32 = struct.Struct(">I")
 _ENTRY = struct.Struct(">iBBHH")
+# the offsets as plain ints (an IntEnum costs a conversion on every access)
+_SEMAPHORE, _CMD_INSERT, _CMD_PROCESS = int(Shm.SEMAPHORE), int(Shm.CMD_INSERT), int(Shm.CMD_PROCESS)
+_RSP_INSERT, _RSP_PROCESS = int(Shm.RSP_INSERT), int(Shm.RSP_PROCESS)
+_CMD_RING, _RSP_RING = int(Shm.CMD_RING), int(Shm.RSP_RING)
 
 
 def u32(buf: bytearray, offset: int) -> int:
@@ -30,38 +34,39 @@ def take_commands(buf: bytearray) -> bytes:
     """The bytes the host has put in the command ring since the last call; advances 0x0F4.
 
     An index outside 0..1023 is taken modulo the ring size (the firmware masks it)."""
-    insert = u32(buf, Shm.CMD_INSERT) % RING_SIZE
-    process = u32(buf, Shm.CMD_PROCESS) % RING_SIZE
+    insert = u32(buf, _CMD_INSERT) % RING_SIZE
+    process = u32(buf, _CMD_PROCESS) % RING_SIZE
     if insert == process:
         return b""
-    base = Shm.CMD_RING
     if insert > process:
-        data = bytes(buf[base + process: base + insert])
+        data = bytes(buf[_CMD_RING + process: _CMD_RING + insert])
     else:
-        data = bytes(buf[base + process: base + RING_SIZE]) + bytes(buf[base: base + insert])
-    put_u32(buf, Shm.CMD_PROCESS, insert)
+        data = bytes(buf[_CMD_RING + process: _CMD_RING + RING_SIZE]) + bytes(
+            buf[_CMD_RING: _CMD_RING + insert])
+    put_u32(buf, _CMD_PROCESS, insert)
     return data
 
 
 def response_free(buf: bytearray) -> bool:
     """The host has released the last reply: semaphore 0 and its process index caught up."""
-    return u32(buf, Shm.SEMAPHORE) == 0 and u32(buf, Shm.RSP_PROCESS) % RING_SIZE == u32(
-        buf, Shm.RSP_INSERT) % RING_SIZE
+    return u32(buf, _SEMAPHORE) == 0 and u32(buf, _RSP_PROCESS) % RING_SIZE == u32(
+        buf, _RSP_INSERT) % RING_SIZE
 
 
 def post_response(buf: bytearray, text: bytes) -> None:
     """Write one reply (the caller adds the LF) from 0x0F8, advance it, set the semaphore."""
     if len(text) >= RING_SIZE:
         text = text[: RING_SIZE - 2] + b"\n"
-    insert = u32(buf, Shm.RSP_INSERT) % RING_SIZE
-    base = Shm.RSP_RING
-    first = min(len(text), RING_SIZE - insert)
-    buf[base + insert: base + insert + first] = text[:first]
-    rest = len(text) - first
-    if rest:
-        buf[base: base + rest] = text[first:]
-    put_u32(buf, Shm.RSP_INSERT, (insert + len(text)) % RING_SIZE)
-    put_u32(buf, Shm.SEMAPHORE, 1)
+    insert = u32(buf, _RSP_INSERT) % RING_SIZE
+    end = insert + len(text)
+    if end <= RING_SIZE:
+        buf[_RSP_RING + insert: _RSP_RING + end] = text
+    else:
+        first = RING_SIZE - insert
+        buf[_RSP_RING + insert: _RSP_RING + RING_SIZE] = text[:first]
+        buf[_RSP_RING: _RSP_RING + end - RING_SIZE] = text[first:]
+    put_u32(buf, _RSP_INSERT, end % RING_SIZE)
+    put_u32(buf, _SEMAPHORE, 1)
 
 
 def push_capture(buf: bytearray, position: int, axis: int, home_bits: int, rising: int,

@@ -15,6 +15,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 SEPARATORS = frozenset(b" \r\n;\t\0")
+#: command streams whose parse a lexer remembers, and the longest it remembers (bytes)
+MEMO_ENTRIES = 256
+MEMO_BYTES = 256
 
 
 class Operand(enum.Enum):
@@ -48,16 +51,35 @@ _LETTER_CHARS = frozenset(b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz
 class Lexer:
     """Splits the command stream into `Command`s; `table` maps mnemonics to their operand kind."""
 
-    def __init__(self, table: Mapping[str, Operand]) -> None:
+    def __init__(self, table: Mapping[str, Operand], memo_entries: int = MEMO_ENTRIES) -> None:
         self.table = table
         self.pending = b""
         self._three = {m for m in table if len(m) == 3}
+        #: what `_split` made of up to `memo_entries` streams (a host repeats its strings,
+        #: "AX RP;"): the parse depends on the bytes and the fixed table only, and a Command
+        #: is immutable; 0 parses every stream afresh
+        self.memo_entries = memo_entries
+        self._memo: dict[bytes, tuple[tuple[Command, ...], bytes]] = {}
 
     def reset(self) -> None:
         self.pending = b""
 
     def feed(self, data: bytes) -> list[Command]:
+        """The commands `data` completes, after what an earlier feed left incomplete."""
         buf = self.pending + data
+        known = self._memo.get(buf)
+        if known is None:
+            known = self._split(buf)
+            if self.memo_entries and len(buf) <= MEMO_BYTES:
+                if len(self._memo) >= self.memo_entries:
+                    self._memo.clear()
+                self._memo[buf] = known
+        commands, self.pending = known
+        return list(commands)
+
+    def _split(self, buf: bytes) -> tuple[tuple[Command, ...], bytes]:
+        """The complete commands of `buf` and the incomplete rest (or, over 1024 bytes, the rest
+        as one bad command)."""
         out: list[Command] = []
         i, n = 0, len(buf)
         while i < n:
@@ -69,11 +91,11 @@ class Lexer:
                 break
             out.append(cmd)
             i = end
-        self.pending = buf[i:]
-        if len(self.pending) > 1024:  # nothing valid is that long: drop it as one bad command
-            out.append(Command(self.pending[:16].decode("latin-1"), error="command too long"))
-            self.pending = b""
-        return out
+        rest = buf[i:]
+        if len(rest) > 1024:  # nothing valid is that long: drop it as one bad command
+            out.append(Command(rest[:16].decode("latin-1"), error="command too long"))
+            rest = b""
+        return tuple(out), rest
 
     def _one(self, buf: bytes, i: int) -> tuple[Command | None, int]:
         n = len(buf)
