@@ -164,10 +164,12 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
 def replay_of(dmc: Callable[[], Any], rack: Any) -> tuple[Callable[[], Any], int]:
     """A call that sends the batch DMCCommand sends once it knows the reply's length, through
     `rack` (no library around it), and the number of ops in that batch."""
-    seen: list[dict[str, Any]] = []
+    from vdevclient.core import Prepared
+
+    seen: list[Any] = []
     call = type(rack).call
 
-    def spy(self: Any, message: dict[str, Any], wait_s: float = 0.0) -> Any:
+    def spy(self: Any, message: Any, wait_s: float = 0.0) -> Any:
         seen.append(message)
         return call(self, message, wait_s)
 
@@ -177,10 +179,12 @@ def replay_of(dmc: Callable[[], Any], rack: Any) -> tuple[Callable[[], Any], int
         dmc()
     finally:
         type(rack).call = call
-    ops = list(seen[-1]["ops"])
+    last = seen[-1]
+    ops = list((last.message if isinstance(last, Prepared) else last)["ops"])
+    message = last if isinstance(last, Prepared) else None  # sent as the library sends it
 
     def replay() -> Any:
-        return rack.call({"op": "batch", "ops": ops}, 1.0)
+        return rack.call(message or {"op": "batch", "ops": ops}, 1.0)
 
     return replay, len(ops)
 

@@ -142,10 +142,12 @@ class Region:
         plan = self._read_plans.get((offset, size))
         if plan is None:
             plan = _keep(self._read_plans, (offset, size), self._plan_read(offset, size))
-        return plan(offset, size)
+        return _sized(plan(offset, size), offset, size)
 
     def write(self, offset: int, data: bytes) -> None:
         """A host write: plain memory into the buffer, hooked registers through their hook."""
+        if type(data) is not bytes:
+            data = bytes(data)  # a hook gets bytes, whatever buffer the access carried
         plan = self._write_plans.get((offset, len(data)))
         if plan is None:
             plan = _keep(self._write_plans, (offset, len(data)), self._plan_write(offset, len(data)))
@@ -157,11 +159,13 @@ class Region:
         plan = self._read_rep_plans.get((offset, size))
         if plan is None:
             plan = _keep(self._read_rep_plans, (offset, size), self._plan_read_rep(offset, size))
-        return plan(offset, size)
+        return _sized(plan(offset, size), offset, size)
 
     def write_rep(self, offset: int, data: bytes) -> None:
         """A repeated write: `data` written as single accesses of the smallest width, all at
         `offset` (a FIFO port), in order."""
+        if type(data) is not bytes:
+            data = bytes(data)
         plan = self._write_rep_plans.get((offset, len(data)))
         if plan is None:
             plan = _keep(self._write_rep_plans, (offset, len(data)),
@@ -197,7 +201,7 @@ class Region:
         self._check_rep(offset, size)
         h = self._register(offset, unit)
         if h is not None and h.on_read_rep is not None:
-            return _sized(h.on_read_rep, offset)
+            return h.on_read_rep
         read = self._read_register(offset, unit)
         return lambda _offset, _size: b"".join(read(offset, unit) for _ in range(size // unit))
 
@@ -206,7 +210,7 @@ class Region:
         self._check_rep(offset, size)
         h = self._register(offset, unit)
         if h is not None and h.on_write_rep is not None:
-            return _as_bytes(h.on_write_rep)
+            return h.on_write_rep
         write = self._write_register(offset, unit)
 
         def write_each(_offset: int, data: bytes) -> None:
@@ -220,13 +224,13 @@ class Region:
         h = self._register(offset, size)
         if h is None or h.on_read is None:
             return self._read_plain
-        return _sized(h.on_read, offset)
+        return h.on_read
 
     def _write_register(self, offset: int, size: int) -> WritePlan:
         h = self._register(offset, size)
         if h is None or h.on_write is None:
             return self._write_plain
-        return _as_bytes(h.on_write)
+        return h.on_write
 
     def _read_plain(self, offset: int, size: int) -> bytes:
         return bytes(self.mem[offset : offset + size])
@@ -354,22 +358,9 @@ def _keep(plans: dict[tuple[int, int], Any], key: tuple[int, int], plan: Any) ->
     return plan
 
 
-def _sized(hook: ReadHook, offset: int) -> ReadPlan:
-    """A read hook whose result must have the size asked for (a card bug otherwise)."""
-
-    def read(o: int, size: int) -> bytes:
-        data = hook(o, size)
-        if len(data) != size:
-            raise VdevError(ErrorCode.INTERNAL, f"hook at {offset:#x} returned {len(data)} bytes")
-        return data
-
-    return read
-
-
-def _as_bytes(hook: WriteHook) -> WritePlan:
-    """A write hook, given `bytes` whatever buffer type the access carried."""
-
-    def write(o: int, data: bytes) -> None:
-        hook(o, data if type(data) is bytes else bytes(data))
-
-    return write
+def _sized(data: bytes, offset: int, size: int) -> bytes:
+    """A read's bytes, which a hook with a bug may have made the wrong size."""
+    if len(data) != size:
+        raise VdevError(ErrorCode.INTERNAL, f"hook at {offset:#x} returned {len(data)} bytes "
+                        f"for a {size}-byte read")
+    return data

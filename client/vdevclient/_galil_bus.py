@@ -17,7 +17,7 @@ from collections import OrderedDict
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
-from vdevclient.core import Rack
+from vdevclient.core import Prepared, Rack
 
 log = logging.getLogger(__name__)
 
@@ -100,7 +100,7 @@ class DmcBus:
         self._reply_len: OrderedDict[bytes, int] = OrderedDict()  # the oldest learnt goes first
         #: line -> (its whole first batch, replies, reply length) for the common state: room
         #: known, nothing stale or owed, eager. A line of one burst then needs no wait at all
-        self._quick: dict[bytes, tuple[dict[str, Any], int, int]] = {}
+        self._quick: dict[bytes, tuple[Prepared, int, int]] = {}
 
     # -- ops ------------------------------------------------------------------------------------
     def _wait(self, offset: int, mask: int, value: int, timeout_ns: int) -> dict[str, Any]:
@@ -189,7 +189,7 @@ class DmcBus:
             self._learn_quick(data, replies)
         return reply
 
-    def _quick_command(self, data: bytes, quick: tuple[dict[str, Any], int, int]) -> Reply:
+    def _quick_command(self, data: bytes, quick: tuple[Prepared, int, int]) -> Reply:
         """`command` in the common state with its prebuilt batch [the line's bytes, its reply
         length + 1 reads]: the same exchange as the general path, less the building."""
         message, replies, length = quick
@@ -244,7 +244,7 @@ class DmcBus:
         whose reply length is remembered, so `_remember` bounds and refreshes it."""
         length = self._reply_len[data]
         ops = [self._fifo_write(data), self._fifo_read(Reg.DATA, length + 1)]
-        self._quick[data] = ({"op": "batch", "ops": ops}, replies, length)
+        self._quick[data] = (self.rack.prepare({"op": "batch", "ops": ops}), replies, length)
 
     def send(self, data: bytes, replies: int) -> None:
         """Write without reading the reply (DMCFastCommand); the card owes `replies` answers."""

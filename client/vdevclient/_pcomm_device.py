@@ -33,7 +33,7 @@ from vdevclient._pmac_bus import (
     parse_slot,
     slot_whole,
 )
-from vdevclient.core import Rack, connect
+from vdevclient.core import Prepared, Rack, connect
 from vdevclient.errors import VdevClientError
 
 log = logging.getLogger("vdevclient.pcomm")  # the public module's logger, whichever module logs
@@ -53,6 +53,7 @@ class _Seen:
     slots: int
     ops: list[dict[str, Any]] | None = None
     reads: list[int] = field(default_factory=list)
+    message: Prepared | None = None  # the batch of `ops`, packed once
 
 
 class _Device:
@@ -132,11 +133,15 @@ class _Device:
         return reads
 
     def _read_reply(self, ops: list[dict[str, Any]], reads: list[int], key: bytes | None,
-                    posted: list[Posted], waiting: bool = False) -> tuple[list[Posted], bool]:
-        """Run `ops` and the batches after it until the reply's end (`collect`); `ops` is not
-        changed (the steady-state batches are reused)."""
+                    posted: list[Posted], waiting: bool = False,
+                    prepared: Prepared | None = None) -> tuple[list[Posted], bool]:
+        """Run `ops` (sent as `prepared` when given) and the batches after it until the reply's
+        end (`collect`); `ops` is not changed (the steady-state batches are reused)."""
         while True:
-            res = self.batch(ops, self.timeout_ms * _NS_PER_MS if waiting else 0)
+            if prepared is not None:
+                res, prepared = self.rack.call(prepared), None
+            else:
+                res = self.batch(ops, self.timeout_ms * _NS_PER_MS if waiting else 0)
             if waiting and not res[0]["fired"]:
                 return posted, False
             last = reads[-1]
@@ -196,8 +201,9 @@ class _Device:
         if seen.ops is None:
             seen.ops = self.command_ops(line, [self.ack])
             seen.reads = self._reads(seen.ops, seen.slots, False)
+            seen.message = self.rack.prepare({"op": "batch", "ops": seen.ops})
         self.pending = []
-        return _reply(*self._read_reply(seen.ops, seen.reads, line, []))
+        return _reply(*self._read_reply(seen.ops, seen.reads, line, [], prepared=seen.message))
 
     def get_variable(self, ch: str, num: int) -> str | None:
         data, status = self.response(f"{ch}{num}".encode("latin-1"))

@@ -47,6 +47,20 @@ def connect(
     return Rack(endpoint, events, timeout, curve=curve)
 
 
+_ID_KEY = msgpack.packb("id")
+_MAX_PREPARED_FIELDS = 14  # with the id, a msgpack fixmap (at most 15 fields)
+
+
+@dataclass(frozen=True, slots=True)
+class Prepared:
+    """A request packed by `Rack.prepare`: its op, its map's header (counting the id `call`
+    appends) and fields, and the map itself (to look at; changing it changes nothing sent)."""
+
+    op: str
+    fields: bytes
+    message: dict[str, Any]
+
+
 class _Record(Mapping[str, Any]):
     """Lets a frozen dataclass be read as a mapping of its fields: `info["name"]` is `info.name`."""
 
@@ -119,18 +133,25 @@ class Rack:
         fields["op"] = op
         return self.call(fields, _wait_s)
 
-    def call(self, message: dict[str, Any], wait_s: float = 0.0) -> Any:
-        """Send one request map (its `id` is set here) and return the result; RequestTooLarge,
-        without sending it, when its body exceeds the daemon's `max_message`."""
-        message["id"] = req_id = next(self._ids)
-        body = self._packb(message)
+    def call(self, message: dict[str, Any] | Prepared, wait_s: float = 0.0) -> Any:
+        """Send one request map (its `id` is set here), or a request `prepare`d before, and
+        return the result; RequestTooLarge, without sending it, when its body exceeds the
+        daemon's `max_message`."""
+        req_id = next(self._ids)
+        if type(message) is Prepared:
+            op = message.op
+            body = message.fields + _ID_KEY + self._packb(req_id)
+        else:
+            message["id"] = req_id  # type: ignore[index]
+            op = message["op"]  # type: ignore[index]
+            body = self._packb(message)
         if len(body) > self.max_message:
-            raise RequestTooLarge(message["op"], len(body), self.max_message)
+            raise RequestTooLarge(op, len(body), self.max_message)
         try:
             self._sock.send(body)
         except zmq.ZMQError:
             if self._sock.closed:
-                raise RackClosed(f"{message['op']}: the connection to {self.endpoint} is closed") from None
+                raise RackClosed(f"{op}: the connection to {self.endpoint} is closed") from None
             raise
         # what follows overlaps the round trip
         deadline_ms = int((self.timeout + wait_s) * 1000)
@@ -140,7 +161,7 @@ class Rack:
             try:
                 raw = self._sock.recv()
             except zmq.Again:
-                raise VdevTimeout(f"{message['op']}: no reply from {self.endpoint} "
+                raise VdevTimeout(f"{op}: no reply from {self.endpoint} "
                                   f"in {deadline_ms} ms") from None
             reply = msgpack.unpackb(raw)
             if reply.get("id") != req_id:
@@ -149,6 +170,15 @@ class Rack:
                 err = reply["error"]
                 raise RemoteError(err.get("code", "?"), err.get("message", ""))
             return reply.get("ok")
+
+    def prepare(self, message: dict[str, Any]) -> Prepared:
+        """`message` (a request map without `id`, of at most 14 fields) packed once, for a
+        client that sends the same request again and again: `call` then adds only the id."""
+        if "id" in message or len(message) > _MAX_PREPARED_FIELDS:
+            raise ValueError(f"a prepared request has no id and at most {_MAX_PREPARED_FIELDS} "
+                             "fields")
+        packed = self._packb(message)  # a fixmap: its first byte is 0x80 + the field count
+        return Prepared(str(message["op"]), bytes((packed[0] + 1,)) + packed[1:], message)
 
     def socket(self, kind: int) -> zmq.Socket[bytes]:
         """A socket of this connection's context, with its CURVE keys when it has them."""

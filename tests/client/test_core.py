@@ -90,6 +90,32 @@ def test_a_request_over_max_message_is_refused_without_being_sent(rack: vdevclie
     assert bar.read32(R.OUTPUTS) == 7
 
 
+def test_a_prepared_request_is_sent_again_and_again_with_a_new_id(rack: vdevclient.Rack) -> None:
+    """Rack.prepare packs a request once; each call adds its own id, so the replies match."""
+    where = {"card": "servo0", "region": "bar0"}
+    ops = [{"op": "write", "offset": R.OUTPUTS, "data": (5).to_bytes(4, "little"), **where},
+           {"op": "read", "offset": R.OUTPUTS, "size": 4, **where},
+           {"op": "read", "offset": 0, "size": 4, **where}]
+    prepared = rack.prepare({"op": "batch", "ops": ops})
+    assert prepared.op == "batch" and prepared.message["ops"] is ops
+    expected = [None, (5).to_bytes(4, "little"), R.CARD_ID.to_bytes(4, "little")]
+    for _ in range(3):
+        assert rack.call(prepared) == expected
+    assert rack.call({"op": "batch", "ops": ops}) == expected  # as the map itself gives
+    bad = rack.prepare({"op": "batch", "ops": [{"op": "read", "offset": 0x1000, "size": 4, **where}]})
+    with pytest.raises(vdevclient.RemoteError) as info:
+        rack.call(bad)
+    assert info.value.code == "out_of_range"
+    assert rack.call(prepared) == expected  # the connection still works
+
+
+def test_a_prepared_request_has_no_id_and_fits_a_small_map(rack: vdevclient.Rack) -> None:
+    with pytest.raises(ValueError):
+        rack.prepare({"op": "stats", "id": 1})
+    with pytest.raises(ValueError):
+        rack.prepare({"op": "stats", **{f"f{i}": i for i in range(14)}})
+
+
 def test_big_endian_register_access_is_in_the_cards_byte_order(pulsers: DaemonThread) -> None:
     with vdevclient.connect(pulsers.endpoint) as rack:
         card = rack.card("p0")

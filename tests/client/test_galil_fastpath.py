@@ -15,7 +15,7 @@ import pytest
 import vdevclient
 from vdevclient import galil, gclib
 from vdevclient._galil_bus import MEMO_SIZE, DmcBus
-from vdevclient.core import Rack
+from vdevclient.core import Prepared, Rack
 
 from tests.client.galil import GALIL, card, rack_config
 from vdevd.testing import DaemonThread
@@ -62,8 +62,9 @@ class Recorder:
     def install(self, monkeypatch: pytest.MonkeyPatch) -> None:
         call = Rack.call
 
-        def recorded(rack: Rack, message: dict[str, Any], wait_s: float = 0.0) -> Any:
-            request = copy.deepcopy({k: v for k, v in message.items() if k != "id"})
+        def recorded(rack: Rack, message: dict[str, Any] | Prepared, wait_s: float = 0.0) -> Any:
+            sent = message.message if isinstance(message, Prepared) else message
+            request = copy.deepcopy({k: v for k, v in sent.items() if k != "id"})
             result = call(rack, message, wait_s)
             # hello names the daemon's ports, which differ from run to run
             self.calls.append((request, None if request["op"] == "hello" else copy.deepcopy(result)))

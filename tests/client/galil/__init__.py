@@ -8,7 +8,7 @@ from collections.abc import Iterator
 from typing import Any
 
 import pytest
-from vdevclient.core import Rack
+from vdevclient.core import Prepared, Rack
 
 from vdevd.config import CardSpec, Config
 from vdevd.devices import card_class
@@ -30,7 +30,7 @@ def rack_config(*cards: CardSpec) -> Config:
 
 class RoundTrips:
     """Every request of every Rack goes through `Rack.call`: this counts them and keeps the
-    request maps (a batch's ops are in `sent[i]["ops"]`)."""
+    request maps, a prepared request's too (a batch's ops are in `sent[i]["ops"]`)."""
 
     def __init__(self) -> None:
         self.sent: list[dict[str, Any]] = []
@@ -48,8 +48,8 @@ def round_trips(monkeypatch: pytest.MonkeyPatch) -> Iterator[RoundTrips]:
     spy = RoundTrips()
     call = Rack.call
 
-    def counted(self: Rack, message: dict[str, Any], wait_s: float = 0.0) -> Any:
-        spy.sent.append(message)
+    def counted(self: Rack, message: dict[str, Any] | Prepared, wait_s: float = 0.0) -> Any:
+        spy.sent.append(message.message if isinstance(message, Prepared) else message)
         return call(self, message, wait_s)
 
     with monkeypatch.context() as m:
