@@ -115,6 +115,7 @@ def replay_of(card: Any) -> tuple[Callable[[], Any], int]:
     position, the insert index and the release on as the client would (the card answers only a
     new command); `card` must not be used afterwards."""
     from vdevclient._maxk_bus import RING_SIZE, Shm, ring_pieces
+    from vdevclient.core import compact
 
     rack = card.rack
     seen: list[dict[str, Any]] = []
@@ -130,28 +131,29 @@ def replay_of(card: Any) -> tuple[Callable[[], Any], int]:
         reply = card.send_and_get_string(COMMAND)
     finally:
         type(rack).call = call
-    template = list(seen[-1]["ops"])
+    # as [kind, card, region, offset, data], whichever form the client sent
+    template = [op if isinstance(op, list) else compact(op) for op in seen[-1]["ops"]]
+
+    def write_at(test: Callable[[int], bool]) -> int:
+        return next(i for i, op in enumerate(template) if op[0] == "w" and test(op[3]))
+
+    ring_at = write_at(lambda offset: Shm.COMMAND_RING <= offset < Shm.RESPONSE_RING)
+    insert_at = write_at(lambda offset: offset == Shm.COMMAND_INSERT)
+    release_at = write_at(lambda offset: offset == Shm.RESPONSE_PROCESS)
+    data = template[ring_at][4]
     size, reply_size = len(COMMAND) + 1, len(reply) + 1
-    ring_at = next(i for i, op in enumerate(template)
-                   if op["op"] == "write" and Shm.COMMAND_RING <= op["offset"] < Shm.RESPONSE_RING)
-    data = template[ring_at]["data"]
-    insert = next(op for op in template if op["op"] == "write" and op["offset"] == Shm.COMMAND_INSERT)
-    release = next(op for op in template if op["op"] == "write" and op["offset"] == Shm.RESPONSE_PROCESS)
-    state = {"put": int.from_bytes(insert["data"], "big"),
-             "fc": (int.from_bytes(release["data"], "big") + reply_size) % RING_SIZE}
+    state = {"put": int.from_bytes(template[insert_at][4], "big"),
+             "fc": (int.from_bytes(template[release_at][4], "big") + reply_size) % RING_SIZE}
 
     def replay() -> Any:
         put, fc = state["put"], state["fc"]
-        ops = list(template)
-        ops[ring_at:ring_at + 1] = [dict(template[ring_at], offset=Shm.COMMAND_RING + off,
-                                         data=data[start:start + length])
-                                    for off, start, length in ring_pieces(put, size)]
         state["put"], state["fc"] = (put + size) % RING_SIZE, (fc + reply_size) % RING_SIZE
-        for i, op in enumerate(ops):
-            if op is insert:
-                ops[i] = dict(op, data=state["put"].to_bytes(4, "big"))
-            elif op is release:
-                ops[i] = dict(op, data=fc.to_bytes(4, "big"))
+        ops = list(template)
+        ops[insert_at] = [*template[insert_at][:4], state["put"].to_bytes(4, "big")]
+        ops[release_at] = [*template[release_at][:4], fc.to_bytes(4, "big")]
+        ops[ring_at:ring_at + 1] = [[*template[ring_at][:3], Shm.COMMAND_RING + off,
+                                     data[start:start + length]]
+                                    for off, start, length in ring_pieces(put, size)]
         return rack.call({"op": "batch", "ops": ops}, 1.0)
 
     return replay, len(template)

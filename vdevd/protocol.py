@@ -23,7 +23,8 @@ HARD_MAX_MESSAGE = 4 * MAX_MESSAGE
 #: The longest wait or step a request may ask for, in simulated ns (one day).
 MAX_WAIT_NS = 86_400 * 1_000_000_000
 
-CAPABILITIES = ("read", "write", "rep", "batch", "wait.irq", "wait.value", "sim", "control", "stats", "sync")
+CAPABILITIES = ("read", "write", "rep", "batch", "batch.compact", "wait.irq", "wait.value", "sim",
+                "control", "stats", "sync")
 
 
 
@@ -197,22 +198,49 @@ def request_from(msg: Any) -> Request:
     return req
 
 
-def _batch_ops(ops: list[Any]) -> list[Request]:
-    """A batch's ops, validated. The usual read or write ({op, card, region, offset, size|data
-    [, rep]} with the right types) is checked here in a few operations and its own map becomes
-    its args; anything else goes through `validate`, which accepts it or names what is wrong."""
-    out: list[Request] = []
+#: A batch's plain read or write, ready to run: [kind, card, region, offset, size or data], kind
+#: "r" read, "w" write, "R" repeated read, "W" repeated write (PROTOCOL.md "Compact accesses").
+#: A compact op arrives as this list; the map form of a plain access becomes this tuple.
+Access = tuple[str, str, str, int, Any] | list[Any]
+#: kind -> whether its last field is data (bytes) rather than a size (int)
+ACCESS_KINDS: dict[str, bool] = {"r": False, "w": True, "R": False, "W": True}
+
+
+def _batch_ops(ops: list[Any]) -> list[Request | Access]:
+    """A batch's ops, validated. A plain read or write, in its compact form or as the usual map
+    ({op, card, region, offset, size|data[, rep]} with the right types), is checked here in a
+    few operations and becomes an `Access`; anything else goes through `validate`, which
+    accepts it or names what is wrong."""
+    out: list[Request | Access] = []
     append = out.append
     for i, op in enumerate(ops):
-        if type(op) is dict:
+        kind = type(op)
+        if kind is list:
+            if len(op) == 5:
+                name, card, region, offset, last = op
+                if type(name) is str and name in ACCESS_KINDS and type(card) is str \
+                        and type(region) is str and type(offset) is int \
+                        and type(last) is (bytes if ACCESS_KINDS[name] else int):
+                    append(op)
+                    continue
+            raise VdevError(ErrorCode.MALFORMED, f"batch op {i}: a compact access is "
+                            "[r|w|R|W, card, region, offset, size|data]")
+        if kind is dict:
             name = op.get("op")
             if type(name) is str and name in _PLAIN_KEYS:
                 keys, keys_rep, last, last_type = _PLAIN_KEYS[name]
                 found = op.keys()
-                if (found == keys or (found == keys_rep and type(op["rep"]) is bool)) \
+                if found == keys:
+                    rep: bool | None = False
+                elif found == keys_rep and type(op["rep"]) is bool:
+                    rep = op["rep"]
+                else:
+                    rep = None
+                if rep is not None \
                         and type(op[last]) is last_type and type(op["card"]) is str \
                         and type(op["region"]) is str and type(op["offset"]) is int:
-                    append(Request(None, name, op))
+                    code = name[0].upper() if rep else name[0]
+                    append((code, op["card"], op["region"], op["offset"], op[last]))
                     continue
         append(_validate_batch_op(i, op))
     return out

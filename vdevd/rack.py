@@ -21,7 +21,15 @@ from vdevd.devices.base import Card
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.irq import IrqEvent
 from vdevd.metrics import Samples
-from vdevd.protocol import CAPABILITIES, MAX_MESSAGE, MAX_WAIT_NS, SCHEMA, VERSION, Request
+from vdevd.protocol import (
+    CAPABILITIES,
+    MAX_MESSAGE,
+    MAX_WAIT_NS,
+    SCHEMA,
+    VERSION,
+    Access,
+    Request,
+)
 from vdevd.region import Region
 from vdevd.rt.scheduler import Scheduler
 
@@ -122,6 +130,9 @@ class Rack:
         self.errors = 0
         self.latency = Samples()
         self.events_published = 0
+        #: the ops a batch runs as requests (its plain accesses run inline)
+        self._batchable: dict[str, Callable[[dict[str, Any], Reply], Any]] = {
+            "read": self.op_read, "write": self.op_write, "control": self.op_control}
         #: op -> its handler (every op of protocol.SCHEMA has an `op_<name>`)
         self._handlers: dict[str, Callable[[dict[str, Any], Reply], Any]] = {
             name: getattr(self, "op_" + name) for name in SCHEMA}
@@ -411,16 +422,37 @@ class Rack:
         return None
 
     def op_batch(self, args: dict[str, Any], reply: Reply) -> Any:
-        ops: list[Request] = args["ops"]
+        ops: list[Request | Access] = args["ops"]
         results: list[Any] = []
         self._run_batch(ops, 0, results, reply)
         return _DEFERRED
 
-    def _run_batch(self, ops: list[Request], start: int, results: list[Any], reply: Reply) -> None:
+    def _run_batch(self, ops: list[Request | Access], start: int, results: list[Any],
+                   reply: Reply) -> None:
         """Run ops from `start`; a wait suspends the rest until it resolves (atomic after it)."""
         regions = self._regions
+        append = results.append
         for i in range(start, len(ops)):
             op = ops[i]
+            if not isinstance(op, Request):  # a plain access (protocol.Access), the usual op
+                kind, card, name, offset, last = op
+                try:
+                    region = regions.get((card, name))
+                    if region is None:
+                        region = self.region(card, name)
+                    if kind == "r":
+                        append(region.read(offset, last))
+                    elif kind == "w":
+                        region.write(offset, last)
+                        append(None)
+                    elif kind == "R":
+                        append(region.read_rep(offset, last))
+                    else:
+                        region.write_rep(offset, last)
+                        append(None)
+                except VdevError as exc:
+                    raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
+                continue
             if op.op == "wait":
                 def resume(res: Any, i: int = i) -> None:
                     if isinstance(res, VdevError):
@@ -445,23 +477,7 @@ class Rack:
                 self._add_waiter(waiter)
                 return
             try:
-                if op.op == "control":
-                    results.append(self.op_control(op.args, reply))
-                    continue
-                args = op.args  # a read or a write: op_read or op_write, inline
-                region = regions.get((args["card"], args["region"]))
-                if region is None:
-                    region = self.region(args["card"], args["region"])
-                if op.op == "write":
-                    if args.get("rep"):
-                        region.write_rep(args["offset"], args["data"])
-                    else:
-                        region.write(args["offset"], args["data"])
-                    results.append(None)
-                elif args.get("rep"):
-                    results.append(region.read_rep(args["offset"], args["size"]))
-                else:
-                    results.append(region.read(args["offset"], args["size"]))
+                append(self._batchable[op.op](op.args, reply))
             except VdevError as exc:
                 raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
         reply(results)

@@ -51,6 +51,25 @@ _ID_KEY = msgpack.packb("id")
 _MAX_PREPARED_FIELDS = 14  # with the id, a msgpack fixmap (at most 15 fields)
 
 
+#: (op, rep) -> the kind of a compact access (PROTOCOL.md "Compact accesses")
+_COMPACT_KINDS = {("read", False): "r", ("write", False): "w", ("read", True): "R",
+                  ("write", True): "W"}
+
+
+def compact(op: dict[str, Any]) -> dict[str, Any] | list[Any]:
+    """A batch op as the daemon takes it in fewest bytes: a plain read or write (card, region,
+    offset, size or data, rep) as its compact array, anything else as it is."""
+    rep, name = op.get("rep", False), op.get("op")
+    kind = _COMPACT_KINDS.get((name, rep)) if type(rep) is bool and type(name) is str else None
+    if kind is None or op.keys() - {"rep"} != _ACCESS_FIELDS[kind]:
+        return op
+    return [kind, op["card"], op["region"], op["offset"], op["size" if kind in "rR" else "data"]]
+
+
+_ACCESS_FIELDS = {kind: frozenset({"op", "card", "region", "offset", "size" if kind in "rR" else "data"})
+                  for kind in "rwRW"}
+
+
 @dataclass(frozen=True, slots=True)
 class Prepared:
     """A request packed by `Rack.prepare`: its op, its map's header (counting the id `call`
@@ -124,6 +143,8 @@ class Rack:
             self._sock.close()
             raise
         self.max_message = self.info["max_message"]
+        #: the daemon takes a batch's reads and writes as arrays (PROTOCOL.md "Compact accesses")
+        self.compact = "batch.compact" in self.info.get("capabilities", ())
         self.events_endpoint: str = events or self.info.get("events", "")
         self._infos = {c["name"]: _card_info(c) for c in self.info["cards"]}
 
@@ -177,7 +198,10 @@ class Rack:
         if "id" in message or len(message) > _MAX_PREPARED_FIELDS:
             raise ValueError(f"a prepared request has no id and at most {_MAX_PREPARED_FIELDS} "
                              "fields")
-        packed = self._packb(message)  # a fixmap: its first byte is 0x80 + the field count
+        sent = message
+        if message.get("op") == "batch" and self.compact:
+            sent = {**message, "ops": [compact(op) for op in message["ops"]]}
+        packed = self._packb(sent)  # a fixmap: its first byte is 0x80 + the field count
         return Prepared(str(message["op"]), bytes((packed[0] + 1,)) + packed[1:], message)
 
     def socket(self, kind: int) -> zmq.Socket[bytes]:

@@ -90,6 +90,8 @@ DEFAULT_TIMEOUT_MS = 100
 STARTUP_TIMEOUT_MS = 3000
 UNSOLICITED_KEPT = 64
 _NS_PER_MS = 1_000_000
+#: a batch op: a map, or a compact access [kind, card, region, offset, size|data] (PROTOCOL.md)
+Op = dict[str, Any] | list[Any]
 _POSITIONS = struct.Struct(">16i")  # X..S motor, then X..S encoder
 _WK_POSITIONS = struct.Struct(">4i")  # W, K motor, then W, K encoder
 _INDICES = struct.Struct(">4I")  # command insert, process; response insert, process
@@ -184,20 +186,19 @@ class Maxk:
         self._owns_rack = owns_rack
         self._shm: dict[str, Any] = {"card": card, "region": SHM}
         self._mu: dict[str, Any] = {"card": card, "region": MU}
+        #: reads and writes go as compact accesses when the daemon takes them (PROTOCOL.md)
+        self._compact = bool(getattr(rack, "compact", False))
         self._indices = self._read(INDICES, INDICES_SIZE)
         #: the four indices and both rings in one read (one op instead of two)
         self._window = self._read(INDICES, _RING + RING_SIZE)
         self._odbr = self._read(Mu.ODBR, 4, mu=True)
-        # the ops of every command, made once; the per-command ones are copies with new data
+        # the constant ops of every command, made once
         self._release_om0i = self._mu_word(Mu.OMISR, _OM0I)
         self._release_semaphore = self._word(Shm.MESSAGE_SEMAPHORE, 0)
-        self._response_process = self._word(Shm.RESPONSE_PROCESS, 0)
-        self._command_insert = self._word(Shm.COMMAND_INSERT, 0)
-        self._command_bytes = self._write(Shm.COMMAND_RING, b"")
         info: dict[str, Any] = next((c for c in rack.info["cards"] if c["name"] == card), {})
         self._axes: int | None = info.get("axes")
         #: ops the next batch runs first: the release of the last reply, W1C of a seen error
-        self._pending: list[dict[str, Any]] = []
+        self._pending: list[Op] = []
         self._put = 0  # command ring insert index (the host's)
         self._proc = 0  # command ring process index, as last read
         self._fc = 0  # response ring process index, once the pending ops have run
@@ -210,17 +211,21 @@ class Maxk:
         self._sync(STARTUP_TIMEOUT_MS)
 
     # -- ops ----------------------------------------------------------------------------------------
-    def _read(self, offset: int, size: int, *, mu: bool = False) -> dict[str, Any]:
+    def _read(self, offset: int, size: int, *, mu: bool = False) -> Op:
+        if self._compact:
+            return ["r", self.card, MU if mu else SHM, int(offset), size]
         return {"op": "read", "offset": int(offset), "size": size, **(self._mu if mu else self._shm)}
 
-    def _write(self, offset: int, data: bytes, *, mu: bool = False) -> dict[str, Any]:
+    def _write(self, offset: int, data: bytes, *, mu: bool = False) -> Op:
+        if self._compact:
+            return ["w", self.card, MU if mu else SHM, int(offset), data]
         return {"op": "write", "offset": int(offset), "data": data, **(self._mu if mu else self._shm)}
 
-    def _word(self, offset: int, value: int) -> dict[str, Any]:
+    def _word(self, offset: int, value: int) -> Op:
         """A 32-bit write to shared memory (big-endian)."""
         return self._write(offset, value.to_bytes(4, "big"))
 
-    def _mu_word(self, offset: int, value: int) -> dict[str, Any]:
+    def _mu_word(self, offset: int, value: int) -> Op:
         """A 32-bit write to a message-unit register (little-endian)."""
         return self._write(offset, value.to_bytes(4, "little"), mu=True)
 
@@ -233,7 +238,7 @@ class Maxk:
     def _timeout_ns(self, timeout_ms: int | None) -> int:
         return (self.timeout_ms if timeout_ms is None else timeout_ms) * _NS_PER_MS
 
-    def _begin(self) -> list[dict[str, Any]]:
+    def _begin(self) -> list[Op]:
         """The ops every batch starts with (what the last call left to do); resynchronises first
         after a failed exchange."""
         if not self._synced:
@@ -241,7 +246,7 @@ class Maxk:
         ops, self._pending = self._pending, []
         return ops
 
-    def _batch(self, ops: list[dict[str, Any]], wait_ns: int = 0) -> list[Any]:
+    def _batch(self, ops: list[Op], wait_ns: int = 0) -> list[Any]:
         """One round trip; `wait_ns`, the sum of the waits' time-outs, extends the wall-clock
         allowance for the reply."""
         try:
@@ -279,8 +284,8 @@ class Maxk:
     def _release(self, ins: int) -> None:
         """Release the reply that ends at `ins` [E-drvMAXv readbuf]: 0x0FC := 0x0F8, OMISR OM0I
         cleared (W1C), semaphore 0. The card then posts its next reply, if it has one."""
-        self._pending += [{**self._response_process, "data": ins.to_bytes(4, "big")},
-                          self._release_om0i, self._release_semaphore]
+        self._pending += [self._word(Shm.RESPONSE_PROCESS, ins), self._release_om0i,
+                          self._release_semaphore]
         self._fc = ins
 
     def _seen_error(self, odbr: int, *, reported: bool) -> None:
@@ -291,7 +296,7 @@ class Maxk:
             if not reported:
                 self._sticky |= COMMAND_ERROR
 
-    def _send_ops(self, ops: list[dict[str, Any]], data: bytes, timeout_ns: int) -> int:
+    def _send_ops(self, ops: list[Op], data: bytes, timeout_ns: int) -> int:
         """Append the §2.4 procedure to `ops`: the bytes at 0x100 + put (mod 1024), then the new
         put to 0x0F0 ("Message Sent"), after a wait for the card to consume the ring when `data`
         would overfill it; the number of waits among them (0 or 1, the first)."""
@@ -300,11 +305,10 @@ class Maxk:
         if (put - self._proc) % RING_SIZE + size > MAX_MESSAGE:
             ops.append(self._wait(Shm.COMMAND_PROCESS, 0xFFFF_FFFF, put, timeout_ns))
             waits = 1
-        ring = self._command_bytes
         for offset, start, length in ring_pieces(put, size):
-            ops.append({**ring, "offset": _COMMAND_RING + offset, "data": data[start:start + length]})
+            ops.append(self._write(_COMMAND_RING + offset, data[start:start + length]))
         self._put = put = (put + size) % RING_SIZE
-        ops.append({**self._command_insert, "data": put.to_bytes(4, "big")})
+        ops.append(self._word(Shm.COMMAND_INSERT, put))
         return waits
 
     def _check_sent(self, results: list[Any], at: int) -> None:

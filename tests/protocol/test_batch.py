@@ -69,3 +69,55 @@ def test_a_malformed_or_failing_op_is_named_by_its_index(raw: RawClient) -> None
         reply = raw.call(op="batch", ops=ops)
         assert error_code(reply) == code
         assert reply["error"]["message"].startswith(f"batch op {len(ops) - 1}: "), reply
+
+
+# -- compact accesses: [kind, card, region, offset, size|data] (PROTOCOL.md "Compact accesses") --
+def test_compact_accesses_do_what_their_maps_do(raw: RawClient) -> None:
+    card, region = BAR["card"], BAR["region"]
+    compact = [["w", card, region, R.OUTPUTS, u32(7)],
+               ["r", card, region, R.OUTPUTS, 4],
+               {"op": "read", **BAR, "offset": R.ID, "size": 4},  # the two forms mix
+               ["r", card, region, R.ID, 8]]
+    maps = [{"op": "write", **BAR, "offset": R.OUTPUTS, "data": u32(7)},
+            {"op": "read", **BAR, "offset": R.OUTPUTS, "size": 4},
+            {"op": "read", **BAR, "offset": R.ID, "size": 4},
+            {"op": "read", **BAR, "offset": R.ID, "size": 8}]
+    expected = raw.call(op="batch", ops=maps)["ok"]
+    assert expected[:3] == [None, u32(7), u32(R.CARD_ID)]
+    assert raw.call(op="batch", ops=compact)["ok"] == expected
+
+
+def test_compact_accesses_wait_and_resume_like_maps(raw: RawClient) -> None:
+    status = axis_reg(0, AxisReg.STATUS)
+    ops = [*move_ops(0, 3000),
+           {"op": "wait", **BAR, "on": "value", "offset": status, "mask": int(AxisFlag.DONE),
+            "value": int(AxisFlag.DONE), "timeout_ns": 10**9},
+           ["r", BAR["card"], BAR["region"], axis_reg(0, AxisReg.POSITION), 4]]
+    results = raw.call(op="batch", ops=ops)["ok"]
+    assert results[5]["fired"] is True
+    assert int.from_bytes(results[6], "little", signed=True) == 3000
+
+
+def test_a_bad_compact_access_is_an_error_of_its_op(raw: RawClient) -> None:
+    card, region = BAR["card"], BAR["region"]
+    good = ["r", card, region, R.ID, 4]
+    cases = [
+        (["x", card, region, 0, 4], "malformed"),  # no such kind
+        (["r", card, region, 0], "malformed"),  # four fields
+        (["r", card, region, 0, 4, True], "malformed"),  # six
+        (["r", card, region, 0, b"\0\0\0\0"], "malformed"),  # a read takes a size
+        (["w", card, region, 0, 4], "malformed"),  # a write takes data
+        (["r", card, region, "0", 4], "malformed"),
+        (["r", 1, region, 0, 4], "malformed"),
+        (["r", "nope", region, 0, 4], "no_card"),
+        (["r", card, "nope", 0, 4], "no_region"),
+        (["r", card, region, 0x1000, 4], "out_of_range"),
+        (["r", card, region, 2, 4], "bad_width"),
+        (["R", card, region, 0x1000, 4], "out_of_range"),
+        (["W", card, region, -4, b"\0"], "out_of_range"),
+    ]
+    for op, code in cases:
+        reply = raw.call(op="batch", ops=[good, op])
+        assert error_code(reply) == code, op
+        assert reply["error"]["message"].startswith("batch op 1: "), reply
+    assert raw.call(op="batch", ops=[good])["ok"] == [u32(R.CARD_ID)]  # still serving

@@ -96,3 +96,10 @@ def test_rep_ops_run_in_a_batch(fifo: tuple[RawClient, FifoPort]) -> None:
     ops = [{"op": "write", "offset": 1, "data": b"AB", "rep": True, **A16},
            {"op": "read", "offset": 1, "size": 2, "rep": True, **A16}]
     assert raw.call(op="batch", ops=ops)["ok"] == [None, b"HE"]
+
+
+def test_compact_repeated_accesses_are_the_rep_maps(fifo: tuple[RawClient, FifoPort]) -> None:
+    raw, card = fifo
+    ops = [["W", "f0", "a16", 1, b"ab"], ["R", "f0", "a16", 1, 3]]
+    assert raw.call(op="batch", ops=ops)["ok"] == [None, b"HEL"]
+    assert card.got == b"ab"
