@@ -202,8 +202,8 @@ def request_from(msg: Any) -> Request:
 #: "r" read, "w" write, "R" repeated read, "W" repeated write (PROTOCOL.md "Compact accesses").
 #: A compact op arrives as this list; the map form of a plain access becomes this tuple.
 Access = tuple[str, str, str, int, Any] | list[Any]
-#: kind -> whether its last field is data (bytes) rather than a size (int)
-ACCESS_KINDS: dict[str, bool] = {"r": False, "w": True, "R": False, "W": True}
+#: kind -> the type of its last field: a size (int) or data (bytes)
+_ACCESS_LAST: dict[str, type] = {"r": int, "w": bytes, "R": int, "W": bytes}
 
 
 def _batch_ops(ops: list[Any]) -> list[Request | Access]:
@@ -218,9 +218,8 @@ def _batch_ops(ops: list[Any]) -> list[Request | Access]:
         if kind is list:
             if len(op) == 5:
                 name, card, region, offset, last = op
-                if type(name) is str and name in ACCESS_KINDS and type(card) is str \
-                        and type(region) is str and type(offset) is int \
-                        and type(last) is (bytes if ACCESS_KINDS[name] else int):
+                if type(name) is str and type(last) is _ACCESS_LAST.get(name) \
+                        and type(card) is str and type(region) is str and type(offset) is int:
                     append(op)
                     continue
             raise VdevError(ErrorCode.MALFORMED, f"batch op {i}: a compact access is "

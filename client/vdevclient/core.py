@@ -130,6 +130,8 @@ class Rack:
         self.curve = curve
         self._ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
         self._sock = self.socket(zmq.DEALER)
+        # pyzmq's own send, without zmq.Socket's Python wrapper (routing ids, groups): ~0.5 us
+        self._send = super(zmq.Socket, self._sock).send
         self._rcvtimeo = -1
         self._ids = itertools.count(1)
         self._packb = msgpack.Packer(use_bin_type=True).pack
@@ -169,7 +171,7 @@ class Rack:
         if len(body) > self.max_message:
             raise RequestTooLarge(op, len(body), self.max_message)
         try:
-            self._sock.send(body)
+            self._send(body)
         except zmq.ZMQError:
             if self._sock.closed:
                 raise RackClosed(f"{op}: the connection to {self.endpoint} is closed") from None
