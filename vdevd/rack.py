@@ -434,8 +434,8 @@ class Rack:
         append = results.append
         for i in range(start, len(ops)):
             op = ops[i]
-            if not isinstance(op, Request):  # a plain access (protocol.Access), the usual op
-                kind, card, name, offset, last = op
+            if type(op) is not Request:  # a plain access (protocol.Access), the usual op
+                kind, card, name, offset, last = op  # type: ignore[misc]
                 try:
                     region = regions.get((card, name))
                     if region is None:

@@ -142,7 +142,10 @@ class Region:
         plan = self._read_plans.get((offset, size))
         if plan is None:
             plan = _keep(self._read_plans, (offset, size), self._plan_read(offset, size))
-        return _sized(plan(offset, size), offset, size)
+        data = plan(offset, size)
+        if len(data) != size:
+            raise _wrong_size(data, offset, size)
+        return data
 
     def write(self, offset: int, data: bytes) -> None:
         """A host write: plain memory into the buffer, hooked registers through their hook."""
@@ -159,7 +162,10 @@ class Region:
         plan = self._read_rep_plans.get((offset, size))
         if plan is None:
             plan = _keep(self._read_rep_plans, (offset, size), self._plan_read_rep(offset, size))
-        return _sized(plan(offset, size), offset, size)
+        data = plan(offset, size)
+        if len(data) != size:
+            raise _wrong_size(data, offset, size)
+        return data
 
     def write_rep(self, offset: int, data: bytes) -> None:
         """A repeated write: `data` written as single accesses of the smallest width, all at
@@ -358,9 +364,7 @@ def _keep(plans: dict[tuple[int, int], Any], key: tuple[int, int], plan: Any) ->
     return plan
 
 
-def _sized(data: bytes, offset: int, size: int) -> bytes:
-    """A read's bytes, which a hook with a bug may have made the wrong size."""
-    if len(data) != size:
-        raise VdevError(ErrorCode.INTERNAL, f"hook at {offset:#x} returned {len(data)} bytes "
-                        f"for a {size}-byte read")
-    return data
+def _wrong_size(data: bytes, offset: int, size: int) -> VdevError:
+    """A read whose hook, with a bug, gave the wrong number of bytes."""
+    return VdevError(ErrorCode.INTERNAL, f"hook at {offset:#x} returned {len(data)} bytes "
+                     f"for a {size}-byte read")
