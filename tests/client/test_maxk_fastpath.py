@@ -1,29 +1,29 @@
-"""vdevclient._maxk_bus's fast paths give what the general paths give: `ring_pieces` for a
-command that fits before the ring's end, `ring_slice` over a view of the read window."""
+"""vdevclient._maxk_bus's ring helpers: `ring_pieces` places every byte where the ring puts it
+(its one-piece fast path included), `ring_slice` over a view of the read window."""
 
 from __future__ import annotations
 
 from vdevclient._maxk_bus import RING_SIZE, ring_pieces, ring_slice
 
 
-def _pieces_in_general(index: int, size: int) -> list[tuple[int, int, int]]:
-    """The split at the ring's end, then a 2- or 4-byte piece at an odd place as a byte and
-    the rest (the procedure `ring_pieces` documents)."""
-    first = min(size, RING_SIZE - index)
-    pieces = [(index, 0, first)] + ([(0, first, size - first)] if first < size else [])
-    out = []
-    for offset, start, length in pieces:
-        if length in (2, 4) and offset % length:
-            out += [(offset, start, 1), (offset + 1, start + 1, length - 1)]
-        else:
-            out.append((offset, start, length))
-    return out
-
-
-def test_ring_pieces_are_the_general_split_at_every_ring_place() -> None:
+def test_ring_pieces_place_each_byte_where_the_ring_puts_it() -> None:
+    """Written piece by piece, the bytes land at (index + k) mod 1024, every 2- or 4-byte piece
+    is aligned (a bus access of that width), and a command that fits is one piece."""
     for index in range(RING_SIZE):
         for size in (*range(1, 10), 100, 1022, 1023):
-            assert ring_pieces(index, size) == _pieces_in_general(index, size), (index, size)
+            data = bytes((k * 7 + 1) % 256 for k in range(size))
+            ring, expected = bytearray(RING_SIZE), bytearray(RING_SIZE)
+            for k in range(size):
+                expected[(index + k) % RING_SIZE] = data[k]
+            pieces = ring_pieces(index, size)
+            for offset, start, length in pieces:
+                assert offset >= 0 and offset + length <= RING_SIZE, (index, size)
+                assert length not in (2, 4) or offset % length == 0, (index, size)
+                ring[offset:offset + length] = data[start:start + length]
+            assert ring == expected, (index, size)
+            assert sum(length for _, _, length in pieces) == size
+            if index + size <= RING_SIZE and (size not in (2, 4) or index % size == 0):
+                assert len(pieces) == 1, (index, size)
 
 
 def test_ring_slice_of_a_view_is_the_slice_of_the_bytes() -> None:
