@@ -1,5 +1,7 @@
 """PComm32's DPRAM functions (spec pmac.md §3.1): raw memory, IEEE and PMAC floats, and the real-time
-and background reporting buffers. Re-exported from `vdevclient.pcomm`."""
+and background reporting buffers in the Turbo layout (PComm32 dprrtdbt.h `realtTURBO`, dprbkg.h
+`backgTURBO`; EPICS tpmac drvPmac.c; the card's README "Reporting buffers"). Re-exported from
+`vdevclient.pcomm`. The offsets duplicate vdevd/devices/pmac/dpram.py: keep them in step."""
 
 from __future__ import annotations
 
@@ -12,11 +14,15 @@ from vdevclient._cargs import target as _target
 from vdevclient._pcomm_codes import COMM_EOT
 from vdevclient._pcomm_device import _NS_PER_MS, _Device, _guarded, _number, _reply
 from vdevclient._pmac_bus import (
-    BACKGROUND,
+    BG_CS_COUNT,
+    BG_READY,
+    BG_STATUS,
     DPRAM_SIZE,
     READY,
-    REALTIME,
+    RT_MASK,
     RT_MOTOR,
+    RT_READY,
+    MotorReport,
     join48,
     motor_report,
     pmac_float,
@@ -24,7 +30,6 @@ from vdevclient._pmac_bus import (
 )
 
 log = logging.getLogger("vdevclient.pcomm")  # the public module's logger
-
 
 # -- source and destination parameters -------------------------------------------------------------
 def _bytes_of(val: Any, count: int) -> bytes:
@@ -122,57 +127,116 @@ def PmacDPRLFixed(d: Any, scale: float) -> float:
 
 @_guarded(False)
 def PmacDPRRealTimeEx(dev: _Device, mask: int, period: int, on: int) -> bool:
-    """Switch the real-time motor buffer on (I47 = `period` servo cycles, I48 = 1; the handshake
-    cleared so the first sample comes at once) or off (I48 = 0). The card reports all its motors:
-    `mask` is accepted and not used."""
-    line = f"I47={max(int(period), 1)} I48=1" if on else "I48=0"
-    ops = dev.command_ops(line.encode(), [*dev.begin(), dev.write(REALTIME, b"\0\0")])
+    """Switch the real-time motor buffer on: `mask` (bit n-1 = motor n) to L:$06001C, the
+    data-ready bit cleared so the first sample comes at once, I47 = `period` servo cycles,
+    I48 = 1; or off (I48 = 0)."""
+    if on:
+        line = f"I47={max(int(period), 1)} I48=1"
+        setup = [dev.write(RT_MASK, struct.pack("<I", int(mask) & 0xFFFFFFFF)),
+                 dev.write(RT_READY, b"\0\0")]
+    else:
+        line, setup = "I48=0", []
+    ops = dev.command_ops(line.encode(), [*dev.begin(), *setup])
     return _reply(*dev.collect(ops, line.encode()))[1] == COMM_EOT
 
 
 @_guarded(False)
 def PmacDPRBackgroundEx(dev: _Device, on: int, period: int, crd: int) -> bool:
-    """Switch the background buffer (global and C.S. status) on (I49 = `period`, I50 = 1) or off.
-    The card reports all 16 coordinate systems: `crd` is accepted and not used."""
-    line = f"I49={max(int(period), 1)} I50=1" if on else "I50=0"
-    ops = dev.command_ops(line.encode(), [*dev.begin(), dev.write(BACKGROUND, b"\0\0")])
+    """Switch the background buffer on: `crd` coordinate systems (0-16) to Y:$06019D, the
+    data-ready bit cleared, I50 = `period` servo cycles, I49 = 1; or off (I49 = 0)."""
+    if on:
+        line = f"I50={max(int(period), 1)} I49=1"
+        setup = [dev.write(BG_CS_COUNT, struct.pack("<H", min(max(int(crd), 0), 16))),
+                 dev.write(BG_READY, b"\0\0")]
+    else:
+        line, setup = "I49=0", []
+    ops = dev.command_ops(line.encode(), [*dev.begin(), *setup])
     return _reply(*dev.collect(ops, line.encode()))[1] == COMM_EOT
 
 
-def _sample(dev: _Device, buffer: int, offset: int, size: int) -> bytes:
-    """`size` bytes at `offset` of a reporting buffer (`buffer`: its handshake word) from the card's
-    next sample: one batch [clear the handshake, wait for the card to set bit 15, read]. The card
-    posts only while the bit is clear, so a read without the wait would give the sample taken
-    just after the previous clear. In lockstep the wait advances time to the next sample (I47 or
-    I49 servo cycles); with reporting off it ends after `timeout_ms` and the stale data is read."""
+@_guarded(None)
+def PmacDPRResetDataReadyBit(dev: _Device) -> None:
+    """Clear the real-time buffer's data-ready bit (X:$06001B bit 15): request the next sample."""
+    dev.batch(dev.begin() + [dev.write(RT_READY, b"\0\0")])
+
+
+@_guarded(0)
+def PmacDPRGetDataReadyBit(dev: _Device) -> int:
+    """1 while a real-time sample is posted and not yet taken, else 0."""
+    word = struct.unpack("<H", dev.batch(dev.begin() + [dev.read(RT_READY, 2)])[-1])[0]
+    return int(bool(word & READY))
+
+
+def _sample(dev: _Device, ready: int, offset: int, size: int) -> bytes:
+    """`size` bytes at `offset` of the card's next sample of the buffer whose data-ready word is
+    at `ready`: one batch [clear data ready, wait for the card to set it, read]. The card writes
+    only while the bit is clear, so a read without the wait would give the sample taken just
+    after the previous clear. In lockstep the wait advances time to the next sample (I47 or I49
+    servo cycles); with reporting off it ends after `timeout_ms` and the stale data is read."""
     timeout_ns = dev.timeout_ms * _NS_PER_MS
-    wait = {"op": "wait", "on": "value", "offset": buffer, "size": 2, "mask": READY, "value": READY,
+    wait = {"op": "wait", "on": "value", "offset": ready, "size": 2, "mask": READY, "value": READY,
             "cmp": "eq", "timeout_ns": timeout_ns, **dev.where}
-    res = dev.batch(dev.begin() + [dev.write(buffer, b"\0\0"), wait, dev.read(offset, size)], timeout_ns)
+    res = dev.batch(dev.begin() + [dev.write(ready, b"\0\0"), wait, dev.read(offset, size)], timeout_ns)
     if res[-2]["fired"]:
         return bytes(res[-1])
-    log.warning("%s: no sample in the reporting buffer at %#x (reporting off?)", dev.card, buffer)
+    log.warning("%s: no sample in the reporting buffer at %#x (reporting off?)", dev.card, ready)
     return bytes(dev.batch([dev.read(offset, size)])[-1])
+
+
+def _motor(dev: _Device, mtr: int) -> MotorReport | None:
+    """Motor `mtr`'s record from the next real-time sample; None for a motor the card lacks."""
+    if not 1 <= mtr <= dev.motors:
+        return None
+    return motor_report(_sample(dev, RT_READY, realtime_motor(mtr), RT_MOTOR))
+
+
+def _position_scale(dev: _Device, mtr: int) -> float:
+    """Ixx08 * 32, read once per motor (one more round trip on first use)."""
+    if mtr not in dev.scale:
+        dev.scale[mtr] = 32.0 * (_number(dev.get_variable("I", 100 * mtr + 8)) or 1.0)
+    return dev.scale[mtr]
 
 
 @_guarded(0.0)
 def PmacDPRPosition(dev: _Device, mtr: int, units: float) -> float:
     """Motor `mtr`'s (1-based) actual position from the card's next real-time sample (see
-    `_sample`; PmacDPRRealTimeEx must be on), in counts times `units`. Ixx08 is read once per
-    motor, on its first use (one more round trip)."""
-    mtr = int(mtr)
-    if not 1 <= mtr <= dev.motors:
+    `_sample`; PmacDPRRealTimeEx must be on with the motor in its mask), counts times `units`."""
+    rec = _motor(dev, int(mtr))
+    return 0.0 if rec is None else rec.actual / _position_scale(dev, int(mtr)) * units
+
+
+@_guarded(0.0)
+def PmacDPRFollowError(dev: _Device, mtr: int, units: float) -> float:
+    """Motor `mtr`'s following error from the next real-time sample, counts times `units`."""
+    rec = _motor(dev, int(mtr))
+    return 0.0 if rec is None else rec.following_error / _position_scale(dev, int(mtr)) * units
+
+
+@_guarded(0.0)
+def PmacDPRGetVel(dev: _Device, mtr: int, units: float) -> float:
+    """Motor `mtr`'s filtered velocity from the next real-time sample, counts per servo cycle
+    times `units` (Ixx09 is read on every call)."""
+    rec = _motor(dev, int(mtr))
+    if rec is None:
         return 0.0
-    if mtr not in dev.scale:
-        dev.scale[mtr] = 32.0 * (_number(dev.get_variable("I", 100 * mtr + 8)) or 1.0)
-    return motor_report(_sample(dev, REALTIME, realtime_motor(mtr), RT_MOTOR)).actual / dev.scale[mtr] * units
+    return rec.velocity / (32.0 * (_number(dev.get_variable("I", 100 * int(mtr) + 9)) or 1.0)) * units
+
+
+@_guarded(0)
+def PmacDPRMotorServoStatusTurbo(dev: _Device, mtr: int) -> int:
+    """Motor `mtr`'s servo status (status word 1, the `?` reply's first word) from the next
+    real-time sample (PComm32 returns it as `struct ssTURBO`)."""
+    rec = _motor(dev, int(mtr))
+    return 0 if rec is None else rec.status1
 
 
 @_guarded(None)
 def PmacDPRGetGlobalStatus(dev: _Device, gs: Any = None) -> tuple[int, int] | None:
-    """The two global status words of the next background sample (PmacDPRBackgroundEx on), into
+    """The global status of the next background sample (PmacDPRBackgroundEx on) as the DPRAM
+    holds it, L:$0601A2: Y:$000006 (the second word of `???`) then X:$000006 (the first), into
     `gs` (DWORD[2], ctypes array or list) and returned."""
-    words = struct.unpack_from("<II", _sample(dev, BACKGROUND, BACKGROUND + 8, 8))
+    lo, hi = struct.unpack("<II", _sample(dev, BG_READY, BG_STATUS, 8))
+    words = (lo & 0xFFFFFF, hi & 0xFFFFFF)
     target = _target(gs)
     if target is not None:
         target[0], target[1] = words

@@ -27,10 +27,6 @@ RESP_CONTROL, RESP_COUNT, RESP_BUFFER, RESP_MAX = 0x0F40, 0x0F42, 0x0F44, 255
 RESP_SLOT = RESP_BUFFER - RESP_CONTROL + RESP_MAX + 1
 #: the slot's head, control word and count: all there is of an ACK, an error or an empty line
 RESP_HEAD = RESP_BUFFER - RESP_CONTROL
-REALTIME, BACKGROUND = 0x006A, 0x0676
-RT_HEADER, RT_MOTOR = 8, 48  # handshake u16, motors u16, servo counter u32; 48 bytes per motor
-BG_HEADER, BG_CS = 16, 16  # handshake u16, pad u16, servo counter u32, global status 2 x u32
-READY = 0x8000  # bit 15 of a reporting buffer's handshake word: fresh data, the host clears it
 CR, ACK, BELL = 0x0D, 0x06, 0x07
 
 # -- host port and interrupt controller (vdevd/devices/pmac/hostport.py) ----------------------------
@@ -128,33 +124,45 @@ def pmac_float(low: int, high: int) -> float:
         return math.copysign(math.inf, mantissa)
 
 
-# -- the reporting buffers -------------------------------------------------------------------------------
-_RT_MOTOR = struct.Struct("<12i")
+# -- the reporting buffers, Turbo layout (vdevd/devices/pmac/dpram.py) ---------------------------
+RT_HOST_BUSY, RT_READY, RT_MASK = 0x006A, 0x006E, 0x0070  # X:$06001A, X:$06001B, L:$06001C
+RT_TIMER, RT_MOTORS, RT_MOTOR = 0x006C, 0x0074, 48  # Y:$06001B; $06001D + 12 words per motor
+BG_CS_COUNT, BG_HOST_BUSY, BG_READY = 0x0674, 0x0676, 0x067A  # Y:$06019D, X:$06019D, X:$06019E
+BG_TIMER, BG_STATUS = 0x0678, 0x0688  # Y:$06019E; L:$0601A2 global status
+READY = 0x8000  # bit 15 of a data-ready (or host-busy) word
+_RT_RECORD = struct.Struct("<12i")
 
 
 @dataclass(frozen=True)
 class MotorReport:
-    """One motor of the real-time buffer: status words, 48-bit commanded/actual position and
-    following error in 1/(Ixx08*32) count, velocity (1/(Ixx09*32) count per servo cycle), DAC."""
+    """One motor's record of the real-time buffer ($06001D + 12(n-1)): status words 1 and 2
+    (24 bits), following error, position bias and actual position (1/(Ixx08*32) count), filtered
+    velocity (1/(Ixx09*32) count per servo cycle), the DAC register (16-bit value in bits 8-23)."""
 
     status1: int
     status2: int
-    commanded: int
-    actual: int
     following_error: int
+    bias: int
+    actual: int
     velocity: int
     dac: int
 
+    @property
+    def commanded(self) -> int:
+        """Commanded position: actual + following error (1/(Ixx08*32) count)."""
+        return self.actual + self.following_error
 
-def motor_report(block: bytes, offset: int = 0) -> MotorReport:
-    w = _RT_MOTOR.unpack_from(block, offset)
-    return MotorReport(w[0] & 0xFFFFFFFF, w[1] & 0xFFFFFFFF, join48(w[2], w[3]), join48(w[4], w[5]),
-                       join48(w[6], w[7]), w[8], w[9])
+
+def motor_report(record: bytes, offset: int = 0) -> MotorReport:
+    """Decode a 48-byte motor record of the real-time buffer."""
+    w = _RT_RECORD.unpack_from(record, offset)
+    return MotorReport(w[3] & 0xFFFFFF, w[4] & 0xFFFFFF, join48(w[0], w[1]), join48(w[5], w[6]),
+                       join48(w[10], w[11]), w[7], w[2])
 
 
 def realtime_motor(motor: int) -> int:
-    """The host offset of motor n's (1-based) block in the real-time buffer."""
-    return REALTIME + RT_HEADER + (motor - 1) * RT_MOTOR
+    """Host offset of motor n's (1-based) record in the real-time buffer."""
+    return RT_MOTORS + (motor - 1) * RT_MOTOR
 
 
 # -- PmacDownloadA's preprocessing --------------------------------------------------------------------------

@@ -78,15 +78,21 @@ from vdevclient._pcomm_device import MEMO_SIZE as MEMO_SIZE
 from vdevclient._pcomm_download import DOWNLOAD_CHUNK as DOWNLOAD_CHUNK
 from vdevclient._pcomm_download import PmacDownloadA
 from vdevclient._pcomm_dpr import (
+    MotorReport,
     PmacDPRAvailable,
     PmacDPRBackgroundEx,
     PmacDPRFloat,
+    PmacDPRFollowError,
+    PmacDPRGetDataReadyBit,
     PmacDPRGetFloat,
     PmacDPRGetGlobalStatus,
     PmacDPRGetMem,
+    PmacDPRGetVel,
     PmacDPRLFixed,
+    PmacDPRMotorServoStatusTurbo,
     PmacDPRPosition,
     PmacDPRRealTimeEx,
+    PmacDPRResetDataReadyBit,
     PmacDPRSetFloat,
     PmacDPRSetMem,
 )
@@ -98,7 +104,6 @@ from vdevclient._pmac_bus import (
     IR_MASK,
     RESP_CONTROL,
     HostIrq,
-    MotorReport,
     error_text,
     parse_slot,
 )
@@ -110,8 +115,10 @@ __all__ = [
     "COMM_UNSOLICITED", "INTRBUFFER", "MAX_COMM_BUFFER", "MAX_DPRBUFFER", "MAX_DPRREADBUFFER",
     "ClosePmacDevice", "CommResult", "DrvNumberOfDevices", "HostIrq", "MotorReport",
     "OpenPmacDevice", "PmacDPRAvailable", "PmacDPRBackgroundEx", "PmacDPRFloat",
-    "PmacDPRGetFloat", "PmacDPRGetGlobalStatus", "PmacDPRGetMem", "PmacDPRLFixed",
-    "PmacDPRPosition", "PmacDPRRealTimeEx", "PmacDPRSetFloat", "PmacDPRSetMem", "PmacDownloadA",
+    "PmacDPRFollowError", "PmacDPRGetDataReadyBit", "PmacDPRGetFloat", "PmacDPRGetGlobalStatus",
+    "PmacDPRGetMem", "PmacDPRGetVel", "PmacDPRLFixed", "PmacDPRMotorServoStatusTurbo",
+    "PmacDPRPosition", "PmacDPRRealTimeEx", "PmacDPRResetDataReadyBit", "PmacDPRSetFloat",
+    "PmacDPRSetMem", "PmacDownloadA",
     "PmacGetControlResponseA", "PmacGetLineA", "PmacGetPmacType", "PmacGetResponseA",
     "PmacGetRomDateA", "PmacGetRomVersionA", "PmacGetVariable", "PmacGetVariableDouble",
     "PmacINTRFuncCallInit", "PmacINTRTerminate", "PmacReadReady", "PmacSelect", "PmacSendCharA",

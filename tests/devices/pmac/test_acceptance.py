@@ -27,8 +27,9 @@ ACK = "\x06"
 BELL = "\x07"
 # Ethernet requests [§3.2]
 GETRESPONSE, GETBUFFER, READREADY = 0xBF, 0xC5, 0xC2
-# DPRAM reporting buffers (README "Region dpram")
-REALTIME, BACKGROUND = 0x006A, 0x0676
+# DPRAM reporting buffers, Turbo layout (README "Reporting buffers")
+RT_READY, RT_MASK, RT_MOTOR1 = 0x006E, 0x0070, 0x0074
+BG_CS_COUNT, BG_READY, BG_STATUS, BG_CS1 = 0x0674, 0x067A, 0x0688, 0x069C
 
 
 @contextmanager
@@ -615,28 +616,31 @@ def test_realtime_buffer_layout_period_and_handshake(card: Pmac) -> None:
     dpram = card.card.region("dpram")
     pc("#1J=100")
     card.step_ms(800)
+    dpram.write(RT_MASK, struct.pack("<I", 1))
     pc("I47=10 I48=1")
     card.step(20)
-    ready, motors, cycle = struct.unpack("<HHI", dpram.read(REALTIME, 8))
-    assert ready & 0x8000 and motors == 8 and cycle % 10 == 0
-    block = struct.unpack("<12i", dpram.read(REALTIME + 8, 48))
-    (status,) = pc("#1?")
-    assert tuple(block[:2]) == words(status)
-    assert block[2:8] == (100 * 96 * 32, 0, 100 * 96 * 32, 0, 0, 0)  # commanded, actual, FE
+    timer_lo, timer_hi = struct.unpack("<HH", dpram.read(RT_READY - 2, 4))
+    cycle = timer_lo | (timer_hi & 0xFF) << 16
+    assert timer_hi & 0x8000 and cycle % 10 == 0
+    rec = struct.unpack("<12i", dpram.read(RT_MOTOR1, 48))
+    assert (rec[3] & 0xFFFFFF, rec[4] & 0xFFFFFF) == motor_words(1)
+    assert (rec[0], rec[1], rec[10], rec[11]) == (0, 0, 100 * 96 * 32, 0)  # FE, actual position
     card.step(25)
-    assert struct.unpack("<HHI", dpram.read(REALTIME, 8))[2] == cycle  # held until the host clears
-    dpram.write16(REALTIME, 0)
+    assert struct.unpack("<H", dpram.read(RT_READY - 2, 2))[0] == timer_lo  # held until cleared
+    dpram.write16(RT_READY, 0)
     card.step(10)
-    ready, _, later = struct.unpack("<HHI", dpram.read(REALTIME, 8))
-    assert ready & 0x8000 and later > cycle and later % 10 == 0
+    later, ready = struct.unpack("<HH", dpram.read(RT_READY - 2, 4))
+    assert ready & 0x8000 and later > timer_lo and later % 10 == 0
 
 
-def test_background_buffer_global_status_and_feed_rate(card: Pmac) -> None:
+def test_background_buffer_global_status_and_time_base(card: Pmac) -> None:
     dpram = card.card.region("dpram")
     card.control("set_phase_clock_error", active=True)
-    pc("&2%50 I49=1 I50=1")
+    dpram.write16(BG_CS_COUNT, 2)
+    pc("&2%50 I50=1 I49=1")
     card.step(2)
-    ready, _, _, g1, g2 = struct.unpack("<HHIII", dpram.read(BACKGROUND, 16))
-    assert ready & 0x8000 and (g1, g2) == words(pc("???")[0])
-    cs2 = struct.unpack("<IIIf", dpram.read(BACKGROUND + 16 + 16, 16))
-    assert cs2[3] == 50.0
+    assert dpram.read16(BG_READY) & 0x8000
+    y_word, x_word = struct.unpack("<ii", dpram.read(BG_STATUS, 8))
+    assert (x_word & 0xFFFFFF, y_word & 0xFFFFFF) == words(pc("???")[0])
+    cs2 = struct.unpack("<32i", dpram.read(BG_CS1 + 128, 128))
+    assert cs2[2] == round(3713707 * 0.5)  # time base at 50 %, I10 units

@@ -213,21 +213,34 @@ class PmacCard(Card):
         cycle = fw.servo_cycles
         iv = fw.ivars.values
         rep = self.reporting
-        if iv[48] and rep.due(cycle, iv[47], dpram.REALTIME):
+        if iv[48] and rep.realtime_due(cycle, iv[47]):
             self._report_realtime(cycle)
-        if iv[50] and rep.due(cycle, iv[49], dpram.BACKGROUND):
-            rep.background(cycle, fw.global_status(), [fw.cs_status(c) for c in range(1, 17)],
-                           fw.feed)
+        if iv[49] and rep.background_due(cycle, iv[50]):
+            self._report_background(cycle)
         if self.irq.mask & _MOTOR_SOURCES:
             self._irq_sources()
 
     def _report_realtime(self, cycle: int) -> None:
+        """The motors selected at L:$06001C, copied from their registers (README "Reporting
+        buffers"): the position bias is 0, the home origin being already out of the actual
+        position as in D:$00008B."""
         fw, mot = self.fw, self.fw.motors
-        scale = fw.ivars.motor(8) * 32
+        sel = self.reporting.motor_mask(self.motors)
+        scale = (fw.ivars.motor(8) * 32)[sel]
+        w1, w2 = mot.status_words()
         self.reporting.realtime(
-            cycle, mot.status_words(),
-            [mot.commanded() * scale, mot.position() * scale, mot.following_error() * scale],
-            mot.velocity() * fw.ivars.motor(9) * 32, mot.dac())
+            cycle, sel, (w1[sel], w2[sel]), mot.following_error()[sel] * scale, mot.dac()[sel],
+            np.zeros(len(sel)), mot.velocity()[sel] * (fw.ivars.motor(9) * 32)[sel],
+            mot.position()[sel] * scale)
+
+    def _report_background(self, cycle: int) -> None:
+        """Global status and the first Y:$06019D coordinate systems; the time base in I10 units
+        (ASSUMPTION: % override x I10 / 100)."""
+        fw = self.fw
+        n = self.reporting.cs_count()
+        self.reporting.background(cycle, fw.global_status(),
+                                  [fw.cs_status(c) for c in range(1, n + 1)],
+                                  fw.feed[:n] * fw.ivars.values[10] / 100)
 
     def _irq_sources(self) -> None:
         """Rising edges of in-position and following-error bits of any motor, compare outputs."""

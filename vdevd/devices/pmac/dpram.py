@@ -13,10 +13,12 @@ Host byte offsets (little-endian, 16-bit control words) [UM p.402; EPICS-VME pma
   the high byte and BCD tens/units in the low byte. The host writes 0 after reading; the next line
   follows at once. One host interrupt (IR4) per posted line.
 
-Reporting buffers (Turbo layouts not retrieved, §6 q17: the layout here is this card's, README):
-real-time motor data at 0x006A (I48 enables, every I47 servo cycles) and background global and
-C.S. data at 0x0676 (I50 enables, every I49 servo cycles). Each starts with a 16-bit handshake
-word: the card writes fresh data only while bit 15 is clear, then sets it; the host clears it.
+Reporting buffers [PComm32 dprrtdbt.h `realtTURBO`, dprbkg.h `backgTURBO`; EPICS tpmac
+drvPmac.c; README "Reporting buffers"]: real-time motor data from X:$06001A (I48 enables, every I47
+servo cycles) and background global and C.S. data from Y:$06019D (I49 enables, every I50 servo
+cycles). Each has a host-busy bit (X word bit 15 of its first address) and a 24-bit servo timer
+whose X word's bit 15 is the data-ready bit: the card writes only while both bits are clear,
+then sets data ready; the host clears it to request the next sample.
 """
 
 from __future__ import annotations
@@ -31,13 +33,27 @@ SIZE = 0x4000  # 8k x 16: ends at 0x3FFC [UM p.402]
 BASE = 0x060000  # PMAC address of host offset 0; A <-> 4 (A - BASE)
 CMD_CONTROL, CMD_CHAR, CMD_BUFFER, CMD_MAX = 0x0E9C, 0x0E9E, 0x0EA0, 160
 RESP_CONTROL, RESP_COUNT, RESP_BUFFER, RESP_MAX = 0x0F40, 0x0F42, 0x0F44, 255
-REALTIME, BACKGROUND = 0x006A, 0x0676
-#: real-time buffer: handshake u16, motors reported u16, servo counter u32, then 48 bytes/motor
-RT_HEADER, RT_MOTOR = 8, 48
-#: background buffer: handshake u16, pad u16, servo counter u32, global status 2 x u32,
-#: then per coordinate system status 3 x u32 and the feed-rate override (float32)
-BG_HEADER, BG_CS = 16, 16
-READY = 0x8000
+# -- real-time (servo) motor data buffer, X:$06001A-$06019C [dprrtdbt.h realtTURBO; drvPmac.c] --
+REALTIME = 0x006A  # X:$06001A bit 15: host busy (the host is reading)
+RT_TIMER, RT_READY = 0x006C, 0x006E  # Y:$06001B timer bits 0-15; X:$06001B bits 0-7 timer 16-23
+RT_MASK = 0x0070  # L:$06001C: bit n-1 reports motor n (Y word motors 1-16, X word 17-32)
+RT_MOTORS, RT_MOTOR = 0x0074, 48  # $06001D + 12(n-1): twelve 32-bit words per motor
+#: word index in a motor record: following error (48-bit), previous DAC, servo status (word 1),
+#: motor status (word 2), position bias (48-bit), filtered velocity, 2 spares, actual position
+RT_FE, RT_DAC, RT_STATUS1, RT_STATUS2, RT_BIAS, RT_VEL, RT_ACTUAL = 0, 2, 3, 4, 5, 7, 10
+# -- background fixed data buffer, Y:$06019D-$0603A6 [dprbkg.h backgTURBO; drvPmac.c] ------------
+BG_CS_COUNT = 0x0674  # Y:$06019D bits 0-7: coordinate systems reported (the host writes it)
+BACKGROUND = 0x0676  # X:$06019D bit 15: host busy
+BG_TIMER, BG_READY = 0x0678, 0x067A  # as RT_TIMER, RT_READY, at $06019E
+BG_GLOBAL = 0x067C  # $06019F control panel, $0601A0 machine I/O, $0601A1 thumbwheel port
+BG_STATUS = 0x0688  # L:$0601A2: global status, Y:$000006 (??? word 2) then X:$000006 (word 1)
+BG_CS, BG_CS_SIZE = 0x069C, 128  # $0601A7 + $20(s-1): thirty-two 32-bit words per C.S.
+#: word index in a C.S. record: feed rate/time (48-bit), time base, time-base pointer, status
+#: (`??` word 3, word 1), 9 axis positions (48-bit), program status (`??` word 2), remaining
+#: program lines, move time left, TA/TS time left, executing line, 3 spares
+CS_FEED, CS_TIMEBASE, CS_STATUS3, CS_STATUS1, CS_STATUS2 = 0, 2, 4, 5, 24
+CS_COUNT = 16
+READY = 0x8000  # bit 15 of the host-busy and data-ready words
 CR, ACK = 0x0D, 0x06
 _SLOT_HEAD = struct.Struct("<HH")  # a posted line: control word, characters + 1
 
@@ -136,39 +152,72 @@ _CLEAR = bytes(4)
 
 
 class Reporting:
-    """The real-time (I47/I48) and background (I49/I50) reporting buffers."""
+    """The real-time (I47/I48) and background (I49/I50) fixed data buffers in the Turbo layout
+    [dprrtdbt.h, dprbkg.h; README "Reporting buffers"]. Values are 24-bit words sign-extended to
+    32 bits, 48-bit ones as two such halves, low first [UM p.402]."""
 
     def __init__(self, mem: bytearray) -> None:
         self.mem = mem
+        words = (BG_CS + CS_COUNT * BG_CS_SIZE - RT_MOTORS) // 4
+        #: every 32-bit word from the first motor record to the last C.S. record
+        self._words = np.frombuffer(mem, dtype="<i4", count=words, offset=RT_MOTORS)
+        self._motors = self._words[:32 * RT_MOTOR // 4].reshape(32, RT_MOTOR // 4)
+        first_cs = (BG_CS - RT_MOTORS) // 4
+        self._cs = self._words[first_cs:].reshape(CS_COUNT, BG_CS_SIZE // 4)
 
-    def due(self, cycle: int, period: float, offset: int) -> bool:
-        """A buffer the host has read (handshake bit 15 clear) at a multiple of its period."""
-        if self.mem[offset + 1] & 0x80:
-            return False
-        return cycle % max(int(period), 1) == 0
+    def _requested(self, host_busy: int, ready: int) -> bool:
+        """The host has taken the last sample (data ready clear) and is not reading."""
+        return not (self.mem[host_busy + 1] & 0x80 or self.mem[ready + 1] & 0x80)
 
-    def realtime(self, cycle: int, words: tuple[np.ndarray, np.ndarray],
-                 fixed: list[np.ndarray], velocity: np.ndarray, dac: np.ndarray) -> None:
-        """Post one motor sample: per motor status words, then commanded, actual, following
-        error (48-bit, 1/(Ixx08*32) count, as two sign-extended halves), velocity, DAC output."""
-        n = len(velocity)
-        cols = [words[0], words[1]]
-        for v in fixed:
-            lo, hi = split48(v)
-            cols += [lo, hi]
-        cols += [sign24(np.round(velocity).astype(np.int64)), np.round(dac).astype(np.int64)]
-        block = np.zeros((n, RT_MOTOR // 4), dtype="<i4")
-        block[:, :len(cols)] = np.stack(cols, axis=1)
-        start = REALTIME + RT_HEADER
-        self.mem[start:start + block.nbytes] = block.tobytes()
-        struct.pack_into("<HHI", self.mem, REALTIME, READY, n, cycle & 0xFFFFFFFF)
+    def realtime_due(self, cycle: int, period: float) -> bool:
+        """At a multiple of I47 servo cycles (0 counts as 1) with the buffer requested."""
+        return cycle % max(int(period), 1) == 0 and self._requested(REALTIME, RT_READY)
+
+    def background_due(self, cycle: int, period: float) -> bool:
+        """At a multiple of I50 servo cycles (0 counts as 1) with the buffer requested."""
+        return cycle % max(int(period), 1) == 0 and self._requested(BACKGROUND, BG_READY)
+
+    def motor_mask(self, motors: int) -> np.ndarray:
+        """The indices of the motors (0-based, below `motors`) the host selected at L:$06001C."""
+        mask = struct.unpack_from("<I", self.mem, RT_MASK)[0]
+        return np.flatnonzero((mask >> np.arange(motors)) & 1)
+
+    def cs_count(self) -> int:
+        """The coordinate systems to report, from Y:$06019D bits 0-7 (at most 16)."""
+        return min(self.mem[BG_CS_COUNT], CS_COUNT)
+
+    def _stamp(self, timer: int, ready: int, cycle: int) -> None:
+        """The 24-bit servo timer, then data ready: the sample is complete."""
+        cycle &= 0xFFFFFF
+        struct.pack_into("<HH", self.mem, timer, cycle & 0xFFFF, cycle >> 16 | READY)
+
+    def realtime(self, cycle: int, motors: np.ndarray, status: tuple[np.ndarray, np.ndarray],
+                 following_error: np.ndarray, dac: np.ndarray, bias: np.ndarray,
+                 velocity: np.ndarray, actual: np.ndarray) -> None:
+        """Post the selected `motors` (0-based indices): status words, the DAC register (16-bit
+        value in bits 8-23), following error, position bias and actual position (1/(Ixx08·32)
+        count) and filtered velocity (1/(Ixx09·32) count per servo cycle), all for those motors."""
+        rec = np.zeros((len(motors), RT_MOTOR // 4), dtype=np.int64)
+        rec[:, RT_FE], rec[:, RT_FE + 1] = split48(following_error)
+        rec[:, RT_DAC] = sign24(np.round(dac).astype(np.int64) << 8)
+        rec[:, RT_STATUS1] = sign24(status[0])
+        rec[:, RT_STATUS2] = sign24(status[1])
+        rec[:, RT_BIAS], rec[:, RT_BIAS + 1] = split48(bias)
+        rec[:, RT_VEL] = sign24(np.round(velocity).astype(np.int64))
+        rec[:, RT_ACTUAL], rec[:, RT_ACTUAL + 1] = split48(actual)
+        self._motors[motors] = rec
+        self._stamp(RT_TIMER, RT_READY, cycle)
 
     def background(self, cycle: int, global_words: tuple[int, int],
-                   cs: list[tuple[int, int, int]], feed: np.ndarray) -> None:
-        buf = bytearray()
-        for (w1, w2, w3), f in zip(cs, feed, strict=True):
-            buf += struct.pack("<IIIf", w1, w2, w3, float(f))
-        start = BACKGROUND + BG_HEADER
-        self.mem[start:start + len(buf)] = buf
-        struct.pack_into("<HHIII", self.mem, BACKGROUND, READY, 0, cycle & 0xFFFFFFFF,
-                         *global_words)
+                   cs: list[tuple[int, int, int]], time_base: np.ndarray) -> None:
+        """Post the global status words (as `???` gives them) and, for the first len(`cs`)
+        coordinate systems, their `??` words and time base (I10 units, 24-bit)."""
+        struct.pack_into("<ii", self.mem, BG_STATUS, *sign24(np.array(global_words[::-1])))
+        n = len(cs)
+        rec = np.zeros((n, BG_CS_SIZE // 4), dtype=np.int64)
+        if n:
+            words = sign24(np.array(cs, dtype=np.int64).reshape(n, 3))
+            rec[:, CS_STATUS1], rec[:, CS_STATUS2], rec[:, CS_STATUS3] = words.T
+            rec[:, CS_TIMEBASE] = sign24(np.round(time_base[:n]).astype(np.int64))
+        self._cs[:n] = rec
+        self._stamp(BG_TIMER, BG_READY, cycle)

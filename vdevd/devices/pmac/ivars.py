@@ -77,7 +77,7 @@ GLOBAL: dict[int, IVar] = {
     40: _int(0, 255, 0),        # watchdog timer reset value [A L3227]
     41: _int(0, 0xFFFFFF, 0, hex_=True),  # I-variable lockout [A L3227]
     44: _int(0, 0, 0),          # PMAC Ladder: standard firmware cannot set it [A L1452]
-    47: _int(0, 255, 0), 48: _FLAG, 49: _int(0, 255, 0), 50: _FLAG,  # DPRAM reporting
+    47: _int(0, 255, 0), 48: _FLAG, 49: _FLAG, 50: _int(0, 255, 0),  # DPRAM reporting
     51: _FLAG,                  # compensation tables enable [A L3135]
     52: _int(0, 31, 7),
     55: _FLAG, 56: _FLAG, 57: _FLAG,
