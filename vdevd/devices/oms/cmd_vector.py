@@ -1,5 +1,5 @@
-"""Coordinated straight-line moves (`MT`) and vector contours (`VV VA VP VC VE VIO VID VO VG
-VH`) [S App C L1356-1374; spec oms.md §4.3 "Vector / contouring", §8.14]."""
+"""Coordinated straight-line moves (`MT`) and vector contours (`VV VA VP VC VE VIO VID VO VOA
+VG VH`) [S App C L1356-1374, §4.5.1; spec oms.md §4.3 "Vector / contouring", §5.7, §8.14]."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
 
 _POSITION = 2**31 - 1
+_VELOCITY = 4_194_303  # the largest VL/VV [spec §1.3]
 
 
 def _multi(fw: Firmware, cmd: Command) -> None:
@@ -67,6 +68,7 @@ def _contour(fw: Firmware, cmd: Command) -> Contour:
         c = Contour(tuple(range(fw.n)), here, float(v["VL"][0]), float(v["AC"][0]))
         if task in fw.vector_velocity:
             c.velocity = fw.vector_velocity[task]
+        c.end_velocity = fw.vector_end_velocity.get(task)
         if task in fw.vector_acceleration:
             c.acceleration = fw.vector_acceleration[task]
         fw.contours[task] = c
@@ -82,14 +84,20 @@ def _values(cmd: Command) -> list[float | None]:
 
 @command("VV", operand=Operand.NUMBERS)
 def vector_velocity(fw: Firmware, cmd: Command) -> None:
-    """VV v[,vend]: the vector velocity, counts/s (the end velocity is taken as rest)."""
+    """VV[n]v[,vend]: the velocity of the segments defined from now and the speed each ends
+    at, counts/s (`VV1000,0` ends at rest, `VV v` runs on) [S App C; spec §4.3]."""
     values = _values(cmd)
-    if not values or values[0] is None or not 1 <= values[0] <= 4_194_303:
+    if not values or len(values) > 2 or values[0] is None or not 1 <= values[0] <= _VELOCITY:
         raise CommandError("vector velocity 1-4194303")
+    end = values[1] if len(values) == 2 else None
+    if end is not None and not 0 <= end <= _VELOCITY:
+        raise CommandError("end velocity 0-4194303")
     task = _task(fw, cmd)
     fw.vector_velocity[task] = values[0]
+    fw.vector_end_velocity[task] = end
     if task in fw.contours:
         fw.contours[task].velocity = values[0]
+        fw.contours[task].end_velocity = end
 
 
 @command("VA", operand=Operand.NUMBERS)
@@ -177,31 +185,51 @@ def vector_done(fw: Firmware, cmd: Command) -> None:
 
 @command("VO", operand=Operand.NUMBERS)
 def vector_override(fw: Firmware, cmd: Command) -> None:
-    """VO[n]=pct: velocity override 0-200 %, at once [S App C]."""
+    """VO[n]=pct: a fixed velocity override 0-200 %, at once, in place of a VOA input [S App
+    C]; a bare `VO` goes back to the fixed override in force (100 % unless VO set one)."""
     values = _values(cmd)
-    if len(values) != 1 or values[0] is None or not 0 <= values[0] <= 200:
-        raise CommandError("override 0-200 %")
-    fw.override[_task(fw, cmd)] = values[0] / 100
+    task = _task(fw, cmd)
+    if values:
+        if len(values) != 1 or values[0] is None or not 0 <= values[0] <= 200:
+            raise CommandError("override 0-200 %")
+        fw.override[task] = values[0] / 100
+    fw.override_analog.pop(task, None)
 
 
 @command("VOA", operand=Operand.NUMBERS)
 def vector_override_analog(fw: Firmware, cmd: Command) -> None:
-    """VOA ch,...: accepted; the override from an analog input is not modelled (README)."""
+    """VOA[n]ch[,full]: the override follows analog input `ch`, 100 % at `full` volts (5 V
+    unless given), clamped to 0-200 %, sampled every update cycle [S §4.5.1, App C `VOA0,5`];
+    a bare `VOA` goes back to the fixed override (README)."""
     values = _values(cmd)
-    if not values or values[0] is None or not 0 <= values[0] < fw.analog_channels:
+    task = _task(fw, cmd)
+    if not values:
+        fw.override_analog.pop(task, None)
+        return
+    ch = values[0]
+    if len(values) > 2 or ch is None or ch != int(ch) or not 0 <= ch < fw.analog_channels:
         raise CommandError("no such analog input")
+    full = values[1] if len(values) == 2 and values[1] is not None else 5.0
+    if not 0 < full <= 10:
+        raise CommandError("full-scale volts 0-10")
+    fw.override_analog[task] = (int(ch), full)
 
 
 @command("VH", operand=Operand.NUMBERS)
 def vector_hold(fw: Firmware, cmd: Command) -> None:
-    """VH[n]1 halts the task's contour (override 0), VH[n]0 lets it run (override 100 %)."""
+    """VH[n]1 halts the task's contour whatever its override (VO or VOA), VH[n]0 lets it run
+    on at that override."""
     values = _values(cmd)
     if len(values) != 1 or values[0] not in (0.0, 1.0):
         raise CommandError("VH0 or VH1")
-    fw.override[_task(fw, cmd)] = 0.0 if values[0] else 1.0
+    task = _task(fw, cmd)
+    if values[0]:
+        fw.vector_held.add(task)
+    else:
+        fw.vector_held.discard(task)
 
 
 @command("VG")
 def vector_go(fw: Firmware, cmd: Command) -> None:
     """Release a held task (as VH0)."""
-    fw.override[_task(fw, cmd)] = 1.0
+    fw.vector_held.discard(_task(fw, cmd))

@@ -96,8 +96,11 @@ class Firmware:
         self.contours: dict[int, Contour] = {}  # vector tasks being defined
         self.running_contours: dict[int, Contour] = {}
         self.vector_velocity: dict[int, float] = {}
+        self.vector_end_velocity: dict[int, float | None] = {}  # VV v,vend (None: run on)
         self.vector_acceleration: dict[int, float] = {}
         self.override: dict[int, float] = {}  # VO per task, 1.0 = 100 %
+        self.override_analog: dict[int, tuple[int, float]] = {}  # VOA: (input, volts at 100 %)
+        self.vector_held: set[int] = set()  # VH1
         self.aux = np.zeros(n, dtype=bool)  # AN/AF auxiliary outputs [S §4.6]
         self.capture = Capture(n)  # real-time position capture [S §3.7]
         self.ssi = Ssi(n)  # absolute encoders (ECA) [S §4.9]
@@ -269,8 +272,19 @@ class Firmware:
                 profile.hold(a, float(round(pos[a])) if ended else pos[a])
             if ended:
                 del self.running_contours[task]
-            c.t += dt * self.override.get(task, 1.0)
+            c.t += dt * self.vector_override(task)
         profile.commit()
+
+    def vector_override(self, task: int) -> float:
+        """The task's override now (1.0 = 100 %): 0 while held (VH1), else from its VOA input,
+        100 % at the full-scale volts, clamped to 0-200 % [S §4.5.1, App C], else VO's."""
+        if task in self.vector_held:
+            return 0.0
+        analog = self.override_analog.get(task)
+        if analog is None:
+            return self.override.get(task, 1.0)
+        ch, full = analog
+        return min(2.0, max(0.0, float(self.analog_in[ch]) / full))
 
     def identity(self) -> str:
         """The WY string: model (MAXk-n000, A for 10 axes), version, serial, FPGA [S §2.6]."""
