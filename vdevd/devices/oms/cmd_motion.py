@@ -7,7 +7,14 @@ import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from vdevd.devices.oms.params import PARAMS
+from vdevd.devices.oms.params import (
+    ENCODER_TERMS,
+    HOME_TERMS,
+    PARAMS,
+    defines_home,
+    format_home_pattern,
+    parse_home_pattern,
+)
 from vdevd.devices.oms.queue import Group, Run, at_once
 from vdevd.devices.oms.ssi import CLOCKS, MAX_BITS
 from vdevd.devices.oms.syntax import Command, Operand, hex_words
@@ -343,10 +350,10 @@ command("HM", "HR", "KM", "KR", operand=Operand.NUMBERS)(_home)
 
 @command("HI", "HS")
 def home_mode(fw: Firmware, cmd: Command) -> None:
-    """Home mode of the addressed axes: HI "Home Encoder" (home = the switch AND an encoder index
-    pulse [S §4.8]) or HS (the switch alone, the power-up mode); HI needs an encoder (PSE, PSM).
-    The quadrant term of the manual's home logic (Phase+A · Phase−B) is one encoder count, so
-    the index pulse alone places home here (README)."""
+    """Home mode of the addressed axes: HI "Home Encoder" (home = the AND of phase A, phase B,
+    index and switch as the truth table HT/EH sets them, by default `Home = Phase +A * Phase -B
+    * Index * Home Switch` [S §4.8]) or HS (the switch alone, the power-up mode); HI needs an
+    encoder (PSE, PSM)."""
     _no_operand(cmd)
     axes = fw.selected()
     index = cmd.mnemonic == "HI"
@@ -354,6 +361,27 @@ def home_mode(fw: Firmware, cmd: Command) -> None:
         raise CommandError("HI needs an encoder (PSE or PSM)")
     for a in axes:
         fw.motion.set_home_mode(a, index)
+
+
+@command("HT", "EH", operand=Operand.NUMBERS)
+def home_truth_table(fw: Firmware, cmd: Command) -> str | None:
+    """The home logic of HI mode [S §4.3, §4.8] for the addressed axes: `HT a,b,i,s` sets the
+    entry of phase A, phase B, index and home switch, `EH a,b,i` the encoder's three only (the
+    switch entry stays): 1 active (high), 0 inactive (low), 2 ignored; `1,0,1,1` or `1011`.
+    Factory `HT1011`, the manual's default. A table that ignores every term is refused.
+    `HT?` -> `=1011`, `EH?` -> `=101` per addressed axis (README)."""
+    terms = len(HOME_TERMS) if cmd.mnemonic == "HT" else ENCODER_TERMS
+    table, axes = fw.params.home_pattern, fw.selected()
+    if cmd.query:
+        return ",".join("=" + format_home_pattern(table[a, :terms]) for a in axes)
+    pattern = parse_home_pattern(cmd.operand, terms)
+    if pattern is None:
+        raise CommandError(f"{cmd.mnemonic} takes {terms} entries of 0, 1 or 2")
+    if any(not defines_home(pattern + tuple(table[a, terms:])) for a in axes):
+        raise CommandError("a home condition needs at least one term")
+    for a in axes:
+        table[a, :terms] = pattern
+    return None
 
 
 # -- real-time position capture (mnemonics proposed: spec §2.8) ------------------------------------

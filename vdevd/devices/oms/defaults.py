@@ -7,7 +7,10 @@ update rate `#UR` reports. Output levels (BH/BL/BW, AO, AN/AF) are not configura
 stored: §2.14 lists how outputs behave (aux settle time, automatic aux control; KO only as a
 servo's zero offset), never a level an output is set to (README). A format-1 image (before the
 I/O configuration was stored) still loads: what an image lacks takes its factory value. Any
-other format is a checksum error (card.py).
+other format is a checksum error (card.py). The home truth tables (HT/EH, `home_pattern` in the
+parameter part) were added to format 2 as an optional key rather than as a format 3: a format-2
+image without them loads with the factory table, and a daemon that does not know the key
+ignores it.
 """
 
 from __future__ import annotations

@@ -3,8 +3,13 @@ spec oms.md §5.3-5.5]: index pulses, slip and stall detection, servo runaway, a
 maintenance of steppers with encoder.
 
 - Index pulses are at encoder counts phase + k·period (backdoor `set_index`); they are looked for
-  only on axes that need them (a home search in HI mode, an index capture), a few numpy calls
-  per tick.
+  only on axes that need them (HI home mode, an index capture), a few numpy calls per tick.
+- Encoder home logic [S §4.3, §4.8]: the phase A/B levels follow from the count, x4 quadrature
+  [S §4.7], counted from the index: the index pulse is one quadrature cycle wide (4 counts, an
+  ungated index) and its first count is A high, B low, the manual's default home quadrant, then
+  A high B high, A low B high, A low B low (A leads B on a positive move). `HT`/`EH` (params.py)
+  say which levels of A, B and the index are home; during an HI search the first count in the
+  direction of travel where they hold is found in closed form, per axis (`first_home_count`).
 - Slip/stall: |encoder − ratio·motor| beyond the tolerance ES (encoder counts, factory 0 = off).
   It is the core's following-error limit: on a stepper (PSE) the following error is the slip in
   motor counts (the steps follow the command exactly, the encoder may not), on a servo (PSM) the
@@ -28,6 +33,43 @@ from vdevd.rt.axes import AxisFlag
 
 RUNAWAY = 32768  # "if the error is greater than 32768, the controller will disable the PID"
 _FE_TRIP = int(AxisFlag.FE_TRIP)
+INDEX_WIDTH = 4  # counts: the index pulse spans one quadrature cycle
+#: phase A and phase B levels in the four quadrature states of a cycle, counted from the index
+PHASE_A = np.array([1, 1, 0, 0])
+PHASE_B = np.array([0, 1, 1, 0])
+_STATES = np.arange(4)
+
+
+def first_home_count(place: np.ndarray, down: np.ndarray, period: np.ndarray,
+                     pattern: np.ndarray) -> np.ndarray:
+    """Per axis, how many counts the axis moves (down where `down`, else up) from a count at
+    `place` in its index period (0 = the index count, whole counts) to the first count where
+    the encoder terms of `pattern` (rows A, B, index, ...: 1 active, 0 inactive, 2 ignored)
+    hold: 0 where they hold at once, inf where no count of the period qualifies. A count's
+    quadrature state is its place mod 4, it is inside the index pulse for places 0-3; the
+    candidates are the next count in each of the four states, vectorised over axes."""
+    q = _STATES[None, :]
+    r0, per, dn = place[:, None], period[:, None], down[:, None]
+    a, b, index = pattern[:, 0, None], pattern[:, 1, None], pattern[:, 2, None]
+    ok = ((a == 2) | (a == PHASE_A[None, :])) & ((b == 2) | (b == PHASE_B[None, :])) & (q < per)
+    # the next count in state q anywhere in the period; across the period's end the cycle
+    # starts again at the index (the states run on when the period is a multiple of 4)
+    up = np.mod(q - r0, 4)
+    up_wrap = r0 + up >= per
+    top = per - 1 - np.mod(per - 1 - q, 4)  # the period's last count in state q
+    below = np.mod(r0 - q, 4)
+    down_wrap = r0 - below < 0
+    steps = np.where(dn, np.where(down_wrap, r0 + per - top, below),
+                     np.where(up_wrap, per - r0 + q, up))
+    place_hit = np.where(dn, np.where(down_wrap, top, r0 - below),
+                         np.where(up_wrap, q, r0 + up))
+    # index inactive: a count in the pulse moves on to the next one in the same state
+    inside = (index == 0) & (place_hit < INDEX_WIDTH)
+    steps = np.where(inside, np.where(dn, steps + place_hit + per - top, steps + 4), steps)
+    ok &= ~inside | np.where(dn, top >= INDEX_WIDTH, q + 4 < per)
+    # index active: the count in state q of the pulse (this one's, else the next pulse's)
+    steps = np.where(index == 1, np.where(dn, np.mod(r0 - q, per), np.mod(q - r0, per)), steps)
+    return np.asarray(np.where(ok, steps, np.inf).min(axis=1))
 
 
 class Encoders:
@@ -45,6 +87,9 @@ class Encoders:
         self.index_hit = np.zeros(n, dtype=bool)  # an index pulse passed in the last tick
         self.index_at = np.zeros(n)  # its encoder count
         self._enc_prev = np.zeros(n)
+        # the encoder terms of the home logic (HT/EH) during an HI search
+        self.home_hit = np.zeros(n, dtype=bool)  # they held at a count passed in the last tick
+        self.home_at = np.zeros(n)  # the first such count
         # slip, stall, runaway, amplifier fault: what was already reported
         self._tripped = np.zeros(n, dtype=bool)
         self._faulted = np.zeros(n, dtype=bool)
@@ -62,8 +107,10 @@ class Encoders:
         if not self.watching:
             self.index_hit[:] = False
 
-    def step_index(self) -> None:
-        """After a tick: which watched axes passed an index pulse, and at which count."""
+    def step_index(self, homing: np.ndarray | None = None) -> None:
+        """After a tick: which watched axes passed an index pulse, and at which count; for the
+        axes of `homing` (HI searches) also the first count passed where the encoder terms of
+        the home logic held (`home_hit`, `home_at`)."""
         enc = self.core.axes.encoder
         period, phase = self.index_period, self.index_phase
         k_now = np.floor((enc - phase) / period)
@@ -71,7 +118,29 @@ class Encoders:
         np.logical_and(self.index_watch, k_now != k_prev, out=self.index_hit)
         np.multiply(np.maximum(k_now, k_prev), period, out=self.index_at)
         self.index_at += phase
+        if homing is not None:
+            moved = enc - self._enc_prev
+            down = moved < 0
+            first = self._enc_prev + np.where(down, -1.0, 1.0)  # the first count passed
+            steps = self.home_steps(first, down)
+            np.logical_and(homing, steps < np.abs(moved), out=self.home_hit)
+            self.home_at[:] = np.where(self.home_hit, np.where(down, -steps, steps) + first, 0.0)
         self._enc_prev[:] = enc
+
+    def home_steps(self, counts: np.ndarray, down: np.ndarray) -> np.ndarray:
+        """How far each axis moves from encoder `counts` to the next count where the encoder
+        terms of its home truth table hold (first_home_count)."""
+        period = np.maximum(np.rint(self.index_period), 1.0)
+        place = np.mod(np.floor(counts - self.index_phase), period)
+        return first_home_count(place, down, period, self.params.home_pattern)
+
+    def home_here(self, axes: np.ndarray) -> np.ndarray:
+        """Axes of `axes` whose encoder terms of the home logic hold where they stand (a search
+        that starts there is home at once: the logic is level-based); `home_at` their count."""
+        enc = self.core.axes.encoder.astype(float)
+        here = axes & (self.home_steps(enc, np.zeros(len(enc), dtype=bool)) == 0)
+        self.home_at[here] = enc[here]
+        return here
 
     def renumbered(self, a: int, shift: float) -> None:
         """Axis a's counts moved by `shift` (a home search): the index pulses stay where they

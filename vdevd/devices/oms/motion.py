@@ -6,8 +6,9 @@ exactly. Moves from rest are the linear profile with base velocity (profile.py):
 [S §2.14]; a move that starts while the axis runs is the core's trapezoid from there. The limit
 inputs are raw TTL levels; LTH/LTL give the active level, the limit mode (hard: stop at once;
 soft: decelerate at AC; off: ignored) what a switch does [S §4.2]. Home searches: HM/HR/KM/KR run
-at VL until the home condition (the switch, or in HI mode the switch and an encoder index pulse)
-and load the operand into the position counter where it occurred [S §4.3, §4.8]. The card's
+at VL until the home condition (the switch; in HI mode the AND of the terms of the axis's home
+truth table HT/EH that are not ignored: phase A, phase B, index, switch) and load the operand
+into the position counter where it occurred [S §4.3, §4.8]. The card's
 commanded position is whole counts: an axis whose stop ended between two counts holds the nearer
 one (`hold_whole_counts`). Encoder features (slip, runaway, index pulses, position maintenance)
 are in encoder.py.
@@ -21,7 +22,7 @@ import numpy as np
 
 from vdevd.devices.oms import profile
 from vdevd.devices.oms.encoder import Encoders
-from vdevd.devices.oms.params import Params
+from vdevd.devices.oms.params import HOME_IGNORED, Params
 from vdevd.devices.oms.servo import ServoLaw
 from vdevd.rt import MotionCore, PlantKind
 from vdevd.rt.axes import AxisFlag
@@ -56,7 +57,7 @@ class OmsMotion:
         self.home_edge = np.full(n, math.inf)  # backdoor: a home switch at a position ...
         self.home_top = np.full(n, math.inf)  # ... active from home_edge up to home_top
         self.home_edge_set = False
-        self.home_index = np.zeros(n, dtype=bool)  # HI mode: home = switch AND index pulse
+        self.home_index = np.zeros(n, dtype=bool)  # HI mode: home = the truth table (HT/EH)
         self.index_capture = np.zeros(n, dtype=bool)  # index pulses make capture entries
         self.encoders = Encoders(self.core, params)
         on = [t != "M" or params.closed_loop[a] for a, t in enumerate(params.ptype)]
@@ -149,6 +150,7 @@ class OmsMotion:
         axis already on its switch (switch mode) is homed where it stands."""
         self.home_value[a], self.home_ramp[a] = value, ramp
         self.searching[a] = True
+        self.encoders.home_hit[a] = False  # no count passed yet in this search
         self.jog(a, float(self.params.values["VL"][a]) * (1 if forward else -1))
         if not self.moving(a):  # refused by a limit
             self.searching[a] = False
@@ -156,20 +158,28 @@ class OmsMotion:
         self.check_homes(started=True)
 
     def check_homes(self, started: bool = False) -> None:
-        """Searching axes whose home condition holds: the switch active, and in HI mode an index
-        pulse in the last update cycle. The operand is what the counter reads where the
-        condition occurred (the switch edge, the index pulse); the axis then ramps down at AC
-        (HM/HR) or stops at once (KM/KR), so it ends at operand + what it ran past that point."""
-        hit = self.searching & self.home_active()
-        if self.home_index.any():
-            hit &= ~self.home_index | self.encoders.index_hit
+        """Searching axes whose home condition holds. HS: the switch active. HI: each term of the
+        axis's truth table that is not ignored [S §4.8]: the switch active or inactive as it
+        says, in this update cycle, and the encoder terms (A, B, index) at a count passed in the
+        last cycle, or, as the search starts, where the axis stands. The operand is what the
+        counter reads where the condition occurred (the switch edge, the count where the encoder
+        terms held); the axis then ramps down at AC (HM/HR) or stops at once (KM/KR), so it ends
+        at operand + what it ran past that point."""
+        active, hi = self.home_active(), self.home_index
+        switch = self.params.home_pattern[:, 3]
+        hit = self.searching & np.where(hi, (switch == HOME_IGNORED) | (active == (switch == 1)),
+                                        active)
+        enc = self.encoders
+        if hi.any():
+            encoder_terms = enc.home_here(self.searching & hi) if started else enc.home_hit
+            hit &= ~hi | encoder_terms
         for a in np.flatnonzero(hit).tolist():
             self.searching[a] = False
             dec = float(self.params.values["AC"][a]) if self.home_ramp[a] else HARD_STOP
             ax = self.core.axes
             past = 0.0  # how far the axis ran past where the condition occurred
-            if self.home_index[a]:
-                past = (float(ax.encoder[a]) - float(self.encoders.index_at[a])) / float(
+            if hi[a]:
+                past = (float(ax.encoder[a]) - float(enc.home_at[a])) / float(
                     self.core.encoder_scale[a])
             elif not started and math.isfinite(self.home_edge[a]):
                 edge = self.home_edge[a] if ax.cmd_vel[a] >= 0 else self.home_top[a]
@@ -188,7 +198,7 @@ class OmsMotion:
         self.servo.after_tick()
         enc = self.encoders
         if enc.watching:
-            enc.step_index()
+            enc.step_index(self.searching & self.home_index if self.searching.any() else None)
         if self.home_edge_set:
             self.update_home_edges()
         if self.searching.any():
@@ -216,7 +226,7 @@ class OmsMotion:
         core.profile.commit()
 
     def set_home_mode(self, a: int, index: bool) -> None:
-        """HI (home = switch AND encoder index pulse) or HS (the switch alone)."""
+        """HI (home = the truth table of switch and encoder signals) or HS (the switch alone)."""
         self.home_index[a] = index
         self.encoders.watch_index(self.home_index | self.index_capture)
 

@@ -2,8 +2,9 @@
 
 Numeric parameters are float arrays, one element per axis (`Params.values["VL"]`); the axis
 configuration (type, polarities, limit mode, closed loop) is kept beside them as small arrays.
-The whole set is, with the I/O configuration (defaults.py), what `APP` stores as the power-up
-defaults and `RDF`/`RDP` restore [S §2.14].
+The home logic's truth table (`HT`/`EH`, `home_pattern`) is kept here too, beside the home switch
+polarity. The whole set is, with the I/O configuration (defaults.py), what `APP` stores as the
+power-up defaults and `RDF`/`RDP` restore [S §2.14].
 User units (UU) and the encoder ratio (ER) change how operands and replies read (`scale`,
 `format`); inside, everything stays in counts.
 """
@@ -69,6 +70,36 @@ UNIT_OPERANDS = {
 }
 
 
+#: the terms of the home logic in the order `HT` takes them: encoder phase A, phase B, index, home
+#: switch [S §4.3, §4.8]; `EH` takes the first three (the encoder's)
+HOME_TERMS = ("A", "B", "index", "switch")
+ENCODER_TERMS = 3
+#: a term's entry in the truth table: 1 active (high), 0 inactive (low), 2 ignored
+HOME_IGNORED = 2
+#: "Home = Phase +A * Phase -B * Index * Home Switch (Default)" [S §4.8]
+FACTORY_HOME_PATTERN = (1, 0, 1, 1)
+
+
+def parse_home_pattern(text: str, terms: int = len(HOME_TERMS)) -> tuple[int, ...] | None:
+    """A home truth table as `HT`/`EH` take it, `1,0,1,1` or `1011` (0, 1 or 2 per term), as a
+    tuple of `terms` entries; None if malformed. An `X` cannot stand for "ignored": in the OMS
+    syntax a letter starts the next command."""
+    fields = text.split(",") if "," in text else list(text)
+    if len(fields) != terms or any(f not in ("0", "1", "2") for f in fields):
+        return None
+    return tuple(int(f) for f in fields)
+
+
+def format_home_pattern(pattern: np.ndarray) -> str:
+    """`HT?`/`EH?` and the stored image: one digit per term, `1011`."""
+    return "".join(str(int(t)) for t in pattern)
+
+
+def defines_home(pattern: tuple[int, ...] | np.ndarray) -> bool:
+    """A truth table with at least one term not ignored (all ignored would home anywhere)."""
+    return any(int(t) != HOME_IGNORED for t in pattern)
+
+
 class Params:
     """The working parameter set of one card."""
 
@@ -79,6 +110,8 @@ class Params:
         self.limit_high = np.zeros(n, dtype=bool)  # LTH: limits active high (factory low)
         self.limit_mode = ["H"] * n  # H hard, S soft, F off [spec §8.11]
         self.home_high = np.zeros(n, dtype=bool)  # HH: home active high (factory low)
+        # HT/EH: per axis the entries for A, B, index, switch (HOME_TERMS)
+        self.home_pattern = np.tile(np.array(FACTORY_HOME_PATTERN, dtype=np.int8), (n, 1))
         self.encoder_inverted = np.zeros(n, dtype=bool)  # EDI
         self.servo_inverted = np.zeros(n, dtype=bool)  # SVP-
         # CL1 / HN; servo axes power up with the loop closed (README)
@@ -118,6 +151,7 @@ class Params:
             "limit_high": self.limit_high.tolist(),
             "limit_mode": self.limit_mode,
             "home_high": self.home_high.tolist(),
+            "home_pattern": [format_home_pattern(row) for row in self.home_pattern],
             "encoder_inverted": self.encoder_inverted.tolist(),
             "servo_inverted": self.servo_inverted.tolist(),
             "closed_loop": self.closed_loop.tolist(),
@@ -142,3 +176,8 @@ class Params:
                 lst = getattr(self, name)
                 v = image[name][:n]
                 lst[: len(v)] = v
+        stored = image.get("home_pattern")
+        for a, text in enumerate(stored[:n] if isinstance(stored, list) else []):
+            pattern = parse_home_pattern(text) if isinstance(text, str) else None
+            if pattern is not None and defines_home(pattern):
+                self.home_pattern[a] = pattern
