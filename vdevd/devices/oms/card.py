@@ -68,6 +68,8 @@ class MaxkCard(Card):
         "decode": Option(str, "arrival", choices=("arrival", "cycle"),
                          help="parse commands when the insert index is written, or next cycle"),
         "serial": Option(int, 1, min=0, max=999999, help="serial number WY reports"),
+        "ssi_code": Option(str, "binary", choices=("binary", "gray"),
+                           help="the code the SSI encoders (ECA) send: binary or Gray"),
     }
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
@@ -85,6 +87,7 @@ class MaxkCard(Card):
         self.ideal = str(cfg.get("plant") or "model") == "ideal"
         self.decode_on_arrival = str(cfg.get("decode") or "arrival") == "arrival"
         self.serial = int(cfg.get("serial") or 1)
+        self.ssi_gray = cfg.get("ssi_code") == "gray"  # the encoders attached, not a setting
 
         self.shm = self.add_region(Region(
             "shm", SHM_SIZE, widths=(1, 2, 4), endian="big",
@@ -312,7 +315,7 @@ class MaxkCard(Card):
         rings.put_u32(mem, Shm.GPIO, fw.gpio_levels())
         rings.put_u32(mem, Shm.W_FLAGS, fw.wk_flags[0])
         rings.put_u32(mem, Shm.K_FLAGS, fw.wk_flags[1])
-        words[SSI_WORDS[:n]] = fw.ssi.words(encoder)
+        words[SSI_WORDS[:n]] = fw.ssi.words(encoder, gray=self.ssi_gray)
 
     def snapshot(self) -> None:
         """The position request: motor, encoder and DAC of every axis from the same cycle."""

@@ -2,9 +2,11 @@
 
 `ECA bits,clock` on a stepper-with-encoder axis (PSE) makes its encoder an SSI absolute
 encoder of 1-32 bits read at one of the eight clock rates; the card publishes its word every
-update cycle at 0x3520 + 4·axis: the encoder position in binary, masked to the bit count (a
-position below zero or beyond the range wraps, as the encoder's own counter does). Axes
-without SSI read 0 there.
+update cycle at 0x3520 + 4·axis: the encoder position masked to the bit count (a position below
+zero or beyond the range wraps, as the encoder's own counter does), in binary or, for Gray-code
+encoders (card option `ssi_code`), Gray-coded: the card passes the word on as the encoder sends
+it, and a host decodes Gray itself (E-drvMAXv `greyCode`; spec oms.md §5.8). Axes without SSI
+read 0 there.
 """
 
 from __future__ import annotations
@@ -31,9 +33,12 @@ class Ssi:
         self._mask[a] = (1 << bits) - 1
         self.any = bool(self.bits.any())
 
-    def words(self, encoder: np.ndarray) -> np.ndarray:
-        """The SSI words (as signed 32-bit values, for the big-endian int32 window)."""
+    def words(self, encoder: np.ndarray, gray: bool = False) -> np.ndarray:
+        """The SSI words (as signed 32-bit values, for the big-endian int32 window), Gray-coded
+        with `gray`."""
         if not self.any:
             return np.zeros(len(self.bits), dtype=np.int64)
         word = np.asarray(encoder, dtype=np.int64) & self._mask
+        if gray:
+            word = word ^ (word >> 1)  # within the bit count: the mask keeps the top bit's place
         return (word + 2**31) % 2**32 - 2**31
