@@ -12,8 +12,8 @@ import pytest
 import vdevclient
 from vdevclient import pcomm
 
-from tests.devices.pmac.conftest import Pmac, card_config
-from vdevd.testing import DaemonThread
+from tests.devices.pmac.conftest import Pmac
+from tests.devices.pmac.test_acceptance import pmac_pcomm
 
 DEVICE = 0
 # real-time buffer [dprrtdbt.h realtTURBO]: X:$06001A host busy, Y/X:$06001B timer and data ready,
@@ -31,15 +31,8 @@ JOG_PER_CYCLE = 32 * 3713707 / 8388608  # Ixx22 = 32 counts/ms at the factory se
 @pytest.fixture
 def card() -> Iterator[Pmac]:
     """A card of its own (plant `ideal`: actual = commanded) opened by PComm as device 0."""
-    with DaemonThread(card_config(plant="ideal")) as d, \
-            vdevclient.connect(d.endpoint, d.events, timeout=10) as rack:
-        host = Pmac(rack)
-        assert pcomm.OpenPmacDevice(DEVICE, endpoint=d.endpoint)
-        try:
-            yield host
-        finally:
-            pcomm.ClosePmacDevice(DEVICE)
-            host.close()
+    with pmac_pcomm() as host:
+        yield host
 
 
 def pc(line: str) -> list[str]:
