@@ -161,11 +161,9 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
         all(r["p50"] <= GOAL_P50 for r in measured[2].values()), batch_ops=batch_ops)
 
 
-def replay_of(dmc: Callable[[], Any], rack: Any) -> tuple[Callable[[], Any], int]:
-    """A call that sends the batch DMCCommand sends once it knows the reply's length, through
-    `rack` (no library around it), and the number of ops in that batch."""
-    from vdevclient.core import Prepared
-
+def last_request(rack: Any, fn: Callable[[], Any]) -> tuple[Any, Any]:
+    """Run `fn` with `rack`'s class spied on: (what fn returned, the last request it sent, a map
+    or a vdevclient.core.Prepared)."""
     seen: list[Any] = []
     call = type(rack).call
 
@@ -173,13 +171,21 @@ def replay_of(dmc: Callable[[], Any], rack: Any) -> tuple[Callable[[], Any], int
         seen.append(message)
         return call(self, message, wait_s)
 
-    dmc()  # the first call reads 32 bytes; from the second on, as many as the reply has
     type(rack).call = spy
     try:
-        dmc()
+        result = fn()
     finally:
         type(rack).call = call
-    last = seen[-1]
+    return result, seen[-1]
+
+
+def replay_of(dmc: Callable[[], Any], rack: Any) -> tuple[Callable[[], Any], int]:
+    """A call that sends the batch DMCCommand sends once it knows the reply's length, through
+    `rack` (no library around it), and the number of ops in that batch."""
+    from vdevclient.core import Prepared
+
+    dmc()  # the first call reads 32 bytes; from the second on, as many as the reply has
+    _, last = last_request(rack, dmc)
     ops = list((last.message if isinstance(last, Prepared) else last)["ops"])
     message = last if isinstance(last, Prepared) else None  # sent as the library sends it
 

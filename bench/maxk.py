@@ -39,7 +39,13 @@ from bench.common import (  # noqa: E402
     placement,
     write_json,
 )
-from bench.galil import checked_raw_client, command_figure, measure_commands, start_raw_server  # noqa: E402
+from bench.galil import (  # noqa: E402
+    checked_raw_client,
+    command_figure,
+    last_request,
+    measure_commands,
+    start_raw_server,
+)
 from bench.rtt import (  # noqa: E402
     RAW,
     ratios_to_raw,
@@ -118,21 +124,10 @@ def replay_of(card: Any) -> tuple[Callable[[], Any], int]:
     from vdevclient.core import compact
 
     rack = card.rack
-    seen: list[dict[str, Any]] = []
-    call = type(rack).call
-
-    def spy(self: Any, message: dict[str, Any], wait_s: float = 0.0) -> Any:
-        seen.append(message)
-        return call(self, message, wait_s)
-
     card.send_and_get_string(COMMAND)  # the first call after open has no reply to release
-    type(rack).call = spy
-    try:
-        reply = card.send_and_get_string(COMMAND)
-    finally:
-        type(rack).call = call
+    reply, last = last_request(rack, lambda: card.send_and_get_string(COMMAND))
     # as [kind, card, region, offset, data], whichever form the client sent
-    template = [op if isinstance(op, list) else compact(op) for op in seen[-1]["ops"]]
+    template = [op if isinstance(op, list) else compact(op) for op in last["ops"]]
 
     def write_at(test: Callable[[int], bool]) -> int:
         return next(i for i, op in enumerate(template) if op[0] == "w" and test(op[3]))
