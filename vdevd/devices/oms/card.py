@@ -40,7 +40,7 @@ from vdevd.devices.oms.layout import (
     Firmware as FwFlags,
 )
 from vdevd.devices.oms.mu import MessageUnit
-from vdevd.devices.oms.params import AXIS_TYPES
+from vdevd.devices.oms.params import AXIS_TYPES, PROFILES, SERVO_OUTPUTS
 from vdevd.region import Region
 from vdevd.rt import wrap_int32
 from vdevd.rt.axes import AxisFlag
@@ -52,6 +52,14 @@ _SEMAPHORE, _CMD_INSERT, _RSP_PROCESS = int(Shm.SEMAPHORE), int(Shm.CMD_INSERT),
 def _default_types(n: int) -> list[str]:
     """Servo on the first four axes, steppers after (the issue's default)."""
     return ["servo" if a < 4 else "stepper" for a in range(n)]
+
+
+def _per_axis(cfg: Mapping[str, Any], key: str, n: int, default: str) -> list[str]:
+    """A per-axis list option: one entry per axis, or every axis `default` when not given."""
+    values = list(cfg.get(key) or [default] * n)
+    if len(values) != n:
+        raise ValueError(f"{key}: {len(values)} entries for {n} axes")
+    return [str(v) for v in values]
 
 
 class MaxkCard(Card):
@@ -70,6 +78,10 @@ class MaxkCard(Card):
         "serial": Option(int, 1, min=0, max=999999, help="serial number WY reports"),
         "ssi_code": Option(str, "binary", choices=("binary", "gray"),
                            help="the code the SSI encoders (ECA) send: binary or Gray"),
+        "profiles": Option(list, None, choices=PROFILES,
+                           help="per axis velocity profile: linear | parabolic | scurve"),
+        "servo_output": Option(list, None, choices=SERVO_OUTPUTS,
+                               help="per axis servo DAC output: bipolar | unipolar"),
     }
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
@@ -88,6 +100,8 @@ class MaxkCard(Card):
         self.decode_on_arrival = str(cfg.get("decode") or "arrival") == "arrival"
         self.serial = int(cfg.get("serial") or 1)
         self.ssi_gray = cfg.get("ssi_code") == "gray"  # the encoders attached, not a setting
+        self.profiles = _per_axis(cfg, "profiles", self.n, "linear")
+        self.servo_outputs = _per_axis(cfg, "servo_output", self.n, "bipolar")
 
         self.shm = self.add_region(Region(
             "shm", SHM_SIZE, widths=(1, 2, 4), endian="big",
@@ -123,7 +137,8 @@ class MaxkCard(Card):
         image = None if self.defaults_bad() else self.saved
         self.fw = Firmware(self.n, self.types, self.period_ns, update_hz=self.update_hz,
                            ideal=self.ideal, ring=self.mu.ring, version=VERSION,
-                           serial=self.serial, save=self._save_defaults, saved=image)
+                           serial=self.serial, save=self._save_defaults, saved=image,
+                           profiles=self.profiles, servo_outputs=self.servo_outputs)
         self.fw.now_ns = self.now_ns
         self.publish()
 

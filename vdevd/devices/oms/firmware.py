@@ -45,8 +45,13 @@ class Firmware:
 
     def __init__(self, n: int, types: list[str], period_ns: int, *, update_hz: int, ideal: bool,
                  ring: Callable[[int], None], version: str, serial: int,
-                 save: Callable[[dict[str, Any]], None], saved: dict[str, Any] | None) -> None:
+                 save: Callable[[dict[str, Any]], None], saved: dict[str, Any] | None,
+                 profiles: list[str] | None = None, servo_outputs: list[str] | None = None) -> None:
         self.n = n
+        #: per axis: the velocity profile of moves from rest (card option `profiles`, spec §5.2)
+        self.profiles = list(profiles or ["linear"] * n)
+        #: per axis: bipolar or unipolar servo output (card option `servo_output`, spec §5.3)
+        self.servo_outputs = list(servo_outputs or ["bipolar"] * n)
         self.period_ns = period_ns
         self.ideal = ideal
         self.ring_doorbell = ring

@@ -58,6 +58,10 @@ PARAMS: dict[str, Param] = {
 
 #: axis types as PS? reports them [spec §4.2]: O open-loop stepper, E stepper + encoder, M servo
 AXIS_TYPES = {"stepper": "O", "stepper_encoder": "E", "servo": "M"}
+#: the velocity profiles of a move from rest [S §2.14, App C; spec §5.2, a per-axis attribute]
+PROFILES = ("linear", "parabolic", "scurve")
+#: the servo DAC output: +-10 V, or 0-10 V with the sign on the direction output [spec §5.3]
+SERVO_OUTPUTS = ("bipolar", "unipolar")
 
 #: commands whose operand is a position, velocity or acceleration, of the motor or (LPE) of the
 #: encoder: in user units when UU is on [spec §4.1, §4.3 UU], and on a PSE axis with an encoder
