@@ -1,10 +1,17 @@
 """Real-time position capture [S §3.7, Tables 3-5/3-6; spec oms.md §2.8].
 
 Each axis with an incremental encoder (PSE, PSM) can record its encoder position when its home
-switch input has a rising (0x01) or falling (0x04) edge, when its encoder index pulse passes
-(0x02, "encoder home event"), and when general-purpose input lines have a rising or falling
-edge. The update cycle that sees the edges makes one entry per axis with every bit that
-triggered it; the card puts the entries in the shared-memory ring and writes OMR1 = 2 (INTA).
+switch input has a rising (0x01) or falling (0x04) edge, at an "encoder home event" (0x02), and
+when general-purpose input lines have a rising or falling edge. The update cycle that sees the
+edges makes one entry per axis with every bit that triggered it; the card puts the entries in
+the shared-memory ring and writes OMR1 = 2 (INTA).
+
+The encoder home event is the home condition the firmware sees coming true (encoder.py): in HI
+mode the axis's home truth table (HT/EH) [S §4.8], at the exact count where its encoder terms
+begin to hold while the switch term holds in that cycle, or in the cycle the switch term comes
+true where they hold; in HS mode, whose home condition is the switch alone (bits 0x01/0x04),
+the encoder's own home signal, the index pulse.
+
 Edges are of the raw input levels (a "positive edge" is TTL low to high, whatever HH/HL say).
 The seed names no command for the triggers ("see the MAX family command reference"); the ones
 this card takes (CPH, CPR, CPF) are proposed in cmd_motion.py and the README.
@@ -16,6 +23,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from vdevd.devices.oms.encoder import switch_holds
 
 if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
@@ -48,11 +57,13 @@ class Capture:
         self.pending: list[Entry] = []
         self._inputs = 0
         self._home_level = np.ones(n, dtype=bool)
+        self._index = np.zeros(n, dtype=bool)  # axes capturing encoder home events
 
     def configure(self, fw: Firmware) -> None:
         """After a trigger changed: arm, watch index pulses where asked, take the levels now as
         the reference for edges."""
         self.armed = bool((self.home | self.rising | self.falling).any())
+        self._index = (self.home & INDEX) != 0
         m = fw.motion
         for a, bits in enumerate(self.home.tolist()):
             if bool(bits & INDEX) != bool(m.index_capture[a]):
@@ -70,8 +81,8 @@ class Capture:
         inputs = self._input_levels(fw)
         rise, fall = inputs & ~self._inputs, self._inputs & ~inputs
         level = m.home_level
-        index = m.encoders.index_hit
         changed = level != self._home_level
+        index, index_at = self._encoder_home_events(fw, changed)
         if not (rise or fall or changed.any() or index.any()):
             return
         home = (np.where(changed & level, HOME_RISING, 0) | np.where(index, INDEX, 0)
@@ -87,7 +98,30 @@ class Capture:
         sign = np.where(fw.params.encoder_inverted, -1, 1)
         for a in hit.tolist():
             position = float(enc[a])
-            if home[a] & INDEX:  # the count of the pulse itself, as the host counts
-                position -= sign[a] * (float(raw[a]) - float(m.encoders.index_at[a]))
+            if home[a] & INDEX:  # the count of the event itself, as the host counts
+                position -= sign[a] * (float(raw[a]) - float(index_at[a]))
             self.pending.append(Entry(int(position), a, int(home[a]), int(rising[a]),
                                       int(falling[a])))
+
+    def _encoder_home_events(self, fw: Firmware,
+                             changed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Axes with an encoder home event in this cycle and its raw encoder count: in HI mode
+        the home truth table coming true (at a count the axis passed, or where it stands when
+        the switch term came true: `changed` are the switches that changed), in HS mode an
+        index pulse."""
+        m = fw.motion
+        enc = m.encoders
+        hi = self._index & m.home_index
+        if not hi.any():
+            return enc.index_hit, enc.index_at
+        entry, active = fw.params.home_pattern[:, 3], m.home_active()
+        switch = switch_holds(entry, active)
+        rose, at = enc.home_rise(hi)
+        event = rose & switch
+        came = hi & changed & switch
+        if came.any():  # the switch term came true where the encoder terms hold
+            came &= ~event & ~switch_holds(entry, self._home_level == fw.params.home_high)
+            came &= enc.home_condition(hi, active)
+            at = np.where(came, enc.core.axes.encoder, at)
+            event |= came
+        return (enc.index_hit & ~m.home_index) | event, np.where(hi, at, enc.index_at)

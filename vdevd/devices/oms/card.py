@@ -340,8 +340,8 @@ class MaxkCard(Card):
         words[COHERENT_DAC_WORDS[:n]] = self._dac()
 
     def _dac(self) -> np.ndarray:
-        """The servo outputs as the DAC words hold them: counts, +-32767 = +-10 V."""
-        return np.rint(np.clip(self.fw.motion.core.axes.out, -32767, 32767))
+        """The DAC words: counts, +-32767 = +-10 V, 0..32767 on unipolar servo axes (servo.py)."""
+        return self.fw.motion.servo.dac_words()
 
     def capture(self, a: int, home_bits: int = 0, rising: int = 0, falling: int = 0,
                 position: int | None = None) -> None:
@@ -468,10 +468,11 @@ class MaxkCard(Card):
     def get_outputs(self) -> dict[str, Any]:
         """What the card drives on its output pins: the 16 I/O lines (`gpio`, bit n = IOn),
         the auxiliary outputs (`aux`, one bool per axis, AN/AF) and the DACs (`dac_volts`)."""
-        fw = self.fw
-        volts = np.clip(np.rint(fw.motion.core.axes.out), -32767, 32767) * 10 / 32767
+        fw, m = self.fw, self.fw.motion
+        volts = self._dac() * 10 / 32767
         return {"gpio": fw.gpio_levels(), "aux": fw.aux.tolist(),
-                "dac_volts": [round(float(v), 4) for v in volts]}
+                "dac_volts": [round(float(v), 4) for v in volts],
+                "direction": m.servo.direction_outputs(m.direction).tolist()}
 
     @control()
     def set_firmware_state(self, state: str) -> None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from vdevd.devices.oms.servo import COUNTS_PER_VOLT
-from vdevd.devices.oms.syntax import Command, Operand, hex_words
+from vdevd.devices.oms.syntax import Command, Operand, beyond_axes, hex_words
 from vdevd.devices.oms.table import CommandError, command
 
 if TYPE_CHECKING:
@@ -21,7 +21,7 @@ def axis_letters(fw: Firmware, cmd: Command, allowed: str) -> list[tuple[int, st
             raise CommandError("one value in single-axis mode")
         pairs = [(fw.axis, fields[0])]
     else:
-        if len(fields) > fw.n:
+        if beyond_axes(fields, fw.n):
             raise CommandError("more values than axes")
         pairs = [(a, f) for a, f in enumerate(fields) if f]
     for _, f in pairs:

@@ -17,7 +17,7 @@ from vdevd.devices.oms.params import (
 )
 from vdevd.devices.oms.queue import Group, Run, at_once
 from vdevd.devices.oms.ssi import CLOCKS, MAX_BITS
-from vdevd.devices.oms.syntax import Command, Operand, hex_words
+from vdevd.devices.oms.syntax import Command, Operand, beyond_axes, hex_words
 from vdevd.devices.oms.table import CommandError, command
 
 if TYPE_CHECKING:
@@ -421,7 +421,7 @@ def _capture_inputs(fw: Firmware, cmd: Command) -> str | None:
             raise CommandError("one 16-bit hex mask")
         pairs = [(fw.axis, words[0])]
     else:
-        if len(words) > fw.n:
+        if beyond_axes(words, fw.n):
             raise CommandError("more values than axes")
         pairs = [(a, w) for a, w in enumerate(words) if w is not None]
     if not pairs or any(w > 0xFFFF for _, w in pairs):

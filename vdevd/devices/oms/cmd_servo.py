@@ -115,17 +115,22 @@ def _has_encoder(fw: Firmware, a: int) -> bool:
 @command("EA")
 def encoder_status(fw: Firmware, cmd: Command) -> str:
     """Five characters per axis: slip detection E/D, position maintenance E/D, slip S/N,
-    in deadband D/N, encoder home H/N; a command error on an axis without encoder."""
+    in deadband D/N, encoder home H/N [spec §4.2 EA]; a command error on an axis without
+    encoder. Home is the home condition the firmware sees where the axis stands: HS the
+    switch, HI the home truth table (HT/EH) [S §4.3, §4.8; encoder.py]."""
+    axes = fw.selected()
+    if not all(_has_encoder(fw, a) for a in axes):
+        raise CommandError("axis has no encoder")
+    m = fw.motion
+    home = m.encoders.home_condition(m.home_index, m.home_active())
     out = []
-    for a in fw.selected():
-        if not _has_encoder(fw, a):
-            raise CommandError("axis has no encoder")
+    for a in axes:
         p = fw.params
         slip_on = p.values["ES"][a] > 0
         maint = p.closed_loop[a] and p.ptype[a] == "E"
         out.append(("E" if slip_on else "D") + ("E" if maint else "D")
                    + ("S" if fw.slip[a] else "N") + ("D" if fw.in_deadband(a) else "N")
-                   + ("H" if fw.encoder_home(a) else "N"))
+                   + ("H" if home[a] else "N"))
     return ",".join(out)
 
 

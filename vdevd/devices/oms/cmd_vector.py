@@ -1,14 +1,16 @@
 """Coordinated straight-line moves (`MT`) and vector contours (`VV VA VP VC VE VIO VID VO VOA
-VG VH`) [S App C L1356-1374, §4.5.1; spec oms.md §4.3 "Vector / contouring", §5.7, §8.14]."""
+VG VH`) [S App C L1356-1374, §4.5.1; spec oms.md §4.3 "Vector / contouring", §5.7, §8.14], as
+the EPICS MAXv trajectory scan drives them: one task per axis, loaded, then started together
+by `VG` [E-traj L572-585, L1284-1437]."""
 
 from __future__ import annotations
 
 import math
 from typing import TYPE_CHECKING
 
-from vdevd.devices.oms.contour import Contour
-from vdevd.devices.oms.queue import Group, Run, at_once
-from vdevd.devices.oms.syntax import Command, Operand, hex_words, numbers
+from vdevd.devices.oms.contour import Contour, ContourState
+from vdevd.devices.oms.queue import Group, Run
+from vdevd.devices.oms.syntax import Command, Operand, beyond_axes, hex_words, numbers
 from vdevd.devices.oms.table import CommandError, command
 
 if TYPE_CHECKING:
@@ -85,8 +87,15 @@ def _values(cmd: Command) -> list[float | None]:
 @command("VV", operand=Operand.NUMBERS)
 def vector_velocity(fw: Firmware, cmd: Command) -> None:
     """VV[n]v[,vend]: the velocity of the segments defined from now and the speed each ends
-    at, counts/s (`VV1000,0` ends at rest, `VV v` runs on) [S App C; spec §4.3]."""
+    at, counts/s (`VV1000,0` ends at rest, `VV v` runs on) [S App C; spec §4.3]. `VV[n]0`,
+    how [E-traj L1355] sends a point at rest, keeps the velocity and ends them at rest."""
     values = _values(cmd)
+    if values == [0.0]:
+        task = _task(fw, cmd)
+        fw.vector_end_velocity[task] = 0.0
+        if task in fw.contours:
+            fw.contours[task].end_velocity = 0.0
+        return
     if not values or len(values) > 2 or values[0] is None or not 1 <= values[0] <= _VELOCITY:
         raise CommandError("vector velocity 1-4194303")
     end = values[1] if len(values) == 2 else None
@@ -102,6 +111,9 @@ def vector_velocity(fw: Firmware, cmd: Command) -> None:
 
 @command("VA", operand=Operand.NUMBERS)
 def vector_acceleration(fw: Firmware, cmd: Command) -> None:
+    """VA[n]a: the acceleration of the segments defined from now, counts/s^2, for the ramps
+    within them [E-traj L1422: `VA[n]` before each point]; before the first VP it is the
+    contour's own (the halt of VH1 uses it)."""
     values = _values(cmd)
     if len(values) != 1 or values[0] is None or not 1 <= values[0] <= 8_000_000:
         raise CommandError("vector acceleration 1-8000000")
@@ -111,29 +123,46 @@ def vector_acceleration(fw: Firmware, cmd: Command) -> None:
         fw.contours[task].acceleration = values[0]
 
 
-@command("VP", operand=Operand.NUMBERS)
+def _point(cmd: Command) -> tuple[bool, list[float | None]]:
+    """A VP/VC operand: relative (R flag) or absolute (A flag or none) [E-traj L1428], and
+    the numbers."""
+    flag, text = (cmd.operand[:1], cmd.operand[1:]) if cmd.operand[:1] in ("A", "R") else (
+        "", cmd.operand)
+    try:
+        values = numbers(text) if text else []
+    except ValueError:
+        raise CommandError("malformed number") from None
+    return flag == "R", values
+
+
+@command("VP", operand=Operand.POINT)
 def vector_point(fw: Firmware, cmd: Command) -> None:
-    """A straight segment to absolute positions (empty fields keep the axis where it is)."""
-    values = _values(cmd)
+    """VP[n][A|R]p,p...: a straight segment to absolute positions (A, or no flag), or by
+    distances from the end of the segment before (R); an empty field keeps the axis where it
+    is [E-traj L1428-1432: `VP[n]A` and a field for axis j only]."""
+    relative, values = _point(cmd)
     c = _contour(fw, cmd)
-    if not values or len(values) > len(c.start):
+    if not values or beyond_axes(values, len(c.start)):
         raise CommandError("VP needs one position per axis")
     here = list(c.here)
     for a, v in enumerate(values):
         if v is not None:
-            here[a] = float(math.trunc(v))
+            here[a] = here[a] + math.trunc(v) if relative else float(math.trunc(v))
     c.line_to(tuple(here))
 
 
-@command("VC", operand=Operand.NUMBERS)
+@command("VC", operand=Operand.POINT)
 def vector_circle(fw: Firmware, cmd: Command) -> None:
-    """VC cx,cy,degrees: an arc of the first two axes around (cx, cy); negative degrees run
-    clockwise (spec §8.14)."""
-    values = _values(cmd)
+    """VC[n][A|R]cx,cy,degrees: an arc of the first two axes around (cx, cy), absolute (A, or
+    no flag) or from where the arc starts (R); negative degrees run clockwise (spec §8.14)."""
+    relative, values = _point(cmd)
     if len(values) != 3 or any(v is None for v in values):
         raise CommandError("VC centre-x,centre-y,angle")
     cx, cy, deg = (float(v) for v in values if v is not None)
-    _contour(fw, cmd).arc((cx, cy), deg)
+    c = _contour(fw, cmd)
+    if relative:
+        cx, cy = c.here[0] + cx, c.here[1] + cy
+    c.arc((cx, cy), deg)
 
 
 @command("VIO", operand=Operand.HEX)
@@ -154,8 +183,9 @@ def vector_io(fw: Firmware, cmd: Command) -> None:
 
 @command("VE")
 def vector_end(fw: Firmware, cmd: Command) -> None:
-    """The end of the contour definition: the contour runs once every axis of it has reached
-    this point of its queue, decelerating to rest at its end (README)."""
+    """The end of the contour definition: the contour starts once every axis of it has reached
+    this point of its queue (and, after VH[n]0, VG[n] has come), decelerating to rest at its
+    end (README)."""
     task = _task(fw, cmd)
     c = fw.contours.pop(task, None)
     if c is None or not c.segments:
@@ -169,18 +199,26 @@ def vector_end(fw: Firmware, cmd: Command) -> None:
         def run(axis: int) -> bool:
             if group.act_once():
                 fw.start_contour(task, c)
-            return fw.running_contours.get(task) is not c
+            return c.state is ContourState.ENDED
 
         return run
 
     fw.enqueue(sorted(c.axes), "VE", make, units=1 + len(c.segments), group=group)
+    fw.defined_contours[task] = c
 
 
-@command("VID")
+@command("VID", operand=Operand.NUMBERS)
 def vector_done(fw: Firmware, cmd: Command) -> None:
-    """Set the done flags (and doorbell) of the contour's axes when it has ended."""
-    group = Group(fw.aa_members)
-    fw.enqueue(sorted(group.members), "VID", at_once(fw.set_done), group=group)
+    """VID[n]1 (or a bare VID[n]): when the task's contour ends, set the done flags of its
+    axes and ring their doorbell bits; VID[n]0: do not [E-traj L1296: "done flag and
+    interrupt", sent before the first VP]. It applies to the contour being defined, else to
+    the one defined last if it has not ended, else to the next one (it opens a definition)."""
+    values = _values(cmd)
+    if len(values) > 1 or (values and values[0] not in (0.0, 1.0)):
+        raise CommandError("VID, VID0 or VID1")
+    task = _task(fw, cmd)
+    c = fw.contours.get(task) or fw.defined_contours.get(task) or _contour(fw, cmd)
+    c.notify = not values or values[0] == 1.0
 
 
 @command("VO", operand=Operand.NUMBERS)
@@ -217,8 +255,9 @@ def vector_override_analog(fw: Firmware, cmd: Command) -> None:
 
 @command("VH", operand=Operand.NUMBERS)
 def vector_hold(fw: Firmware, cmd: Command) -> None:
-    """VH[n]1 halts the task's contour whatever its override (VO or VOA), VH[n]0 lets it run
-    on at that override."""
+    """VH[n]0: "don't start until I tell you to start" [E-traj L1300-1301]: the task's next
+    contour waits at its start for VG[n]. VH[n]1: halt [E-traj L812-816]: the running contour
+    decelerates to rest on its path, whatever its override (VO or VOA), until VG[n]."""
     values = _values(cmd)
     if len(values) != 1 or values[0] not in (0.0, 1.0):
         raise CommandError("VH0 or VH1")
@@ -226,10 +265,18 @@ def vector_hold(fw: Firmware, cmd: Command) -> None:
     if values[0]:
         fw.vector_held.add(task)
     else:
-        fw.vector_held.discard(task)
+        fw.vector_gated.add(task)
+        fw.vector_released.discard(task)
 
 
 @command("VG")
 def vector_go(fw: Firmware, cmd: Command) -> None:
-    """Release a held task (as VH0)."""
-    fw.vector_held.discard(_task(fw, cmd))
+    """VG[n] ("GO!" [E-traj L579-585]): resume a halted contour; start the contour VH[n]0
+    holds at its start, or, if it has not reached its start yet, let it start when it does."""
+    task = _task(fw, cmd)
+    fw.vector_held.discard(task)
+    if task in fw.vector_gated:
+        fw.vector_released.add(task)
+        waiting = fw.waiting_contours.pop(task, None)
+        if waiting is not None:
+            fw.start_contour(task, waiting)

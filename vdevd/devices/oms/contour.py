@@ -1,21 +1,27 @@
 """Vector (contour) paths: straight and circular segments run at a vector velocity (spec oms.md
-§4.3 "Vector / contouring", §5.2, App C example 3 [S App C L1360-1374]).
+§4.3 "Vector / contouring", §5.2, App C example 3 [S App C L1360-1374]; the EPICS MAXv
+trajectory scan [E-traj L1296-1430]).
 
-Each segment keeps the `VV v,vend` in force when it was defined: it cruises at v and ends at
-vend (`VV v` alone: it runs on at v), the last segment ends at rest. The path is planned when its
-definition ends (`VE`): the speed at every junction is the lowest of the segment's vend, the
-velocities of the two segments that meet there, and what the acceleration `VA` can reach within
-the segments on either side (the whole path is known, so a segment that must slow down more than
-it can within itself slows the ones before it). Each segment is then a trapezoid of the path
-coordinate s between its junction speeds, evaluated in closed form every update cycle at a time
-that the velocity override (`VO`, `VOA`, 0-200 %) stretches. Pure functions and small state
-objects; the firmware writes the positions into the core.
+Each segment keeps the `VV v,vend` and the `VA` in force when it was defined. It is entered at
+the speed the segment before it left (rest for the first), ramps at its own VA to v (up, or down
+when entered faster), cruises, and ends at vend (`VV v` alone: it runs on at v); the last segment
+ends at rest. This is how [E-traj] drives the card: `VA[n]a;VV[n]v` per point, the card ramping
+from the last point's speed to v within the segment. The path is planned when its definition
+ends (`VE`): the speed at every junction is the lowest of the segment's vend, its velocity and
+what the segments' VA can reach within the segments on either side (the whole path is known, so
+a segment that must slow down more than it can within itself slows the ones before it). Each
+segment is then a trapezoid of the path coordinate s between its junction speeds, evaluated in
+closed form every update cycle at a time that the velocity override (`VO`, `VOA`, 0-200 %)
+stretches and a halt (`VH1`) ramps to a stop. Pure functions and small state objects; the
+firmware writes the positions into the core.
 """
 
 from __future__ import annotations
 
+import enum
 import math
 from bisect import bisect_left, bisect_right
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 
@@ -27,6 +33,7 @@ class Line:
     io_off: int = 0
     velocity: float = 1.0  # VV v in force when the segment was defined
     end_velocity: float | None = None  # VV ...,vend; None: runs on at `velocity`
+    acceleration: float = 1.0  # VA in force when the segment was defined
 
     @property
     def length(self) -> float:
@@ -51,6 +58,7 @@ class Arc:
     io_off: int = 0
     velocity: float = 1.0
     end_velocity: float | None = None
+    acceleration: float = 1.0
 
     @property
     def radius(self) -> float:
@@ -79,8 +87,9 @@ Segment = Line | Arc
 
 @dataclass(frozen=True)
 class Leg:
-    """One segment's speed profile: from `entry` ramp at `accel` to `peak`, cruise, ramp down
-    to `exit`, over `length` counts of path."""
+    """One segment's speed profile: from `entry` ramp at `accel` to `peak` (down when entered
+    faster than its velocity), cruise at `peak`, ramp down to `exit`, over `length` counts of
+    path."""
 
     length: float
     entry: float
@@ -90,18 +99,22 @@ class Leg:
 
     @property
     def ramp_up(self) -> float:
-        return (self.peak - self.entry) / self.accel
+        """The time of the first ramp, entry -> peak (up or down)."""
+        return abs(self.peak - self.entry) / self.accel
 
     @property
     def ramp_down(self) -> float:
         return (self.peak - self.exit) / self.accel
 
     @property
+    def _s_up(self) -> float:
+        return abs(self.peak ** 2 - self.entry ** 2) / (2 * self.accel)
+
+    @property
     def cruise(self) -> float:
         """The distance at `peak` (what the two ramps leave)."""
-        up = (self.peak ** 2 - self.entry ** 2) / (2 * self.accel)
         down = (self.peak ** 2 - self.exit ** 2) / (2 * self.accel)
-        return max(0.0, self.length - up - down)
+        return max(0.0, self.length - self._s_up - down)
 
     @property
     def duration(self) -> float:
@@ -113,45 +126,72 @@ class Leg:
         """Path coordinate within the leg, `tau` seconds after its start."""
         a, v, up = self.accel, self.peak, self.ramp_up
         if tau <= up:
-            return self.entry * tau + a * tau * tau / 2
-        s_up = (v * v - self.entry ** 2) / (2 * a)
+            return self.entry * tau + math.copysign(a, v - self.entry) * tau * tau / 2
         flat = self.cruise / v
         if tau <= up + flat:
-            return s_up + v * (tau - up)
+            return self._s_up + v * (tau - up)
         w = min(tau - up - flat, self.ramp_down)
-        return min(self.length, s_up + self.cruise + v * w - a * w * w / 2)
+        return min(self.length, self._s_up + self.cruise + v * w - a * w * w / 2)
+
+    def v_at(self, tau: float) -> float:
+        """Path speed within the leg, `tau` seconds after its start."""
+        a, v, up = self.accel, self.peak, self.ramp_up
+        if tau <= up:
+            return self.entry + math.copysign(a, v - self.entry) * tau
+        flat = self.cruise / v
+        return v - a * min(max(0.0, tau - up - flat), self.ramp_down)
+
+
+def _per_segment(accel: float | Sequence[float], n: int) -> list[float]:
+    return [float(accel)] * n if isinstance(accel, (int, float)) else list(accel)
 
 
 def junction_speeds(lengths: list[float], velocities: list[float],
-                    ends: list[float | None], accel: float) -> list[float]:
+                    ends: list[float | None], accel: float | Sequence[float]) -> list[float]:
     """The speed at the end of each segment (App C: `VV1000,1000` runs on, `VV1000,0` stops):
-    at most the segment's vend (its velocity when None), the velocities on both sides and what
-    `accel` reaches from the junction before (forward) and down to the one after (backward);
-    the last is 0."""
+    at most the segment's vend (its velocity when None) and its velocity, what its `accel`
+    (one value, or one per segment) reaches from the junction before (forward) and what the
+    next segment's can bring down to the one after (backward); the last is 0. A slower
+    segment after it does not lower it: that segment slows down within itself [E-traj]."""
     n = len(lengths)
-    wanted = [v if e is None else e for v, e in zip(velocities, ends, strict=True)]
-    cap = [min(velocities[i], velocities[i + 1], wanted[i]) for i in range(n - 1)] + [0.0]
+    acc = _per_segment(accel, n)
+    cap = [v if e is None else min(v, e) for v, e in zip(velocities, ends, strict=True)]
+    cap[-1] = 0.0
     out: list[float] = []
     before = 0.0
     for i in range(n):
-        before = min(cap[i], math.sqrt(before * before + 2 * accel * lengths[i]))
+        before = min(cap[i], math.sqrt(before * before + 2 * acc[i] * lengths[i]))
         out.append(before)
     for i in range(n - 2, -1, -1):
-        out[i] = min(out[i], math.sqrt(out[i + 1] ** 2 + 2 * accel * lengths[i + 1]))
+        out[i] = min(out[i], math.sqrt(out[i + 1] ** 2 + 2 * acc[i + 1] * lengths[i + 1]))
     return out
 
 
 def plan_legs(lengths: list[float], velocities: list[float], ends: list[float | None],
-              accel: float) -> list[Leg]:
+              accel: float | Sequence[float]) -> list[Leg]:
     """Each segment's trapezoid between its junction speeds (a triangle when too short to
-    reach its velocity)."""
-    junctions = junction_speeds(lengths, velocities, ends, accel)
+    reach its velocity; first down to its velocity when entered faster)."""
+    acc = _per_segment(accel, len(lengths))
+    junctions = junction_speeds(lengths, velocities, ends, acc)
     legs, entry = [], 0.0
-    for length, v, out in zip(lengths, velocities, junctions, strict=True):
-        peak = min(v, math.sqrt(max(0.0, accel * length + (entry * entry + out * out) / 2)))
-        legs.append(Leg(length, entry, max(peak, entry, out), out, accel))
+    for length, v, a, out in zip(lengths, velocities, acc, junctions, strict=True):
+        if entry > v:  # down to v first (out is at most v)
+            peak = v
+        else:
+            reach = math.sqrt(max(0.0, a * length + (entry * entry + out * out) / 2))
+            peak = max(min(v, reach), entry, out)
+        legs.append(Leg(length, entry, peak, out, a))
         entry = out
     return legs
+
+
+class ContourState(enum.Enum):
+    """Where a contour is once its definition has ended (VE)."""
+
+    QUEUED = "queued"  # its VE waits in the axis queues
+    WAITING = "waiting"  # at its start, waiting for VG[n] (after VH[n]0)
+    RUNNING = "running"
+    ENDED = "ended"  # ran to its end, or a flush of one of its axes ended it (KS, ST, ...)
 
 
 @dataclass
@@ -161,13 +201,17 @@ class Contour:
     axes: tuple[int, ...]
     start: tuple[float, ...]
     velocity: float  # VV v for the segments defined from now
-    acceleration: float
+    acceleration: float  # VA for them
     end_velocity: float | None = None  # VV ...,vend for them; None: run on
     segments: list[Segment] = field(default_factory=list)
     io_on: int = 0  # VIO bits for the next segment
     io_off: int = 0
+    notify: bool = False  # VID: set the done flags of its axes at its end
     # the run
-    t: float = 0.0
+    state: ContourState = ContourState.QUEUED
+    t: float = 0.0  # path time, s
+    rate: float = 0.0  # path seconds per second this cycle: the override, eased by a halt
+    easing: bool = False  # halted, or resuming from a halt
     total: float = 0.0
     legs: list[Leg] = field(default_factory=list)
     _bounds: list[float] = field(default_factory=list)  # s at each segment's start
@@ -179,12 +223,13 @@ class Contour:
 
     def line_to(self, end: tuple[float, ...]) -> None:
         self.segments.append(Line(self.here, end, self.io_on, self.io_off, self.velocity,
-                                  self.end_velocity))
+                                  self.end_velocity, self.acceleration))
         self.io_on = self.io_off = 0
 
     def arc(self, centre: tuple[float, float], degrees: float) -> None:
         self.segments.append(Arc(self.here, centre, math.radians(degrees), self.io_on,
-                                 self.io_off, self.velocity, self.end_velocity))
+                                 self.io_off, self.velocity, self.end_velocity,
+                                 self.acceleration))
         self.io_on = self.io_off = 0
 
     def moved_axes(self) -> tuple[int, ...]:
@@ -199,16 +244,25 @@ class Contour:
         """At VE: the junction speeds, each segment's profile, where and when each starts."""
         segs = self.segments
         self.legs = plan_legs([s.length for s in segs], [s.velocity for s in segs],
-                              [s.end_velocity for s in segs], self.acceleration)
+                              [s.end_velocity for s in segs], [s.acceleration for s in segs])
         self._bounds, self._starts = [0.0], [0.0]
         for seg, leg in zip(segs, self.legs, strict=True):
             self._bounds.append(self._bounds[-1] + seg.length)
             self._starts.append(self._starts[-1] + leg.duration)
         self.total = self._bounds[-1]
 
+    def begin(self) -> None:
+        """It starts: path time 0, at rest."""
+        self.state = ContourState.RUNNING
+        self.t = self.rate = 0.0
+        self.easing = False
+
     @property
     def duration(self) -> float:
         return self._starts[-1] if self._starts else 0.0
+
+    def _leg(self, t: float) -> int:
+        return min(bisect_right(self._starts, t) - 1, len(self.legs) - 1)
 
     def s_at(self, t: float) -> float:
         """Path coordinate at (override-stretched) time t."""
@@ -216,8 +270,31 @@ class Contour:
             return 0.0
         if t >= self.duration:
             return self.total
-        i = min(bisect_right(self._starts, t) - 1, len(self.legs) - 1)
+        i = self._leg(t)
         return self._bounds[i] + self.legs[i].s_at(t - self._starts[i])
+
+    def speed_at(self, t: float) -> float:
+        """Path speed at path time t, counts/s at 100 %."""
+        if t <= 0 or t >= self.duration:
+            return 0.0
+        i = self._leg(t)
+        return self.legs[i].v_at(t - self._starts[i])
+
+    def pace(self, override: float, held: bool, dt: float) -> float:
+        """The rate of path time for the next `dt` seconds: the override at once; but a halt
+        (VH1) brings it to 0, and a resume back to the override, changing the path speed at
+        the contour's first VA (its default: E-traj's cruise segments have VA 1)."""
+        want = 0.0 if held else override
+        self.easing |= held
+        if not self.easing:
+            self.rate = want
+            return want
+        v = self.speed_at(self.t)
+        step = self.segments[0].acceleration * dt / v if v > 0 else math.inf
+        self.rate = min(self.rate + step, want) if want > self.rate else max(
+            self.rate - step, want)
+        self.easing = held or self.rate != want
+        return self.rate
 
     def position(self, s: float) -> tuple[tuple[float, ...], int]:
         """Axis positions at s and the index of the segment it is in."""

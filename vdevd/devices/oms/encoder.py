@@ -10,6 +10,12 @@ maintenance of steppers with encoder.
   A high B high, A low B high, A low B low (A leads B on a positive move). `HT`/`EH` (params.py)
   say which levels of A, B and the index are home; during an HI search the first count in the
   direction of travel where they hold is found in closed form, per axis (`first_home_count`).
+- The home condition the firmware sees [S §4.3, §4.8] is one: HS the switch; HI the truth table,
+  the switch term (`switch_holds`) AND the encoder terms at a count (`first_home_count`). A
+  search stops where it holds (motion.py), EA char 5 reports it where the axis stands
+  (`home_condition`), and an index capture in HI mode records the count where the encoder terms
+  begin to hold (`first_rise_count`: the "encoder home event" of Table 3-6) with the switch term
+  holding; in HS mode the encoder's home event is its index pulse.
 - Slip/stall: |encoder − ratio·motor| beyond the tolerance ES (encoder counts, factory 0 = off).
   It is the core's following-error limit: on a stepper (PSE) the following error is the slip in
   motor counts (the steps follow the command exactly, the encoder may not), on a servo (PSM) the
@@ -27,7 +33,7 @@ import math
 
 import numpy as np
 
-from vdevd.devices.oms.params import Params
+from vdevd.devices.oms.params import HOME_IGNORED, Params
 from vdevd.rt import MotionCore
 from vdevd.rt.axes import AxisFlag
 
@@ -72,6 +78,52 @@ def first_home_count(place: np.ndarray, down: np.ndarray, period: np.ndarray,
     return np.asarray(np.where(ok, steps, np.inf).min(axis=1))
 
 
+def switch_holds(entry: np.ndarray, active: np.ndarray) -> np.ndarray:
+    """Where the home switch term of the truth table holds [S §4.8]: entry 2 (ignored), 1 with
+    the switch active, 0 with it inactive."""
+    return (entry == HOME_IGNORED) | (active == (entry == 1))
+
+
+def _walk(place: np.ndarray, down: np.ndarray, period: np.ndarray,
+          steps: np.ndarray) -> np.ndarray:
+    """The place in the index period `steps` counts on from `place` in the direction of travel."""
+    return np.asarray(np.mod(place + np.where(down, -steps, steps), period))
+
+
+def _failing(pattern: np.ndarray) -> np.ndarray:
+    """Per encoder term t (rows A, B, index) a table of that term alone at the level where it
+    fails (the others ignored), per axis: shape (3, n, 4)."""
+    n = len(pattern)
+    terms = np.arange(3)
+    single = np.full((3, n, 4), HOME_IGNORED, dtype=pattern.dtype)
+    single[terms, :, terms] = 1 - pattern[:, :3].T
+    return single
+
+
+def first_rise_count(place: np.ndarray, down: np.ndarray, period: np.ndarray,
+                     pattern: np.ndarray) -> np.ndarray:
+    """Per axis, how many counts the axis moves from `place` (where it stands, not counted) to
+    the first count where the encoder terms of `pattern` begin to hold: they hold there and not
+    at the count before it (1 = the next count; inf: never). From a count where they hold, the
+    axis first has to reach one where a term not ignored fails. Built on first_home_count, the
+    search the HI homing uses (one call of 5 rows per axis, a second from inside the counts
+    where the terms hold)."""
+    n = len(place)
+    one = _walk(place, down, period, np.ones(n))
+    rows = np.concatenate([pattern[None], pattern[None], _failing(pattern)]).reshape(5 * n, 4)
+    found = first_home_count(np.concatenate([one, place, one, one, one]), np.tile(down, 5),
+                             np.tile(period, 5), rows).reshape(5, n)
+    steps, held = found[0], found[1] == 0
+    leave = np.where(pattern[:, :3].T == HOME_IGNORED, np.inf, found[2:]).min(axis=0)
+    inside = held & (steps == 0)  # still where the terms hold: wait for a term to fail
+    if inside.any():
+        finite = np.isfinite(leave)
+        k = np.where(inside & finite, leave, 0.0)
+        again = k + first_home_count(_walk(one, down, period, k), down, period, pattern)
+        steps = np.where(inside, np.where(finite, again, np.inf), steps)
+    return np.asarray(steps + 1.0)
+
+
 class Encoders:
     """The encoder features of one card's axes over its motion core."""
 
@@ -87,6 +139,15 @@ class Encoders:
         self.index_hit = np.zeros(n, dtype=bool)  # an index pulse passed in the last tick
         self.index_at = np.zeros(n)  # its encoder count
         self._enc_prev = np.zeros(n)
+        self.tick_start = np.zeros(n)  # the encoder count before the last tick (watched axes)
+        # home_rise: per axis the next count where the encoder terms begin to hold from the
+        # count `_rise_from` on, both times the direction `_rise_sign` (0: none known), for
+        # the table, period and phase of the key
+        self._rise_next = np.zeros(n)
+        self._rise_from = np.zeros(n)
+        self._rise_sign = np.zeros(n)
+        self._rise_key = (params.home_pattern.copy(), self.index_period.copy(),
+                          self.index_phase.copy())
         # the encoder terms of the home logic (HT/EH) during an HI search
         self.home_hit = np.zeros(n, dtype=bool)  # they held at a count passed in the last tick
         self.home_at = np.zeros(n)  # the first such count
@@ -125,27 +186,75 @@ class Encoders:
             steps = self.home_steps(first, down)
             np.logical_and(homing, steps < np.abs(moved), out=self.home_hit)
             self.home_at[:] = np.where(self.home_hit, np.where(down, -steps, steps) + first, 0.0)
+        np.copyto(self.tick_start, self._enc_prev)
         self._enc_prev[:] = enc
+
+    def _places(self, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(place in the index period, the period) of encoder `counts`, per axis."""
+        period = np.maximum(np.rint(self.index_period), 1.0)
+        return np.mod(np.floor(counts - self.index_phase), period), period
 
     def home_steps(self, counts: np.ndarray, down: np.ndarray) -> np.ndarray:
         """How far each axis moves from encoder `counts` to the next count where the encoder
         terms of its home truth table hold (first_home_count)."""
-        period = np.maximum(np.rint(self.index_period), 1.0)
-        place = np.mod(np.floor(counts - self.index_phase), period)
+        place, period = self._places(counts)
         return first_home_count(place, down, period, self.params.home_pattern)
+
+    def home_condition(self, hi: np.ndarray, switch_active: np.ndarray) -> np.ndarray:
+        """The home condition each axis's firmware sees where it stands [S §4.3, §4.8]: HS the
+        switch active; HI (`hi`) its truth table, the switch term and the encoder terms at the
+        present count (EA char 5)."""
+        table = switch_holds(self.params.home_pattern[:, 3], switch_active) & self.terms_here()
+        return np.where(hi, table, switch_active)
+
+    def terms_here(self) -> np.ndarray:
+        """Axes whose encoder terms of the home logic hold at the count where they stand."""
+        enc = self.core.axes.encoder.astype(float)
+        return np.asarray(self.home_steps(enc, np.zeros(len(enc), dtype=bool)) == 0)
+
+    def home_rise(self, axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Axes of `axes` (watched: `watch_index`) whose encoder terms of the home logic began
+        to hold at a count passed in the last tick (first_rise_count), and that count (the
+        first such; 0 elsewhere). Where the terms begin to hold depends only on the count and
+        the direction, so the next such count is kept while the axis runs on toward it and
+        looked for again once passed, on a reversal, or for a new table or index."""
+        enc, start = self.core.axes.encoder, self.tick_start
+        moved = enc - start
+        moving = axes & (moved != 0)
+        if not moving.any():
+            return moving, np.zeros(len(enc))
+        sign = np.sign(moved)
+        p, key = self.params.home_pattern, self._rise_key
+        if ((key[0] != p).any() or (key[1] != self.index_period).any()
+                or (key[2] != self.index_phase).any()):
+            self._rise_key = (p.copy(), self.index_period.copy(), self.index_phase.copy())
+            self._rise_sign[:] = 0.0
+        # in the direction of travel: the start, where the next rise was looked for, and it
+        here, nxt = start * sign, self._rise_next
+        known = (sign == self._rise_sign) & (here >= self._rise_from) & (here < nxt)
+        stale = moving & ~known
+        if stale.any():
+            place, period = self._places(start)
+            found = here + first_rise_count(place, sign < 0, period, p)
+            np.copyto(nxt, found, where=stale)
+            np.copyto(self._rise_from, here, where=stale)
+            np.copyto(self._rise_sign, sign, where=stale)
+        hit = moving & (nxt - here <= np.abs(moved))
+        return hit, np.where(hit, nxt, 0.0) * sign  # (nxt may be inf where no hit)
 
     def home_here(self, axes: np.ndarray) -> np.ndarray:
         """Axes of `axes` whose encoder terms of the home logic hold where they stand (a search
         that starts there is home at once: the logic is level-based); `home_at` their count."""
-        enc = self.core.axes.encoder.astype(float)
-        here = axes & (self.home_steps(enc, np.zeros(len(enc), dtype=bool)) == 0)
-        self.home_at[here] = enc[here]
+        here = axes & self.terms_here()
+        self.home_at[here] = self.core.axes.encoder[here]
         return here
 
     def renumbered(self, a: int, shift: float) -> None:
         """Axis a's counts moved by `shift` (a home search): the index pulses stay where they
         are on the axis."""
-        self.index_phase[a] += shift * float(self.core.encoder_scale[a])
+        counts = shift * float(self.core.encoder_scale[a])
+        self.index_phase[a] += counts
+        self.tick_start[a] += counts
         self._enc_prev[a] = self.core.axes.encoder[a]
 
     # -- slip, stall and runaway ---------------------------------------------------------------------

@@ -23,7 +23,7 @@ from vdevd.devices.oms import (  # noqa: F401 (they register their commands)
     cmd_vector,
 )
 from vdevd.devices.oms.capture import Capture
-from vdevd.devices.oms.contour import Contour
+from vdevd.devices.oms.contour import Contour, ContourState
 from vdevd.devices.oms.defaults import image as defaults_image
 from vdevd.devices.oms.defaults import load_io
 from vdevd.devices.oms.faults import FAULT_EVENTS, react_to_faults
@@ -33,7 +33,7 @@ from vdevd.devices.oms.motion import OmsMotion
 from vdevd.devices.oms.params import UNIT_OPERANDS, Params
 from vdevd.devices.oms.queue import AxisQueue, Group, Item, Run
 from vdevd.devices.oms.ssi import Ssi
-from vdevd.devices.oms.syntax import Command, Lexer, numbers
+from vdevd.devices.oms.syntax import Command, Lexer, beyond_axes, numbers
 from vdevd.devices.oms.table import TABLE, CommandError
 
 _LEXER_TABLE = {name: spec.operand for name, spec in TABLE.items()}
@@ -84,7 +84,8 @@ class Firmware:
     def power_on(self) -> None:
         """Positions 0, queues empty, the working parameters as they are."""
         n = self.n
-        self.motion = OmsMotion(self.params, self.period_ns, self.ideal)
+        self.motion = OmsMotion(self.params, self.period_ns, self.ideal, self.profiles)
+        self.motion.servo.set_output_modes(self.servo_outputs)
         self.queues = [AxisQueue() for _ in range(n)]
         self.mode = "single"  # "single" | "AA" | "AM"
         self.axis = 0
@@ -99,13 +100,17 @@ class Firmware:
         self.enc_offset = np.zeros(n)  # LO/LPE on axes whose loop does not use the encoder
         self.reset_requested = False
         self.contours: dict[int, Contour] = {}  # vector tasks being defined
+        self.defined_contours: dict[int, Contour] = {}  # each task's last VE, until it ends
+        self.waiting_contours: dict[int, Contour] = {}  # at their start, waiting for VG
         self.running_contours: dict[int, Contour] = {}
         self.vector_velocity: dict[int, float] = {}
         self.vector_end_velocity: dict[int, float | None] = {}  # VV v,vend (None: run on)
         self.vector_acceleration: dict[int, float] = {}
         self.override: dict[int, float] = {}  # VO per task, 1.0 = 100 %
         self.override_analog: dict[int, tuple[int, float]] = {}  # VOA: (input, volts at 100 %)
-        self.vector_held: set[int] = set()  # VH1
+        self.vector_held: set[int] = set()  # VH1: halted until VG
+        self.vector_gated: set[int] = set()  # VH0: the next contour waits for VG
+        self.vector_released: set[int] = set()  # VG before that contour reached its start
         self.aux = np.zeros(n, dtype=bool)  # AN/AF auxiliary outputs [S §4.6]
         self.capture = Capture(n)  # real-time position capture [S §3.7]
         self.ssi = Ssi(n)  # absolute encoders (ECA) [S §4.9]
@@ -184,7 +189,7 @@ class Firmware:
                 raise CommandError("one value in single-axis mode")
             pairs = [(self.axis, values[0])] if values else []
         else:
-            if len(values) > self.n:
+            if beyond_axes(values, self.n):
                 raise CommandError("more values than axes")
             pairs = [(a, v) for a, v in enumerate(values) if v is not None]
         kind = UNIT_OPERANDS.get(cmd.mnemonic)  # user units, encoder ratio [spec §4.1, §4.3]
@@ -215,6 +220,7 @@ class Firmware:
 
     def flush(self, a: int) -> None:
         self.queues[a].flush()
+        self.drop_contours(a)
         self.pending[a] = math.nan
         for name in self.queued:
             self.queued[name][a] = math.nan
@@ -256,14 +262,24 @@ class Firmware:
             m.core.move_absolute(a, target, vl * share, ac * share, ac * share)
 
     def start_contour(self, task: int, contour: Contour) -> None:
-        contour.t = 0.0
+        """Its VE has reached the head of every axis queue (after any SW): it runs from this
+        update cycle on, unless VH[n]0 made it wait for VG[n] and none came yet [E-traj L1300,
+        L579-585]; the VG that starts it consumes the VH0."""
+        self.defined_contours[task] = contour
+        if task in self.vector_gated and task not in self.vector_released:
+            contour.state = ContourState.WAITING
+            self.waiting_contours[task] = contour
+            return
+        self.vector_gated.discard(task)
+        self.vector_released.discard(task)
+        contour.begin()
         self.running_contours[task] = contour
-        self.advance_contours()
 
     def advance_contours(self) -> None:
         """One update cycle of each running contour: the path coordinate at the override-
         stretched time, the axes held there, VIO outputs at segment starts. At its end the axes
-        hold the nearest whole counts (an arc ends between counts; see hold_whole_counts)."""
+        hold the nearest whole counts (an arc ends between counts; see hold_whole_counts) and,
+        after VID, their done flags are set."""
         dt = self.period_ns / 1e9
         profile = self.motion.core.profile
         for task, c in list(self.running_contours.items()):
@@ -276,15 +292,37 @@ class Firmware:
             for a in c.axes:
                 profile.hold(a, float(round(pos[a])) if ended else pos[a])
             if ended:
-                del self.running_contours[task]
-            c.t += dt * self.vector_override(task)
+                self.end_contour(task, c)
+                if c.notify:
+                    for a in c.axes:
+                        self.set_done(a)
+            else:
+                c.t += dt * c.pace(self.vector_override(task), task in self.vector_held, dt)
         profile.commit()
 
+    def end_contour(self, task: int, c: Contour) -> None:
+        """The task's contour is over: its halt ends with it."""
+        c.state = ContourState.ENDED
+        for where in (self.running_contours, self.waiting_contours, self.defined_contours):
+            if where.get(task) is c:
+                del where[task]
+        self.vector_held.discard(task)
+
+    def drop_contours(self, a: int) -> None:
+        """A flush of axis a (KS, SI, ST, a limit) ends the contours on it, queued, waiting or
+        running, without done flags; the axes stay where the path took them [E-traj L812-824:
+        VH[n]1, then KS to "kill selected axes and flush queues"]."""
+        on_a = [(task, c) for where in (self.defined_contours, self.waiting_contours,
+                                        self.running_contours)
+                for task, c in where.items() if a in c.axes]
+        for task, c in on_a:
+            self.end_contour(task, c)
+            self.vector_gated.discard(task)
+            self.vector_released.discard(task)
+
     def vector_override(self, task: int) -> float:
-        """The task's override now (1.0 = 100 %): 0 while held (VH1), else from its VOA input,
-        100 % at the full-scale volts, clamped to 0-200 % [S §4.5.1, App C], else VO's."""
-        if task in self.vector_held:
-            return 0.0
+        """The task's override now (1.0 = 100 %): from its VOA input, 100 % at the full-scale
+        volts, clamped to 0-200 % [S §4.5.1, App C], else VO's."""
         analog = self.override_analog.get(task)
         if analog is None:
             return self.override.get(task, 1.0)
@@ -352,9 +390,6 @@ class Firmware:
     def in_deadband(self, a: int) -> bool:
         """EA char 4: the encoder within HD of the target (encoder.py)."""
         return self.motion.in_deadband(a)
-
-    def encoder_home(self, a: int) -> bool:
-        return bool(self.motion.home_active()[a])
 
     # -- stored defaults [S §2.13-2.14; spec §1.4, §2.3] -------------------------------------------
     def store_defaults(self) -> None:

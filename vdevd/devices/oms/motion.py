@@ -2,8 +2,9 @@
 
 Open-loop steppers (PSO) and steppers with encoder (PSE) drive the core's stepper plant, servos
 (PSM) its servo plant through the PID; `plant = "ideal"` makes every axis follow its command
-exactly. Moves from rest are the linear profile with base velocity (profile.py): VB, AC, VL
-[S §2.14]; a move that starts while the axis runs is the core's trapezoid from there. The limit
+exactly. Moves from rest follow the axis's profile (card option `profiles`: linear, parabolic or
+S-curve, each with base velocity; profile.py): VB, AC, VL [S §2.14; spec §5.2]; a move that
+starts while the axis runs is the core's trapezoid from there, whatever the profile. The limit
 inputs are raw TTL levels; LTH/LTL give the active level, the limit mode (hard: stop at once;
 soft: decelerate at AC; off: ignored) what a switch does [S §4.2]. Home searches: HM/HR/KM/KR run
 at VL until the home condition (the switch; in HI mode the AND of the terms of the axis's home
@@ -17,12 +18,13 @@ are in encoder.py.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from vdevd.devices.oms import profile
-from vdevd.devices.oms.encoder import Encoders
-from vdevd.devices.oms.params import HOME_IGNORED, Params
+from vdevd.devices.oms.encoder import Encoders, switch_holds
+from vdevd.devices.oms.params import Params
 from vdevd.devices.oms.servo import ServoLaw
 from vdevd.rt import MotionCore, PlantKind
 from vdevd.rt.axes import AxisFlag
@@ -37,11 +39,14 @@ HARD_STOP = 1e15
 class OmsMotion:
     """Motion of one card: the core, the raw limit/home input levels and the home searches."""
 
-    def __init__(self, params: Params, period_ns: int, ideal: bool = False) -> None:
+    def __init__(self, params: Params, period_ns: int, ideal: bool = False,
+                 profiles: Sequence[str] | None = None) -> None:
         n = params.n
         self.n = n
         self.params = params
         self.ideal = ideal
+        #: per axis: the planner of a move from rest (spec §5.2; ValueError on an unknown name)
+        self.planners = [profile.planner(name) for name in profiles or ["linear"] * n]
         kinds = [PlantKind.IDEAL if ideal else _KIND[t] for t in params.ptype]
         self.core = MotionCore(n, period_ns, kinds)
         # raw input levels (1 = TTL high); open inputs are pulled high [spec §2.3]
@@ -108,8 +113,8 @@ class OmsMotion:
         return float(np.rint(core.axes.cmd_pos[a]))
 
     def move_to(self, a: int, target: float) -> None:
-        """A move to `target`: from rest the linear profile with VB, else (the axis runs) the
-        core's trapezoid from its present velocity."""
+        """A move to `target`: from rest the axis's profile with VB (linear, parabolic or
+        S-curve), else (the axis runs) the core's trapezoid from its present velocity."""
         v, core = self.params.values, self.core
         self._begin(a)
         here = float(core.axes.cmd_pos[a])
@@ -120,8 +125,10 @@ class OmsMotion:
             core.move_absolute(a, target, vl, ac, ac)
             return
 
+        planner = self.planners[a]
+
         def plan(t: float, p: float, vel: float, goal: float) -> list[profile.Phase]:
-            return profile.linear(t, p, goal, vb, vl, ac)
+            return planner(t, p, goal, vb, vl, ac)
 
         core.move_planned(a, target, plan, ac)
 
@@ -167,8 +174,7 @@ class OmsMotion:
         at operand + what it ran past that point."""
         active, hi = self.home_active(), self.home_index
         switch = self.params.home_pattern[:, 3]
-        hit = self.searching & np.where(hi, (switch == HOME_IGNORED) | (active == (switch == 1)),
-                                        active)
+        hit = self.searching & np.where(hi, switch_holds(switch, active), active)
         enc = self.encoders
         if hi.any():
             encoder_terms = enc.home_here(self.searching & hi) if started else enc.home_hit

@@ -3,12 +3,22 @@
     u   = KP·e + KI·I + KD·(e − e_prev) + KV·v·T + KA·a·T² + KF·sign(v) + KO
     I   = Σe, clamped so that |KI·I| <= KU (KU 0: no integral term)
     out = clamp(u, ±32767), negated by SVP−
+    DAC = out (bipolar) or |out| with the sign on the direction output (unipolar)
 
 e = command − encoder in counts, v and a the commanded velocity and acceleration, T the update
 period: the gains act per update cycle, as the card computes them. ±32767 is ±10 V, so KO3277 is
 about +1 V [S §2.9]. CL0/HF opens the loop: the output is KO alone [S §2.13], the command follows
 the motor. An axis that is not a servo drives its DAC as a general-purpose analog output (AO,
 [S §4.5.2]).
+
+Unipolar output [S §4.6 "unipolar analog (0/+10V)", §2.14 "Servo axis unipolar/bipolar output";
+spec §5.3]: the spec's clamp to 0..32767 alone could never drive a motor backwards, so a
+unipolar servo axis drives |out| (0..+10 V) on its DAC and the sign on its direction output (the
+axis's Direction pin of the connector, which a unipolar amplifier takes as its direction
+input), as a sign-magnitude interface does. The amplifier, and so the simulated motor, still
+gets the signed command: the loop closes both ways. SVP− negates `out`, so on a unipolar axis it
+inverts the direction output and leaves the DAC word. The option (card option `servo_output`,
+no command is known) applies to servo axes; a DAC used as an analog output (AO) stays ±10 V.
 
 The simulated motor and amplifier (`MOTOR_SPEED_PER_VOLT`, `MOTOR_TIME_CONSTANT_S`) behave like a
 velocity-mode drive tuned as [S §2.9] step 4 asks: one volt (KO3277) runs the motor at 10 % of a
@@ -18,6 +28,8 @@ profile's end. KI acts only once KU is set (KU 0 is the factory value: no integr
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -53,7 +65,15 @@ class ServoLaw:
         self._kf = np.zeros(n)  # signed KF of closed-loop servo axes (0 elsewhere)
         self._any_fixed = False
         self._any_kf = False
+        self.unipolar_output = np.zeros(n, dtype=bool)  # card option servo_output, per axis
+        self._unipolar = np.zeros(n, dtype=bool)  # ... on the axes that are servos now
+        self._any_unipolar = False
         core.plant.set(slice(None), **plant_parameters())
+
+    def set_output_modes(self, modes: Sequence[str]) -> None:
+        """Per axis "bipolar" or "unipolar" (card option `servo_output` [S §2.14])."""
+        self.unipolar_output[:] = [m == "unipolar" for m in modes]
+        self.apply()
 
     def servo_axes(self) -> np.ndarray:
         """Axes that are servos (PSM) driving the servo plant (not under the ideal plant)."""
@@ -78,6 +98,8 @@ class ServoLaw:
         self._fixed_value = np.where(servo, sign * v["KO"], self.analog_out)
         self._any_fixed = bool(self._fixed_value[self._fixed].any())
         np.copyto(self.core.axes.out, self._fixed_value, where=self._fixed)  # the DAC at once
+        self._unipolar = self.unipolar_output & np.array([t == "M" for t in p.ptype])
+        self._any_unipolar = bool(self._unipolar.any())
 
     def set_analog_out(self, a: int, counts: float) -> None:
         """AO: the DAC of a non-servo axis as a general-purpose output."""
@@ -93,3 +115,21 @@ class ServoLaw:
             np.clip(out, -DAC_FULL_SCALE, DAC_FULL_SCALE, out=out)
         if self._any_fixed:
             np.copyto(out, self._fixed_value, where=self._fixed)
+
+    def signed_words(self) -> np.ndarray:
+        """The output of every axis in whole DAC counts, signed, as a bipolar DAC holds it."""
+        return np.rint(np.clip(self.core.axes.out, -DAC_FULL_SCALE, DAC_FULL_SCALE))
+
+    def dac_words(self) -> np.ndarray:
+        """The DAC words the card publishes [spec §2.2, §5.3]: the signed output, its magnitude
+        on unipolar servo axes (0..32767 = 0..+10 V)."""
+        words = self.signed_words()
+        if self._any_unipolar:
+            np.abs(words, out=words, where=self._unipolar)
+        return words
+
+    def direction_outputs(self, last_motion: np.ndarray) -> np.ndarray:
+        """Each axis's direction output, True = positive: on a unipolar servo axis the sign of
+        its output (the DAC word 0 counts as positive), elsewhere the direction of the last
+        motion command (`last_motion`, +1/-1: a stepper's step direction)."""
+        return np.where(self._unipolar, self.signed_words() >= 0, last_motion > 0)

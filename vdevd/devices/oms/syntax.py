@@ -13,6 +13,7 @@ from __future__ import annotations
 import enum
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 SEPARATORS = frozenset(b" \r\n;\t\0")
 #: command streams whose parse a lexer remembers, and the longest it remembers (bytes)
@@ -27,6 +28,7 @@ class Operand(enum.Enum):
     NUMBERS = "numbers"  # signed decimals, comma separated per axis, empty to skip
     HEX = "hex"  # hexadecimal words, comma separated
     LETTERS = "letters"  # letters and signs per axis (`LMH,H`, `SVP-`, `PSO`)
+    POINT = "point"  # numbers after an optional A (absolute) or R (relative) flag (`VP[1]A,5`)
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,6 +48,10 @@ class Command:
 _NUMBER_CHARS = frozenset(b"+-.0123456789,")
 _HEX_CHARS = frozenset(b"0123456789abcdefABCDEF,")
 _LETTER_CHARS = frozenset(b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz+-,")
+_POINT_FLAGS = frozenset(b"AaRr")
+#: numeric operands end at the next letter (`MR5GO`); the others must end at a separator
+_ENDS_AT_A_LETTER = frozenset({Operand.NUMBERS, Operand.POINT})
+_AS_SENT = frozenset({Operand.NUMBERS, Operand.HEX})
 
 
 class Lexer:
@@ -133,14 +139,13 @@ class Lexer:
             # the operand may go on in the next write (or be a longer mnemonic's start)
             return None, i
         if buf[j] not in SEPARATORS and kind is not Operand.NONE and operand and (
-                kind is not Operand.NUMBERS):
+                kind not in _ENDS_AT_A_LETTER):
             end = j
             while end < n and buf[end] not in SEPARATORS:
                 end += 1
             return Command(mnemonic, buf[start:end].decode("latin-1"), index,
                            error="malformed operand"), end
-        return Command(mnemonic, operand.upper() if kind is Operand.LETTERS else operand,
-                       index), j
+        return Command(mnemonic, operand if kind in _AS_SENT else operand.upper(), index), j
 
     def _mnemonic(self, buf: bytes, i: int) -> str | None:
         head = buf[i: i + 3].decode("latin-1").upper()
@@ -152,9 +157,13 @@ class Lexer:
 
 
 def _scan(buf: bytes, j: int, kind: Operand) -> int:
+    n = len(buf)
+    if kind is Operand.POINT:
+        if j < n and buf[j] in _POINT_FLAGS:
+            j += 1
+        kind = Operand.NUMBERS
     chars = {Operand.NUMBERS: _NUMBER_CHARS, Operand.HEX: _HEX_CHARS,
              Operand.LETTERS: _LETTER_CHARS}[kind]
-    n = len(buf)
     while j < n and buf[j] in chars:
         j += 1
     return j
@@ -171,3 +180,10 @@ def numbers(operand: str) -> list[float | None]:
 
 def hex_words(operand: str) -> list[int | None]:
     return [None if f == "" else int(f, 16) for f in operand.split(",")]
+
+
+def beyond_axes(fields: list[Any], n: int) -> bool:
+    """A per-axis operand gives a value for an axis past the card's `n`: an error. Empty fields
+    past it are not: EPICS writes a field for each of 8 axes whatever the card has (`KS1,,,,,,,`
+    from [E-traj] L826-830)."""
+    return any(f is not None and f != "" for f in fields[n:])
