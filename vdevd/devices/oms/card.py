@@ -54,9 +54,9 @@ def _default_types(n: int) -> list[str]:
     return ["servo" if a < 4 else "stepper" for a in range(n)]
 
 
-def _per_axis(cfg: Mapping[str, Any], key: str, n: int, default: str) -> list[str]:
-    """A per-axis list option: one entry per axis, or every axis `default` when not given."""
-    values = list(cfg.get(key) or [default] * n)
+def _per_axis(cfg: Mapping[str, Any], key: str, n: int, default: list[str]) -> list[str]:
+    """A per-axis list option: one entry per axis, or `default` when not given."""
+    values = list(cfg.get(key) or default)
     if len(values) != n:
         raise ValueError(f"{key}: {len(values)} entries for {n} axes")
     return [str(v) for v in values]
@@ -89,9 +89,7 @@ class MaxkCard(Card):
         cfg = self.config
         self.board = int(cfg.get("board") or 1)
         self.n = int(cfg.get("axes") or 8)
-        types = list(cfg.get("axis_types") or _default_types(self.n))
-        if len(types) != self.n:
-            raise ValueError(f"axis_types: {len(types)} types for {self.n} axes")
+        types = _per_axis(cfg, "axis_types", self.n, _default_types(self.n))
         self.types = [AXIS_TYPES[t] for t in types]
         self.update_hz = int(cfg.get("update_hz") or 1024)
         if not cfg.get("period_ns"):
@@ -100,8 +98,8 @@ class MaxkCard(Card):
         self.decode_on_arrival = str(cfg.get("decode") or "arrival") == "arrival"
         self.serial = int(cfg.get("serial") or 1)
         self.ssi_gray = cfg.get("ssi_code") == "gray"  # the encoders attached, not a setting
-        self.profiles = _per_axis(cfg, "profiles", self.n, "linear")
-        self.servo_outputs = _per_axis(cfg, "servo_output", self.n, "bipolar")
+        self.profiles = _per_axis(cfg, "profiles", self.n, ["linear"] * self.n)
+        self.servo_outputs = _per_axis(cfg, "servo_output", self.n, ["bipolar"] * self.n)
 
         self.shm = self.add_region(Region(
             "shm", SHM_SIZE, widths=(1, 2, 4), endian="big",

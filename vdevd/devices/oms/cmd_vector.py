@@ -77,9 +77,11 @@ def _contour(fw: Firmware, cmd: Command) -> Contour:
     return c
 
 
-def _values(cmd: Command) -> list[float | None]:
+def _values(cmd: Command, text: str | None = None) -> list[float | None]:
+    """The numbers of the operand (or of `text`, a part of it); a malformed one is an error."""
+    text = cmd.operand if text is None else text
     try:
-        return numbers(cmd.operand) if cmd.operand else []
+        return numbers(text) if text else []
     except ValueError:
         raise CommandError("malformed number") from None
 
@@ -128,11 +130,7 @@ def _point(cmd: Command) -> tuple[bool, list[float | None]]:
     the numbers."""
     flag, text = (cmd.operand[:1], cmd.operand[1:]) if cmd.operand[:1] in ("A", "R") else (
         "", cmd.operand)
-    try:
-        values = numbers(text) if text else []
-    except ValueError:
-        raise CommandError("malformed number") from None
-    return flag == "R", values
+    return flag == "R", _values(cmd, text)
 
 
 @command("VP", operand=Operand.POINT)
