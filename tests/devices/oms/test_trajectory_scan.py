@@ -494,7 +494,8 @@ def test_a_flush_ends_a_waiting_contour_and_its_vh0_and_vh1() -> None:
 
 @pytest.mark.parametrize("stop", [b"AX ST;", b"AM; SI1;", b"AM; KS1;"])
 def test_a_stop_or_kill_on_an_axis_ends_the_contour_running_on_it(stop: bytes) -> None:
-    """ST, SI and KS flush the axis's queue: the contour ends there, without done flags."""
+    """ST, SI and KS flush the axis's queue: the contour ends, without done flags (ST and SI
+    after ramping down on the path, here within a cycle at VA 10⁶: test_contour_stops.py)."""
     fw = firmware()
     fw.feed(b"AA; VID; VV1000; VA1000000; VP100000,50000; VE;")
     cycles(fw, 100)

@@ -192,16 +192,17 @@ def _flags(fw: Firmware, cmd: Command) -> list[int]:
 
 @command("ST")
 def stop(fw: Firmware, cmd: Command) -> None:
-    """Decelerate the addressed axes to a stop at AC and flush their queues."""
+    """Decelerate the addressed axes to a stop at AC and flush their queues; a contour on one
+    of them slows to rest on its path (Firmware.flush)."""
     for a in fw.selected():
-        fw.flush(a)
+        fw.flush(a, ramp=True)
         fw.motion.stop(a)
 
 
 @command("SA")
 def stop_all(fw: Firmware, cmd: Command) -> None:
     for a in range(fw.n):
-        fw.flush(a)
+        fw.flush(a, ramp=True)
         fw.motion.stop(a)
 
 
@@ -218,7 +219,7 @@ def kill_selected(fw: Firmware, cmd: Command) -> None:
 @command("SI", operand=Operand.NUMBERS)
 def stop_individual(fw: Firmware, cmd: Command) -> None:
     for a in _flags(fw, cmd):
-        fw.flush(a)
+        fw.flush(a, ramp=True)
         fw.motion.stop(a)
 
 

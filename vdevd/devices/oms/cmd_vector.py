@@ -67,7 +67,7 @@ def _contour(fw: Firmware, cmd: Command) -> Contour:
     if c is None:
         here = tuple(float(p) for p in fw.motor_position())
         v = fw.params.values
-        c = Contour(tuple(range(fw.n)), here, float(v["VL"][0]), float(v["AC"][0]))
+        c = Contour(tuple(range(fw.n)), here, float(v["VL"][0]), float(v["AC"][0]), task=task)
         if task in fw.vector_velocity:
             c.velocity = fw.vector_velocity[task]
         c.end_velocity = fw.vector_end_velocity.get(task)
@@ -203,6 +203,7 @@ def vector_end(fw: Firmware, cmd: Command) -> None:
 
     fw.enqueue(sorted(c.axes), "VE", make, units=1 + len(c.segments), group=group)
     fw.defined_contours[task] = c
+    fw.live_contours.append(c)
 
 
 @command("VID", operand=Operand.NUMBERS)

@@ -189,6 +189,7 @@ class ContourState(enum.Enum):
     """Where a contour is once its definition has ended (VE)."""
 
     QUEUED = "queued"  # its VE waits in the axis queues
+    READY = "ready"  # its VE reached every axis queue's head; the task's contour before runs
     WAITING = "waiting"  # at its start, waiting for VG[n] (after VH[n]0)
     RUNNING = "running"
     ENDED = "ended"  # ran to its end, or a flush of one of its axes ended it (KS, ST, ...)
@@ -207,8 +208,10 @@ class Contour:
     io_on: int = 0  # VIO bits for the next segment
     io_off: int = 0
     notify: bool = False  # VID: set the done flags of its axes at its end
+    task: int = 1
     # the run
     state: ContourState = ContourState.QUEUED
+    stopping: bool = False  # ST, SA, SI or a soft limit: ramping down on its path to end
     t: float = 0.0  # path time, s
     rate: float = 0.0  # path seconds per second this cycle: the override, eased by a halt
     easing: bool = False  # halted, or resuming from a halt
@@ -255,7 +258,7 @@ class Contour:
         """It starts: path time 0, at rest."""
         self.state = ContourState.RUNNING
         self.t = self.rate = 0.0
-        self.easing = False
+        self.easing = self.stopping = False
 
     @property
     def duration(self) -> float:
@@ -282,8 +285,8 @@ class Contour:
 
     def pace(self, override: float, held: bool, dt: float) -> float:
         """The rate of path time for the next `dt` seconds: the override at once; but a halt
-        (VH1) brings it to 0, and a resume back to the override, changing the path speed at
-        the contour's first VA (its default: E-traj's cruise segments have VA 1)."""
+        (VH1, or a stop) brings it to 0, and a resume back to the override, changing the path
+        speed at the contour's first VA (its default: E-traj's cruise segments have VA 1)."""
         want = 0.0 if held else override
         self.easing |= held
         if not self.easing:

@@ -29,7 +29,7 @@ from vdevd.devices.oms.defaults import load_io
 from vdevd.devices.oms.faults import FAULT_EVENTS, react_to_faults
 from vdevd.devices.oms.layout import AXIS_LETTERS, Doorbell
 from vdevd.devices.oms.layout import limit_word as pack_limit_word
-from vdevd.devices.oms.motion import OmsMotion
+from vdevd.devices.oms.motion import HARD_STOP, OmsMotion
 from vdevd.devices.oms.params import UNIT_OPERANDS, Params
 from vdevd.devices.oms.queue import AxisQueue, Group, Item, Run
 from vdevd.devices.oms.ssi import Ssi
@@ -103,6 +103,7 @@ class Firmware:
         self.defined_contours: dict[int, Contour] = {}  # each task's last VE, until it ends
         self.waiting_contours: dict[int, Contour] = {}  # at their start, waiting for VG
         self.running_contours: dict[int, Contour] = {}
+        self.live_contours: list[Contour] = []  # every contour after its VE, until it ends
         self.vector_velocity: dict[int, float] = {}
         self.vector_end_velocity: dict[int, float | None] = {}  # VV v,vend (None: run on)
         self.vector_acceleration: dict[int, float] = {}
@@ -218,9 +219,18 @@ class Firmware:
         for a in axes:
             self.queues[a].push(Item(label, make, units, group, kind, count))
 
-    def flush(self, a: int) -> None:
-        self.queues[a].flush()
-        self.drop_contours(a)
+    def flush(self, a: int, ramp: bool = False) -> None:
+        """Empty axis a's queue. A contour on the axis ends: at once where the path took it
+        (KS, FL, a hard limit), or, with `ramp` (ST, SA, SI, a soft limit), a running one after
+        slowing to rest on its path at its VA, the axis's queue waiting for that (README)."""
+        q = self.queues[a]
+        q.flush()
+        if ramp:
+            for c in self.running_contours.values():
+                if a in c.axes:
+                    c.stopping = True
+                    q.push(Item("VE", _until_ended(c)))
+        self.drop_contours(a, keep_stopping=ramp)
         self.pending[a] = math.nan
         for name in self.queued:
             self.queued[name][a] = math.nan
@@ -264,7 +274,15 @@ class Firmware:
     def start_contour(self, task: int, contour: Contour) -> None:
         """Its VE has reached the head of every axis queue (after any SW): it runs from this
         update cycle on, unless VH[n]0 made it wait for VG[n] and none came yet [E-traj L1300,
-        L579-585]; the VG that starts it consumes the VH0."""
+        L579-585]; the VG that starts it consumes the VH0. A task runs one contour at a time:
+        while the one before still runs or waits, this one is READY and starts when that one
+        ends (README). One that a flush ended never starts."""
+        if contour.state in (ContourState.RUNNING, ContourState.ENDED):
+            return
+        busy = self.running_contours.get(task) or self.waiting_contours.get(task)
+        if busy is not None and busy is not contour:
+            contour.state = ContourState.READY
+            return
         self.defined_contours[task] = contour
         if task in self.vector_gated and task not in self.vector_released:
             contour.state = ContourState.WAITING
@@ -282,43 +300,75 @@ class Firmware:
         after VID, their done flags are set."""
         dt = self.period_ns / 1e9
         profile = self.motion.core.profile
+        limits = self.motion.core.limits
+        switch_on = bool(limits.hard_pos.any() or limits.hard_neg.any())
         for task, c in list(self.running_contours.items()):
             s = c.s_at(c.t)
             pos, seg = c.position(s)
+            if switch_on and self._into_limit(c, pos) and c.state is ContourState.ENDED:
+                continue  # a hard limit ended it where it was
             io = c.segments[seg]
             if io.io_on or io.io_off:
                 self.gpio_out = (self.gpio_out | io.io_on) & ~io.io_off
             ended = c.t >= c.duration
+            stopped = c.stopping and c.rate == 0
             for a in c.axes:
-                profile.hold(a, float(round(pos[a])) if ended else pos[a])
-            if ended:
+                profile.hold(a, float(round(pos[a])) if ended or stopped else pos[a])
+            if ended or stopped:
                 self.end_contour(task, c)
-                if c.notify:
+                if c.notify and ended:
                     for a in c.axes:
                         self.set_done(a)
             else:
-                c.t += dt * c.pace(self.vector_override(task), task in self.vector_held, dt)
+                held = c.stopping or task in self.vector_held
+                c.t += dt * c.pace(self.vector_override(task), held, dt)
         profile.commit()
 
+    def _into_limit(self, c: Contour, pos: tuple[float, ...]) -> bool:
+        """Over-travel of a contour [spec §5.6]: an axis whose path this cycle heads into its
+        active limit switch flags over-travel and flushes its queue; a hard limit ends the
+        contour where it is, a soft one ramps it down on its path (as ST). True if it hit."""
+        m = self.motion
+        limits, here = m.core.limits, m.core.axes.cmd_pos
+        hits = [a for a in c.axes if (pos[a] > here[a] and limits.hard_pos[a])
+                or (pos[a] < here[a] and limits.hard_neg[a])]
+        hard = [a for a in hits if limits.limit_dec[a] >= HARD_STOP]
+        if c.stopping and not hard:
+            return False  # already ramping down through the switch
+        for a in hits:
+            m.direction[a] = 1.0 if pos[a] > here[a] else -1.0
+            self.flag(a, Doorbell.OVERTRAVEL)
+            self.flush(a, ramp=not hard)
+        return bool(hits)
+
     def end_contour(self, task: int, c: Contour) -> None:
-        """The task's contour is over: its halt ends with it."""
+        """The task's contour is over: its halt ends with it, and the task's next contour that
+        is READY starts."""
+        active = self.running_contours.get(task) is c or self.waiting_contours.get(task) is c
         c.state = ContourState.ENDED
         for where in (self.running_contours, self.waiting_contours, self.defined_contours):
             if where.get(task) is c:
                 del where[task]
-        self.vector_held.discard(task)
+        if c in self.live_contours:
+            self.live_contours.remove(c)
+        if active:
+            self.vector_held.discard(task)
+            following = next((d for d in self.live_contours
+                              if d.task == task and d.state is ContourState.READY), None)
+            if following is not None:
+                self.start_contour(task, following)
 
-    def drop_contours(self, a: int) -> None:
-        """A flush of axis a (KS, SI, ST, a limit) ends the contours on it, queued, waiting or
-        running, without done flags; the axes stay where the path took them [E-traj L812-824:
-        VH[n]1, then KS to "kill selected axes and flush queues"]."""
-        on_a = [(task, c) for where in (self.defined_contours, self.waiting_contours,
-                                        self.running_contours)
-                for task, c in where.items() if a in c.axes]
-        for task, c in on_a:
-            self.end_contour(task, c)
-            self.vector_gated.discard(task)
-            self.vector_released.discard(task)
+    def drop_contours(self, a: int, keep_stopping: bool = False) -> None:
+        """A flush of axis a (KS, SI, ST, FL, a limit) ends the contours on it, queued,
+        waiting or running, without done flags; the axes stay where the path took them [E-traj
+        L812-824: VH[n]1, then KS to "kill selected axes and flush queues"], and the task's
+        VH0, halt and early VG go with them. `keep_stopping` spares those ramping down (ST)."""
+        on_a = [c for c in self.live_contours
+                if a in c.axes and not (keep_stopping and c.stopping)]
+        for c in on_a:
+            self.end_contour(c.task, c)
+            for hold in (self.vector_gated, self.vector_released, self.vector_held):
+                hold.discard(c.task)
 
     def vector_override(self, task: int) -> float:
         """The task's override now (1.0 = 100 %): from its VOA input, 100 % at the full-scale
@@ -434,3 +484,8 @@ class Firmware:
             raise CommandError(f"no axis {AXIS_LETTERS[a]} on this card")
         return a
 
+
+
+def _until_ended(c: Contour) -> Callable[[], Run]:
+    """A queue entry that holds its axis until contour `c` has ended."""
+    return lambda: lambda axis: c.state is ContourState.ENDED

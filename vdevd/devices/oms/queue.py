@@ -44,6 +44,7 @@ class Group:
     passes: dict[int, int] = field(default_factory=dict)
     acted: int = 0  # the last pass whose shared action ran (act_once)
     waiting: list[tuple[AxisQueue, int]] = field(default_factory=list)
+    cancelled: bool = False  # a member's queue was flushed before the command ran on it
 
     def arrive(self, axis: int) -> int:
         """Count one arrival of `axis`; its pass number."""
@@ -109,6 +110,12 @@ class AxisQueue:
         return True
 
     def flush(self) -> None:
+        """Drop every command. A command of several axes that has not run here yet is
+        cancelled on its other members too: they drop it when they reach it instead of waiting
+        forever for this axis (README)."""
+        for item in self.items:
+            if item.group is not None and item.run is None:
+                item.group.cancelled = True
         self.items.clear()
         self.units = 0
         self.loops.clear()
@@ -126,6 +133,10 @@ class AxisQueue:
             item = items[0]
             group = item.group
             if group is not None:
+                if group.cancelled and item.run is None:
+                    items.popleft()
+                    self.units -= item.units
+                    continue
                 if not item.pass_:
                     item.pass_ = group.arrive(axis)
                 if not group.ready(item.pass_):

@@ -1,0 +1,232 @@
+"""Stopping a running contour: `ST`/`SA`/`SI` ramp it down on its path, a limit switch stops it
+(hard: at once; soft: ramping) with over-travel, a command of several axes whose member was
+flushed is dropped by the others, and a task's contours run one after another (spec oms.md
+§4.3 "Vector / contouring", §5.6 "Over-travel", ST/SA/SI/KS in §8; card README "Contours").
+
+The contour: task 1 from (0, 0) towards (40000, 20000) at VV 4000 counts/s and VA 20 000
+counts/s², so it ramps up over 0.2 s (400 counts of path) and cruises; a stop at the cruise slows
+it to rest over 0.2 s and 4000²/(2·20 000) = 400 counts of path, on the line y = x/2.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from tests.devices.oms.conftest import DONE_X, OVERTRAVEL_X, Maxk
+from tests.devices.oms.test_trajectory_scan import contour, cycles, firmware
+from vdevd.devices.oms.contour import ContourState
+
+HZ = 1024
+V, A = 4000.0, 20_000.0
+RAMP_S = V * V / (2 * A)  # 400 counts of path to stop
+RAMP_CYCLES = round(V / A * HZ)  # 205 update cycles to stop
+LINE = "AA; VV4000; VA20000; VP40000,20000; VE;"
+DONE_XY = DONE_X | DONE_X << 1
+OVERTRAVEL_Y = OVERTRAVEL_X << 1
+
+
+def xy(card: Maxk) -> tuple[int, int]:
+    return card.word(0), card.word(4)
+
+
+def path(p: tuple[int, int]) -> float:
+    return math.hypot(*p)
+
+
+def cruising(card: Maxk, text: str = LINE) -> tuple[int, int]:
+    """The contour sent and run half a second (at its cruise); where it is."""
+    card.send(text)
+    assert not card.command_error()
+    card.step(HZ // 2)
+    here = xy(card)
+    assert 1500 < path(here) < 1800
+    return here
+
+
+def samples(card: Maxk, n: int) -> list[tuple[int, int]]:
+    out = []
+    for _ in range(n):
+        card.step(1)
+        out.append(xy(card))
+    return out
+
+
+@pytest.mark.parametrize("stop", ["AX ST;", "AY ST;", "AA SA;", "AM SI1;", "AM SI,1;"])
+def test_a_stop_ramps_the_contour_down_on_its_path(maxk: Maxk, stop: str) -> None:
+    """ST/SA/SI on any axis of the contour: the path slows to rest at the contour's VA (not
+    dead, as KS): 0.2 s and 400 counts of path on, every point on the line; no done flag."""
+    here = cruising(maxk)
+    maxk.send(stop)
+    assert not maxk.command_error()
+    after = samples(maxk, RAMP_CYCLES + 20)
+    assert all(abs(x - 2 * y) <= 2 for x, y in after)
+    s = [path(p) for p in [here, *after]]
+    steps = [b - a for a, b in zip(s, s[1:], strict=False)]
+    assert steps[0] > 3  # still at speed (4000 counts/s is ~3.9 counts a cycle)
+    assert all(b <= a + 1.5 for a, b in zip(steps, steps[1:], strict=False))  # never speeds up (rounding)
+    assert s[-1] - s[0] == pytest.approx(RAMP_S, abs=8)
+    moving = [i for i, d in enumerate(steps) if d > 0]
+    assert RAMP_CYCLES - 15 <= moving[-1] <= RAMP_CYCLES + 2
+    assert after[-1] == after[-20]
+    assert maxk.odbr() & DONE_XY == 0
+    assert maxk.query("QI;")[1::5][:2] == "NN"
+
+
+def test_kill_still_stops_the_contour_dead(maxk: Maxk) -> None:
+    cruising(maxk)
+    maxk.send("AM; KS1;")
+    maxk.step(1)
+    here = xy(maxk)
+    maxk.step(HZ // 4)
+    assert xy(maxk) == here
+
+
+def test_a_move_sent_with_the_stop_waits_for_the_contour_to_rest(maxk: Maxk) -> None:
+    """The axes' queues hold until the ramp-down ends; the move then runs from there."""
+    cruising(maxk)
+    maxk.send("AX ST; AA; MR100,100; GO;")
+    assert not maxk.command_error()
+    after = samples(maxk, RAMP_CYCLES - 10)
+    assert all(abs(x - 2 * y) <= 2 for x, y in after)  # still on the contour's line
+    maxk.step(HZ)
+    rest = after[-1]
+    end = xy(maxk)
+    assert end[0] - rest[0] == pytest.approx(100, abs=8) and end[1] - rest[1] == pytest.approx(
+        100, abs=4)
+    assert end[0] - end[1] * 2 == pytest.approx(100 - 100 * 2 + (rest[0] - 2 * rest[1]), abs=8)
+
+
+def test_kill_during_the_ramp_down_stops_it_dead(maxk: Maxk) -> None:
+    cruising(maxk)
+    maxk.send("AX ST;")
+    maxk.step(50)
+    maxk.send("AM; KS1;")
+    maxk.step(1)
+    here = xy(maxk)
+    maxk.step(HZ // 4)
+    assert xy(maxk) == here
+
+
+# -- limits ---------------------------------------------------------------------------------------
+def test_a_hard_limit_stops_the_contour_at_once_with_over_travel(maxk: Maxk) -> None:
+    """[spec §5.6] moving into an active limit stops the axis without deceleration in hard
+    mode and flushes its queue: the whole path stops in the next cycle; ODBR over-travel X, QA
+    'L'; no done flags; a move away from the switch is allowed."""
+    cruising(maxk)
+    maxk.clear_odbr()
+    maxk.control("set_limits", axis="X", positive=True)
+    maxk.step(1)
+    here = xy(maxk)
+    maxk.step(HZ // 4)
+    assert xy(maxk) == here
+    assert maxk.odbr() & (OVERTRAVEL_X | OVERTRAVEL_Y | DONE_XY) == OVERTRAVEL_X
+    assert maxk.query("AX QA;")[2] == "L"
+    maxk.send("AX MR-100; GO;")
+    maxk.step(HZ // 4)
+    assert xy(maxk) == (here[0] - 100, here[1])
+
+
+def test_a_soft_limit_ramps_the_contour_down_on_its_path(maxk: Maxk) -> None:
+    """LMS: the path decelerates at the contour's VA through the switch, over-travel once."""
+    maxk.send("AA; LMS,S,S,S;")
+    here = cruising(maxk)
+    maxk.clear_odbr()
+    maxk.control("set_limits", axis="Y", positive=True)
+    after = samples(maxk, RAMP_CYCLES + 20)
+    assert all(abs(x - 2 * y) <= 2 for x, y in after)
+    assert path(after[-1]) - path(here) == pytest.approx(RAMP_S, abs=8)
+    assert after[-1] == after[-20]
+    assert maxk.odbr() & (OVERTRAVEL_X | OVERTRAVEL_Y | DONE_XY) == OVERTRAVEL_Y
+
+
+def test_a_contour_into_an_active_limit_does_not_move_and_one_away_runs(maxk: Maxk) -> None:
+    maxk.control("set_limits", axis="X", positive=True)
+    maxk.clear_odbr()
+    maxk.send("AA; VID; VV4000; VA20000; VP1000,500; VE;")
+    maxk.step(HZ // 2)
+    assert xy(maxk) == (0, 0)
+    assert maxk.odbr() & (OVERTRAVEL_X | DONE_XY) == OVERTRAVEL_X
+    maxk.clear_odbr()
+    maxk.send("AA; VID; VV4000; VA20000; VP-1000,-500; VE;")
+    maxk.step(HZ)
+    assert xy(maxk) == (-1000, -500)
+    assert maxk.odbr() & (OVERTRAVEL_X | DONE_XY) == DONE_XY
+
+
+# -- several axes, several contours --------------------------------------------------------------
+def test_a_move_of_several_axes_is_dropped_when_one_of_them_is_flushed_first(
+        maxk: Maxk) -> None:
+    """AA MR waits on Y behind a SW; ST on X flushes X's part before it ran: Y drops its part
+    when the input comes (instead of waiting for X forever) and runs what follows."""
+    maxk.control("set_input", bit=3, level=0)
+    maxk.send("AY SW3; AA; MR100,100; GO;")
+    maxk.step(10)
+    maxk.send("AX ST;")
+    maxk.control("set_input", bit=3, level=1)
+    maxk.send("AY MR500; GO;")
+    maxk.step(HZ)
+    assert xy(maxk) == (0, 500)
+
+
+def test_a_contour_whose_axis_was_flushed_before_its_start_never_moves_it() -> None:
+    fw = firmware()
+    fw.gpio_in &= ~(1 << 3)
+    fw.feed(b"AY SW3; AA; VV1000; VA1000000; VP100,50; VE;")
+    cycles(fw, 5)
+    fw.feed(b"AX ST;")
+    fw.gpio_in |= 1 << 3
+    fw.feed(b"AY MR500; GO;")
+    cycles(fw, 400)
+    assert fw.motor_position()[:2].tolist() == [0, 500]
+    assert not fw.live_contours and all(q.idle for q in fw.queues)
+
+
+def test_the_contours_of_one_task_run_one_after_the_other() -> None:
+    """Task 1: a contour on X, then one on Z (its VE reaches Z's queue at once): Z waits until
+    X's contour has ended; VID sets each one's done flag at its own end."""
+    fw = firmware()
+    fw.feed(b"AM; VID[1]; VV[1]1000; VA[1]1000000; VP[1]100; VE[1];"
+            b" VP[1],,100; VID[1]; VE[1];")  # VID while defined: this one's (README)
+    cycles(fw, 50)
+    assert fw.motor_position()[[0, 2]].tolist() == [pytest.approx(48, abs=3), 0]
+    states = [c.state for c in fw.live_contours]
+    assert states == [ContourState.RUNNING, ContourState.READY]
+    cycles(fw, 60)
+    assert fw.motor_position()[0] == 100 and 0 < fw.motor_position()[2] < 20
+    assert fw.done.tolist()[:3] == [True, False, False]
+    cycles(fw, 100)
+    assert fw.motor_position()[[0, 2]].tolist() == [100, 100]
+    assert fw.done.tolist()[:3] == [True, False, True]
+
+
+def test_a_kill_of_the_running_contour_lets_the_tasks_next_one_start() -> None:
+    fw = firmware()
+    fw.feed(b"AM; VV[1]1000; VA[1]1000000; VP[1]100; VE[1]; VP[1],,100; VE[1];")
+    cycles(fw, 20)
+    fw.feed(b"KS1;")
+    cycles(fw, 200)
+    x = float(fw.motor_position()[0])
+    assert 15 < x < 25 and fw.motor_position()[2] == 100
+
+
+def test_a_flush_of_both_axes_ends_the_running_and_the_ready_contour() -> None:
+    fw = firmware()
+    fw.feed(b"AM; " + contour(1) + b" VP[1],,100; VE[1];")
+    cycles(fw, 20)
+    fw.feed(b"KS1,,1;")
+    cycles(fw, 200)
+    assert fw.motor_position()[2] == 0 and not fw.live_contours
+
+
+def test_a_move_of_several_axes_already_running_goes_on_on_the_others() -> None:
+    """ST on X during an AA move: X ramps down, Y's part (running) ends at its target."""
+    fw = firmware()
+    fw.feed(b"AA; VL1000,1000; AC100000,100000; MR1000,1000; GO;")
+    cycles(fw, 100)
+    fw.feed(b"AX ST;")
+    cycles(fw, 1200)
+    x, y = fw.motor_position()[:2].tolist()
+    assert 90 < x < 110 and y == 1000
+    assert all(q.idle for q in fw.queues)
