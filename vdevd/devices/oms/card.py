@@ -62,6 +62,25 @@ def _per_axis(cfg: Mapping[str, Any], key: str, n: int, default: list[str]) -> l
     return [str(v) for v in values]
 
 
+def _travel_limits(cfg: Mapping[str, Any], n: int) -> list[tuple[float, float] | None]:
+    """Option `travel_limits`: per axis [low, high] in counts, or [] for none (the factory
+    setting, "Software (soft) over-travel: disabled" [S §2.14])."""
+    out: list[tuple[float, float] | None] = []
+    for a, pair in enumerate(cfg.get("travel_limits") or [[]] * n):
+        if pair in ([], None):
+            out.append(None)
+            continue
+        if (not isinstance(pair, list) or len(pair) != 2
+                or not all(isinstance(v, int) and not isinstance(v, bool) for v in pair)
+                or not -2**31 <= pair[0] < pair[1] < 2**31):
+            raise ValueError(f"travel_limits: axis {a + 1}: [low, high] whole counts, low < high"
+                             f" (or [] for none), got {pair!r}")
+        out.append((float(pair[0]), float(pair[1])))
+    if len(out) != n:
+        raise ValueError(f"travel_limits: {len(out)} entries for {n} axes")
+    return out
+
+
 class MaxkCard(Card):
     type_name: ClassVar[str] = "oms-maxk"
     endian: ClassVar[str] = "big"
@@ -82,6 +101,8 @@ class MaxkCard(Card):
                            help="per axis velocity profile: linear | parabolic | scurve"),
         "servo_output": Option(list, None, choices=SERVO_OUTPUTS,
                                help="per axis servo DAC output: bipolar | unipolar"),
+        "travel_limits": Option(list, None, help="per axis software travel limits [low, high]"
+                                                 " in counts, [] for none (the factory setting)"),
     }
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
@@ -100,6 +121,7 @@ class MaxkCard(Card):
         self.ssi_gray = cfg.get("ssi_code") == "gray"  # the encoders attached, not a setting
         self.profiles = _per_axis(cfg, "profiles", self.n, ["linear"] * self.n)
         self.servo_outputs = _per_axis(cfg, "servo_output", self.n, ["bipolar"] * self.n)
+        self.travel_limits = _travel_limits(cfg, self.n)
 
         self.shm = self.add_region(Region(
             "shm", SHM_SIZE, widths=(1, 2, 4), endian="big",
@@ -136,7 +158,8 @@ class MaxkCard(Card):
         self.fw = Firmware(self.n, self.types, self.period_ns, update_hz=self.update_hz,
                            ideal=self.ideal, ring=self.mu.ring, version=VERSION,
                            serial=self.serial, save=self._save_defaults, saved=image,
-                           profiles=self.profiles, servo_outputs=self.servo_outputs)
+                           profiles=self.profiles, servo_outputs=self.servo_outputs,
+                           travel_limits=self.travel_limits)
         self.fw.now_ns = self.now_ns
         self.publish()
 

@@ -7,10 +7,12 @@ from typing import TYPE_CHECKING
 from vdevd.devices.oms.layout import AXIS_LETTERS, UPDATE_RATES
 from vdevd.devices.oms.syntax import Command, Operand
 from vdevd.devices.oms.table import CommandError, command
+from vdevd.rt.axes import AxisFlag
 
 if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
 
+_TRAVEL_POS, _TRAVEL_NEG = int(AxisFlag.SOFT_LIMIT_POS), int(AxisFlag.SOFT_LIMIT_NEG)
 
 
 def _select_axis(fw: Firmware, cmd: Command) -> None:
@@ -60,11 +62,14 @@ def accepted(fw: Firmware, cmd: Command) -> None:
 
 
 def axis_status(fw: Firmware, a: int) -> str:
-    """The four QA characters: direction P/M, done D/N, limit L/N, home H/N [spec §4.2]."""
+    """The four QA characters: direction P/M, done D/N, limit L/N, home H/N [spec §4.2]. The
+    limit is the switch in the axis's direction, or its software travel limit there having
+    stopped the last motion (README)."""
     m = fw.motion
     positive = bool(m.direction[a] >= 0)
     pos, neg = m.limit_active()
     limit = bool(pos[a]) if positive else bool(neg[a])
+    limit |= bool(m.core.axes.flags[a] & (_TRAVEL_POS if positive else _TRAVEL_NEG))
     return ("P" if positive else "M") + ("D" if fw.done[a] else "N") + (
         "L" if limit else "N") + ("H" if m.home_active()[a] else "N")
 

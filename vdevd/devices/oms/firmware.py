@@ -35,7 +35,10 @@ from vdevd.devices.oms.queue import AxisQueue, Group, Item, Run
 from vdevd.devices.oms.ssi import Ssi
 from vdevd.devices.oms.syntax import Command, Lexer, beyond_axes, numbers
 from vdevd.devices.oms.table import TABLE, CommandError
+from vdevd.rt.axes import AxisFlag
 
+_TRAVEL_POS, _TRAVEL_NEG = int(AxisFlag.SOFT_LIMIT_POS), int(AxisFlag.SOFT_LIMIT_NEG)
+_LIMIT_STOP = _TRAVEL_POS | _TRAVEL_NEG | int(AxisFlag.STOPPED_BY_LIMIT)
 _LEXER_TABLE = {name: spec.operand for name, spec in TABLE.items()}
 _HANDLERS = {name: spec.handler for name, spec in TABLE.items()}
 
@@ -46,12 +49,15 @@ class Firmware:
     def __init__(self, n: int, types: list[str], period_ns: int, *, update_hz: int, ideal: bool,
                  ring: Callable[[int], None], version: str, serial: int,
                  save: Callable[[dict[str, Any]], None], saved: dict[str, Any] | None,
-                 profiles: list[str] | None = None, servo_outputs: list[str] | None = None) -> None:
+                 profiles: list[str] | None = None, servo_outputs: list[str] | None = None,
+                 travel_limits: list[tuple[float, float] | None] | None = None) -> None:
         self.n = n
         #: per axis: the velocity profile of moves from rest (card option `profiles`, spec §5.2)
         self.profiles = list(profiles or ["linear"] * n)
         #: per axis: bipolar or unipolar servo output (card option `servo_output`, spec §5.3)
         self.servo_outputs = list(servo_outputs or ["bipolar"] * n)
+        #: per axis: software travel limits (low, high) or None (card option `travel_limits`)
+        self.travel_limits = list(travel_limits or [None] * n)
         self.period_ns = period_ns
         self.ideal = ideal
         self.ring_doorbell = ring
@@ -86,6 +92,7 @@ class Firmware:
         n = self.n
         self.motion = OmsMotion(self.params, self.period_ns, self.ideal, self.profiles)
         self.motion.servo.set_output_modes(self.servo_outputs)
+        self.motion.set_travel_limits(self.travel_limits)
         self.queues = [AxisQueue() for _ in range(n)]
         self.mode = "single"  # "single" | "AA" | "AM"
         self.axis = 0
@@ -292,6 +299,12 @@ class Firmware:
         self.vector_released.discard(task)
         contour.begin()
         self.running_contours[task] = contour
+        m, end = self.motion, contour.here
+        for a in contour.axes:  # a motion command for QA: its direction, no limit stop yet
+            m.core.axes.flags[a] &= ~_LIMIT_STOP
+            m.limit_seen[a] = False
+            if end[a] != contour.start[a]:
+                m.direction[a] = 1.0 if end[a] > contour.start[a] else -1.0
 
     def advance_contours(self) -> None:
         """One update cycle of each running contour: the path coordinate at the override-
@@ -301,7 +314,8 @@ class Firmware:
         dt = self.period_ns / 1e9
         profile = self.motion.core.profile
         limits = self.motion.core.limits
-        switch_on = bool(limits.hard_pos.any() or limits.hard_neg.any())
+        switch_on = self.motion.travel_limited or bool(limits.hard_pos.any()
+                                                       or limits.hard_neg.any())
         for task, c in list(self.running_contours.items()):
             s = c.s_at(c.t)
             pos, seg = c.position(s)
@@ -326,17 +340,23 @@ class Firmware:
 
     def _into_limit(self, c: Contour, pos: tuple[float, ...]) -> bool:
         """Over-travel of a contour [spec §5.6]: an axis whose path this cycle heads into its
-        active limit switch flags over-travel and flushes its queue; a hard limit ends the
-        contour where it is, a soft one ramps it down on its path (as ST). True if it hit."""
+        active limit switch, or past its software travel limit, flags over-travel and flushes
+        its queue; a hard-mode switch or a travel limit ends the contour where it is (inside
+        the limit), a soft-mode switch ramps it down on its path (as ST). True if it hit."""
         m = self.motion
         limits, here = m.core.limits, m.core.axes.cmd_pos
         hits = [a for a in c.axes if (pos[a] > here[a] and limits.hard_pos[a])
                 or (pos[a] < here[a] and limits.hard_neg[a])]
-        hard = [a for a in hits if limits.limit_dec[a] >= HARD_STOP]
+        past = [a for a in c.axes if (pos[a] > here[a] and pos[a] > limits.soft_hi[a])
+                or (pos[a] < here[a] and pos[a] < limits.soft_lo[a])]
+        hard = [a for a in hits if limits.limit_dec[a] >= HARD_STOP] + past
+        hits += [a for a in past if a not in hits]
         if c.stopping and not hard:
             return False  # already ramping down through the switch
         for a in hits:
             m.direction[a] = 1.0 if pos[a] > here[a] else -1.0
+            if a in past:
+                m.core.axes.flags[a] |= _TRAVEL_POS if pos[a] > here[a] else _TRAVEL_NEG
             self.flag(a, Doorbell.OVERTRAVEL)
             self.flush(a, ramp=not hard)
         return bool(hits)

@@ -54,6 +54,7 @@ class OmsMotion:
         self.limit_neg_level = np.ones(n, dtype=bool)
         self.home_level = np.ones(n, dtype=bool)
         self.limit_seen = np.zeros(n, dtype=bool)  # a limit stop already reported
+        self.travel_limited = False  # some axis has software travel limits
         self.direction = np.ones(n)  # +1 / -1: the direction of the last motion command
         # home searches: -1 none; else the value loaded at the switch and whether to ramp down
         self.home_value = np.zeros(n)
@@ -93,6 +94,16 @@ class OmsMotion:
         pos, neg = self.limit_active()
         self.core.set_inputs(hard_limit_pos=pos, hard_limit_neg=neg, home=self.home_active())
         self.encoders.apply_slip()
+
+    def set_travel_limits(self, limits: Sequence[tuple[float, float] | None]) -> None:
+        """Software travel limits per axis, (low, high) or None [S §2.14 "Software (soft)
+        over-travel"]: the core plans a move or jog heading past one to stop at it and flags
+        the stop as a limit stop (over-travel, queue flushed); a move from beyond back is
+        allowed."""
+        lim = self.core.limits
+        lim.soft_lo[:] = [-math.inf if pair is None else pair[0] for pair in limits]
+        lim.soft_hi[:] = [math.inf if pair is None else pair[1] for pair in limits]
+        self.travel_limited = any(pair is not None for pair in limits)
 
     # -- commands ------------------------------------------------------------------------------------
     def moving(self, a: int) -> bool:
