@@ -74,8 +74,12 @@ def test_a_stop_ramps_the_contour_down_on_its_path(maxk: Maxk, stop: str) -> Non
     assert maxk.query("QI;")[1::5][:2] == "NN"
 
 
-def test_kill_still_stops_the_contour_dead(maxk: Maxk) -> None:
+@pytest.mark.parametrize("ramping", [False, True])
+def test_kill_stops_the_contour_dead_even_while_it_ramps_down(maxk: Maxk, ramping: bool) -> None:
     cruising(maxk)
+    if ramping:
+        maxk.send("AX ST;")
+        maxk.step(50)
     maxk.send("AM; KS1;")
     maxk.step(1)
     here = xy(maxk)
@@ -84,29 +88,17 @@ def test_kill_still_stops_the_contour_dead(maxk: Maxk) -> None:
 
 
 def test_a_move_sent_with_the_stop_waits_for_the_contour_to_rest(maxk: Maxk) -> None:
-    """The axes' queues hold until the ramp-down ends; the move then runs from there."""
+    """The axes' queues hold until the ramp-down ends (on the line y = x/2); the move then
+    runs from where the contour rested."""
     cruising(maxk)
     maxk.send("AX ST; AA; MR100,100; GO;")
     assert not maxk.command_error()
-    after = samples(maxk, RAMP_CYCLES - 10)
-    assert all(abs(x - 2 * y) <= 2 for x, y in after)  # still on the contour's line
+    ramp = samples(maxk, RAMP_CYCLES - 10)
+    assert all(abs(x - 2 * y) <= 2 for x, y in ramp)
     maxk.step(HZ)
-    rest = after[-1]
-    end = xy(maxk)
-    assert end[0] - rest[0] == pytest.approx(100, abs=8) and end[1] - rest[1] == pytest.approx(
-        100, abs=4)
-    assert end[0] - end[1] * 2 == pytest.approx(100 - 100 * 2 + (rest[0] - 2 * rest[1]), abs=8)
-
-
-def test_kill_during_the_ramp_down_stops_it_dead(maxk: Maxk) -> None:
-    cruising(maxk)
-    maxk.send("AX ST;")
-    maxk.step(50)
-    maxk.send("AM; KS1;")
-    maxk.step(1)
-    here = xy(maxk)
-    maxk.step(HZ // 4)
-    assert xy(maxk) == here
+    end_x, end_y = xy(maxk)
+    assert abs((end_x - 100) - 2 * (end_y - 100)) <= 2  # the rest point was on the line
+    assert 0 <= (end_x - 100) - ramp[-1][0] <= 4
 
 
 # -- limits ---------------------------------------------------------------------------------------
@@ -201,23 +193,18 @@ def test_the_contours_of_one_task_run_one_after_the_other() -> None:
     assert fw.done.tolist()[:3] == [True, False, True]
 
 
-def test_a_kill_of_the_running_contour_lets_the_tasks_next_one_start() -> None:
-    fw = firmware()
-    fw.feed(b"AM; VV[1]1000; VA[1]1000000; VP[1]100; VE[1]; VP[1],,100; VE[1];")
-    cycles(fw, 20)
-    fw.feed(b"KS1;")
-    cycles(fw, 200)
-    x = float(fw.motor_position()[0])
-    assert 15 < x < 25 and fw.motor_position()[2] == 100
-
-
-def test_a_flush_of_both_axes_ends_the_running_and_the_ready_contour() -> None:
+@pytest.mark.parametrize(("kill", "z_end"), [(b"KS1;", 100), (b"KS1,,1;", 0)])
+def test_a_kill_of_the_running_contour_lets_the_tasks_next_one_start_unless_killed_too(
+        kill: bytes, z_end: int) -> None:
+    """KS on X ends the running contour (X) and the task's READY one (Z) starts; KS on X and
+    Z ends both."""
     fw = firmware()
     fw.feed(b"AM; " + contour(1) + b" VP[1],,100; VE[1];")
     cycles(fw, 20)
-    fw.feed(b"KS1,,1;")
+    fw.feed(kill)
     cycles(fw, 200)
-    assert fw.motor_position()[2] == 0 and not fw.live_contours
+    assert 15 < fw.motor_position()[0] < 25 and fw.motor_position()[2] == z_end
+    assert not fw.live_contours
 
 
 def test_a_move_of_several_axes_already_running_goes_on_on_the_others() -> None:
