@@ -17,6 +17,7 @@ import pytest
 from tests.devices.oms.conftest import DONE_X, OVERTRAVEL_X, Maxk
 from tests.devices.oms.test_trajectory_scan import contour, cycles, firmware
 from vdevd.devices.oms.contour import ContourState
+from vdevd.devices.oms.firmware import Firmware
 
 HZ = 1024
 V, A = 4000.0, 20_000.0
@@ -217,3 +218,121 @@ def test_a_move_of_several_axes_already_running_goes_on_on_the_others() -> None:
     x, y = fw.motor_position()[:2].tolist()
     assert 90 < x < 110 and y == 1000
     assert all(q.idle for q in fw.queues)
+
+
+# -- found in review ------------------------------------------------------------------------------
+def over_travels(fw: Firmware, a: int) -> int:
+    return sum(1 for bits in fw_rings(fw) if bits == 1 << (8 + a))
+
+
+def fw_rings(fw: Firmware) -> list[int]:
+    return fw.rung  # type: ignore[attr-defined, no-any-return]
+
+
+def ringing_firmware() -> Firmware:
+    """firmware() that records every doorbell it rings in `rung`."""
+    fw = firmware()
+    fw.rung = []  # type: ignore[attr-defined]
+    fw.ring_doorbell = fw.rung.append  # type: ignore[attr-defined]
+    return fw
+
+
+def switch(fw: Firmware, a: int) -> None:
+    """The positive limit switch of axis a becomes active."""
+    fw.motion.limit_pos_level[a] = bool(fw.params.limit_high[a])
+    fw.motion.apply_limits()
+
+
+@pytest.mark.parametrize("stop", [b"AX ST;", b"AM; KS1;"])
+def test_stopping_a_waiting_contour_lets_vg_start_the_tasks_next_one(stop: bytes) -> None:
+    fw = firmware()
+    fw.feed(b"AM; VH[1]0; " + contour(1) + b" VP[1],,100; VE[1];")
+    cycles(fw, 5)
+    fw.feed(stop + b" VG[1];")
+    cycles(fw, 300)
+    assert fw.motor_position()[[0, 2]].tolist() == [0, 100] and not fw.live_contours
+
+
+@pytest.mark.parametrize("hold", [b"VH[1]0;", b"VH[1]1;"])
+def test_a_flush_of_a_ready_contours_axis_keeps_the_running_ones_hold(hold: bytes) -> None:
+    fw = firmware()
+    fw.feed(b"AM; " + hold + contour(1) + b" VP[1],,100; VE[1];")
+    cycles(fw, 5)
+    fw.feed(b"KS,,1;")
+    cycles(fw, 300)
+    assert float(fw.motor_position()[0]) < 10 and len(fw.live_contours) == 1
+    fw.feed(b"VG[1];")
+    cycles(fw, 300)
+    assert fw.motor_position()[[0, 2]].tolist() == [100, 0]
+
+
+def test_a_flush_cancels_a_group_the_other_axis_has_reached_in_a_later_loop_pass() -> None:
+    fw = firmware()
+    fw.feed(b"AA; VL10000,10000; AC100000,100000; LS3,3; MR100,5000; GO; LE;")
+    cycles(fw, 200)  # X has done pass 1 and waits at pass 2; Y still runs pass 1
+    fw.feed(b"AY ST; AX MR1000; GO;")
+    cycles(fw, 600)
+    assert fw.motor_position()[0] == 1100 and all(q.idle for q in fw.queues)
+
+
+def test_over_travel_is_flagged_once_per_axis_and_during_a_ramp_down() -> None:
+    fw = ringing_firmware()
+    fw.feed(b"AA; LMS,S,S,S; VV4000; VA20000; VP40000,20000; VE; AM; ID;")
+    cycles(fw, 512)
+    fw.feed(b"AX ST;")
+    cycles(fw, 5)
+    switch(fw, 1)
+    cycles(fw, 300)
+    assert over_travels(fw, 1) == 1 and over_travels(fw, 0) == 0
+    assert not fw.done[:2].any()  # the switch flushed Y's queued ID
+    fw = ringing_firmware()
+    fw.feed(b"AA; LMH,S,H,H; VV4000; VA20000; VP40000,20000; VE;")
+    cycles(fw, 400)
+    switch(fw, 1)
+    cycles(fw, 5)
+    switch(fw, 0)
+    cycles(fw, 300)
+    assert (over_travels(fw, 0), over_travels(fw, 1)) == (1, 1)
+
+
+def test_a_hard_limit_stop_rests_on_whole_counts() -> None:
+    fw = firmware()
+    fw.feed(b"AA; VV3000; VA20000; VP40000,21111; VE;")
+    cycles(fw, 500)
+    switch(fw, 0)
+    cycles(fw, 3)
+    assert all(float(p) == round(float(p)) for p in fw.motion.core.axes.cmd_pos[:2])
+
+
+def test_a_ramp_down_that_reaches_the_path_end_sets_no_done_flags() -> None:
+    fw = firmware()
+    fw.feed(b"AA; VID; VV4000; VA2000; VP10,5; VA200000; VP4000,2000; VE;")
+    cycles(fw, 700)
+    fw.feed(b"AX ST;")
+    cycles(fw, 2000)
+    assert fw.motor_position()[:2].tolist() == [4000, 2000] and not fw.done[:2].any()
+
+
+def test_a_contour_inside_a_loop_runs_every_pass() -> None:
+    """LS3/LE around a contour out and back: three round trips (0 -> 1000 -> 0 each)."""
+    fw = firmware()
+    fw.feed(b"AA; LS3,3; VV20000; VA1000000; VP1000,0; VP0,0; VE; LE;")
+    peaks = 0
+    rising = True
+    for _ in range(600):
+        cycles(fw, 1)
+        x = float(fw.motor_position()[0])
+        if rising and x >= 950:  # the reversal at 1000 runs on at speed (VV v alone)
+            peaks, rising = peaks + 1, False
+        elif x == 0:
+            rising = True
+    assert peaks == 3 and all(q.idle for q in fw.queues)
+
+
+def test_vid_after_a_later_contours_ve_applies_to_that_one() -> None:
+    fw = firmware()
+    fw.feed(b"AM; VV[1]1000; VA[1]1000000; VP[1]100; VE[1]; VP[1],,100; VE[1];")
+    cycles(fw, 1)
+    fw.feed(b"VID[1];")
+    cycles(fw, 400)
+    assert fw.done.tolist()[:3] == [False, False, True]

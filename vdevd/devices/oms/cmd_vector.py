@@ -194,6 +194,10 @@ def vector_end(fw: Firmware, cmd: Command) -> None:
     fw.aa_members = group.members
 
     def make() -> Run:
+        if c.state is ContourState.ENDED:  # LS/LE runs it again
+            c.state = ContourState.QUEUED
+            fw.live_contours.append(c)
+
         def run(axis: int) -> bool:
             if group.act_once():
                 fw.start_contour(task, c)

@@ -212,6 +212,7 @@ class Contour:
     # the run
     state: ContourState = ContourState.QUEUED
     stopping: bool = False  # ST, SA, SI or a soft limit: ramping down on its path to end
+    over_travel: set[int] = field(default_factory=set)  # axes whose limit it ran into
     t: float = 0.0  # path time, s
     rate: float = 0.0  # path seconds per second this cycle: the override, eased by a halt
     easing: bool = False  # halted, or resuming from a halt
@@ -259,6 +260,7 @@ class Contour:
         self.state = ContourState.RUNNING
         self.t = self.rate = 0.0
         self.easing = self.stopping = False
+        self.over_travel = set()
 
     @property
     def duration(self) -> float:

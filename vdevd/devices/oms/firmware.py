@@ -290,7 +290,7 @@ class Firmware:
         if busy is not None and busy is not contour:
             contour.state = ContourState.READY
             return
-        self.defined_contours[task] = contour
+        self.defined_contours.setdefault(task, contour)  # a repeat of LS/LE re-registers it
         if task in self.vector_gated and task not in self.vector_released:
             contour.state = ContourState.WAITING
             self.waiting_contours[task] = contour
@@ -330,7 +330,7 @@ class Firmware:
                 profile.hold(a, float(round(pos[a])) if ended or stopped else pos[a])
             if ended or stopped:
                 self.end_contour(task, c)
-                if c.notify and ended:
+                if c.notify and ended and not c.stopping:
                     for a in c.axes:
                         self.set_done(a)
             else:
@@ -340,26 +340,30 @@ class Firmware:
 
     def _into_limit(self, c: Contour, pos: tuple[float, ...]) -> bool:
         """Over-travel of a contour [spec §5.6]: an axis whose path this cycle heads into its
-        active limit switch, or past its software travel limit, flags over-travel and flushes
-        its queue; a hard-mode switch or a travel limit ends the contour where it is (inside
-        the limit), a soft-mode switch ramps it down on its path (as ST). True if it hit."""
+        active limit switch, or past its software travel limit, flags over-travel (once per
+        contour) and flushes its queue; a hard-mode switch or a travel limit ends the contour
+        where it is (inside the limit), a soft-mode switch ramps it down on its path (as ST).
+        True if it hit."""
         m = self.motion
         limits, here = m.core.limits, m.core.axes.cmd_pos
         hits = [a for a in c.axes if (pos[a] > here[a] and limits.hard_pos[a])
                 or (pos[a] < here[a] and limits.hard_neg[a])]
         past = [a for a in c.axes if (pos[a] > here[a] and pos[a] > limits.soft_hi[a])
                 or (pos[a] < here[a] and pos[a] < limits.soft_lo[a])]
-        hard = [a for a in hits if limits.limit_dec[a] >= HARD_STOP] + past
-        hits += [a for a in past if a not in hits]
-        if c.stopping and not hard:
-            return False  # already ramping down through the switch
-        for a in hits:
+        hard = past + [a for a in hits if limits.limit_dec[a] >= HARD_STOP and a not in past]
+        new = [a for a in dict.fromkeys(past + hits) if a not in c.over_travel]
+        if not hard and not new:
+            return False  # ramping down through a switch it already flagged
+        for a in new:
+            c.over_travel.add(a)
             m.direction[a] = 1.0 if pos[a] > here[a] else -1.0
             if a in past:
                 m.core.axes.flags[a] |= _TRAVEL_POS if pos[a] > here[a] else _TRAVEL_NEG
             self.flag(a, Doorbell.OVERTRAVEL)
-            self.flush(a, ramp=not hard)
-        return bool(hits)
+            self.flush(a, ramp=a not in hard)
+        if hard and c.state is not ContourState.ENDED:
+            self.drop_contours(hard[0])
+        return True
 
     def end_contour(self, task: int, c: Contour) -> None:
         """The task's contour is over: its halt ends with it, and the task's next contour that
@@ -381,14 +385,25 @@ class Firmware:
     def drop_contours(self, a: int, keep_stopping: bool = False) -> None:
         """A flush of axis a (KS, SI, ST, FL, a limit) ends the contours on it, queued,
         waiting or running, without done flags; the axes stay where the path took them [E-traj
-        L812-824: VH[n]1, then KS to "kill selected axes and flush queues"], and the task's
-        VH0, halt and early VG go with them. `keep_stopping` spares those ramping down (ST)."""
+        L812-824: VH[n]1, then KS to "kill selected axes and flush queues"], on the nearest
+        whole counts, and the task's VH0, halt and early VG go with the task's running or
+        waiting one (then its next READY one starts as if VG had come). `keep_stopping`
+        spares those ramping down (ST)."""
         on_a = [c for c in self.live_contours
                 if a in c.axes and not (keep_stopping and c.stopping)]
+        profile, here = self.motion.core.profile, self.motion.core.axes.cmd_pos
         for c in on_a:
-            self.end_contour(c.task, c)
-            for hold in (self.vector_gated, self.vector_released, self.vector_held):
-                hold.discard(c.task)
+            task = c.task
+            active = self.running_contours.get(task) or self.waiting_contours.get(task)
+            if active is None or active is c:  # a READY one leaves the task's holds alone
+                for hold in (self.vector_gated, self.vector_released, self.vector_held):
+                    hold.discard(task)
+            if c.state is ContourState.RUNNING:  # it rests on the whole counts it is at
+                for b in c.axes:
+                    profile.hold(b, float(round(here[b])))
+            self.end_contour(task, c)
+        if on_a:
+            profile.commit()
 
     def vector_override(self, task: int) -> float:
         """The task's override now (1.0 = 100 %): from its VOA input, 100 % at the full-scale

@@ -110,11 +110,12 @@ class AxisQueue:
         return True
 
     def flush(self) -> None:
-        """Drop every command. A command of several axes that has not run here yet is
-        cancelled on its other members too: they drop it when they reach it instead of waiting
-        forever for this axis (README)."""
-        for item in self.items:
-            if item.group is not None and item.run is None:
+        """Drop every command. A command of several axes in it (or in a loop it is running) is
+        cancelled on the other members too: where it has not started there yet they drop it
+        when they reach it, instead of waiting forever for this axis (README)."""
+        looped = [i for loop in self.loops for i in (loop.start, *loop.body)]
+        for item in (*self.items, *looped):
+            if item.group is not None:
                 item.group.cancelled = True
         self.items.clear()
         self.units = 0
