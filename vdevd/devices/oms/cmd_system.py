@@ -7,12 +7,9 @@ from typing import TYPE_CHECKING
 from vdevd.devices.oms.layout import AXIS_LETTERS, UPDATE_RATES
 from vdevd.devices.oms.syntax import Command, Operand
 from vdevd.devices.oms.table import CommandError, command
-from vdevd.rt.axes import AxisFlag
 
 if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
-
-_TRAVEL_POS, _TRAVEL_NEG = int(AxisFlag.SOFT_LIMIT_POS), int(AxisFlag.SOFT_LIMIT_NEG)
 
 
 def _select_axis(fw: Firmware, cmd: Command) -> None:
@@ -69,7 +66,7 @@ def axis_status(fw: Firmware, a: int) -> str:
     positive = bool(m.direction[a] >= 0)
     pos, neg = m.limit_active()
     limit = bool(pos[a]) if positive else bool(neg[a])
-    limit |= bool(m.core.axes.flags[a] & (_TRAVEL_POS if positive else _TRAVEL_NEG))
+    limit |= m.at_travel_limit(a, positive)
     return ("P" if positive else "M") + ("D" if fw.done[a] else "N") + (
         "L" if limit else "N") + ("H" if m.home_active()[a] else "N")
 

@@ -35,10 +35,7 @@ from vdevd.devices.oms.queue import AxisQueue, Group, Item, Run
 from vdevd.devices.oms.ssi import Ssi
 from vdevd.devices.oms.syntax import Command, Lexer, beyond_axes, numbers
 from vdevd.devices.oms.table import TABLE, CommandError
-from vdevd.rt.axes import AxisFlag
 
-_TRAVEL_POS, _TRAVEL_NEG = int(AxisFlag.SOFT_LIMIT_POS), int(AxisFlag.SOFT_LIMIT_NEG)
-_LIMIT_STOP = _TRAVEL_POS | _TRAVEL_NEG | int(AxisFlag.STOPPED_BY_LIMIT)
 _LEXER_TABLE = {name: spec.operand for name, spec in TABLE.items()}
 _HANDLERS = {name: spec.handler for name, spec in TABLE.items()}
 
@@ -299,12 +296,7 @@ class Firmware:
         self.vector_released.discard(task)
         contour.begin()
         self.running_contours[task] = contour
-        m, end = self.motion, contour.here
-        for a in contour.axes:  # a motion command for QA: its direction, no limit stop yet
-            m.core.axes.flags[a] &= ~_LIMIT_STOP
-            m.limit_seen[a] = False
-            if end[a] != contour.start[a]:
-                m.direction[a] = 1.0 if end[a] > contour.start[a] else -1.0
+        self.motion.path_begins(contour.axes, contour.start, contour.here)
 
     def advance_contours(self) -> None:
         """One update cycle of each running contour: the path coordinate at the override-
@@ -358,7 +350,7 @@ class Firmware:
             c.over_travel.add(a)
             m.direction[a] = 1.0 if pos[a] > here[a] else -1.0
             if a in past:
-                m.core.axes.flags[a] |= _TRAVEL_POS if pos[a] > here[a] else _TRAVEL_NEG
+                m.travel_stop(a, pos[a] > here[a])
             self.flag(a, Doorbell.OVERTRAVEL)
             self.flush(a, ramp=a not in hard)
         if hard and c.state is not ContourState.ENDED:
@@ -518,7 +510,6 @@ class Firmware:
         if not 0 <= a < self.n:
             raise CommandError(f"no axis {AXIS_LETTERS[a]} on this card")
         return a
-
 
 
 def _until_ended(c: Contour) -> Callable[[], Run]:

@@ -34,6 +34,8 @@ _DONE = int(AxisFlag.DONE)
 #: the deceleration of a stop "without deceleration" (hard limit, KM/KR, counts/s^2): the axis
 #: stands still within the update cycle
 HARD_STOP = 1e15
+_TRAVEL_POS, _TRAVEL_NEG = int(AxisFlag.SOFT_LIMIT_POS), int(AxisFlag.SOFT_LIMIT_NEG)
+_LIMIT_STOP = _TRAVEL_POS | _TRAVEL_NEG | int(AxisFlag.STOPPED_BY_LIMIT)
 
 
 class OmsMotion:
@@ -104,6 +106,25 @@ class OmsMotion:
         lim.soft_lo[:] = [-math.inf if pair is None else pair[0] for pair in limits]
         lim.soft_hi[:] = [math.inf if pair is None else pair[1] for pair in limits]
         self.travel_limited = any(pair is not None for pair in limits)
+
+    def path_begins(self, axes: Sequence[int], start: Sequence[float],
+                    end: Sequence[float]) -> None:
+        """A contour starts on `axes` (a motion command for QA): each moved axis takes the
+        direction from `start` to `end`, and a limit stop is no longer reported or shown."""
+        flags = self.core.axes.flags
+        for a in axes:
+            flags[a] &= ~_LIMIT_STOP
+            self.limit_seen[a] = False
+            if end[a] != start[a]:
+                self.direction[a] = 1.0 if end[a] > start[a] else -1.0
+
+    def travel_stop(self, a: int, positive: bool) -> None:
+        """A contour stopped at axis a's software travel limit in that direction."""
+        self.core.axes.flags[a] |= _TRAVEL_POS if positive else _TRAVEL_NEG
+
+    def at_travel_limit(self, a: int, positive: bool) -> bool:
+        """Axis a's software travel limit in that direction stopped its last motion."""
+        return bool(self.core.axes.flags[a] & (_TRAVEL_POS if positive else _TRAVEL_NEG))
 
     # -- commands ------------------------------------------------------------------------------------
     def moving(self, a: int) -> bool:

@@ -44,7 +44,7 @@ class Group:
     passes: dict[int, int] = field(default_factory=dict)
     acted: int = 0  # the last pass whose shared action ran (act_once)
     waiting: list[tuple[AxisQueue, int]] = field(default_factory=list)
-    cancelled: bool = False  # a member's queue was flushed before the command ran on it
+    cancelled: bool = False  # a member's queue holding it (or a loop of it) was flushed
 
     def arrive(self, axis: int) -> int:
         """Count one arrival of `axis`; its pass number."""
