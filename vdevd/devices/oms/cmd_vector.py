@@ -5,10 +5,9 @@ by `VG` [E-traj L572-585, L1284-1437]."""
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING
 
-from vdevd.devices.oms.contour import Contour, ContourState
+from vdevd.devices.oms.contour import Contour, ContourState, Point, Turn
 from vdevd.devices.oms.queue import Group, Run
 from vdevd.devices.oms.syntax import Command, Operand, beyond_axes, hex_words, numbers
 from vdevd.devices.oms.table import CommandError, command
@@ -142,11 +141,7 @@ def vector_point(fw: Firmware, cmd: Command) -> None:
     c = _contour(fw, cmd)
     if not values or beyond_axes(values, len(c.start)):
         raise CommandError("VP needs one position per axis")
-    here = list(c.here)
-    for a, v in enumerate(values):
-        if v is not None:
-            here[a] = here[a] + math.trunc(v) if relative else float(math.trunc(v))
-    c.line_to(tuple(here))
+    c.add(Point(tuple(values), relative))
 
 
 @command("VC", operand=Operand.POINT)
@@ -157,10 +152,7 @@ def vector_circle(fw: Firmware, cmd: Command) -> None:
     if len(values) != 3 or any(v is None for v in values):
         raise CommandError("VC centre-x,centre-y,angle")
     cx, cy, deg = (float(v) for v in values if v is not None)
-    c = _contour(fw, cmd)
-    if relative:
-        cx, cy = c.here[0] + cx, c.here[1] + cy
-    c.arc((cx, cy), deg)
+    _contour(fw, cmd).add(Turn((cx, cy), relative, deg))
 
 
 @command("VIO", operand=Operand.HEX)

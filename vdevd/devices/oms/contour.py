@@ -86,6 +86,50 @@ Segment = Line | Arc
 
 
 @dataclass(frozen=True)
+class Point:
+    """`VP`'s fields as sent: per axis a position (absolute) or a distance from where the segment
+    starts (relative), None to keep the axis there; fractions are cut."""
+
+    fields: tuple[float | None, ...]
+    relative: bool
+
+    def end(self, here: tuple[float, ...]) -> tuple[float, ...]:
+        out = list(here)
+        for a, v in enumerate(self.fields):
+            if v is not None:
+                out[a] = here[a] + math.trunc(v) if self.relative else float(math.trunc(v))
+        return tuple(out)
+
+    def segment(self, here: tuple[float, ...], like: Segment) -> Line:
+        """The segment from `here`, with `like`'s speeds and outputs."""
+        return Line(here, self.end(here), like.io_on, like.io_off, like.velocity,
+                    like.end_velocity, like.acceleration)
+
+
+@dataclass(frozen=True)
+class Turn:
+    """`VC`'s fields as sent: the centre, absolute or from where the arc starts, and the
+    degrees (negative: clockwise)."""
+
+    centre: tuple[float, float]
+    relative: bool
+    degrees: float
+
+    def centre_from(self, here: tuple[float, ...]) -> tuple[float, float]:
+        if self.relative:
+            return here[0] + self.centre[0], here[1] + self.centre[1]
+        return self.centre
+
+    def segment(self, here: tuple[float, ...], like: Segment) -> Arc:
+        """The arc from `here`, with `like`'s speeds and outputs."""
+        return Arc(here, self.centre_from(here), math.radians(self.degrees), like.io_on,
+                   like.io_off, like.velocity, like.end_velocity, like.acceleration)
+
+
+Step = Point | Turn
+
+
+@dataclass(frozen=True)
 class Leg:
     """One segment's speed profile: from `entry` ramp at `accel` to `peak` (down when entered
     faster than its velocity), cruise at `peak`, ramp down to `exit`, over `length` counts of
@@ -205,6 +249,7 @@ class Contour:
     acceleration: float  # VA for them
     end_velocity: float | None = None  # VV ...,vend for them; None: run on
     segments: list[Segment] = field(default_factory=list)
+    steps: list[Step] = field(default_factory=list)  # the VP/VC each segment was made from
     io_on: int = 0  # VIO bits for the next segment
     io_off: int = 0
     notify: bool = False  # VID: set the done flags of its axes at its end
@@ -225,16 +270,26 @@ class Contour:
     def here(self) -> tuple[float, ...]:
         return self.segments[-1].end if self.segments else self.start
 
-    def line_to(self, end: tuple[float, ...]) -> None:
-        self.segments.append(Line(self.here, end, self.io_on, self.io_off, self.velocity,
-                                  self.end_velocity, self.acceleration))
+    def add(self, step: Step) -> None:
+        """VP or VC: a segment from where the path is, at the speeds in force now, with the
+        outputs VIO set for it."""
+        like = Line((), (), self.io_on, self.io_off, self.velocity, self.end_velocity,
+                    self.acceleration)
+        self.segments.append(step.segment(self.here, like))
+        self.steps.append(step)
         self.io_on = self.io_off = 0
 
-    def arc(self, centre: tuple[float, float], degrees: float) -> None:
-        self.segments.append(Arc(self.here, centre, math.radians(degrees), self.io_on,
-                                 self.io_off, self.velocity, self.end_velocity,
-                                 self.acceleration))
-        self.io_on = self.io_off = 0
+    def rebase(self, start: tuple[float, ...]) -> None:
+        """The path from `start`, where its axes are when it starts (README "Start"): each
+        segment made again from its VP/VC (absolute fields stay, relative ones follow), the
+        speeds kept, the path planned again."""
+        if start == self.start:
+            return
+        self.start, made = start, self.segments
+        self.segments = []
+        for step, seg in zip(self.steps, made, strict=True):
+            self.segments.append(step.segment(self.here, seg))
+        self.plan()
 
     def moved_axes(self) -> tuple[int, ...]:
         """The axes the path moves: those whose coordinate changes, X and Y for an arc."""

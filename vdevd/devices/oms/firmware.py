@@ -280,7 +280,8 @@ class Firmware:
         update cycle on, unless VH[n]0 made it wait for VG[n] and none came yet [E-traj L1300,
         L579-585]; the VG that starts it consumes the VH0. A task runs one contour at a time:
         while the one before still runs or waits, this one is READY and starts when that one
-        ends (README). One that a flush ended never starts."""
+        ends (README). It runs from where its axes are now, not where they were at its
+        definition. One that a flush ended never starts."""
         if contour.state in (ContourState.RUNNING, ContourState.ENDED):
             return
         busy = self.running_contours.get(task) or self.waiting_contours.get(task)
@@ -294,6 +295,9 @@ class Firmware:
             return
         self.vector_gated.discard(task)
         self.vector_released.discard(task)
+        here = self.motion.core.axes.cmd_pos
+        contour.rebase(tuple(float(here[a]) if a in contour.axes else p
+                             for a, p in enumerate(contour.start)))
         contour.begin()
         self.running_contours[task] = contour
         self.motion.path_begins(contour.axes, contour.start, contour.here)
