@@ -98,3 +98,15 @@ def test_an_arc_after_a_move_turns_round_the_centre_from_where_it_starts(
     moving = [p for p in trace if p[0] > 1000]
     assert moving and all(abs(math.dist(p, (2000, 0)) - 1000) <= 2 for p in moving)
     assert largest_step(trace[trace.index((1000, 0)):]) <= MOST_PER_CYCLE
+
+
+def test_a_field_equal_to_where_the_axis_was_still_makes_it_a_contour_axis(maxk: Maxk) -> None:
+    """`AX MR500 GO` then `VP0,1000`: when the points are sent X is still at 0, but its field
+    names it, so the contour waits for X's move and takes X back to 0 from 500 on the line."""
+    maxk.send(f"AX; VL5000; AC50000; MR500; GO; {SPEED} VP0,1000; VE;")
+    assert not maxk.command_error()
+    trace = run(maxk, 2 * HZ)
+    assert trace[-1] == (0, 1000)
+    path = trace[trace.index((500, 0)):]
+    assert largest_step(path) <= MOST_PER_CYCLE
+    assert all(abs(2 * (500 - x) - y) <= 2 for x, y in path)  # on the line from (500, 0)

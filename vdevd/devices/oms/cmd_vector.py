@@ -181,7 +181,7 @@ def vector_end(fw: Firmware, cmd: Command) -> None:
     if c is None or not c.segments:
         raise CommandError("no contour defined")
     c.plan()
-    c.axes = c.moved_axes()
+    c.axes = c.path_axes()
     group = Group(frozenset(c.axes))
     fw.aa_members = group.members
 

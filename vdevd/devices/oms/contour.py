@@ -291,13 +291,14 @@ class Contour:
             self.segments.append(step.segment(self.here, seg))
         self.plan()
 
-    def moved_axes(self) -> tuple[int, ...]:
-        """The axes the path moves: those whose coordinate changes, X and Y for an arc."""
-        moved = {0, 1} if any(isinstance(s, Arc) for s in self.segments) else set()
-        for seg in self.segments:
-            moved |= {a for a, (p, q) in enumerate(zip(self.start, seg.end, strict=True))
-                      if p != q}
-        return tuple(sorted(moved)) or (0,)
+    def path_axes(self) -> tuple[int, ...]:
+        """The contour's axes: those a `VP` gives a field for, X and Y for an arc (README).
+        Fixed at `VE`: they hold the contour in their queues, and it holds them while it runs."""
+        named = {0, 1} if any(isinstance(s, Turn) for s in self.steps) else set()
+        for step in self.steps:
+            if isinstance(step, Point):
+                named |= {a for a, v in enumerate(step.fields) if v is not None}
+        return tuple(sorted(named)) or (0,)
 
     def plan(self) -> None:
         """At VE: the junction speeds, each segment's profile, where and when each starts."""
