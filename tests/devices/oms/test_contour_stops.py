@@ -333,3 +333,39 @@ def test_vid_after_a_later_contours_ve_applies_to_that_one() -> None:
     fw.feed(b"VID[1];")
     cycles(fw, 400)
     assert fw.done.tolist()[:3] == [False, False, True]
+
+
+# -- found in the second review -------------------------------------------------------------------
+@pytest.mark.parametrize("stop", ["ST", "soft limit"])
+def test_a_stop_that_ramps_the_contour_down_drops_the_tasks_vh0(stop: str) -> None:
+    """README "Stops": the flush takes the task's VH0 with it, as KS does, so the task's READY
+    contour starts when the ramp ends instead of waiting for a VG."""
+    fw = firmware()
+    fw.feed(b"AA; LMS,S,S,S; AM; " + contour(1))
+    cycles(fw, 20)
+    fw.feed(b"AM; VH[1]0; VP[1],,100; VE[1];")
+    cycles(fw, 2)
+    if stop == "ST":
+        fw.feed(b"AX ST;")
+    else:
+        switch(fw, 0)
+    cycles(fw, 400)
+    assert fw.motor_position()[2] == 100 and not fw.live_contours and not fw.vector_gated
+
+
+@pytest.mark.parametrize("travel", [False, True])
+def test_an_arc_away_from_an_active_limit_runs(travel: bool) -> None:
+    """README "Limits": X stands at 0 on its active positive switch (or its high travel limit);
+    an arc from (0, 1000) round (0, 0), 90° counter-clockwise, moves X negative, away from it,
+    and runs to (-1000, 0) with no over-travel (its start point is exact, not cos/sin's)."""
+    fw = Firmware(4, ["M"] * 4, round(1e9 / HZ), update_hz=HZ, ideal=True,
+                  ring=lambda bits: None, version="1.50", serial=1, save=lambda image: None,
+                  saved=None, travel_limits=[(-10**6, 0), None, None, None] if travel else None)
+    rung: list[int] = []
+    fw.ring_doorbell = rung.append
+    fw.feed(b"AY LP1000;")
+    if not travel:
+        switch(fw, 0)
+    fw.feed(b"AA; VV1000; VA100000; VC0,0,90; VE;")
+    cycles(fw, 3000)
+    assert fw.motor_position()[:2].tolist() == [-1000, 0] and over_travels(rung, 0) == 0

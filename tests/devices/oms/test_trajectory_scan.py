@@ -342,6 +342,36 @@ def test_vc_r_takes_the_centre_from_where_the_arc_starts() -> None:
     assert back.end[:2] == pytest.approx((1000, 2000))
 
 
+def test_a_ve_the_queue_has_no_room_for_keeps_the_definition() -> None:
+    """README "Errors": a full queue changes nothing. X's queue, held by an SW, has 7 units
+    left; a 7-segment contour's VE needs 8: refused, the points stay defined, and once the
+    queue has room the same VE queues the whole contour."""
+    fw = firmware()
+    fw.gpio_in &= ~(1 << 3)
+    fw.feed(b"AX SW3;" + b"VL1000;" * 1275)
+    assert fw.queues[0].free == 7 and fw.errors == 0
+    points = b"".join(f"VP{100 * i},0;".encode() for i in range(1, 8))
+    fw.feed(b"AA; VV1000; VA100000; " + points + b" VE;")
+    assert fw.errors == 1 and len(fw.contours[1].segments) == 7
+    fw.gpio_in |= 1 << 3
+    cycles(fw, 10)  # the SW passes, the VLs run
+    fw.feed(b"VE;")
+    cycles(fw, 1500)
+    assert fw.errors == 1 and fw.motor_position()[0] == 700
+
+
+def test_vio_sets_the_outputs_once_as_its_segment_begins() -> None:
+    """README "Points": VIO sets its outputs at the start of the next segment; an output the
+    host changes while the segment runs keeps the host's level."""
+    fw = firmware()
+    fw.feed(b"AA; VV1000; VA1000000; VIO100,0,100; VP1000,0; VE;")
+    cycles(fw, 100)
+    assert fw.gpio_out >> 8 & 1
+    fw.feed(b"AX BL8;")
+    cycles(fw, 100)
+    assert not fw.gpio_out >> 8 & 1 and fw.running_contours
+
+
 @pytest.mark.parametrize("bad", ["VPA", "VPR", "VP[1]A1,2,3,4,5", "VCR1,2", "VPR1.5.5"])
 def test_a_bad_vp_or_vc_is_a_command_error(bad: str) -> None:
     fw = firmware()

@@ -177,13 +177,12 @@ def vector_end(fw: Firmware, cmd: Command) -> None:
     this point of its queue (and, after VH[n]0, VG[n] has come), decelerating to rest at its
     end (README)."""
     task = _task(fw, cmd)
-    c = fw.contours.pop(task, None)
+    c = fw.contours.get(task)
     if c is None or not c.segments:
         raise CommandError("no contour defined")
     c.plan()
     c.axes = c.path_axes()
     group = Group(frozenset(c.axes))
-    fw.aa_members = group.members
 
     def make() -> Run:
         if c.state is ContourState.ENDED:  # LS/LE runs it again
@@ -198,6 +197,8 @@ def vector_end(fw: Firmware, cmd: Command) -> None:
         return run
 
     fw.enqueue(sorted(c.axes), "VE", make, units=1 + len(c.segments), group=group)
+    del fw.contours[task]  # not before: a VE the queues have no room for keeps the definition
+    fw.aa_members = group.members
     fw.defined_contours[task] = c
     fw.live_contours.append(c)
 

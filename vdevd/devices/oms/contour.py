@@ -70,8 +70,8 @@ class Arc:
 
     def at(self, s: float) -> tuple[float, ...]:
         r = self.radius
-        if r == 0:
-            return self.start
+        if r == 0 or s == 0:
+            return self.start  # exactly (cos/sin would not give it back to the last bit)
         a0 = math.atan2(self.start[1] - self.centre[1], self.start[0] - self.centre[0])
         a = a0 + math.copysign(s / r, self.sweep)
         return (self.centre[0] + r * math.cos(a), self.centre[1] + r * math.sin(a),
@@ -258,6 +258,7 @@ class Contour:
     state: ContourState = ContourState.QUEUED
     stopping: bool = False  # ST, SA, SI or a soft limit: ramping down on its path to end
     over_travel: set[int] = field(default_factory=set)  # axes whose limit it ran into
+    entered: int = -1  # the last segment whose VIO it has set
     t: float = 0.0  # path time, s
     rate: float = 0.0  # path seconds per second this cycle: the override, eased by a halt
     easing: bool = False  # halted, or resuming from a halt
@@ -317,6 +318,7 @@ class Contour:
         self.t = self.rate = 0.0
         self.easing = self.stopping = False
         self.over_travel = set()
+        self.entered = -1
 
     @property
     def duration(self) -> float:

@@ -230,10 +230,12 @@ class Firmware:
         q = self.queues[a]
         q.flush()
         if ramp:
-            for c in self.running_contours.values():
-                if a in c.axes:
+            for task, c in self.running_contours.items():
+                if a in c.axes:  # ramps down; its task's VH0 and early VG go now
                     c.stopping = True
                     q.push(Item("VE", _until_ended(c)))
+                    self.vector_gated.discard(task)
+                    self.vector_released.discard(task)
         self.drop_contours(a, keep_stopping=ramp)
         self.pending[a] = math.nan
         for name in self.queued:
@@ -317,9 +319,9 @@ class Firmware:
             pos, seg = c.position(s)
             if switch_on and self._into_limit(c, pos) and c.state is ContourState.ENDED:
                 continue  # a hard limit ended it where it was
-            io = c.segments[seg]
-            if io.io_on or io.io_off:
+            for io in c.segments[c.entered + 1:seg + 1]:  # VIO once, as a segment begins
                 self.gpio_out = (self.gpio_out | io.io_on) & ~io.io_off
+            c.entered = max(c.entered, seg)
             ended = c.t >= c.duration
             stopped = c.stopping and c.rate == 0
             for a in c.axes:
@@ -342,10 +344,11 @@ class Firmware:
         True if it hit."""
         m = self.motion
         limits, here = m.core.limits, m.core.axes.cmd_pos
-        hits = [a for a in c.axes if (pos[a] > here[a] and limits.hard_pos[a])
-                or (pos[a] < here[a] and limits.hard_neg[a])]
-        past = [a for a in c.axes if (pos[a] > here[a] and pos[a] > limits.soft_hi[a])
-                or (pos[a] < here[a] and pos[a] < limits.soft_lo[a])]
+        up = [a for a in c.axes if pos[a] > here[a] + _NOISE]
+        down = [a for a in c.axes if pos[a] < here[a] - _NOISE]
+        hits = [a for a in up if limits.hard_pos[a]] + [a for a in down if limits.hard_neg[a]]
+        past = ([a for a in up if pos[a] > limits.soft_hi[a] + _NOISE]
+                + [a for a in down if pos[a] < limits.soft_lo[a] - _NOISE])
         hard = past + [a for a in hits if limits.limit_dec[a] >= HARD_STOP and a not in past]
         new = [a for a in dict.fromkeys(past + hits) if a not in c.over_travel]
         if not hard and not new:
@@ -514,6 +517,9 @@ class Firmware:
         if not 0 <= a < self.n:
             raise CommandError(f"no axis {AXIS_LETTERS[a]} on this card")
         return a
+
+
+_NOISE = 1e-6  # counts: an arc's cos/sin rounding is no motion
 
 
 def _until_ended(c: Contour) -> Callable[[], Run]:
