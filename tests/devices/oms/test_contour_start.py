@@ -110,3 +110,40 @@ def test_a_field_equal_to_where_the_axis_was_still_makes_it_a_contour_axis(maxk:
     path = trace[trace.index((500, 0)):]
     assert largest_step(path) <= MOST_PER_CYCLE
     assert all(abs(2 * (500 - x) - y) <= 2 for x, y in path)  # on the line from (500, 0)
+
+
+def test_a_contour_sent_with_the_st_of_a_move_starts_where_its_ramp_rests(maxk: Maxk) -> None:
+    """X runs MR100000 at 20 000 counts/s; `AX ST` with a contour up Y in the same write: X
+    slows to rest at AC (20 000² / (2 · 50 000) = 4000 counts on), and only then does the
+    contour start, from there (it starts from rest, README "From where the axes are")."""
+    maxk.send("AX; VL20000; AC50000; MR100000; GO;")
+    maxk.step(HZ)
+    at_stop = xy(maxk)[0]
+    maxk.send(f"AX ST; {SPEED} VPR0,100; VE;")
+    assert not maxk.command_error()
+    trace = run(maxk, HZ)
+    xs = [x for x, _ in trace]
+    assert all(0 <= b - a <= 20 for a, b in zip(xs, xs[1:], strict=False))  # slows, never jumps
+    rest = at_stop + 4000
+    assert abs(xs[-1] - rest) <= 25
+    assert all(y == 0 for x, y in trace if x < xs[-1])  # Y waits for X to rest
+    assert trace[-1] == (xs[-1], 100)
+
+
+def test_a_contour_on_a_jogging_axis_waits_and_does_not_stop_the_jog(maxk: Maxk) -> None:
+    """JG does not hold the queue, so the contour's VE reaches X's queue head while X jogs: it
+    waits for X to rest rather than stop the jog dead, X jogging on at 5000 counts/s; the `ST`
+    that ends the jog flushes it (README "From where the axes are")."""
+    maxk.send(f"AX; AC50000; JG5000; {SPEED} VPR100,100; VE;")
+    maxk.step(HZ // 2)
+    before = xy(maxk)
+    maxk.step(HZ // 4)
+    assert xy(maxk)[1] == before[1] == 0
+    assert xy(maxk)[0] - before[0] == pytest.approx(5000 / 4, abs=10)
+    maxk.send("AX ST;")
+    maxk.step(HZ)
+    assert xy(maxk)[1] == 0
+    maxk.send("AA; VPR100,100; VE;")
+    rest = xy(maxk)
+    maxk.step(HZ // 2)
+    assert xy(maxk) == (rest[0] + 100, 100)

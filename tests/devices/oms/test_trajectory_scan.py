@@ -372,6 +372,17 @@ def test_vio_sets_the_outputs_once_as_its_segment_begins() -> None:
     assert not fw.gpio_out >> 8 & 1 and fw.running_contours
 
 
+@pytest.mark.parametrize("points", [b"VPR500,0; VIO200,0,200; VP1000,0;",
+                                    b"VP1000,0; VIO200,0,200; VP1000,0;"])
+def test_vio_before_a_segment_of_no_length_at_the_end_is_set_there(points: bytes) -> None:
+    """The last segment has no length (its point repeated, or reached already by an MR the
+    contour was queued behind): its VIO is set when the path ends there."""
+    fw = firmware()
+    fw.feed(b"AX MR500; GO; AA; VV1000; VA100000; " + points + b" VE;")
+    cycles(fw, 2000)
+    assert fw.gpio_out >> 9 & 1 and fw.motor_position()[0] == 1000 and not fw.live_contours
+
+
 @pytest.mark.parametrize("bad", ["VPA", "VPR", "VP[1]A1,2,3,4,5", "VCR1,2", "VPR1.5.5"])
 def test_a_bad_vp_or_vc_is_a_command_error(bad: str) -> None:
     fw = firmware()

@@ -190,6 +190,8 @@ def vector_end(fw: Firmware, cmd: Command) -> None:
             fw.live_contours.append(c)
 
         def run(axis: int) -> bool:
+            if c.state is ContourState.QUEUED and any(fw.motion.moving(a) for a in c.axes):
+                return False  # it starts from rest: after an ST's ramp, a JG's stop
             if group.act_once():
                 fw.start_contour(task, c)
             return c.state is ContourState.ENDED

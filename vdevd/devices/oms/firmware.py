@@ -319,10 +319,12 @@ class Firmware:
             pos, seg = c.position(s)
             if switch_on and self._into_limit(c, pos) and c.state is ContourState.ENDED:
                 continue  # a hard limit ended it where it was
+            ended = c.t >= c.duration
+            if ended:  # segments of no length at the end begin there too
+                seg = len(c.segments) - 1
             for io in c.segments[c.entered + 1:seg + 1]:  # VIO once, as a segment begins
                 self.gpio_out = (self.gpio_out | io.io_on) & ~io.io_off
             c.entered = max(c.entered, seg)
-            ended = c.t >= c.duration
             stopped = c.stopping and c.rate == 0
             for a in c.axes:
                 profile.hold(a, float(round(pos[a])) if ended or stopped else pos[a])
