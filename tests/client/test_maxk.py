@@ -135,6 +135,43 @@ def test_a_command_error_raises_and_the_card_keeps_answering(m: maxk.Maxk) -> No
     assert not m.get_status_flags().cmd_error  # the exceptions took the flag
 
 
+def test_mo_moves_one_count_in_the_direction_mp_or_mm_set(m: maxk.Maxk) -> None:
+    """MO (the issue's motion list; proposed, card README): one count, plus after power-up."""
+    m.send_string("AX MO ID")
+    m.wait_done(0b1, MOVE_MS)
+    assert m.send_and_get_string("AX RP") == "1"
+    m.send_string("AX MM MO MO ID")
+    m.wait_done(0b1, MOVE_MS)
+    assert m.send_and_get_string("AX RP") == "-1"
+    m.send_string("AX MP MO ID")
+    m.wait_done(0b1, MOVE_MS)
+    assert m.send_and_get_string("AX RP") == "0"
+    assert m.send_and_get_string("AY RP") == "0"
+    with pytest.raises(maxk.CommandError):
+        m.send_string("AX MO5")
+
+
+def test_ws_and_its_hash_form_report_the_watchdog_counter(m: maxk.Maxk) -> None:
+    assert m.send_and_get_string("WS") == "=0"
+    assert m.send_and_get_string("#WS") == "=0"
+
+
+def test_es_and_se_are_set_per_axis_and_queried(m: maxk.Maxk) -> None:
+    """ES (encoder slip tolerance) and SE (aux output settle time, ms): spec §4.3 proposals
+    for S §2.14's power-up parameters, queued as VL is; a value out of range changes
+    nothing."""
+    assert m.send_and_get_string("AA ES?") == "=0,=0,=0,=0"
+    m.send_string("AA ES5,,7 SE20,30 ID")
+    m.wait_done(0b1111, MOVE_MS)  # the queues have run them
+    assert m.send_and_get_string("AA ES?") == "=5,=0,=7,=0"
+    assert m.send_and_get_string("AY SE?") == "=30"
+    with pytest.raises(maxk.CommandError):
+        m.send_string("AX SE1001")
+    assert m.send_and_get_string("AX SE?") == "=20"
+    with pytest.raises(maxk.CommandError):
+        m.send_and_get_string("AX VL?")  # no query of VL is known
+
+
 def test_vb_above_a_vl_later_in_the_same_string_is_an_error(m: maxk.Maxk) -> None:
     with pytest.raises(maxk.CommandError):
         m.send_string("AX VB5000 VL1000")  # after it VB 5000 >= VL 1000 [spec §4.4]

@@ -247,6 +247,14 @@ class ProfileGenerator:
         """Stop the profile at once and hold `position` (abort, servo on/off, define position)."""
         self.load(axis, [Phase(self.t, INF, position, 0.0, 0.0, 0.0)])
 
+    def reach(self, axis: int, position: float) -> None:
+        """Run in a straight line from the commanded position now to `position` at the next
+        tick (a path sampled once a tick, e.g. a contour): the commanded velocity is the
+        path's. It runs on at that velocity until the next plan, so the caller plans every
+        tick and ends with `hold`."""
+        here = float(self.axes.cmd_pos[axis])
+        self.load(axis, [Phase(self.t, INF, here, (position - here) / self.dt, 0.0, 0.0)])
+
     def load(self, axis: int, phases: list[Phase], endless: bool = False,
              mode: ProfileMode = ProfileMode.IDLE) -> None:
         """Make `phases` the axis's plan from now (the first is current at once)."""

@@ -369,3 +369,27 @@ def test_an_arc_away_from_an_active_limit_runs(travel: bool) -> None:
     fw.feed(b"AA; VV1000; VA100000; VC0,0,90; VE;")
     cycles(fw, 3000)
     assert fw.motor_position()[:2].tolist() == [-1000, 0] and over_travels(rung, 0) == 0
+
+
+# -- found in the third review --------------------------------------------------------------------
+@pytest.mark.parametrize(("halt", "after"), [(b"VH1;", 500), (b"AX ST;", 500), (b"VH1;", 4400)])
+def test_a_halt_or_stop_slows_the_path_at_va_also_while_it_ramps(halt: bytes,
+                                                                   after: int) -> None:
+    """README "Halt"/"Stops": the path speed falls at the contour's VA, also when the halt
+    comes while the path ramps up (500 cycles in) or down (4400): at VV5000 VA5000 from
+    speed v the path rests v/VA later, v²/(2·VA) on."""
+    fw = firmware()
+    fw.feed(b"AA; VV5000; VA5000; VP20000,0; VE;")
+    cycles(fw, after)
+    xs = [float(fw.motion.core.axes.cmd_pos[0])]
+    cycles(fw, 1)
+    xs.append(float(fw.motion.core.axes.cmd_pos[0]))
+    fw.feed(halt)
+    for _ in range(1500):
+        cycles(fw, 1)
+        xs.append(float(fw.motion.core.axes.cmd_pos[0]))
+    v = [(b - a) * HZ for a, b in zip(xs, xs[1:], strict=False)]
+    rest = next(i for i, s in enumerate(v) if s <= 1e-6)
+    assert rest == pytest.approx(v[0] / 5000 * HZ, abs=3)
+    assert xs[-1] - xs[1] == pytest.approx(v[0] ** 2 / (2 * 5000), rel=0.02, abs=2)
+    assert all(b <= a + 1e-6 for a, b in zip(v[1:rest], v[2:rest], strict=False))  # slows

@@ -56,9 +56,16 @@ def _starts(fw: Firmware, start: Callable[[int], None]) -> Make:
 
 
 # -- parameters (queued: they apply to the moves that follow them) -------------------------------
-@command("VL", "VB", "AC", "HV", "HD", "HG", "ES", operand=Operand.NUMBERS)
-def motion_parameter(fw: Firmware, cmd: Command) -> None:
+@command("VL", "VB", "AC", "HV", "HD", "HG", "ES", "SE", operand=Operand.NUMBERS)
+def motion_parameter(fw: Firmware, cmd: Command) -> str | None:
+    """Queued per-axis parameters [S §2.14]: `ES` the encoder slip tolerance, `SE` the aux
+    output settle time in ms (both proposed, spec §4.3); `ES?` and `SE?` reply `=n` per
+    addressed axis."""
     name, param = cmd.mnemonic, PARAMS[cmd.mnemonic]
+    if cmd.query:
+        if name not in _QUERIED:
+            raise CommandError(f"{name}? is not a query")
+        return ",".join(f"={fw.params.values[name][a]:.0f}" for a in fw.selected())
     pairs = fw.per_axis(cmd)
     for a, v in pairs:
         value = param.coerce(v)
@@ -78,6 +85,10 @@ def motion_parameter(fw: Firmware, cmd: Command) -> None:
                 fw.motion.apply_limits()
 
         fw.enqueue([a], name, at_once(set_value), units=2)
+    return None
+
+
+_QUERIED = ("ES", "SE")  # the queries the digest names (`SE?`); the others have none known
 
 
 # -- targets and GO --------------------------------------------------------------------------
@@ -109,9 +120,26 @@ def move_relative(fw: Firmware, cmd: Command) -> None:
 
 @command("MP", "MM")
 def direction_logic(fw: Firmware, cmd: Command) -> None:
-    """Direction logic positive / minus: accepted; moves take their direction from the target
-    (README)."""
+    """Direction logic positive / minus of the addressed axes: the direction `MO` steps in;
+    `MA`/`MR` take their direction from the target (README)."""
     _no_operand(cmd)
+    for a in fw.selected():
+        fw.step_direction[a] = 1.0 if cmd.mnemonic == "MP" else -1.0
+
+
+@command("MO")
+def move_one(fw: Firmware, cmd: Command) -> None:
+    """Move one count in the direction `MP`/`MM` set (plus at power-up), each addressed axis on
+    its own, as `MR1 GO` / `MR-1 GO` (proposed: the issue names MO, no retrieved source gives
+    it; README)."""
+    _no_operand(cmd)
+    for a in fw.selected():
+
+        def set_target(axis: int, step: float = float(fw.step_direction[a])) -> None:
+            fw.pending[axis] = fw.motion.target_base(axis) + step
+
+        fw.enqueue([a], "MO", at_once(set_target), units=2)
+        fw.enqueue([a], "MO", _go(fw, clear_done=False), units=4)
 
 
 def _go(fw: Firmware, clear_done: bool) -> Make:

@@ -132,8 +132,9 @@ def queue_free(fw: Firmware, cmd: Command) -> str:
     return _ints([fw.queues[a].free for a in fw.selected()])
 
 
-@command("#WS", operand=Operand.NUMBERS)
+@command("#WS", "WS", operand=Operand.NUMBERS)
 def watchdog(fw: Firmware, cmd: Command) -> str:
+    """The watchdog timeout counter, 0: the virtual card never misses its watchdog."""
     return "=0"
 
 

@@ -185,6 +185,14 @@ class Leg:
         flat = self.cruise / v
         return v - a * min(max(0.0, tau - up - flat), self.ramp_down)
 
+    def a_at(self, tau: float) -> float:
+        """Path acceleration within the leg, `tau` seconds after its start."""
+        up = self.ramp_up
+        if tau < up:
+            return math.copysign(self.accel, self.peak - self.entry)
+        down_from = up + self.cruise / self.peak
+        return -self.accel if down_from <= tau < down_from + self.ramp_down else 0.0
+
 
 def _per_segment(accel: float | Sequence[float], n: int) -> list[float]:
     return [float(accel)] * n if isinstance(accel, (int, float)) else list(accel)
@@ -343,19 +351,33 @@ class Contour:
         i = self._leg(t)
         return self.legs[i].v_at(t - self._starts[i])
 
+    def accel_at(self, t: float) -> float:
+        """Path acceleration at path time t, counts/s² at 100 %."""
+        if t <= 0 or t >= self.duration:
+            return 0.0
+        i = self._leg(t)
+        return self.legs[i].a_at(t - self._starts[i])
+
     def pace(self, override: float, held: bool, dt: float) -> float:
         """The rate of path time for the next `dt` seconds: the override at once; but a halt
         (VH1, or a stop) brings it to 0, and a resume back to the override, changing the path
-        speed at the contour's first VA (its default: E-traj's cruise segments have VA 1)."""
+        speed at the contour's first VA (its default: E-traj's cruise segments have VA 1).
+        The speed is rate·v(t), so it changes by v·Δrate + rate²·a(t)·dt: the rate changes by
+        what brings that to ±VA·dt, net of the path's own acceleration a(t)."""
         want = 0.0 if held else override
         self.easing |= held
         if not self.easing:
             self.rate = want
             return want
         v = self.speed_at(self.t)
-        step = self.segments[0].acceleration * dt / v if v > 0 else math.inf
-        self.rate = min(self.rate + step, want) if want > self.rate else max(
-            self.rate - step, want)
+        own = self.rate * self.rate * self.accel_at(self.t)
+        va = self.segments[0].acceleration
+        if want > self.rate:
+            step = max(0.0, va - own) * dt / v if v > 0 else math.inf
+            self.rate = min(self.rate + step, want)
+        else:
+            step = max(0.0, va + own) * dt / v if v > 0 else math.inf
+            self.rate = max(self.rate - step, want)
         self.easing = held or self.rate != want
         return self.rate
 

@@ -96,6 +96,7 @@ class Firmware:
         self.done = np.zeros(n, dtype=bool)  # the D of QA/RA [spec §3.4]
         self.slip = np.zeros(n, dtype=bool)
         self.pending = np.full(n, math.nan)  # MA/MR targets waiting for GO
+        self.step_direction = np.ones(n)  # MP (+1) / MM (-1): the direction MO steps in
         # VL and VB as the queued commands will leave them (nan: the working value)
         self.queued = {"VL": np.full(n, math.nan), "VB": np.full(n, math.nan)}
         self.aa_members: frozenset[int] = frozenset(range(n))
@@ -326,14 +327,17 @@ class Firmware:
                 self.gpio_out = (self.gpio_out | io.io_on) & ~io.io_off
             c.entered = max(c.entered, seg)
             stopped = c.stopping and c.rate == 0
-            for a in c.axes:
-                profile.hold(a, float(round(pos[a])) if ended or stopped else pos[a])
             if ended or stopped:
-                self.end_contour(task, c)
+                rest = [round(pos[a]) for a in c.axes]
+                for a, p in zip(c.axes, rest, strict=True):
+                    profile.hold(a, float(p))
+                self.end_contour(task, c, None if c.stopping else rest)
                 if c.notify and ended and not c.stopping:
                     for a in c.axes:
                         self.set_done(a)
             else:
+                for a in c.axes:  # the commanded velocity is the path's (RV, KV)
+                    profile.reach(a, pos[a])
                 held = c.stopping or task in self.vector_held
                 c.t += dt * c.pace(self.vector_override(task), held, dt)
         profile.commit()
@@ -366,10 +370,12 @@ class Firmware:
             self.drop_contours(hard[0])
         return True
 
-    def end_contour(self, task: int, c: Contour) -> None:
+    def end_contour(self, task: int, c: Contour, rest: list[int] | None = None) -> None:
         """The task's contour is over: its halt ends with it, and the task's next contour that
-        is READY starts."""
+        is READY starts. One that ran to its end leaves its axes' targets at `rest`."""
         active = self.running_contours.get(task) is c or self.waiting_contours.get(task) is c
+        if c.state is ContourState.RUNNING:
+            self.motion.path_ends(c.axes, rest)
         c.state = ContourState.ENDED
         for where in (self.running_contours, self.waiting_contours, self.defined_contours):
             if where.get(task) is c:

@@ -58,6 +58,7 @@ class OmsMotion:
         self.limit_seen = np.zeros(n, dtype=bool)  # a limit stop already reported
         self.travel_limited = False  # some axis has software travel limits
         self.direction = np.ones(n)  # +1 / -1: the direction of the last motion command
+        self.on_path = np.zeros(n, dtype=bool)  # a running contour moves the axis
         # home searches: -1 none; else the value loaded at the switch and whether to ramp down
         self.home_value = np.zeros(n)
         self.home_ramp = np.ones(n, dtype=bool)
@@ -110,13 +111,27 @@ class OmsMotion:
     def path_begins(self, axes: Sequence[int], start: Sequence[float],
                     end: Sequence[float]) -> None:
         """A contour starts on `axes` (a motion command for QA): each moved axis takes the
-        direction from `start` to `end`, and a limit stop is no longer reported or shown."""
-        flags = self.core.axes.flags
+        direction from `start` to `end`, and a limit stop is no longer reported or shown. Their
+        last move's target no longer holds (MR counts from where the path leaves them, position
+        maintenance waits) and whole-count holds leave them to the path."""
+        flags, core = self.core.axes.flags, self.core
         for a in axes:
             flags[a] &= ~_LIMIT_STOP
             self.limit_seen[a] = False
             if end[a] != start[a]:
                 self.direction[a] = 1.0 if end[a] > start[a] else -1.0
+        index = list(axes)
+        self.on_path[index] = True
+        core.target_valid[index] = False
+
+    def path_ends(self, axes: Sequence[int], ends: Sequence[int] | None = None) -> None:
+        """The contour on `axes` is over; run to its end, the axes rest on `ends`, which become
+        their target (as a move's: MR counts from it, position maintenance holds it)."""
+        index = list(axes)
+        self.on_path[index] = False
+        if ends is not None:
+            self.core.target[index] = ends
+            self.core.target_valid[index] = True
 
     def travel_stop(self, a: int, positive: bool) -> None:
         """A contour stopped at axis a's software travel limit in that direction."""
@@ -250,13 +265,13 @@ class OmsMotion:
         """Axes at rest under control (steppers, CL1 servos) hold a whole count, the one RP
         reports. The core's stops (ST, a limit, a home ramp-down, a kill) end where the
         deceleration takes them, between two counts; a servo commanded there hunts one encoder
-        count around it forever. Run when a profile ends (a DONE event); an axis that a contour
-        holds is held on its path again before the next tick, so this does not touch a running
-        contour."""
+        count around it forever. Run when a profile ends (a DONE event); an axis on a running
+        contour's path is left to the path."""
         core = self.core
         cmd = core.axes.cmd_pos
         whole = np.rint(cmd)
-        snap = np.flatnonzero(~core.profile.moving & core.servo_on_mask & (whole != cmd))
+        snap = np.flatnonzero(~core.profile.moving & ~self.on_path & core.servo_on_mask
+                              & (whole != cmd))
         if not len(snap):
             return
         for a in snap.tolist():
