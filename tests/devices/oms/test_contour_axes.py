@@ -73,3 +73,14 @@ def test_another_axis_ending_a_move_leaves_a_contour_moving_off_a_limit_alone() 
     cycles(fw, 12 * HZ)
     assert fw.motor_position()[:2].tolist() == [10000, 100]
     assert fw.done[:2].all() and not fw.live_contours
+
+
+def test_qa_shows_the_direction_each_axis_last_moved_on_the_path() -> None:
+    """Y goes up to 1000 and back to 0 (start and end equal): its last motion was down, QA
+    `M`; X only went up, `P` [§4.3 QA: the direction of the last motion]."""
+    fw = firmware()
+    fw.feed(b"AA; VV4000; VA40000; VP1000,1000; VP2000,0; VE;")
+    cycles(fw, 3 * HZ)
+    fw.feed(b"AA; QA;")
+    x, y, *_ = fw.replies[-1].decode().strip().split(",")
+    assert (x[0], y[0]) == ("P", "M")

@@ -313,6 +313,7 @@ class Firmware:
         dt = self.period_ns / 1e9
         profile = self.motion.core.profile
         limits = self.motion.core.limits
+        here, direction = self.motion.core.axes.cmd_pos, self.motion.direction
         switch_on = self.motion.travel_limited or bool(limits.hard_pos.any()
                                                        or limits.hard_neg.any())
         for task, c in list(self.running_contours.items()):
@@ -337,6 +338,9 @@ class Firmware:
                         self.set_done(a)
             else:
                 for a in c.axes:  # the commanded velocity is the path's (RV, KV)
+                    step = pos[a] - here[a]
+                    if step > _NOISE or step < -_NOISE:  # QA's direction: its last motion
+                        direction[a] = 1.0 if step > 0 else -1.0
                     profile.reach(a, pos[a])
                 held = c.stopping or task in self.vector_held
                 c.t += dt * c.pace(self.vector_override(task), held, dt)
