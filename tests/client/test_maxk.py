@@ -151,6 +151,20 @@ def test_mo_moves_one_count_in_the_direction_mp_or_mm_set(m: maxk.Maxk) -> None:
         m.send_string("AX MO5")
 
 
+def test_an_mo_the_queue_has_no_room_for_queues_nothing(m: maxk.Maxk) -> None:
+    """All or nothing: X's queue, held by a WT, has 5 units left; MO needs 6 (an MR and a GO)."""
+    m.send_string("AX WT200")  # 2 units of X's 2559
+    for n in (100,) * 12 + (76,):  # 1276 VLs of 2 units
+        m.send_string("AX " + "VL1000 " * n)
+    with pytest.raises(maxk.CommandError):
+        m.send_string("AX MO")
+    m.send_string("AX ID")
+    m.wait_done(0b1, MOVE_MS)
+    m.send_string("AX GO ID")  # a GO with no target loaded by the refused MO
+    m.wait_done(0b1, MOVE_MS)
+    assert m.send_and_get_string("AX RP") == "0"
+
+
 def test_ws_and_its_hash_form_report_the_watchdog_counter(m: maxk.Maxk) -> None:
     assert m.send_and_get_string("WS") == "=0"
     assert m.send_and_get_string("#WS") == "=0"

@@ -84,3 +84,19 @@ def test_qa_shows_the_direction_each_axis_last_moved_on_the_path() -> None:
     fw.feed(b"AA; QA;")
     x, y, *_ = fw.replies[-1].decode().strip().split(",")
     assert (x[0], y[0]) == ("P", "M")
+
+
+def test_an_axis_whose_loop_opens_mid_contour_shows_no_path_velocity_and_keeps_no_target() -> None:
+    """CL0 on X while the contour runs: X's command follows X (it stays put, RV 0), Y runs on
+    the path; the end leaves X no target (MR counts from where X is)."""
+    fw = firmware()
+    fw.feed(b"AA; VV2236; VA100000; VP20000,10000; VE;")
+    cycles(fw, 100)
+    fw.feed(b"AX; CL0;")
+    for _ in range(5):
+        cycles(fw, 500)
+        fw.feed(b"AA; RV;")
+        assert fw.replies[-1].decode().split(",")[0] == "0"
+    cycles(fw, 10 * HZ)
+    assert fw.motor_position()[1] == 10000 and not fw.live_contours
+    assert not fw.motion.core.target_valid[0]

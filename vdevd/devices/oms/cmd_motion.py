@@ -133,13 +133,19 @@ def move_one(fw: Firmware, cmd: Command) -> None:
     its own, as `MR1 GO` / `MR-1 GO` (proposed: the issue names MO, no retrieved source gives
     it; README)."""
     _no_operand(cmd)
-    for a in fw.selected():
+    axes = fw.selected()
+    if any(fw.queues[a].free < _MO_UNITS for a in axes):
+        raise CommandError("command queue full")  # all or nothing, as any command
+    for a in axes:
 
         def set_target(axis: int, step: float = float(fw.step_direction[a])) -> None:
             fw.pending[axis] = fw.motion.target_base(axis) + step
 
         fw.enqueue([a], "MO", at_once(set_target), units=2)
-        fw.enqueue([a], "MO", _go(fw, clear_done=False), units=4)
+        fw.enqueue([a], "MO", _go(fw, clear_done=False), units=_MO_UNITS - 2)
+
+
+_MO_UNITS = 6  # an MR (2) and a GO (4)
 
 
 def _go(fw: Firmware, clear_done: bool) -> Make:

@@ -314,6 +314,7 @@ class Firmware:
         profile = self.motion.core.profile
         limits = self.motion.core.limits
         here, direction = self.motion.core.axes.cmd_pos, self.motion.direction
+        servo_on = self.motion.core.servo_on_mask
         switch_on = self.motion.travel_limited or bool(limits.hard_pos.any()
                                                        or limits.hard_neg.any())
         for task, c in list(self.running_contours.items()):
@@ -341,7 +342,10 @@ class Firmware:
                     step = pos[a] - here[a]
                     if step > _NOISE or step < -_NOISE:  # QA's direction: its last motion
                         direction[a] = 1.0 if step > 0 else -1.0
-                    profile.reach(a, pos[a])
+                    if servo_on[a]:
+                        profile.reach(a, pos[a])
+                    else:  # loop open (CL0): the command follows the axis, not the path
+                        profile.hold(a, pos[a])
                 held = c.stopping or task in self.vector_held
                 c.t += dt * c.pace(self.vector_override(task), held, dt)
         profile.commit()

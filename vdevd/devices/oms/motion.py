@@ -126,12 +126,14 @@ class OmsMotion:
 
     def path_ends(self, axes: Sequence[int], ends: Sequence[int] | None = None) -> None:
         """The contour on `axes` is over; run to its end, the axes rest on `ends`, which become
-        their target (as a move's: MR counts from it, position maintenance holds it)."""
+        their target (as a move's: MR counts from it, position maintenance holds it), except
+        on an axis whose loop is open (CL0), whose command follows the axis instead."""
         index = list(axes)
         self.on_path[index] = False
         if ends is not None:
-            self.core.target[index] = ends
-            self.core.target_valid[index] = True
+            core = self.core
+            core.target[index] = ends
+            core.target_valid[index] = core.servo_on_mask[index]
 
     def travel_stop(self, a: int, positive: bool) -> None:
         """A contour stopped at axis a's software travel limit in that direction."""
