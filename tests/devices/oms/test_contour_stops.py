@@ -226,9 +226,10 @@ def over_travels(rung: list[int], a: int) -> int:
     return rung.count(1 << (8 + a))
 
 
-def ringing_firmware() -> tuple[Firmware, list[int]]:
-    """firmware() and the list of every doorbell it rings."""
-    fw = firmware()
+def ringing_firmware(travel_limits: list[tuple[float, float] | None] | None = None,
+                     ) -> tuple[Firmware, list[int]]:
+    """firmware(travel_limits) and the list of every doorbell it rings."""
+    fw = firmware(travel_limits)
     rung: list[int] = []
     fw.ring_doorbell = rung.append
     return fw, rung
@@ -358,11 +359,7 @@ def test_an_arc_away_from_an_active_limit_runs(travel: bool) -> None:
     """README "Limits": X stands at 0 on its active positive switch (or its high travel limit);
     an arc from (0, 1000) round (0, 0), 90° counter-clockwise, moves X negative, away from it,
     and runs to (-1000, 0) with no over-travel (its start point is exact, not cos/sin's)."""
-    fw = Firmware(4, ["M"] * 4, round(1e9 / HZ), update_hz=HZ, ideal=True,
-                  ring=lambda bits: None, version="1.50", serial=1, save=lambda image: None,
-                  saved=None, travel_limits=[(-10**6, 0), None, None, None] if travel else None)
-    rung: list[int] = []
-    fw.ring_doorbell = rung.append
+    fw, rung = ringing_firmware([(-10**6, 0), None, None, None] if travel else None)
     fw.feed(b"AY LP1000;")
     if not travel:
         switch(fw, 0)

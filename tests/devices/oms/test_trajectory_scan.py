@@ -317,11 +317,12 @@ def test_the_lexer_takes_the_a_and_r_flags_of_vp_and_vc() -> None:
         ("VP", None, "5,6", ""), ("VID", 4, "1", "")]
 
 
-def firmware() -> Firmware:
-    """A 4-axis firmware without bus or daemon (every axis ideal)."""
+def firmware(travel_limits: list[tuple[float, float] | None] | None = None) -> Firmware:
+    """A 4-axis firmware without bus or daemon (every axis ideal), with the card option
+    `travel_limits` if given."""
     return Firmware(4, ["M"] * 4, round(PERIOD * 1e9), update_hz=HZ, ideal=True,
                     ring=lambda bits: None, version="1.50", serial=1, save=lambda image: None,
-                    saved=None)
+                    saved=None, travel_limits=travel_limits)
 
 
 def test_vp_a_is_absolute_and_vp_r_from_the_end_of_the_segment_before() -> None:

@@ -99,13 +99,19 @@ def _target(fw: Firmware, cmd: Command, relative: bool) -> None:
     for a, v in pairs:
         if not math.isfinite(v) or abs(v) > 2**31 - 1:
             raise CommandError("position out of range")
-        d = float(math.trunc(v))
-
-        def set_target(axis: int, d: float = d) -> None:
-            fw.pending[axis] = fw.motion.target_base(axis) + d if relative else d
-
-        fw.enqueue([a], cmd.mnemonic, at_once(set_target), units=2)
+        fw.enqueue([a], cmd.mnemonic, _loads_target(fw, float(math.trunc(v)), relative),
+                   units=_TARGET_UNITS)
         fw.armed.add(a)
+
+
+def _loads_target(fw: Firmware, d: float, relative: bool) -> Make:
+    """A queued command that loads the axis's target for the next GO: `d`, or `d` from the
+    last target (relative)."""
+
+    def set_target(axis: int) -> None:
+        fw.pending[axis] = fw.motion.target_base(axis) + d if relative else d
+
+    return at_once(set_target)
 
 
 @command("MA", operand=Operand.NUMBERS)
@@ -137,15 +143,14 @@ def move_one(fw: Firmware, cmd: Command) -> None:
     if any(fw.queues[a].free < _MO_UNITS for a in axes):
         raise CommandError("command queue full")  # all or nothing, as any command
     for a in axes:
-
-        def set_target(axis: int, step: float = float(fw.step_direction[a])) -> None:
-            fw.pending[axis] = fw.motion.target_base(axis) + step
-
-        fw.enqueue([a], "MO", at_once(set_target), units=2)
-        fw.enqueue([a], "MO", _go(fw, clear_done=False), units=_MO_UNITS - 2)
+        fw.enqueue([a], "MO", _loads_target(fw, float(fw.step_direction[a]), relative=True),
+                   units=_TARGET_UNITS)
+        fw.enqueue([a], "MO", _go(fw, clear_done=False), units=_GO_UNITS)
 
 
-_MO_UNITS = 6  # an MR (2) and a GO (4)
+_TARGET_UNITS = 2  # queue units of an MA/MR
+_GO_UNITS = 4
+_MO_UNITS = _TARGET_UNITS + _GO_UNITS
 
 
 def _go(fw: Firmware, clear_done: bool) -> Make:
@@ -183,7 +188,7 @@ def go(fw: Firmware, cmd: Command) -> None:
     if fw.mode == "AA":
         group = Group(frozenset(axes))
         fw.aa_members = group.members
-    fw.enqueue(axes, cmd.mnemonic, _go(fw, clear), units=4, group=group)
+    fw.enqueue(axes, cmd.mnemonic, _go(fw, clear), units=_GO_UNITS, group=group)
     fw.armed.clear()
 
 
