@@ -16,7 +16,7 @@ run: $(STAMP)
 	$(VENV)/bin/vdevd serve $(ARGS)
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check vdevd client tests bench
+	$(VENV)/bin/ruff check vdevd client proto tests bench
 	$(VENV)/bin/mypy
 
 test: $(STAMP) lint
