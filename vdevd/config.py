@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import re
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
 from vdevd.devices import CARD_TYPES, DEFAULT_NAMES, card_class
+from vdevd.devices.options import CardOptions, parse_options
 from vdevd.security import CurveConfig, check_curve, is_local
 
 DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
@@ -21,8 +23,8 @@ DEFAULT_EVENTS = "tcp://127.0.0.1:5556"
 CLOCK_MODES = ("realtime", "lockstep")
 _NAME = re.compile(r"[A-Za-z0-9_-]+")  # a card name: ASCII letters, digits, - and _
 WAKERS = ("thread", "timer")
-#: keys every [[card]] table may have beside the card type's own
-COMMON_CARD_KEYS = ("type", "name", "period_ns")
+#: the servo periods a configuration may ask for, ns (a card built in code may use any)
+PERIOD_NS = (10_000, 1_000_000_000)
 
 
 class ConfigError(ValueError):
@@ -31,9 +33,12 @@ class ConfigError(ValueError):
 
 @dataclass(frozen=True)
 class CardSpec:
+    """One [[card]]: its type, name and options (checked by the card when built from a plain
+    mapping)."""
+
     type: str
     name: str
-    options: dict[str, Any]
+    options: Mapping[str, Any]
 
 
 @dataclass
@@ -142,28 +147,16 @@ def check_endpoints(cfg: Config) -> None:
             )
 
 
-def _card_defaults(ctype: str, table: dict[str, Any], where: str) -> dict[str, Any]:
-    """The card's options: its declared keys checked and defaulted; unknown keys rejected."""
-    cls = card_class(ctype)
-    options: dict[str, Any] = {}
-    for key, value in table.items():
-        if key in ("type", "name"):
-            continue
-        if key == "period_ns":
-            if not isinstance(value, int) or isinstance(value, bool) or not 10_000 <= value <= 1_000_000_000:
-                raise ConfigError(f"{where}.period_ns: {value!r} is not an integer in 10000..1e9")
-            options[key] = value
-            continue
-        opt = cls.options.get(key)
-        if opt is None:
-            known = ", ".join([*COMMON_CARD_KEYS, *cls.options])
-            raise ConfigError(f"{where}.{key}: unknown key for {ctype} (keys: {known})")
-        try:
-            options[key] = opt.check(f"{where}.{key}", value)
-        except ValueError as exc:
-            raise ConfigError(str(exc)) from None
-    for key, opt in cls.options.items():
-        options.setdefault(key, opt.default)
+def _card_defaults(ctype: str, table: dict[str, Any], where: str) -> CardOptions:
+    """The card's options: its declared keys checked and defaulted, unknown keys rejected, one
+    frozen object the card reads (vdevd/devices/options.py)."""
+    try:
+        options = parse_options(card_class(ctype).options, table, where)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+    period = options.period_ns
+    if period is not None and not PERIOD_NS[0] <= period <= PERIOD_NS[1]:
+        raise ConfigError(f"{where}.period_ns: {period!r} is not an integer in 10000..1e9")
     return options
 
 

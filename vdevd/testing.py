@@ -11,6 +11,7 @@ from __future__ import annotations
 import asyncio
 import threading
 from collections.abc import Callable
+from dataclasses import replace
 
 import zmq
 
@@ -43,9 +44,9 @@ class DaemonThread:
         if cfg is None:
             self.cfg.clock = clock  # type: ignore[assignment]
             self.cfg.endpoint, self.cfg.events = endpoint, events
-            for spec in self.cfg.cards:  # listeners of the cards on free ports too
-                if spec.options.get("ethernet"):
-                    spec.options["ethernet"] = "tcp://127.0.0.1:*"
+            self.cfg.cards = [  # listeners of the cards on free ports too
+                replace(spec, options={**spec.options, "ethernet": "tcp://127.0.0.1:*"})
+                if spec.options.get("ethernet") else spec for spec in self.cfg.cards]
         self._rack = rack
         self.endpoint = ""
         self.events = ""

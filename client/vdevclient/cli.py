@@ -1,4 +1,4 @@
-"""`vdevctl`: the operator command (cards, peek, poke, irq, step, stats, control, now).
+"""`vdevctl`: the operator command (cards, lspci, peek, poke, irq, step, stats, control, now).
 
 Endpoint rules as `vdevclient.connect`: --endpoint, else $VDEVD_ENDPOINT, else tcp://127.0.0.1:5555.
 """
@@ -11,6 +11,7 @@ import sys
 from typing import Any
 
 import zmq
+from vdevmaps.pci import IDENTITY_SIZE, lspci_line
 
 from vdevclient.core import connect
 from vdevclient.errors import VdevClientError
@@ -23,6 +24,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--timeout", type=_seconds, default=10.0, help="reply timeout, wall seconds")
     sub = p.add_subparsers(dest="command", required=True)
     sub.add_parser("cards", help="list the cards, their regions and irq lines")
+    sub.add_parser("lspci", help="list the PCI cards' IDs as lspci -n does")
     peek = sub.add_parser("peek", help="read a region: CARD REGION OFFSET [SIZE]")
     peek.add_argument("card")
     peek.add_argument("region")
@@ -107,6 +109,11 @@ def _run(rack: Any, args: argparse.Namespace) -> int:
             print(f"  irq {', '.join(c.irq) or '-'}", file=out)
             if c.controls:
                 print(f"  controls {', '.join(c.controls)}", file=out)
+    elif args.command == "lspci":
+        for c in rack.cards():
+            if any(r.name == "config" for r in c.regions):
+                header = rack.card(c.name).region("config").read(0, IDENTITY_SIZE)
+                print(f"{c.name} {lspci_line(header)}", file=out)
     elif args.command == "peek":
         data = rack.card(args.card).region(args.region).read(args.offset, args.size)
         for i in range(0, len(data), 16):

@@ -24,7 +24,9 @@ def test_hello_lists_cards_with_regions_irq_lines_and_controls(raw: RawClient) -
     assert card["type"] == "generic-servo"
     assert card["endian"] == "little"
     assert card["irq"] == ["inta"]
-    (bar,) = card["regions"]
+    bar, config = card["regions"]
     assert (bar["name"], bar["size"], bar["widths"]) == ("bar0", 0x1000, [1, 2, 4])
+    assert (config["name"], config["size"], config["widths"]) == ("config", 256, [1, 2, 4])
     assert {"set_limit", "amp_fault", "encoder_loss"} <= set(card["controls"])
     assert "axis" in card["controls"]["set_limit"]["params"]
+    assert card["deprecated"]["amp_fault"] == "set_amp_fault"

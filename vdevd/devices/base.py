@@ -1,8 +1,10 @@
 """The card contract (DESIGN.md "Card"): regions, interrupt lines, firmware ticks, backdoor.
 
-A card package subclasses `Card`, declares its configuration keys in `options`, builds its
-regions and lines in `__init__`, advances its firmware in `step()` (one servo tick), and marks
-backdoor methods with `@control`. The rack owns the clock: it sets `now_ns` before every tick.
+A card package subclasses `Card`, declares its configuration keys in `options` (read back, checked
+and defaulted, as `self.opts`), builds its regions and lines in `__init__`, advances its firmware
+in `step()` (one servo tick), speaks the shared backdoor vocabulary (backdoor.py) over its axis
+world and marks its own backdoor methods with `@control`. The rack owns the clock: it sets
+`now_ns` before every tick.
 """
 
 from __future__ import annotations
@@ -12,50 +14,18 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
+from vdevd.devices.backdoor import WorldBackdoor, control
+from vdevd.devices.options import CardOptions, Option, parse_options
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.irq import IrqEvent, IrqLine
 from vdevd.nvram import NvramStore
+from vdevd.pci import ConfigSpace, PciIdentity
 from vdevd.region import Region
+from vdevd.rt.world import AxisWorld
+
+__all__ = ["Card", "CardContext", "CardOptions", "Option", "axis_number", "control"]
 
 EventSink = Callable[[IrqEvent], None]
-
-
-@dataclass(frozen=True)
-class Option:
-    """A card configuration key: its type, default and allowed range or choices."""
-
-    type: type | tuple[type, ...]
-    default: Any = None
-    min: float | None = None
-    max: float | None = None
-    choices: tuple[Any, ...] | None = None
-    help: str = ""
-
-    def check(self, key: str, value: Any) -> Any:
-        """Return the value if valid, else raise ValueError naming `key`."""
-        ok_type = isinstance(value, self.type) and not (
-            isinstance(value, bool) and self.type in (int, float)
-        )
-        if not ok_type and self.type is float and isinstance(value, int):
-            value, ok_type = float(value), not isinstance(value, bool)
-        if not ok_type:
-            raise ValueError(f"{key}: expected {_type_name(self.type)}, got {value!r}")
-        if self.choices is not None:
-            items = value if isinstance(value, list) else [value]
-            bad = [v for v in items if v not in self.choices]
-            if bad:
-                raise ValueError(f"{key}: {bad[0]!r} is not one of {list(self.choices)}")
-        if self.min is not None and value < self.min:
-            raise ValueError(f"{key}: {value!r} is below the minimum {self.min:g}")
-        if self.max is not None and value > self.max:
-            raise ValueError(f"{key}: {value!r} is above the maximum {self.max:g}")
-        return value
-
-
-def _type_name(t: type | tuple[type, ...]) -> str:
-    if isinstance(t, tuple):
-        return " or ".join(x.__name__ for x in t)
-    return t.__name__
 
 
 @dataclass
@@ -67,17 +37,7 @@ class CardContext:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
-def control(name: str | None = None) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """Mark a method as a backdoor action (`rack.control(card, action, **params)`)."""
-
-    def mark(fn: Callable[..., Any]) -> Callable[..., Any]:
-        fn.__vdev_control__ = name or fn.__name__  # type: ignore[attr-defined]
-        return fn
-
-    return mark
-
-
-class Card:
+class Card(WorldBackdoor):
     """Base of every virtual card."""
 
     type_name: ClassVar[str] = ""
@@ -86,11 +46,18 @@ class Card:
     #: the servo period in ns when the configuration gives none
     default_period_ns: ClassVar[int] = 1_000_000
 
+    #: deprecated parameter names of actions: {action: {old name: name}} (kept for old scripts)
+    control_params: ClassVar[Mapping[str, Mapping[str, str]]] = {}
+
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
+        """`config`: the card's options, as config loading checked them, or a plain mapping
+        (checked here, ValueError naming the key)."""
         self.name = name
-        self.config = dict(config)
+        self.opts: CardOptions = parse_options(self.options, config, name)
+        self.config = dict(self.opts)
         self.ctx = ctx
-        self.period_ns = int(self.config.get("period_ns") or self.default_period_ns)
+        self.period_ns = self.opts.period_ns or self.default_period_ns
+        self.world = AxisWorld(0)
         self.now_ns = 0
         self.ticks = 0
         self.regions: dict[str, Region] = {}
@@ -103,9 +70,20 @@ class Card:
         self._controls = self._collect_controls()
 
     # -- building ------------------------------------------------------------------------------
+    def make_world(self, n: int) -> AxisWorld:
+        """The axis world of the card's n axes from its `[[card.axis]]` tables."""
+        self.world = AxisWorld(n, self.opts.axis)
+        return self.world
+
     def add_region(self, region: Region) -> Region:
         self.regions[region.name] = region
         return region
+
+    def add_config_space(self, identity: PciIdentity, irq: IrqLine | None) -> ConfigSpace:
+        """A PCI card's `config` region: its type 0 header, status bit 3 following `irq`."""
+        space = ConfigSpace(identity, irq)
+        self.add_region(space.region)
+        return space
 
     def add_irq(self, name: str) -> IrqLine:
         line = IrqLine(name, self._emit)
@@ -163,6 +141,8 @@ class Card:
             "regions": [r.describe() for r in self.regions.values()],
             "irq": list(self.irq_lines),
             "controls": {k: _signature(fn) for k, fn in self._controls.items()},
+            "deprecated": {k: getattr(fn, "__vdev_deprecated__", None) for k, fn in
+                           self._controls.items() if getattr(fn, "__vdev_deprecated__", None)},
         }
 
     # -- backdoor ----------------------------------------------------------------------------------
@@ -185,14 +165,23 @@ class Card:
                 f"(has: {', '.join(sorted(self._controls))})",
             )
         try:
-            inspect.signature(fn).bind(**params)
+            inspect.signature(fn).bind(**self._renamed(action, params))
         except TypeError as exc:
-            raise VdevError(ErrorCode.BAD_PARAM, f"{action}: {exc}") from None
+            raise VdevError(ErrorCode.BAD_PARAM,
+                            f"{action}{inspect.signature(fn)}: {exc}") from None
         return fn
+
+    def _renamed(self, action: str, params: Mapping[str, Any]) -> Mapping[str, Any]:
+        """`params` with the deprecated names of `control_params` given their new names."""
+        names = self.control_params.get(action)
+        if not names or not any(k in names for k in params):
+            return params
+        return {names.get(k, k): v for k, v in params.items()}
 
     def control(self, action: str, params: Mapping[str, Any]) -> Any:
         """Run a backdoor action; bad params become BAD_PARAM errors."""
         fn = self.check_control(action, params)
+        params = self._renamed(action, params)
         try:
             return fn(**params)
         except (ValueError, TypeError, KeyError, IndexError) as exc:

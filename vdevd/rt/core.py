@@ -79,6 +79,12 @@ class MotionCore:
         self._enc = np.zeros(n)  # the encoder as floats, in encoder counts
         self._tmp = np.zeros(n)
         self._pv2 = np.zeros((2, n))
+        #: the actual position minus the stage's physical position: what redefinitions of zero
+        #: (set_position, a home found, redefine_and_stop) have shifted (`physical`)
+        self.zero = np.zeros(n)
+        #: the motor is blocked (backdoor `jam`): the stage stays at `_jam_pos`
+        self.jammed = np.zeros(n, dtype=bool)
+        self._jam_pos = np.zeros(n)
         self._has_servo = bool((self.kinds == PlantKind.SERVO).any())
         self._configure()
 
@@ -104,6 +110,7 @@ class MotionCore:
         self._scaled = bool((self.encoder_scale != 1.0).any())
         self._inv_scale = 1.0 / self.encoder_scale
         self._plain_encoder = not (self._scaled or self._any_loss or self._any_slip)
+        self._any_jam = bool(self.jammed.any())
         self._enc[:] = self.axes.encoder  # where a lost encoder freezes
 
     # -- the tick ----------------------------------------------------------------------------------
@@ -126,6 +133,9 @@ class MotionCore:
                 np.copyto(ax.pv, ax.cmd_pv, where=self._ideal_on2)
         if self._any_step:
             self._step()
+        if self._any_jam:  # a blocked motor: the stage does not move, the error grows
+            np.copyto(ax.pos, self._jam_pos, where=self.jammed)
+            ax.vel[self.jammed] = 0.0
         if self._any_off:  # servo off: the command follows the actual position
             np.copyto(ax.cmd_pos, ax.pos, where=self._off)
         fb = ax.fb
@@ -391,6 +401,8 @@ class MotionCore:
             self._clear_slip(np.array([a]))
         shift = whole - float(ax.fb[a])
         ax.pos[a] += shift
+        self.zero[a] += shift
+        self._jam_pos[a] += shift
         ax.cmd_pos[a] += shift  # the stop below plans from the shifted command
         self.stepper.gen[a] += shift
         enc = math.floor(whole * float(self._scale[a]) + 1e-9)
@@ -477,6 +489,8 @@ class MotionCore:
             self._clear_slip(idx)
         shift = c - ax.fb[idx]
         ax.pos[idx] += shift
+        self.zero[idx] += shift
+        self._jam_pos[idx] += shift
         self.stepper.gen[idx] += shift
         enc = np.floor(c * self.encoder_scale[idx])
         self._enc[idx] = enc
@@ -552,6 +566,20 @@ class MotionCore:
             self.home_switch[:] = new
             self._set_bit(AxisFlag.HOME_SWITCH, new)
             self._home_found(rising[self.profile.mode[rising] == ProfileMode.HOMING])
+        self._configure()
+
+    def physical(self) -> np.ndarray:
+        """The stage's physical positions in counts: the actual positions less every
+        redefinition of zero (a fresh array)."""
+        return self.axes.pos - self.zero
+
+    def set_jammed(self, axes: Selector, active: bool) -> None:
+        """Block (or free) the motors of `axes`: the stage stays where it is while the command
+        goes on, so the following error grows (backdoor `jam`)."""
+        idx = self._select(axes)
+        self.jammed[idx] = bool(active)
+        self._jam_pos[idx] = self.axes.pos[idx]
+        self.axes.vel[idx[self.jammed[idx]]] = 0.0
         self._configure()
 
     def _set_bit(self, bit: AxisFlag, on: np.ndarray) -> None:

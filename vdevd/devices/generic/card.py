@@ -14,6 +14,7 @@ import numpy as np
 from vdevd.devices.base import Card, CardContext, Option, control
 from vdevd.devices.generic import regions as R
 from vdevd.devices.generic.regions import AxisReg, CardStatus, Command, CommandError
+from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region
 from vdevd.rt import AxisFlag, MotionCore, PlantKind
 
@@ -22,6 +23,11 @@ _FAULTS = int(AxisFlag.AMP_FAULT | AxisFlag.ENCODER_LOSS)
 _STOPS = int(AxisFlag.STOPPED_BY_LIMIT | AxisFlag.FE_TRIP | AxisFlag.AMP_FAULT)
 _DONE = int(AxisFlag.DONE)
 _MOTION = (Command.MOVE_ABS, Command.MOVE_REL, Command.JOG, Command.HOME)
+#: the configuration header (README.md "PCI configuration space"): not a vendor product, so the
+#: vendor ID is 1234 (the unassigned ID emulators use) and the class 1180 (other data
+#: acquisition and signal processing controller)
+PCI_IDENTITY = PciIdentity(vendor=0x1234, device=0x5644, revision=0x01, class_code=0x118000,
+                           subsystem_vendor=0x1234, subsystem=0x0001, bars=(Bar(R.BAR_SIZE),))
 
 
 class GenericServoCard(Card):
@@ -33,24 +39,21 @@ class GenericServoCard(Card):
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         super().__init__(name, config, ctx)
-        self.n = int(self.config.get("axes") or 4)
-        plant = _PLANTS[str(self.config.get("plant") or "servo")]
-        self.core = MotionCore(self.n, self.period_ns, plant)
+        self.n = self.opts.axes
+        self.core = MotionCore(self.n, self.period_ns, _PLANTS[self.opts.plant])
+        self.make_world(self.n)
         self.bar = self.add_region(
             Region("bar0", R.BAR_SIZE, widths=(1, 2, 4), endian="little",
                    description="registers (README.md)")
         )
         self.inta = self.add_irq("inta")
+        self.pci = self.add_config_space(PCI_IDENTITY, self.inta)
         end = R.AXIS_BASE + R.AXIS_STRIDE * self.n
         self.axis_regs = np.ndarray(
             (self.n,), dtype=R.AXIS_DTYPE, buffer=self.bar.buf, offset=R.AXIS_BASE
         )
         self._prev_flags = np.zeros(self.n, dtype=np.int64)
         self._axis_bit = np.left_shift(1, np.arange(self.n, dtype=np.int64))  # IRQ_STATUS bit n
-        self._inputs = {
-            key: np.zeros(self.n, dtype=bool)
-            for key in ("hard_limit_pos", "hard_limit_neg", "amp_fault", "encoder_loss", "home")
-        }
         self.abort_input = False
         self._declare_hooks(end)
         self.reset()
@@ -86,7 +89,7 @@ class GenericServoCard(Card):
                 if isinstance(values, list) and len(values) == self.n:
                     regs[field] = values
         self.core.servo_on(slice(None))
-        self._store_status()
+        self._world_changed()
 
     def nvram(self) -> dict[str, Any]:
         return {f: self.axis_regs[f].tolist() for f in ("vmax", "acc", "dec", "jerk")}
@@ -96,11 +99,14 @@ class GenericServoCard(Card):
         """Run up to n ticks in the motion core; stop at a tick that interrupted the host."""
         done = 0
         period = self.period_ns
+        sensing = self.world.mechanical  # the switches follow the stage: sense every tick
         while done < n:
-            k, events = self.core.run(n - done)
+            k, events = self.core.run(1 if sensing else n - done)
             done += k
             self.ticks += k
             self.now_ns = self.ticks * period
+            if sensing:
+                self.sense_world()
             if events:
                 self._on_events()
                 if self.pause:
@@ -220,38 +226,31 @@ class GenericServoCard(Card):
             raise ValueError(f"axis {axis!r} outside 0..{self.n - 1}")
         return axis
 
-    def _flag_inputs(self, axis: int, **values: bool | None) -> None:
-        for key, value in values.items():
-            if value is not None:
-                self._inputs[key][axis] = bool(value)
-        self.core.set_inputs(**self._inputs)
+    def physical_positions(self) -> np.ndarray:
+        return self.core.physical()
+
+    def apply_world(self) -> None:
+        """The axis world's switch levels and faults on the core's inputs (README.md
+        "Backdoor")."""
+        w, core = self.world, self.core
+        core.set_inputs(hard_limit_pos=w.limit_pos, hard_limit_neg=w.limit_neg, home=w.home,
+                        amp_fault=w.amp_fault, encoder_loss=w.encoder_loss)
+        changed = np.flatnonzero(core.jammed != w.jammed)
+        for a in changed.tolist():
+            core.set_jammed(a, bool(w.jammed[a]))
         self._store_status()
 
-    @control()
-    def set_limit(self, axis: int, positive: bool | None = None,
-                  negative: bool | None = None) -> None:
-        """Drive the axis's hard-limit switch inputs (True = switch active)."""
-        self._flag_inputs(self._axis(axis), hard_limit_pos=positive, hard_limit_neg=negative)
+    def drive_input(self, line: int, level: bool) -> None:
+        """Input `line` (0..31) of the INPUTS register."""
+        if not isinstance(line, int) or not 0 <= line < 32:
+            raise ValueError(f"line {line!r} outside 0..31")
+        bit = 1 << line
+        value = self.bar.get(R.INPUTS)
+        self.bar.set(R.INPUTS, value | bit if level else value & ~bit)
 
-    @control()
-    def set_home(self, axis: int, active: bool = True) -> None:
-        """Drive the axis's home switch input (True = switch active)."""
-        self._flag_inputs(self._axis(axis), home=active)
-
-    @control()
-    def amp_fault(self, axis: int, active: bool = True) -> None:
-        """Assert or clear the amplifier fault input of an axis."""
-        self._flag_inputs(self._axis(axis), amp_fault=active)
-
-    @control()
-    def encoder_loss(self, axis: int, active: bool = True) -> None:
-        """Lose (freeze) or restore the encoder of an axis."""
-        self._flag_inputs(self._axis(axis), encoder_loss=active)
-
-    @control()
-    def set_abort(self, active: bool = True) -> None:
-        """Drive the card's abort input: while active, axes in motion abort and motion commands
-        are refused (ERROR ABORT_INPUT)."""
+    def drive_estop(self, active: bool) -> None:
+        """The card's abort input: while active, axes in motion abort and motion commands are
+        refused (ERROR ABORT_INPUT)."""
         self.abort_input = bool(active)
         if self.abort_input:
             self.core.abort(self.core.profile.moving)
@@ -259,6 +258,34 @@ class GenericServoCard(Card):
         self._store_status()
 
     @control()
+    def set_limit(self, axis: str | int, side: str = "positive", active: bool = True,
+                  positive: bool | None = None, negative: bool | None = None) -> None:
+        """Hold a hard-limit switch active (or release it to the mechanics): side is positive
+        or negative. (`positive=`/`negative=` levels: deprecated, the form before the shared
+        vocabulary.)"""
+        if positive is None and negative is None:
+            super().set_limit(axis, side, active)
+            return
+        for flag, level in (("positive", positive), ("negative", negative)):
+            if level is not None:
+                super().set_limit(axis, flag, bool(level))
+
+    @control(deprecated="set_amp_fault")
+    def amp_fault(self, axis: int, active: bool = True) -> None:
+        """Assert or clear the amplifier fault input of an axis."""
+        self.set_amp_fault(axis, active)
+
+    @control(deprecated="set_encoder_loss")
+    def encoder_loss(self, axis: int, active: bool = True) -> None:
+        """Lose (freeze) or restore the encoder of an axis."""
+        self.set_encoder_loss(axis, active)
+
+    @control(deprecated="set_estop")
+    def set_abort(self, active: bool = True) -> None:
+        """Drive the card's abort input (set_estop)."""
+        self.drive_estop(active)
+
+    @control(deprecated="set_input")
     def set_inputs(self, value: int) -> None:
         """Set the 32 general-purpose inputs (INPUTS register)."""
         if not isinstance(value, int) or not 0 <= value <= 0xFFFFFFFF:

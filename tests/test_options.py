@@ -1,0 +1,89 @@
+"""Card options declared once (vdevd/devices/options.py): config loading checks them and hands
+the card one frozen object; a legal 0 stays 0; `[[card.axis]]` tables become the axis world."""
+
+from __future__ import annotations
+
+import tomllib
+
+import pytest
+
+from vdevd import config as configmod
+from vdevd.config import ConfigError
+from vdevd.devices import CARD_TYPES, card_class
+from vdevd.devices.base import CardContext
+from vdevd.devices.options import CardOptions, Option, parse_options
+from vdevd.rt.world import AxisMechanics
+
+DECLARED = {"axes": Option(int, 4, min=1, max=8, help="number of axes"),
+            "mode": Option(str, "a", choices=("a", "b"))}
+
+
+def test_defaults_are_filled_and_the_object_is_frozen() -> None:
+    opts = parse_options(DECLARED, {"axes": 2})
+    assert (opts.axes, opts.mode, opts.period_ns, opts.axis) == (2, "a", None, ())
+    assert opts["axes"] == 2 and dict(opts)["mode"] == "a"
+    with pytest.raises(AttributeError, match="read-only"):
+        opts.axes = 3  # type: ignore[misc]
+    with pytest.raises(AttributeError, match="no card option 'speed'"):
+        _ = opts.speed
+
+
+def test_an_unknown_key_is_refused_naming_the_known_ones() -> None:
+    with pytest.raises(ValueError, match=r"card\[0\].speed: unknown key \(keys: type, name, "
+                                         r"period_ns, axis, axes, mode\)"):
+        parse_options(DECLARED, {"speed": 1}, "card[0]")
+
+
+def test_a_parsed_object_is_handed_on_as_it_is() -> None:
+    opts = parse_options(DECLARED, {})
+    assert parse_options(DECLARED, opts) is opts
+
+
+def test_serial_zero_on_a_maxk_stays_zero() -> None:
+    """The `x or default` form turned a legal 0 into the default (issue 16)."""
+    cfg = configmod.parse({"card": [{"type": "oms-maxk", "name": "m", "serial": 0}]})
+    assert isinstance(cfg.cards[0].options, CardOptions)
+    assert cfg.cards[0].options.serial == 0
+
+
+def test_axis_tables_in_toml_become_the_cards_mechanics() -> None:
+    cfg = configmod.parse(tomllib.loads('''
+[[card]]
+type = "generic-servo"
+name = "s"
+axes = 2
+[[card.axis]]
+limits = [-1000, 1000]
+home = [100, 150]
+index = {period = 4000, phase = 250}
+probe = [10, 20]
+[[card.axis]]
+amp_fault = true
+'''))
+    opts = cfg.cards[0].options
+    assert opts.axis == (AxisMechanics((-1000, 1000), (100, 150), (4000, 250), (10, 20)),
+                         AxisMechanics(amp_fault=True))
+    card = card_class("generic-servo")("s", opts, CardContext(emit=lambda e: None))
+    assert card.world.pos_at.tolist() == [1000, float("inf")]
+    assert card.world.amp_fault.tolist() == [False, True]
+
+
+@pytest.mark.parametrize(("card", "message"), [
+    ({"axis": {"limits": [0, 1]}}, "card[0].axis: use [[card.axis]] tables"),
+    ({"axis": [{"limits": [3, 1]}]}, "card[0].axis[0].limits: 3 must be below 1"),
+    ({"axes": 1, "axis": [{}, {}]}, "axis: 2 [[card.axis]] tables for 1 axes"),
+    ({"period_ns": 1000}, "card[0].period_ns: 1000 is not an integer in 10000..1e9"),
+])
+def test_bad_axis_tables_and_periods_name_the_key(card: dict[str, object], message: str) -> None:
+    with pytest.raises((ConfigError, ValueError)) as info:
+        cfg = configmod.parse({"card": [{"type": "generic-servo", "name": "s", **card}]})
+        card_class("generic-servo")("s", cfg.cards[0].options, CardContext(emit=lambda e: None))
+    assert message in str(info.value)
+
+
+@pytest.mark.parametrize("type_name", list(CARD_TYPES))
+def test_every_card_declares_its_options_with_help(type_name: str) -> None:
+    for key, opt in card_class(type_name).options.items():
+        assert opt.help, f"{type_name}.{key} has no help"
+        if opt.default is not None:
+            assert opt.check(key, opt.default) == opt.default

@@ -1,0 +1,153 @@
+"""The backdoor vocabulary every card speaks (DESIGN.md "The axis world").
+
+`set_limit`, `set_home`, `set_home_window`, `set_index`, `set_input`, `set_analog`,
+`set_amp_fault`, `set_encoder_loss`, `set_estop` and `jam` have the same names and parameters on
+every card; each card maps them to its own signals (its README has the table). The axis actions
+change the card's `AxisWorld` and ask the card to apply it (`apply_world`); the input, analog and
+emergency-stop actions go to the card's `drive_input`, `drive_analog` and `drive_estop`. Axes are
+named as the card names them: a letter of `axis_letters` (any case) or a number counted from
+`axis_base`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, ClassVar
+
+from vdevd.rt.world import AxisWorld
+
+SIDES = ("positive", "negative")
+
+
+def control(name: str | None = None, *, deprecated: str | None = None
+            ) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Mark a method as a backdoor action (`rack.control(card, action, **params)`);
+    `deprecated` names the action of the shared vocabulary that replaces it."""
+
+    def mark(fn: Callable[..., Any]) -> Callable[..., Any]:
+        fn.__vdev_control__ = name or fn.__name__  # type: ignore[attr-defined]
+        fn.__vdev_deprecated__ = deprecated  # type: ignore[attr-defined]
+        return fn
+
+    return mark
+
+
+class WorldBackdoor:
+    """The shared backdoor actions; a card provides `world`, `apply_world` and the drives."""
+
+    #: letters that name the axes (in axis order), accepted in any case; "" for numbers only
+    axis_letters: ClassVar[str] = ""
+    #: the number of the first axis (0 or 1, as the manual counts)
+    axis_base: ClassVar[int] = 0
+    world: AxisWorld
+
+    def axis_index(self, axis: str | int) -> int:
+        """The index of the axis a backdoor call names; ValueError naming the card's axes."""
+        n = self.world.n
+        letters = self.axis_letters[:n]
+        if isinstance(axis, str) and len(axis) == 1 and axis.upper() in letters:
+            return letters.index(axis.upper())
+        if isinstance(axis, int) and not isinstance(axis, bool):
+            a = axis - self.axis_base
+            if 0 <= a < n:
+                return a
+        names = [*letters] if letters else []
+        numbers = f"{self.axis_base}..{self.axis_base + n - 1}"
+        raise ValueError(f"no axis {axis!r} (axes: {', '.join(names) + ' or ' if names else ''}"
+                         f"{numbers})")
+
+    def apply_world(self) -> None:
+        """Put the world's levels and faults on the card's inputs now (override)."""
+
+    def drive_input(self, line: int, level: bool) -> None:
+        """Drive general input `line` (override)."""
+        raise ValueError("this card has no general inputs")
+
+    def drive_analog(self, channel: int, volts: float) -> None:
+        """Drive analog input `channel` (override)."""
+        raise ValueError("this card has no analog inputs")
+
+    def drive_estop(self, active: bool) -> None:
+        """Drive the card's emergency-stop or abort input (override)."""
+        raise ValueError("this card has no emergency-stop input")
+
+    def physical_positions(self) -> Any:
+        """The stage's physical positions of the card's axes, in counts (override: usually
+        `MotionCore.physical()`)."""
+        raise NotImplementedError
+
+    def sense_world(self) -> None:
+        """Every tick: the switch levels from the stage's physical positions, applied when one
+        changed (nothing to do for a world without mechanics)."""
+        world = self.world
+        if world.mechanical and world.sense(self.physical_positions()):
+            self.apply_world()
+
+    def _world_changed(self) -> None:
+        """A backdoor change: the levels sensed again (or from the forces alone) and applied."""
+        if self.world.mechanical:
+            self.world.sense(self.physical_positions())
+        else:
+            self.world.forced()
+        self.apply_world()
+
+    @control()
+    def set_limit(self, axis: str | int, side: str = "positive", active: bool = True) -> None:
+        """Hold a hard-limit switch active (or release it to the mechanics): side is positive
+        or negative."""
+        if side not in SIDES:
+            raise ValueError(f"side {side!r} is not one of {', '.join(SIDES)}")
+        self.world.force_limit(self.axis_index(axis), side == "positive", bool(active))
+        self._world_changed()
+
+    @control()
+    def set_home(self, axis: str | int, active: bool = True) -> None:
+        """Hold the home switch active (or release it to the mechanics)."""
+        self.world.force_home_switch(self.axis_index(axis), bool(active))
+        self._world_changed()
+
+    @control()
+    def set_home_window(self, axis: str | int, low: float, high: float) -> None:
+        """Move the home switch: active while low <= physical position <= high (counts)."""
+        self.world.set_home_window(self.axis_index(axis), float(low), float(high))
+        self._world_changed()
+
+    @control()
+    def set_index(self, axis: str | int, period: float = 4096, phase: float = 0) -> None:
+        """Encoder index pulses every `period` counts at `phase` (physical counts; 0: none)."""
+        self.world.set_index(self.axis_index(axis), float(period), float(phase))
+        self._world_changed()
+
+    @control()
+    def set_input(self, line: int, level: bool) -> None:
+        """Drive a general-purpose input line (numbered as the card's manual numbers them)."""
+        self.drive_input(line, level)
+
+    @control()
+    def set_analog(self, channel: int, volts: float) -> None:
+        """Drive an analog input channel, in volts."""
+        self.drive_analog(channel, float(volts))
+
+    @control()
+    def set_amp_fault(self, axis: str | int, active: bool = True) -> None:
+        """Assert or clear the amplifier fault of an axis."""
+        self.world.set_fault("amp_fault", self.axis_index(axis), bool(active))
+        self._world_changed()
+
+    @control()
+    def set_encoder_loss(self, axis: str | int, active: bool = True) -> None:
+        """Lose (freeze) or restore the encoder of an axis."""
+        self.world.set_fault("encoder_loss", self.axis_index(axis), bool(active))
+        self._world_changed()
+
+    @control()
+    def set_estop(self, active: bool = True) -> None:
+        """Drive the card's emergency-stop (abort) input."""
+        self.drive_estop(bool(active))
+
+    @control()
+    def jam(self, axis: str | int, active: bool = True) -> None:
+        """Block the motor of an axis: the stage stays put while the command goes on, so the
+        following error grows."""
+        self.world.set_fault("jammed", self.axis_index(axis), bool(active))
+        self._world_changed()
