@@ -6,12 +6,12 @@ from __future__ import annotations
 import pytest
 import vdevclient
 from vdevclient.cli import main as vdevctl
+from vdevmaps import pci
 
 from tests.devices.generic.test_inputs import command
 from vdevd.devices.generic import regions as R
 from vdevd.devices.generic.regions import Command
 from vdevd.testing import DaemonThread
-from vdevmaps import pci
 
 
 @pytest.fixture
