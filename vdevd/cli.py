@@ -66,13 +66,18 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _types() -> int:
+    """Each card type's options, printed from their declaration (vdevd/devices/options.py)."""
+    from vdevd.config import PERIOD_NS
     from vdevd.devices import CARD_TYPES, card_class
+    from vdevd.rt.world import AXIS_KEYS
 
+    print(f"every card: period_ns ({PERIOD_NS[0]}..{PERIOD_NS[1]} ns, default the type's own);"
+          f" [[card.axis]] tables, one per axis: {', '.join(AXIS_KEYS)}")
     for name in CARD_TYPES:
         cls = card_class(name)
-        print(name)
+        print(f"{name} (period {cls.default_period_ns} ns)")
         for key, opt in cls.options.items():
-            print(f"  {key} = {opt.default!r}  {opt.help}")
+            print(f"  {key} = {opt.default!r}  {opt.describe()}")
     return 0
 
 
