@@ -17,52 +17,39 @@ from collections import OrderedDict
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
+from vdevmaps.galil import (
+    AXIS_ITEMS,
+    AXIS_SIZE,
+    CLEAR_SEQUENCE,
+    EMPTY_READ,
+    FIFO_SIZE,
+    FIRST_AXIS,
+    GENERAL_ITEMS,
+    IRQ_ENABLE_SEQUENCE,
+    IRQ_STATUS_SELECT,
+    ControlStatus,
+    REV4DMCDataRecordAxisOffsets,
+    REV4DMCDataRecordGeneralOffsets,
+    SecondaryStatus,
+)
+from vdevmaps.galil import A16Reg as Reg
+
 from vdevclient.core import Prepared, Rack
 
 log = logging.getLogger(__name__)
 
 CARD_TYPE = "galil-dmc13x8"
 REGION = "a16"
-EMPTY_READ = 0xFF  # "Reading data from the READ register when the register is empty ... FF hex"
 WRITE_BURST = 16  # bytes allowed after bit 4 reads 0, at the default almost-full level [M Ch4]
 TERMINATORS = b";\r"
 REPLY_ENDS = b":?"
 FIRST_READS = 32  # reply bytes read per command in the first batch of a line not seen before
-FIFO_SIZE = 512  # the response FIFO [M Ch4 Introduction]: the most one batch needs to read
 MEMO_SIZE = 256  # commands whose reply length is remembered
 _NS_PER_MS = 1_000_000
 
 
-class Reg(enum.IntEnum):
-    """Offsets from the base N; D08(O), odd byte lanes only [M Ch4 §Communication Registers]."""
-
-    DATA = 1
-    CONTROL = 3
-    SECONDARY_DATA = 5
-    SECONDARY_STATUS = 7
-
-
-class Status(enum.IntFlag):
-    """CONTROL (N+3) read [M Ch4 §Simplified Communication Procedure, §Clearing FIFO Buffer]."""
-
-    WRITE_ALMOST_FULL = 1 << 4
-    READ_EMPTY = 1 << 5
-    CLEARED = 1 << 7
-
-
-class SecondaryStatus(enum.IntFlag):
-    """N+7 read [M Ch4 §Overview of Secondary FIFO Procedure]."""
-
-    BUSY = 1 << 0
-    FREEZE = 1 << 1
-    NOT_EMPTY = 1 << 2
-
-
-_ALMOST_FULL = int(Status.WRITE_ALMOST_FULL)  # plain ints: IntFlag arithmetic is slow
-_READ_EMPTY = int(Status.READ_EMPTY)
-CLEAR_SEQUENCE = (0x01, 0x80, 0x01, 0x80)  # [M Ch4 §Clearing FIFO Buffer]
-IRQ_ENABLE_SEQUENCE = (0x02, 0x04)  # [M Ch4 §Setting up Interrupts]
-IRQ_STATUS_SELECT = 0x06  # then read N+3 [M Ch4 §Servicing Interrupts]
+_ALMOST_FULL = int(ControlStatus.WRITE_ALMOST_FULL)  # plain ints: IntFlag arithmetic is slow
+_READ_EMPTY = int(ControlStatus.READ_EMPTY)
 
 
 class Reply(NamedTuple):
@@ -372,38 +359,9 @@ def terminators(command: bytes) -> int:
 
 
 # -- the data record, revision 4 (`QZ` -> axes,24,16,28) [DMCLIB dmcdrc.h; M Ch4 memory map] -------
-GENERAL_SIZE = 24
-COORDINATED_SIZE = 16
-AXIS_SIZE = 28
-FIRST_AXIS = GENERAL_SIZE + COORDINATED_SIZE
-
-#: (name, offset, struct format) of the general and coordinated items (little-endian, spec §8 q.1)
-GENERAL_ITEMS: tuple[tuple[str, int, str], ...] = (
-    ("sample_number", 0, "<H"),
-    *((f"input_bank_{i}", 2 + i, "<B") for i in range(10)),
-    *((f"output_bank_{i}", 12 + i, "<B") for i in range(10)),
-    ("error_code", 22, "<B"),
-    ("general_status", 23, "<B"),
-    ("s_plane_segment_count", 24, "<H"),
-    ("s_plane_move_status", 26, "<H"),
-    ("s_distance", 28, "<i"),
-    ("t_plane_segment_count", 32, "<H"),
-    ("t_plane_move_status", 34, "<H"),
-    ("t_distance", 36, "<i"),
-)
-#: (name, offset in the axis block, struct format) of each axis's items
-AXIS_ITEMS: tuple[tuple[str, int, str], ...] = (
-    ("status", 0, "<H"),
-    ("switches", 2, "<B"),
-    ("stop_code", 3, "<B"),
-    ("reference_position", 4, "<i"),
-    ("motor_position", 8, "<i"),
-    ("position_error", 12, "<i"),
-    ("aux_position", 16, "<i"),
-    ("velocity", 20, "<i"),
-    ("torque", 24, "<h"),
-    ("analog_in", 26, "<h"),
-)
+#: the items of the layout (`vdevmaps.galil`) with their little-endian struct formats (spec §8 q.1)
+_GENERAL_FORMATS = tuple((name, int(off), "<" + fmt) for name, off, fmt in GENERAL_ITEMS)
+_AXIS_FORMATS = tuple((name, int(off), "<" + fmt) for name, off, fmt in AXIS_ITEMS)
 
 
 def record_size(qz: str) -> int | None:
@@ -417,11 +375,11 @@ def record_size(qz: str) -> int | None:
 
 def decode_record(record: bytes, axes: int, letters: str = "ABCDEFGH") -> dict[str, int]:
     """Every item of a revision-4 record by name (gclib's style: `axis_a_motor_position`)."""
-    out = {name: struct.unpack_from(fmt, record, off)[0] for name, off, fmt in GENERAL_ITEMS}
+    out = {name: struct.unpack_from(fmt, record, off)[0] for name, off, fmt in _GENERAL_FORMATS}
     for k in range(axes):
         base = FIRST_AXIS + AXIS_SIZE * k
         prefix = f"axis_{letters[k].lower()}_"
-        for name, off, fmt in AXIS_ITEMS:
+        for name, off, fmt in _AXIS_FORMATS:
             out[prefix + name] = struct.unpack_from(fmt, record, base + off)[0]
     return out
 
@@ -505,72 +463,12 @@ class DMCDataRecordAxisIds(enum.IntEnum):
     DRIdAxis8 = 8
 
 
-class REV4DMCDataRecordGeneralOffsets(enum.IntEnum):
-    """Revision 4 (`QZ` -> axes,24,16,28): general items and where each axis block starts."""
-
-    DRREV4GenOffSampleNumber = 0
-    DRREV4GenOffGeneralInput0 = 2
-    DRREV4GenOffGeneralInput1 = 3
-    DRREV4GenOffGeneralInput2 = 4
-    DRREV4GenOffGeneralInput3 = 5
-    DRREV4GenOffGeneralInput4 = 6
-    DRREV4GenOffGeneralInput5 = 7
-    DRREV4GenOffGeneralInput6 = 8
-    DRREV4GenOffGeneralInput7 = 9
-    DRREV4GenOffGeneralInput8 = 10
-    DRREV4GenOffGeneralInput9 = 11
-    DRREV4GenOffGeneralOutput0 = 12
-    DRREV4GenOffGeneralOutput1 = 13
-    DRREV4GenOffGeneralOutput2 = 14
-    DRREV4GenOffGeneralOutput3 = 15
-    DRREV4GenOffGeneralOutput4 = 16
-    DRREV4GenOffGeneralOutput5 = 17
-    DRREV4GenOffGeneralOutput6 = 18
-    DRREV4GenOffGeneralOutput7 = 19
-    DRREV4GenOffGeneralOutput8 = 20
-    DRREV4GenOffGeneralOutput9 = 21
-    DRREV4GenOffErrorCode = 22
-    DRREV4GenOffGeneralStatus = 23
-    DRREV4GenOffSegmentCountS = 24
-    DRREV4GenOffCoordinatedMoveStatusS = 26
-    DRREV4GenOffCoordinatedMoveDistanceS = 28
-    DRREV4GenOffSegmentCountT = 32
-    DRREV4GenOffCoordinatedMoveStatusT = 34
-    DRREV4GenOffCoordinatedMoveDistanceT = 36
-    DRREV4GenOffAxis1 = 40
-    DRREV4GenOffAxis2 = 68
-    DRREV4GenOffAxis3 = 96
-    DRREV4GenOffAxis4 = 124
-    DRREV4GenOffAxis5 = 152
-    DRREV4GenOffAxis6 = 180
-    DRREV4GenOffAxis7 = 208
-    DRREV4GenOffAxis8 = 236
-    DRREV4GenOffEnd = 264
-
-
-class REV4DMCDataRecordAxisOffsets(enum.IntEnum):
-    """Revision 4: items within an axis block."""
-
-    DRREV4AxisOffNoAxis = 0
-    DRREV4AxisOffAxisStatus = 0
-    DRREV4AxisOffAxisSwitches = 2
-    DRREV4AxisOffAxisStopCode = 3
-    DRREV4AxisOffAxisReferencePosition = 4
-    DRREV4AxisOffAxisMotorPosition = 8
-    DRREV4AxisOffAxisPositionError = 12
-    DRREV4AxisOffAxisAuxillaryPosition = 16
-    DRREV4AxisOffAxisVelocity = 20
-    DRREV4AxisOffAxisTorque = 24
-    DRREV4AxisOffAnalogInput = 26
-    DRREV4AxisOffEnd = 28
-
-
 _TYPE_OF_FORMAT = {"<B": DMCDataRecordTypes.DRTypeUCHAR, "<H": DMCDataRecordTypes.DRTypeUSHORT,
                    "<h": DMCDataRecordTypes.DRTypeSHORT, "<i": DMCDataRecordTypes.DRTypeLONG}
 _FORMAT_OF_TYPE: dict[int, str] = {int(t): f for f, t in _TYPE_OF_FORMAT.items()} | {
     DMCDataRecordTypes.DRTypeCHAR: "<b", DMCDataRecordTypes.DRTypeULONG: "<I"}
-_GENERAL_TYPES: dict[int, int] = {off: _TYPE_OF_FORMAT[fmt] for _, off, fmt in GENERAL_ITEMS}
-_AXIS_TYPES: dict[int, int] = {off: _TYPE_OF_FORMAT[fmt] for _, off, fmt in AXIS_ITEMS}
+_GENERAL_TYPES: dict[int, int] = {off: _TYPE_OF_FORMAT[fmt] for _, off, fmt in _GENERAL_FORMATS}
+_AXIS_TYPES: dict[int, int] = {off: _TYPE_OF_FORMAT[fmt] for _, off, fmt in _AXIS_FORMATS}
 #: item id -> offset, for the items of the general section and of an axis block [dmcdma.c]
 _GENERAL_BY_ID: dict[int, int] = {
     DMCDataRecordItemIds["DRId" + m.name.removeprefix("DRREV4GenOff")]: m.value
