@@ -5,6 +5,7 @@ reads the reply from N+1 while bit 5 of N+3 says data, clears the FIFOs, pops in
 reads the secondary-FIFO data record. Every exchange is one `batch` where it can be: a value
 `wait` only peeks (PROTOCOL.md), so `[writes, wait data, reads, status]` sends a command and reads
 its reply in one round trip. `vdevclient.galil` (the DMC library) and `vdevclient.gclib` build on it.
+The register map and the data record's layout are `vdevmaps.galil`, the daemon's too.
 """
 
 from __future__ import annotations
@@ -21,18 +22,19 @@ from vdevmaps.galil import (
     AXIS_ITEMS,
     AXIS_SIZE,
     CLEAR_SEQUENCE,
+    DEFAULT_ALMOST_FULL,
     EMPTY_READ,
     FIFO_SIZE,
     FIRST_AXIS,
     GENERAL_ITEMS,
     IRQ_ENABLE_SEQUENCE,
     IRQ_STATUS_SELECT,
+    A16Reg,
     ControlStatus,
     REV4DMCDataRecordAxisOffsets,
     REV4DMCDataRecordGeneralOffsets,
     SecondaryStatus,
 )
-from vdevmaps.galil import A16Reg as Reg
 
 from vdevclient.core import Prepared, Rack
 
@@ -40,14 +42,12 @@ log = logging.getLogger(__name__)
 
 CARD_TYPE = "galil-dmc13x8"
 REGION = "a16"
-WRITE_BURST = 16  # bytes allowed after bit 4 reads 0, at the default almost-full level [M Ch4]
+WRITE_BURST = DEFAULT_ALMOST_FULL  # bytes allowed after bit 4 reads 0 [M Ch4]
 TERMINATORS = b";\r"
 REPLY_ENDS = b":?"
 FIRST_READS = 32  # reply bytes read per command in the first batch of a line not seen before
 MEMO_SIZE = 256  # commands whose reply length is remembered
 _NS_PER_MS = 1_000_000
-
-
 _ALMOST_FULL = int(ControlStatus.WRITE_ALMOST_FULL)  # plain ints: IntFlag arithmetic is slow
 _READ_EMPTY = int(ControlStatus.READ_EMPTY)
 
@@ -68,7 +68,7 @@ class DmcBus:
         self.timeout_ms = timeout_ms
         self.lockstep = rack.info.get("clock", {}).get("mode") == "lockstep"
         where = {"card": card, "region": REGION}
-        self._status = {"op": "read", "offset": Reg.CONTROL.value, "size": 1, **where}
+        self._status = {"op": "read", "offset": A16Reg.CONTROL.value, "size": 1, **where}
         self._where = where
         self._wait_cache: dict[tuple[int, int, int, int], dict[str, Any]] = {}
         self._send_cache: dict[tuple[bytes, bool, int], list[dict[str, Any]]] = {}
@@ -107,7 +107,7 @@ class DmcBus:
 
     def _fifo_write(self, data: bytes) -> dict[str, Any]:
         """Bytes written one by one to N+1 (a repeated write: PROTOCOL.md `rep`)."""
-        return {"op": "write", "offset": int(Reg.DATA), "data": data, "rep": True, **self._where}
+        return {"op": "write", "offset": int(A16Reg.DATA), "data": data, "rep": True, **self._where}
 
     def _fifo_read(self, offset: int, size: int) -> dict[str, Any]:
         """`size` single reads of one FIFO port (a repeated read: PROTOCOL.md `rep`)."""
@@ -120,7 +120,7 @@ class DmcBus:
         ops = self._send_cache.get(key)
         if ops is None:
             ops = []
-            room_wait = self._wait(Reg.CONTROL, _ALMOST_FULL, 0, timeout_ns)
+            room_wait = self._wait(A16Reg.CONTROL, _ALMOST_FULL, 0, timeout_ns)
             for start in range(0, len(data), WRITE_BURST):
                 if start or not self._room:
                     ops.append(room_wait)
@@ -159,9 +159,9 @@ class DmcBus:
         waits = sum(1 for op in ops if op["op"] == "wait")
         owed, self.owed = self.owed, 0
         reads = self._reply_len.get(data, FIRST_READS * replies) + owed
-        ops.append(self._fifo_read(Reg.DATA, reads + 1))
+        ops.append(self._fifo_read(A16Reg.DATA, reads + 1))
         if not self.eager:
-            ops.insert(-1, self._wait(Reg.CONTROL, _READ_EMPTY, 0, timeout_ns))
+            ops.insert(-1, self._wait(A16Reg.CONTROL, _READ_EMPTY, 0, timeout_ns))
             waits += 1
         res = self.batch(ops, waits * timeout_ns)
         if waits and sent and not _fired(res[:sent]):  # a burst found no room: part of the line is out
@@ -198,7 +198,7 @@ class DmcBus:
         if not got and want:
             self.eager = False  # nothing to read at all: the card answers at its next sample
         timeout_ns = self._timeout_ns()
-        data_wait = self._wait(Reg.CONTROL, _READ_EMPTY, 0, timeout_ns)
+        data_wait = self._wait(A16Reg.CONTROL, _READ_EMPTY, 0, timeout_ns)
         while True:
             if _count(got) >= want:
                 # Every reply came, so the card took every byte sent: the command FIFO is empty
@@ -207,7 +207,7 @@ class DmcBus:
                 self.stale = chunk[-1] != EMPTY_READ
                 break
             reads = min(max(FIRST_READS, 4 * len(got)), FIFO_SIZE)
-            res = self.batch([data_wait, self._fifo_read(Reg.DATA, reads + 1)], timeout_ns)
+            res = self.batch([data_wait, self._fifo_read(A16Reg.DATA, reads + 1)], timeout_ns)
             if not res[0]["fired"]:
                 break
             chunk = res[-1]
@@ -230,7 +230,7 @@ class DmcBus:
         """Keep the first batch of a one-burst line for the common state; its lines are those
         whose reply length is remembered, so `_remember` bounds and refreshes it."""
         length = self._reply_len[data]
-        ops = [self._fifo_write(data), self._fifo_read(Reg.DATA, length + 1)]
+        ops = [self._fifo_write(data), self._fifo_read(A16Reg.DATA, length + 1)]
         self._quick[data] = (self.rack.prepare({"op": "batch", "ops": ops}), replies, length)
 
     def send(self, data: bytes, replies: int) -> None:
@@ -268,7 +268,7 @@ class DmcBus:
     def drain(self) -> None:
         """Read whatever waits in the READ FIFO into the unsolicited buffer, until bit 5 reads 1."""
         while True:
-            res = self.batch([self._fifo_read(Reg.DATA, FIRST_READS), self._status])
+            res = self.batch([self._fifo_read(A16Reg.DATA, FIRST_READS), self._status])
             got = res[0].split(b"\xff", 1)[0]
             self._take_unsolicited(got)
             status = res[-1][0]
@@ -288,17 +288,17 @@ class DmcBus:
     # -- FIFO control and interrupts [M Ch4] ------------------------------------------------------
     def clear(self) -> None:
         """Read N+3, write 01 80 01 80, read N+3 [M Ch4 §Clearing FIFO Buffer]."""
-        ops = [self._status, *(self.write_op(Reg.CONTROL, b) for b in CLEAR_SEQUENCE), self._status]
+        ops = [self._status, *(self.write_op(A16Reg.CONTROL, b) for b in CLEAR_SEQUENCE), self._status]
         status = self.batch(ops)[-1][0]
         self.owed, self.stale = 0, False
         self._room = not status & _ALMOST_FULL
 
     def enable_interrupts(self) -> None:
-        self.batch([self.write_op(Reg.CONTROL, b) for b in IRQ_ENABLE_SEQUENCE])
+        self.batch([self.write_op(A16Reg.CONTROL, b) for b in IRQ_ENABLE_SEQUENCE])
 
     def interrupt_status(self) -> int:
         """Write 6 to N+3, then read N+3: the oldest queued status code, 0 when none [M Ch4]."""
-        res = self.batch([self.write_op(Reg.CONTROL, IRQ_STATUS_SELECT), self._status])
+        res = self.batch([self.write_op(A16Reg.CONTROL, IRQ_STATUS_SELECT), self._status])
         return int(res[-1][0])
 
     def wait_interrupt(self, timeout_ms: int, after_seq: int | None) -> tuple[int, int | None]:
@@ -308,7 +308,7 @@ class DmcBus:
                                 "timeout_ns": timeout_ms * _NS_PER_MS}
         if after_seq is not None:
             wait["after_seq"] = after_seq
-        res = self.batch([wait, self.write_op(Reg.CONTROL, IRQ_STATUS_SELECT), self._status],
+        res = self.batch([wait, self.write_op(A16Reg.CONTROL, IRQ_STATUS_SELECT), self._status],
                          wait["timeout_ns"])
         if not res[0]["fired"]:
             return 0, None
@@ -319,12 +319,12 @@ class DmcBus:
         """One data record in one batch: wait not-empty, freeze (write N+5), wait not busy, read
         `size` bytes of N+5, resume (write N+5); None when no record came within the timeout."""
         timeout_ns = self._timeout_ns()
-        freeze = self.write_op(Reg.SECONDARY_DATA, 0)
-        ops = [self._wait(Reg.SECONDARY_STATUS, SecondaryStatus.NOT_EMPTY, SecondaryStatus.NOT_EMPTY,
+        freeze = self.write_op(A16Reg.SECONDARY_DATA, 0)
+        ops = [self._wait(A16Reg.SECONDARY_STATUS, SecondaryStatus.NOT_EMPTY, SecondaryStatus.NOT_EMPTY,
                           timeout_ns),
                freeze,
-               self._wait(Reg.SECONDARY_STATUS, SecondaryStatus.BUSY, 0, timeout_ns),
-               self._fifo_read(Reg.SECONDARY_DATA, size),
+               self._wait(A16Reg.SECONDARY_STATUS, SecondaryStatus.BUSY, 0, timeout_ns),
+               self._fifo_read(A16Reg.SECONDARY_DATA, size),
                freeze]
         res = self.batch(ops, 2 * timeout_ns)
         if not res[0]["fired"]:
