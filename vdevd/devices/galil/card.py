@@ -71,6 +71,7 @@ class GalilCard(Card):
                                  record_endian=str(cfg.get("record_endian") or "little"))
 
     def reset(self) -> None:
+        """Power-on: the window empty, the line released, the firmware reset."""
         self.bus.reset()
         self.irq.clear()
         self.firmware.reset()
