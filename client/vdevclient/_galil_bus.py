@@ -5,6 +5,7 @@ reads the reply from N+1 while bit 5 of N+3 says data, clears the FIFOs, pops in
 reads the secondary-FIFO data record. Every exchange is one `batch` where it can be: a value
 `wait` only peeks (PROTOCOL.md), so `[writes, wait data, reads, status]` sends a command and reads
 its reply in one round trip. `vdevclient.galil` (the DMC library) and `vdevclient.gclib` build on it.
+The register map and the data record's layout are `vdevmaps.galil`, the daemon's too.
 """
 
 from __future__ import annotations
@@ -17,52 +18,38 @@ from collections import OrderedDict
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
+from vdevmaps.galil import (
+    AXIS_ITEMS,
+    AXIS_SIZE,
+    CLEAR_SEQUENCE,
+    DEFAULT_ALMOST_FULL,
+    EMPTY_READ,
+    FIFO_SIZE,
+    FIRST_AXIS,
+    GENERAL_ITEMS,
+    IRQ_ENABLE_SEQUENCE,
+    IRQ_STATUS_SELECT,
+    A16Reg,
+    ControlStatus,
+    REV4DMCDataRecordAxisOffsets,
+    REV4DMCDataRecordGeneralOffsets,
+    SecondaryStatus,
+)
+
 from vdevclient.core import Prepared, Rack
 
 log = logging.getLogger(__name__)
 
 CARD_TYPE = "galil-dmc13x8"
 REGION = "a16"
-EMPTY_READ = 0xFF  # "Reading data from the READ register when the register is empty ... FF hex"
-WRITE_BURST = 16  # bytes allowed after bit 4 reads 0, at the default almost-full level [M Ch4]
+WRITE_BURST = DEFAULT_ALMOST_FULL  # bytes allowed after bit 4 reads 0 [M Ch4]
 TERMINATORS = b";\r"
 REPLY_ENDS = b":?"
 FIRST_READS = 32  # reply bytes read per command in the first batch of a line not seen before
-FIFO_SIZE = 512  # the response FIFO [M Ch4 Introduction]: the most one batch needs to read
 MEMO_SIZE = 256  # commands whose reply length is remembered
 _NS_PER_MS = 1_000_000
-
-
-class Reg(enum.IntEnum):
-    """Offsets from the base N; D08(O), odd byte lanes only [M Ch4 §Communication Registers]."""
-
-    DATA = 1
-    CONTROL = 3
-    SECONDARY_DATA = 5
-    SECONDARY_STATUS = 7
-
-
-class Status(enum.IntFlag):
-    """CONTROL (N+3) read [M Ch4 §Simplified Communication Procedure, §Clearing FIFO Buffer]."""
-
-    WRITE_ALMOST_FULL = 1 << 4
-    READ_EMPTY = 1 << 5
-    CLEARED = 1 << 7
-
-
-class SecondaryStatus(enum.IntFlag):
-    """N+7 read [M Ch4 §Overview of Secondary FIFO Procedure]."""
-
-    BUSY = 1 << 0
-    FREEZE = 1 << 1
-    NOT_EMPTY = 1 << 2
-
-
-_ALMOST_FULL = int(Status.WRITE_ALMOST_FULL)  # plain ints: IntFlag arithmetic is slow
-_READ_EMPTY = int(Status.READ_EMPTY)
-CLEAR_SEQUENCE = (0x01, 0x80, 0x01, 0x80)  # [M Ch4 §Clearing FIFO Buffer]
-IRQ_ENABLE_SEQUENCE = (0x02, 0x04)  # [M Ch4 §Setting up Interrupts]
-IRQ_STATUS_SELECT = 0x06  # then read N+3 [M Ch4 §Servicing Interrupts]
+_ALMOST_FULL = int(ControlStatus.WRITE_ALMOST_FULL)  # plain ints: IntFlag arithmetic is slow
+_READ_EMPTY = int(ControlStatus.READ_EMPTY)
 
 
 class Reply(NamedTuple):
@@ -81,7 +68,7 @@ class DmcBus:
         self.timeout_ms = timeout_ms
         self.lockstep = rack.info.get("clock", {}).get("mode") == "lockstep"
         where = {"card": card, "region": REGION}
-        self._status = {"op": "read", "offset": Reg.CONTROL.value, "size": 1, **where}
+        self._status = {"op": "read", "offset": A16Reg.CONTROL.value, "size": 1, **where}
         self._where = where
         self._wait_cache: dict[tuple[int, int, int, int], dict[str, Any]] = {}
         self._send_cache: dict[tuple[bytes, bool, int], list[dict[str, Any]]] = {}
@@ -120,7 +107,7 @@ class DmcBus:
 
     def _fifo_write(self, data: bytes) -> dict[str, Any]:
         """Bytes written one by one to N+1 (a repeated write: PROTOCOL.md `rep`)."""
-        return {"op": "write", "offset": int(Reg.DATA), "data": data, "rep": True, **self._where}
+        return {"op": "write", "offset": int(A16Reg.DATA), "data": data, "rep": True, **self._where}
 
     def _fifo_read(self, offset: int, size: int) -> dict[str, Any]:
         """`size` single reads of one FIFO port (a repeated read: PROTOCOL.md `rep`)."""
@@ -133,7 +120,7 @@ class DmcBus:
         ops = self._send_cache.get(key)
         if ops is None:
             ops = []
-            room_wait = self._wait(Reg.CONTROL, _ALMOST_FULL, 0, timeout_ns)
+            room_wait = self._wait(A16Reg.CONTROL, _ALMOST_FULL, 0, timeout_ns)
             for start in range(0, len(data), WRITE_BURST):
                 if start or not self._room:
                     ops.append(room_wait)
@@ -172,9 +159,9 @@ class DmcBus:
         waits = sum(1 for op in ops if op["op"] == "wait")
         owed, self.owed = self.owed, 0
         reads = self._reply_len.get(data, FIRST_READS * replies) + owed
-        ops.append(self._fifo_read(Reg.DATA, reads + 1))
+        ops.append(self._fifo_read(A16Reg.DATA, reads + 1))
         if not self.eager:
-            ops.insert(-1, self._wait(Reg.CONTROL, _READ_EMPTY, 0, timeout_ns))
+            ops.insert(-1, self._wait(A16Reg.CONTROL, _READ_EMPTY, 0, timeout_ns))
             waits += 1
         res = self.batch(ops, waits * timeout_ns)
         if waits and sent and not _fired(res[:sent]):  # a burst found no room: part of the line is out
@@ -211,7 +198,7 @@ class DmcBus:
         if not got and want:
             self.eager = False  # nothing to read at all: the card answers at its next sample
         timeout_ns = self._timeout_ns()
-        data_wait = self._wait(Reg.CONTROL, _READ_EMPTY, 0, timeout_ns)
+        data_wait = self._wait(A16Reg.CONTROL, _READ_EMPTY, 0, timeout_ns)
         while True:
             if _count(got) >= want:
                 # Every reply came, so the card took every byte sent: the command FIFO is empty
@@ -220,7 +207,7 @@ class DmcBus:
                 self.stale = chunk[-1] != EMPTY_READ
                 break
             reads = min(max(FIRST_READS, 4 * len(got)), FIFO_SIZE)
-            res = self.batch([data_wait, self._fifo_read(Reg.DATA, reads + 1)], timeout_ns)
+            res = self.batch([data_wait, self._fifo_read(A16Reg.DATA, reads + 1)], timeout_ns)
             if not res[0]["fired"]:
                 break
             chunk = res[-1]
@@ -243,7 +230,7 @@ class DmcBus:
         """Keep the first batch of a one-burst line for the common state; its lines are those
         whose reply length is remembered, so `_remember` bounds and refreshes it."""
         length = self._reply_len[data]
-        ops = [self._fifo_write(data), self._fifo_read(Reg.DATA, length + 1)]
+        ops = [self._fifo_write(data), self._fifo_read(A16Reg.DATA, length + 1)]
         self._quick[data] = (self.rack.prepare({"op": "batch", "ops": ops}), replies, length)
 
     def send(self, data: bytes, replies: int) -> None:
@@ -281,7 +268,7 @@ class DmcBus:
     def drain(self) -> None:
         """Read whatever waits in the READ FIFO into the unsolicited buffer, until bit 5 reads 1."""
         while True:
-            res = self.batch([self._fifo_read(Reg.DATA, FIRST_READS), self._status])
+            res = self.batch([self._fifo_read(A16Reg.DATA, FIRST_READS), self._status])
             got = res[0].split(b"\xff", 1)[0]
             self._take_unsolicited(got)
             status = res[-1][0]
@@ -301,17 +288,17 @@ class DmcBus:
     # -- FIFO control and interrupts [M Ch4] ------------------------------------------------------
     def clear(self) -> None:
         """Read N+3, write 01 80 01 80, read N+3 [M Ch4 §Clearing FIFO Buffer]."""
-        ops = [self._status, *(self.write_op(Reg.CONTROL, b) for b in CLEAR_SEQUENCE), self._status]
+        ops = [self._status, *(self.write_op(A16Reg.CONTROL, b) for b in CLEAR_SEQUENCE), self._status]
         status = self.batch(ops)[-1][0]
         self.owed, self.stale = 0, False
         self._room = not status & _ALMOST_FULL
 
     def enable_interrupts(self) -> None:
-        self.batch([self.write_op(Reg.CONTROL, b) for b in IRQ_ENABLE_SEQUENCE])
+        self.batch([self.write_op(A16Reg.CONTROL, b) for b in IRQ_ENABLE_SEQUENCE])
 
     def interrupt_status(self) -> int:
         """Write 6 to N+3, then read N+3: the oldest queued status code, 0 when none [M Ch4]."""
-        res = self.batch([self.write_op(Reg.CONTROL, IRQ_STATUS_SELECT), self._status])
+        res = self.batch([self.write_op(A16Reg.CONTROL, IRQ_STATUS_SELECT), self._status])
         return int(res[-1][0])
 
     def wait_interrupt(self, timeout_ms: int, after_seq: int | None) -> tuple[int, int | None]:
@@ -321,7 +308,7 @@ class DmcBus:
                                 "timeout_ns": timeout_ms * _NS_PER_MS}
         if after_seq is not None:
             wait["after_seq"] = after_seq
-        res = self.batch([wait, self.write_op(Reg.CONTROL, IRQ_STATUS_SELECT), self._status],
+        res = self.batch([wait, self.write_op(A16Reg.CONTROL, IRQ_STATUS_SELECT), self._status],
                          wait["timeout_ns"])
         if not res[0]["fired"]:
             return 0, None
@@ -332,12 +319,12 @@ class DmcBus:
         """One data record in one batch: wait not-empty, freeze (write N+5), wait not busy, read
         `size` bytes of N+5, resume (write N+5); None when no record came within the timeout."""
         timeout_ns = self._timeout_ns()
-        freeze = self.write_op(Reg.SECONDARY_DATA, 0)
-        ops = [self._wait(Reg.SECONDARY_STATUS, SecondaryStatus.NOT_EMPTY, SecondaryStatus.NOT_EMPTY,
+        freeze = self.write_op(A16Reg.SECONDARY_DATA, 0)
+        ops = [self._wait(A16Reg.SECONDARY_STATUS, SecondaryStatus.NOT_EMPTY, SecondaryStatus.NOT_EMPTY,
                           timeout_ns),
                freeze,
-               self._wait(Reg.SECONDARY_STATUS, SecondaryStatus.BUSY, 0, timeout_ns),
-               self._fifo_read(Reg.SECONDARY_DATA, size),
+               self._wait(A16Reg.SECONDARY_STATUS, SecondaryStatus.BUSY, 0, timeout_ns),
+               self._fifo_read(A16Reg.SECONDARY_DATA, size),
                freeze]
         res = self.batch(ops, 2 * timeout_ns)
         if not res[0]["fired"]:
@@ -372,38 +359,9 @@ def terminators(command: bytes) -> int:
 
 
 # -- the data record, revision 4 (`QZ` -> axes,24,16,28) [DMCLIB dmcdrc.h; M Ch4 memory map] -------
-GENERAL_SIZE = 24
-COORDINATED_SIZE = 16
-AXIS_SIZE = 28
-FIRST_AXIS = GENERAL_SIZE + COORDINATED_SIZE
-
-#: (name, offset, struct format) of the general and coordinated items (little-endian, spec §8 q.1)
-GENERAL_ITEMS: tuple[tuple[str, int, str], ...] = (
-    ("sample_number", 0, "<H"),
-    *((f"input_bank_{i}", 2 + i, "<B") for i in range(10)),
-    *((f"output_bank_{i}", 12 + i, "<B") for i in range(10)),
-    ("error_code", 22, "<B"),
-    ("general_status", 23, "<B"),
-    ("s_plane_segment_count", 24, "<H"),
-    ("s_plane_move_status", 26, "<H"),
-    ("s_distance", 28, "<i"),
-    ("t_plane_segment_count", 32, "<H"),
-    ("t_plane_move_status", 34, "<H"),
-    ("t_distance", 36, "<i"),
-)
-#: (name, offset in the axis block, struct format) of each axis's items
-AXIS_ITEMS: tuple[tuple[str, int, str], ...] = (
-    ("status", 0, "<H"),
-    ("switches", 2, "<B"),
-    ("stop_code", 3, "<B"),
-    ("reference_position", 4, "<i"),
-    ("motor_position", 8, "<i"),
-    ("position_error", 12, "<i"),
-    ("aux_position", 16, "<i"),
-    ("velocity", 20, "<i"),
-    ("torque", 24, "<h"),
-    ("analog_in", 26, "<h"),
-)
+#: the items of the layout (`vdevmaps.galil`) with their little-endian struct formats (spec §8 q.1)
+_GENERAL_FORMATS = tuple((name, int(off), "<" + fmt) for name, off, fmt in GENERAL_ITEMS)
+_AXIS_FORMATS = tuple((name, int(off), "<" + fmt) for name, off, fmt in AXIS_ITEMS)
 
 
 def record_size(qz: str) -> int | None:
@@ -417,11 +375,11 @@ def record_size(qz: str) -> int | None:
 
 def decode_record(record: bytes, axes: int, letters: str = "ABCDEFGH") -> dict[str, int]:
     """Every item of a revision-4 record by name (gclib's style: `axis_a_motor_position`)."""
-    out = {name: struct.unpack_from(fmt, record, off)[0] for name, off, fmt in GENERAL_ITEMS}
+    out = {name: struct.unpack_from(fmt, record, off)[0] for name, off, fmt in _GENERAL_FORMATS}
     for k in range(axes):
         base = FIRST_AXIS + AXIS_SIZE * k
         prefix = f"axis_{letters[k].lower()}_"
-        for name, off, fmt in AXIS_ITEMS:
+        for name, off, fmt in _AXIS_FORMATS:
             out[prefix + name] = struct.unpack_from(fmt, record, base + off)[0]
     return out
 
@@ -505,72 +463,12 @@ class DMCDataRecordAxisIds(enum.IntEnum):
     DRIdAxis8 = 8
 
 
-class REV4DMCDataRecordGeneralOffsets(enum.IntEnum):
-    """Revision 4 (`QZ` -> axes,24,16,28): general items and where each axis block starts."""
-
-    DRREV4GenOffSampleNumber = 0
-    DRREV4GenOffGeneralInput0 = 2
-    DRREV4GenOffGeneralInput1 = 3
-    DRREV4GenOffGeneralInput2 = 4
-    DRREV4GenOffGeneralInput3 = 5
-    DRREV4GenOffGeneralInput4 = 6
-    DRREV4GenOffGeneralInput5 = 7
-    DRREV4GenOffGeneralInput6 = 8
-    DRREV4GenOffGeneralInput7 = 9
-    DRREV4GenOffGeneralInput8 = 10
-    DRREV4GenOffGeneralInput9 = 11
-    DRREV4GenOffGeneralOutput0 = 12
-    DRREV4GenOffGeneralOutput1 = 13
-    DRREV4GenOffGeneralOutput2 = 14
-    DRREV4GenOffGeneralOutput3 = 15
-    DRREV4GenOffGeneralOutput4 = 16
-    DRREV4GenOffGeneralOutput5 = 17
-    DRREV4GenOffGeneralOutput6 = 18
-    DRREV4GenOffGeneralOutput7 = 19
-    DRREV4GenOffGeneralOutput8 = 20
-    DRREV4GenOffGeneralOutput9 = 21
-    DRREV4GenOffErrorCode = 22
-    DRREV4GenOffGeneralStatus = 23
-    DRREV4GenOffSegmentCountS = 24
-    DRREV4GenOffCoordinatedMoveStatusS = 26
-    DRREV4GenOffCoordinatedMoveDistanceS = 28
-    DRREV4GenOffSegmentCountT = 32
-    DRREV4GenOffCoordinatedMoveStatusT = 34
-    DRREV4GenOffCoordinatedMoveDistanceT = 36
-    DRREV4GenOffAxis1 = 40
-    DRREV4GenOffAxis2 = 68
-    DRREV4GenOffAxis3 = 96
-    DRREV4GenOffAxis4 = 124
-    DRREV4GenOffAxis5 = 152
-    DRREV4GenOffAxis6 = 180
-    DRREV4GenOffAxis7 = 208
-    DRREV4GenOffAxis8 = 236
-    DRREV4GenOffEnd = 264
-
-
-class REV4DMCDataRecordAxisOffsets(enum.IntEnum):
-    """Revision 4: items within an axis block."""
-
-    DRREV4AxisOffNoAxis = 0
-    DRREV4AxisOffAxisStatus = 0
-    DRREV4AxisOffAxisSwitches = 2
-    DRREV4AxisOffAxisStopCode = 3
-    DRREV4AxisOffAxisReferencePosition = 4
-    DRREV4AxisOffAxisMotorPosition = 8
-    DRREV4AxisOffAxisPositionError = 12
-    DRREV4AxisOffAxisAuxillaryPosition = 16
-    DRREV4AxisOffAxisVelocity = 20
-    DRREV4AxisOffAxisTorque = 24
-    DRREV4AxisOffAnalogInput = 26
-    DRREV4AxisOffEnd = 28
-
-
 _TYPE_OF_FORMAT = {"<B": DMCDataRecordTypes.DRTypeUCHAR, "<H": DMCDataRecordTypes.DRTypeUSHORT,
                    "<h": DMCDataRecordTypes.DRTypeSHORT, "<i": DMCDataRecordTypes.DRTypeLONG}
 _FORMAT_OF_TYPE: dict[int, str] = {int(t): f for f, t in _TYPE_OF_FORMAT.items()} | {
     DMCDataRecordTypes.DRTypeCHAR: "<b", DMCDataRecordTypes.DRTypeULONG: "<I"}
-_GENERAL_TYPES: dict[int, int] = {off: _TYPE_OF_FORMAT[fmt] for _, off, fmt in GENERAL_ITEMS}
-_AXIS_TYPES: dict[int, int] = {off: _TYPE_OF_FORMAT[fmt] for _, off, fmt in AXIS_ITEMS}
+_GENERAL_TYPES: dict[int, int] = {off: _TYPE_OF_FORMAT[fmt] for _, off, fmt in _GENERAL_FORMATS}
+_AXIS_TYPES: dict[int, int] = {off: _TYPE_OF_FORMAT[fmt] for _, off, fmt in _AXIS_FORMATS}
 #: item id -> offset, for the items of the general section and of an axis block [dmcdma.c]
 _GENERAL_BY_ID: dict[int, int] = {
     DMCDataRecordItemIds["DRId" + m.name.removeprefix("DRREV4GenOff")]: m.value

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import zmq
+from vdevmaps.galil import REV4DMCDataRecordAxisOffsets, REV4DMCDataRecordGeneralOffsets
 
 from vdevclient._cargs import put_text
 from vdevclient._cargs import target as _target
@@ -37,8 +38,6 @@ from vdevclient._galil_bus import (
     DMCDataRecordItemIds,
     DMCDataRecordTypes,
     Reply,
-    REV4DMCDataRecordAxisOffsets,
-    REV4DMCDataRecordGeneralOffsets,
     item_place,
     record_item,
     record_size,

@@ -21,8 +21,10 @@ import importlib.metadata
 import shlex
 from typing import Any
 
+from vdevmaps.galil import AXIS_SIZE, FIRST_AXIS
+
 from vdevclient import galil
-from vdevclient._galil_bus import AXIS_SIZE, FIRST_AXIS, DmcBus, decode_record
+from vdevclient._galil_bus import DmcBus, decode_record
 
 # gclib_errors.h: the codes and texts GclibError carries
 G_NO_ERROR = 0

@@ -10,11 +10,13 @@ from typing import Any
 import pytest
 import vdevclient
 from vdevclient import galil
+from vdevmaps.galil import A16Reg, ControlStatus, InterruptStatus
 
 from tests.client.galil import GALIL, card, rack_config, round_trips
 from vdevd.testing import DaemonThread
 
 OK = galil.DMCNOERROR
+Y_COMPLETE = InterruptStatus.AXIS_COMPLETE + 1  # D1 [M Ch4 §Servicing Interrupts]
 
 
 @pytest.fixture
@@ -155,9 +157,10 @@ def test_clear_empties_both_fifos(h: ctypes.c_long, rack: vdevclient.Rack) -> No
     a16 = rack.card("galil0").region("a16")
     assert galil.DMCFastCommand(h, "WT 1000;MG 7") == OK  # no sample ran: both wait in the FIFO
     assert galil.DMCClear(h) == OK
-    assert a16.read8(3) & 0xA0 == 0xA0  # bit 7: cleared; bit 5: nothing to read
+    cleared_and_empty = ControlStatus.CLEARED | ControlStatus.READ_EMPTY
+    assert a16.read8(A16Reg.CONTROL) & cleared_and_empty == cleared_and_empty  # bits 7 and 5
     rack.sim.step(seconds=2.0)
-    assert a16.read8(3) & 0x20  # MG 7 was cleared before it ran
+    assert a16.read8(A16Reg.CONTROL) & ControlStatus.READ_EMPTY  # MG 7 was cleared before it ran
     assert command(h, "TPX") == (OK, b"0000000000\r\n:")
 
 
@@ -186,9 +189,9 @@ def test_y_motion_complete_interrupt_reads_d1(daemon: DaemonThread, rack: vdevcl
     assert status.value == 0
     assert command(h, "EI 2,,255;PR,5000;BGY") == (OK, b":::")
     event = rack.card("galil0").irq.wait(timeout_s=5.0)
-    assert event is not None and event["status"] == 0xD1 | 255 << 8 | 5 << 16
+    assert event is not None and event["status"] == Y_COMPLETE | 255 << 8 | 5 << 16
     assert galil.DMCGetInterruptStatus(h, ctypes.byref(status)) == OK
-    assert status.value == 0xD1
+    assert status.value == Y_COMPLETE
     assert galil.DMCGetInterruptStatus(h, ctypes.byref(status)) == OK
     assert status.value == 0
     assert galil.DMCClose(h) == OK
@@ -309,9 +312,9 @@ def test_each_burst_of_16_command_bytes_waits_for_the_almost_full_bit(
     bursts: list[tuple[bool, int]] = []  # (a wait on bit 4 before it, bytes)
     waited = False
     for op in ops:
-        if op["op"] == "wait" and op.get("mask") == 0x10:
+        if op["op"] == "wait" and op.get("mask") == ControlStatus.WRITE_ALMOST_FULL:
             waited = True
-        elif op["op"] == "write" and op["offset"] == 1:
+        elif op["op"] == "write" and op["offset"] == A16Reg.DATA:
             assert op["rep"]  # one repeated write to N+1 per burst
             bursts.append((waited, len(op["data"])))
             waited = False

@@ -7,6 +7,7 @@ from collections.abc import Iterator
 import pytest
 import vdevclient
 from vdevclient import gclib
+from vdevmaps.galil import InterruptStatus
 
 from tests.client.galil import GALIL, card, rack_config, round_trips
 from vdevd.testing import DaemonThread
@@ -66,9 +67,9 @@ def test_grecord_decodes_the_data_record(g: gclib.py) -> None:
 
 def test_ginterrupt_gives_the_y_motion_complete_code(g: gclib.py) -> None:
     g.GCommand("EI 2,,255;PR,5000;BGY")
-    assert g.GInterrupt() == 0xD1
+    assert g.GInterrupt() == InterruptStatus.AXIS_COMPLETE + 1  # D1
     g.GCommand("UI 1")
-    assert g.GInterrupt() == 0xF1
+    assert g.GInterrupt() == InterruptStatus.USER + 1  # F1
 
 
 def test_ginterrupt_times_out_without_an_interrupt(g: gclib.py, rack: vdevclient.Rack) -> None:

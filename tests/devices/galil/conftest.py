@@ -16,6 +16,7 @@ from typing import Any
 import pytest
 import vdevclient
 from vdevclient import galil
+from vdevmaps.galil import A16Reg, ControlStatus, SecondaryStatus
 
 from vdevd.config import CardSpec, Config
 from vdevd.devices import card_class
@@ -34,16 +35,17 @@ LATENCY_S = 3 * TM_S
 TIMEOUT_MS = 20_000
 
 # A16 window, offsets from the base N [M Ch4 §Communication Registers, §Overview of Secondary FIFO]
-DATA = 1  # READ / WRITE
-CONTROL = 3
-FIFO2_DATA = 5
-FIFO2_STATUS = 7
-WRITE_ALMOST_FULL = 1 << 4  # CONTROL bit 4 [M Ch4 §Simplified Communication Procedure]
-READ_EMPTY = 1 << 5  # CONTROL bit 5: 0 = data to be read
-CLEARED = 1 << 7  # "Read N+3 address (Bit 7 will be 1)" [M Ch4 §Clearing FIFO Buffer]
-FIFO2_BUSY = 1 << 0
-FIFO2_FREEZE = 1 << 1
-FIFO2_NOT_EMPTY = 1 << 2
+# (the register map of vdevmaps.galil, the one the daemon and the client use)
+DATA = int(A16Reg.DATA)  # READ / WRITE
+CONTROL = int(A16Reg.CONTROL)
+FIFO2_DATA = int(A16Reg.SECONDARY_DATA)
+FIFO2_STATUS = int(A16Reg.SECONDARY_STATUS)
+WRITE_ALMOST_FULL = int(ControlStatus.WRITE_ALMOST_FULL)  # CONTROL bit 4 [M Ch4 §Simplified ...]
+READ_EMPTY = int(ControlStatus.READ_EMPTY)  # CONTROL bit 5: 0 = data to be read
+CLEARED = int(ControlStatus.CLEARED)  # "Read N+3 address (Bit 7 will be 1)" [M Ch4 §Clearing FIFO Buffer]
+FIFO2_BUSY = int(SecondaryStatus.BUSY)
+FIFO2_FREEZE = int(SecondaryStatus.FREEZE)
+FIFO2_NOT_EMPTY = int(SecondaryStatus.NOT_EMPTY)
 
 
 def card_config(**options: Any) -> Config:

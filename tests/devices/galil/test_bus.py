@@ -3,14 +3,9 @@
 from __future__ import annotations
 
 import pytest
+from vdevmaps.galil import A16Reg, ControlStatus, SecondaryStatus
 
-from vdevd.devices.galil.bus import (
-    FREEZE_MODES,
-    A16Reg,
-    A16Window,
-    ControlStatus,
-    SecondaryStatus,
-)
+from vdevd.devices.galil.bus import FREEZE_MODES, A16Window
 
 DATA = A16Reg.DATA
 CONTROL = A16Reg.CONTROL

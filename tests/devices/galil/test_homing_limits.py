@@ -8,6 +8,8 @@ from __future__ import annotations
 import struct
 
 import pytest
+from vdevmaps.galil import FIRST_AXIS, AxisStatus
+from vdevmaps.galil import REV4DMCDataRecordAxisOffsets as _A
 
 from tests.devices.galil.conftest import LATENCY_S, TM_S, Dmc, stop_distance, stored_acc
 
@@ -19,9 +21,11 @@ HOME_CREEP = 256  # counts/s of HM's second and third phases [M Ch3 §Home Switc
 
 # X axis block of the data record [M Ch4 §DMA / Secondary FIFO Memory Map]
 SAMPLE = 0
-X_STATUS, X_SWITCHES = 40, 42
-HM_IN_PROGRESS, HM_PHASE1_DONE, HM_PHASE2_DONE = 1 << 11, 1 << 10, 1 << 9
-MOVE_IN_PROGRESS = 1 << 15
+X_STATUS = FIRST_AXIS + int(_A.DRREV4AxisOffAxisStatus)
+X_SWITCHES = FIRST_AXIS + int(_A.DRREV4AxisOffAxisSwitches)
+HM_IN_PROGRESS, HM_PHASE1_DONE = int(AxisStatus.HOMING), int(AxisStatus.HM_PHASE1)
+HM_PHASE2_DONE = int(AxisStatus.HM_PHASE2_OR_FI)
+MOVE_IN_PROGRESS = int(AxisStatus.MOVING)
 
 
 def jog(dmc: Dmc, speed: int, dec: int = 51_200) -> None:

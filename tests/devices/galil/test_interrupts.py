@@ -13,6 +13,7 @@ from typing import Any
 
 import vdevclient
 from vdevclient import galil
+from vdevmaps.galil import InterruptStatus
 
 from tests.devices.galil.conftest import (
     CARD,
@@ -28,14 +29,14 @@ from tests.devices.galil.conftest import (
 
 IRQ_LEVEL = 5
 # status codes [M Ch4 §Servicing Interrupts]
-NO_INTERRUPT = 0x00
-X_COMPLETE, Y_COMPLETE, Z_COMPLETE = 0xD0, 0xD1, 0xD2
-ALL_COMPLETE = 0xD8
-EXCESS_ERROR = 0xC8
-LIMIT_SWITCH = 0xC0
-COMMAND_DONE = 0xDA
-USER = 0xF0  # UI n -> F0 + n
-INPUT = 0xE0  # input n -> E0 + n
+NO_INTERRUPT = int(InterruptStatus.NONE)
+X_COMPLETE, Y_COMPLETE, Z_COMPLETE = (int(InterruptStatus.AXIS_COMPLETE) + a for a in range(3))
+ALL_COMPLETE = int(InterruptStatus.ALL_COMPLETE)
+EXCESS_ERROR = int(InterruptStatus.EXCESS_ERROR)
+LIMIT_SWITCH = int(InterruptStatus.LIMIT_SWITCH)
+COMMAND_DONE = int(InterruptStatus.COMMAND_DONE)
+USER = int(InterruptStatus.USER)  # UI n -> F0 + n
+INPUT = int(InterruptStatus.INPUT)  # input n -> E0 + n
 
 
 def enable(a16: vdevclient.Region) -> None:

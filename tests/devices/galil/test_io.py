@@ -11,13 +11,15 @@ import struct
 import pytest
 import vdevclient
 from vdevclient import galil
+from vdevmaps.galil import AXIS_SIZE, FIRST_AXIS
+from vdevmaps.galil import REV4DMCDataRecordAxisOffsets as _A
 
 from tests.devices.galil.conftest import Dmc, host_command
 
 NUMBER_OUT_OF_RANGE = 6
 ADC_STEP = 20 / 4096  # 12 bits over +-10 V: "a voltage resolution of approximately .005 V"
 ANALOG_FULL_SCALE = 32767  # the record's analog inputs are +-32767 for +-10 V (README)
-AXIS_BLOCK, AXIS_SIZE, ANALOG = 40, 28, 26  # axis k carries analog input k+1 (spec §2.5)
+AXIS_BLOCK, ANALOG = FIRST_AXIS, int(_A.DRREV4AxisOffAnalogInput)  # axis k: analog input k+1 (spec §2.5)
 TB_DATA_RECORD, TB_ECHO = 1 << 6, 1 << 0
 
 

@@ -8,12 +8,15 @@ from __future__ import annotations
 import struct
 
 import pytest
+from vdevmaps.galil import AXIS_SIZE, FIRST_AXIS, AxisStatus, AxisSwitch
+from vdevmaps.galil import REV4DMCDataRecordAxisOffsets as _A
 
 from tests.devices.galil.conftest import Dmc
 
-AXIS_BLOCK, AXIS_SIZE, STATUS, SWITCHES = 40, 28, 0, 2
-LATCH_OCCURRED, LATCH_INPUT = 1 << 7, 1 << 6  # axis switch byte
-LATCH_ARMED = 1 << 2  # axis status word
+AXIS_BLOCK = FIRST_AXIS
+STATUS, SWITCHES = int(_A.DRREV4AxisOffAxisStatus), int(_A.DRREV4AxisOffAxisSwitches)
+LATCH_OCCURRED, LATCH_INPUT = int(AxisSwitch.LATCH_OCCURRED), int(AxisSwitch.LATCH_INPUT)
+LATCH_ARMED = int(AxisStatus.LATCH_ARMED)  # axis status word
 TS_LATCH_NOT_ARMED = 1 << 0  # TS bit 0 (spec §4.4)
 SETTLE_S = 0.3
 

@@ -11,6 +11,9 @@ import struct
 import pytest
 import vdevclient
 from vdevclient import galil
+from vdevmaps.galil import AXIS_SIZE, FIRST_AXIS, AxisStatus
+from vdevmaps.galil import REV4DMCDataRecordAxisOffsets as _A
+from vdevmaps.galil import REV4DMCDataRecordGeneralOffsets as _G
 
 from tests.devices.galil.conftest import (
     FIFO2_BUSY,
@@ -24,12 +27,17 @@ from tests.devices.galil.conftest import (
 )
 from vdevd.testing import DaemonThread
 
-RECORD_SIZE = 152  # the memory map ends at 150-151 (w,d axis analog input) for four axes
-GENERAL_INPUT_0, GENERAL_OUTPUT_0, ERROR_CODE = 2, 12, 22
-AXIS_BLOCKS = (40, 68, 96, 124)  # x,a ... w,d axis status
+RECORD_SIZE = FIRST_AXIS + 4 * AXIS_SIZE  # the memory map ends at 150-151 (w,d axis analog input)
+GENERAL_INPUT_0 = int(_G.DRREV4GenOffGeneralInput0)
+GENERAL_OUTPUT_0 = int(_G.DRREV4GenOffGeneralOutput0)
+ERROR_CODE = int(_G.DRREV4GenOffErrorCode)
+AXIS_BLOCKS = tuple(FIRST_AXIS + AXIS_SIZE * k for k in range(4))  # x,a ... w,d axis status
 # within an axis block
-STATUS, STOPCODE, REFERENCE, MOTOR, ERROR, VELOCITY, TORQUE = 0, 3, 4, 8, 12, 20, 24
-MOVE_IN_PROGRESS, MOTOR_OFF = 1 << 15, 1 << 0
+STATUS, STOPCODE = int(_A.DRREV4AxisOffAxisStatus), int(_A.DRREV4AxisOffAxisStopCode)
+REFERENCE, MOTOR = int(_A.DRREV4AxisOffAxisReferencePosition), int(_A.DRREV4AxisOffAxisMotorPosition)
+ERROR, VELOCITY = int(_A.DRREV4AxisOffAxisPositionError), int(_A.DRREV4AxisOffAxisVelocity)
+TORQUE = int(_A.DRREV4AxisOffAxisTorque)
+MOVE_IN_PROGRESS, MOTOR_OFF = int(AxisStatus.MOVING), int(AxisStatus.MOTOR_OFF)
 TORQUE_FULL_SCALE = 32767  # "Maximum positive torque is 32767" at the DAC's +10 V
 VELOCITY_SCALE = 64  # "64 times larger than the value returned when using the command TV"
 

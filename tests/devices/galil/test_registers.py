@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pytest
 import vdevclient
+import vdevmaps.galil as galil_map
 from vdevclient import galil
 
 from tests.devices.galil.conftest import (
@@ -20,9 +21,10 @@ from tests.devices.galil.conftest import (
     host_send,
 )
 
-FIFO_SIZE = 512  # "a 512 character write FIFO buffer" [M Ch4 Introduction]
-DEFAULT_LEVEL = 16  # "OK to write up to 16 characters" [M Ch4 §Simplified Communication Procedure]
-EMPTY = 0xFF  # "Reading data from the READ register when the register is empty will result in ... FF"
+# "a 512 character write FIFO buffer" [M Ch4 Introduction]; "OK to write up to 16 characters"
+# [M Ch4 §Simplified Communication Procedure]; "Reading data from the READ register when the register
+# is empty will result in ... FF"
+FIFO_SIZE, DEFAULT_LEVEL, EMPTY = galil_map.FIFO_SIZE, galil_map.DEFAULT_ALMOST_FULL, galil_map.EMPTY_READ
 
 
 def clear(a16: vdevclient.Region) -> int:

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from tests.devices.galil.conftest import Dmc
 from vdevd.devices.galil import syntax
-from vdevd.devices.galil.card import _next_frame
+from vdevd.devices.galil.firmware import _next_frame
 from vdevd.devices.galil.numbers import MAX_VALUE, MIN_VALUE, _format_decimal, format_number
 
 FORMATS = {"digits": st.integers(1, 12), "frac": st.integers(0, 4), "lz": st.booleans()}

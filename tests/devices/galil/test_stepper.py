@@ -12,6 +12,8 @@ from collections.abc import Iterator
 import pytest
 import vdevclient
 from vdevclient import galil
+from vdevmaps.galil import FIRST_AXIS, AxisSwitch
+from vdevmaps.galil import REV4DMCDataRecordAxisOffsets as _A
 
 from tests.devices.galil.conftest import (
     LATENCY_S,
@@ -26,8 +28,9 @@ from vdevd.testing import DaemonThread
 
 SM_JUMPER_NEEDED = 96  # "SM jumper needs to be installed for stepper motor operation"
 NUMBER_OUT_OF_RANGE = 6
-X_SWITCHES = 42  # x,a axis switches in the data record; bit 0 "SM Jumper Installed" [M Ch4]
-SM_JUMPER = 1 << 0
+# x,a axis switches in the data record; bit 0 "SM Jumper Installed" [M Ch4]
+X_SWITCHES = FIRST_AXIS + int(_A.DRREV4AxisOffAxisSwitches)
+SM_JUMPER = int(AxisSwitch.SM_JUMPER)
 DEFAULT_AC = 256_000
 
 

@@ -1,6 +1,7 @@
 """The DMC-13X8's 16-byte A16 short-I/O window, without I/O (manual ch. 4, spec galil.md §2-3).
 
-The host side is `read`/`write`/`peek` of one byte at an offset 0..15 from the base N; the firmware
+The register map (offsets, status bits, CONTROL sequences) is `vdevmaps.galil`, shared with the
+client. The host side is `read`/`write`/`peek` of one byte at an offset 0..15 from the base N; the firmware
 side fills and drains the FIFOs, queues interrupt codes and loads the data record. Nothing here
 knows about time: the card calls it from its region hooks and its ticks.
 """
@@ -11,53 +12,22 @@ import enum
 from collections import deque
 from collections.abc import Callable
 
-WINDOW_SIZE = 16
-DEFAULT_ALMOST_FULL = 16
-INTERRUPT_QUEUE_DEPTH = 8  # "an interrupt buffer that is eight levels deep" [M Ch4 §Interrupts]
-EMPTY_READ = 0xFF  # "Reading data from the READ register when the register is empty ... FF hex"
-
-
-class A16Reg(enum.IntEnum):
-    """Register offsets from N; D08(O) decodes odd byte lanes only [M Ch4 §Communication Registers]."""
-
-    DATA = 1  # READ (card->host FIFO) / WRITE (host->card command FIFO)
-    CONTROL = 3
-    SECONDARY_DATA = 5  # the polling FIFO's data record [M Ch4 §Overview of Secondary FIFO Procedure]
-    SECONDARY_STATUS = 7
-
-
-class ControlStatus(enum.IntFlag):
-    """Bits of the CONTROL register read [M Ch4 §Simplified Communication Procedure]; others read 0."""
-
-    WRITE_ALMOST_FULL = 1 << 4  # free space in the command FIFO is below the almost-full level
-    READ_EMPTY = 1 << 5  # 0 = data to be read
-    CLEARED = 1 << 7  # "Bit 7 will be 1" after the clear sequence [M Ch4 §Clearing FIFO Buffer]
-
-
-class SecondaryStatus(enum.IntFlag):
-    """Bits of N+7 [M Ch4 §Overview of Secondary FIFO Procedure]; bits 3-7 unused."""
-
-    BUSY = 1 << 0
-    FREEZE = 1 << 1
-    NOT_EMPTY = 1 << 2
-
+from vdevmaps.galil import (
+    DEFAULT_ALMOST_FULL,
+    EMPTY_READ,
+    FIFO_SIZE,
+    INTERRUPT_QUEUE_DEPTH,
+    WINDOW_SIZE,
+    A16Reg,
+    ControlStatus,
+    ControlWrite,
+    SecondaryStatus,
+)
 
 # plain ints for the status reads: IntFlag arithmetic costs microseconds on every poll
 _READ_EMPTY, _ALMOST_FULL = int(ControlStatus.READ_EMPTY), int(ControlStatus.WRITE_ALMOST_FULL)
 _CLEARED = int(ControlStatus.CLEARED)
 _FREEZE, _NOT_EMPTY = int(SecondaryStatus.FREEZE), int(SecondaryStatus.NOT_EMPTY)
-
-
-class ControlWrite(enum.IntEnum):
-    """Bytes of the CONTROL write sequences [M Ch4 §Changing Almost Full Flags, §Clearing FIFO Buffer,
-    §Setting up Interrupts, §Servicing Interrupts]."""
-
-    CLEAR_01 = 0x01
-    CLEAR_80 = 0x80
-    IRQ_ENABLE_2 = 0x02
-    IRQ_ENABLE_4 = 0x04
-    ALMOST_FULL = 0x05  # followed by m - 16
-    IRQ_STATUS = 0x06  # the next CONTROL read returns the interrupt status byte
 
 
 class _Seq(enum.Enum):
@@ -121,7 +91,7 @@ class A16Window:
     The clear empties both FIFOs and keeps the almost-full level and the interrupt queue.
     """
 
-    def __init__(self, *, fifo_size: int = 512, freeze_mode: str = "toggle_n5") -> None:
+    def __init__(self, *, fifo_size: int = FIFO_SIZE, freeze_mode: str = "toggle_n5") -> None:
         if fifo_size <= 0:
             raise ValueError(f"fifo_size must be positive, not {fifo_size}")
         if freeze_mode not in _FREEZE_WRITES:

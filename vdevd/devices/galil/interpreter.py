@@ -2,7 +2,7 @@
 
 `Interpreter.execute(text)` runs one ASCII statement (binary commands arrive here converted to
 their ASCII form) and returns the reply bytes: data lines ending CR LF, then `:`; or `?` with the
-reason kept for `TC`. A trippoint (AM, MC, WT) returns a `Trippoint` the card checks every sample;
+reason kept for `TC`. A trippoint (AM, MC, WT) returns a `Trippoint` the firmware checks every sample;
 the interpreter takes no further command until it is satisfied (spec §5.7). No I/O here.
 """
 
@@ -14,43 +14,27 @@ from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import numpy as np
+from vdevmaps.galil import InterruptStatus
 
 from vdevd.devices.galil import syntax
+from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
 from vdevd.devices.galil.errors import TC, TEXTS, GalilError
 from vdevd.devices.galil.expr import evaluate
 from vdevd.devices.galil.motion import Mode, StopCode
-from vdevd.devices.galil.numbers import format_number
+from vdevd.devices.galil.numbers import (
+    POSITION_FORMAT,
+    REPORT_FORMATS,
+    VARIABLE_FORMAT,
+    format_number,
+)
 from vdevd.devices.galil.params import MOTOR_TYPES, PARAMS
 from vdevd.rt import PlantKind
 
 if TYPE_CHECKING:
-    from vdevd.devices.galil.card import GalilCard
+    from vdevd.devices.galil.firmware import Firmware
 
-AXIS_LETTERS = "XYZW"
 OK = b":"
 CRLF = b"\r\n"
-
-#: reply formats (integer digits, fraction digits) of the interrogation commands (spec §4.4)
-POSITION_FORMAT = (10, 0)  # PF default
-VARIABLE_FORMAT = (10, 4)  # VF default
-REPORT_FORMATS: dict[str, tuple[int, int]] = {
-    "TP": POSITION_FORMAT, "TE": POSITION_FORMAT, "RP": POSITION_FORMAT, "TD": POSITION_FORMAT,
-    "RL": POSITION_FORMAT, "TV": (7, 0), "TT": (1, 4), "SC": (3, 0), "TS": (3, 0),
-}
-
-#: commands of the later issue (programs, coordinated motion, gearing, ECAM, contour, flash)
-LATER: dict[str, int] = {
-    **dict.fromkeys(("JP", "JS", "EN", "RE", "RI", "IF", "EL", "HX", "ZS", "IN", "II"),
-                    TC.ONLY_VALID_FROM_PROGRAM),
-    "XQ": TC.EMPTY_PROGRAM_LINE,
-    **dict.fromkeys(("DL", "UL", "LS", "ED", "BN", "BP", "BV", "LM", "LI", "LE", "VM", "VP", "CR",
-                     "VE", "VS", "VA", "VD", "VR", "VT", "ES", "TN", "CS", "CA", "GA", "GR", "GM",
-                     "EA", "EM", "EP", "ET", "EB", "EG", "EQ", "EC", "EW", "CM", "CD", "DT", "WC",
-                     "AD", "AP", "AR", "AS", "AV", "AI", "MF", "MR", "AT", "TW", "RA", "RD", "RC",
-                     "DM", "DA", "OC", "BA", "BM", "BB", "BC", "BI", "BS", "BZ", "YA", "YB", "YC",
-                     "YR", "QS", "TR", "CO", "PF", "VF"),
-                    TC.UNRECOGNIZED_COMMAND),
-}
 
 
 #: statements and axis lists repeat (a host polls `TPX`): parse each text once
@@ -66,28 +50,13 @@ class Trippoint:
 
 
 class Interpreter:
-    """The command language of one card, over its firmware state (`card`)."""
+    """The command language over one card's firmware state (`fw`); its commands are the table
+    of commands.py, bound once."""
 
-    def __init__(self, card: GalilCard) -> None:
-        self.card = card
-        self.n = card.n
-        self.variables: dict[str, float] = {}
-        self.handlers: dict[str, Callable[[str], bytes | Trippoint]] = {
-            "BG": self._bg, "ST": self._st, "AB": self._ab, "MO": self._mo, "SH": self._sh,
-            "HM": self._mode_cmd(Mode.HM), "FE": self._mode_cmd(Mode.FE),
-            "FI": self._mode_cmd(Mode.FI), "DP": self._dp, "DE": self._de, "IP": self._ip,
-            "AM": self._am, "MC": self._mc, "WT": self._wt, "AL": self._al,
-            "TC": self._tc, "MG": self._mg, "EO": self._eo, "LZ": self._lz, "TM": self._tm,
-            "DR": self._dr, "QZ": self._qz, "RS": self._rs, "TB": self._tb, "TI": self._ti,
-            "TZ": self._tz, "SB": self._sb, "CB": self._cb, "OB": self._ob, "OP": self._op,
-            "EI": self._ei, "UI": self._ui, "CN": self._cn, "KF": self._ignored,
-            "\x12\x16": self._version, "\x12\x13": self._master_reset, "=": self._assign,
-            "#": self._label, "'": self._ignored, "REM": self._ignored, "": self._ignored,
-        }
-        for name in REPORT_FORMATS:
-            self.handlers[name] = self._report(name)
-        for name in PARAMS:
-            self.handlers.setdefault(name, self._param(name))
+    def __init__(self, fw: Firmware) -> None:
+        self.fw = fw
+        self.n = fw.n
+        self.handlers: dict[str, Callable[[str], bytes | Trippoint]] = COMMANDS.bind(self)
 
     # -- entry -------------------------------------------------------------------------------------
     def execute(self, text: str) -> bytes | Trippoint:
@@ -98,18 +67,18 @@ class Interpreter:
             stmt = _split_statement(text)
             handler = self.handlers.get(stmt.name)
             if handler is None:
-                raise GalilError(LATER.get(stmt.name, TC.UNRECOGNIZED_COMMAND), stmt.name)
+                raise GalilError(NOT_EMULATED_CODES.get(stmt.name, TC.UNRECOGNIZED_COMMAND), stmt.name)
             return handler(stmt.arg)
         except GalilError as exc:
-            self.card.error_code = exc.code
+            self.fw.error_code = exc.code
             return b"?"
 
     # -- helpers -----------------------------------------------------------------------------------
     def value(self, text: str) -> float:
-        return evaluate(text, self.card.env)
+        return evaluate(text, self.fw.env)
 
     def fmt(self, value: float, digits: int, frac: int) -> str:
-        return format_number(value, digits, frac, lz=not self.card.lz)
+        return format_number(value, digits, frac, lz=not self.fw.lz)
 
     @staticmethod
     def data(text: str) -> bytes:
@@ -151,33 +120,30 @@ class Interpreter:
         return OK
 
     # -- parameters --------------------------------------------------------------------------------
-    def _param(self, name: str) -> Callable[[str], bytes]:
+    def _param(self, name: str, arg: str) -> bytes:
+        """A per-axis parameter (`KP 10,20`, `KPX=10`, `KP ?`), spec §1.3."""
         param = PARAMS[name]
+        motion = self.fw.motion
 
         def check(v: float) -> float | None:
             if name == "MT":
                 if v not in MOTOR_TYPES:
                     return None
-                if abs(v) >= 2 and not self.card.sm_jumper:
+                if abs(v) >= 2 and not self.fw.sm_jumper:
                     raise GalilError(TC.SM_JUMPER_NEEDED)
             return param.coerce(v)
 
         def query() -> np.ndarray:
-            motion = self.card.motion
             return motion.destination() if name == "PA" else motion.values[name]
 
-        def handler(arg: str) -> bytes:
-            if name == "JG":
-                self._check_jog(arg)
-            motion = self.card.motion
-            return self._setter(name, arg, lambda ax, vs: motion.set_param(name, ax, vs), query,
-                                param.digits, param.frac, check)
-
-        return handler
+        if name == "JG":
+            self._check_jog(arg)
+        return self._setter(name, arg, lambda ax, vs: motion.set_param(name, ax, vs), query,
+                            param.digits, param.frac, check)
 
     def _check_jog(self, arg: str) -> None:
         """JG while an axis moves in another mode is TC 13 [M Ch6 §Independent Jogging]."""
-        motion = self.card.motion
+        motion = self.fw.motion
         for a, field in self.per_axis(arg):
             if field is not syntax.QUERY and motion.moving(a) and motion.mode[a] != Mode.JG:
                 raise GalilError(TC.JG_ONLY_IN_JOG_MODE)
@@ -188,65 +154,64 @@ class Interpreter:
         axes = _parse_axes(arg, self.n)
         if axes.s or axes.t:
             raise GalilError(24)
-        self.card.motion.begin(list(axes.axes))
+        self.fw.motion.begin(list(axes.axes))
         return OK
 
     def _st(self, arg: str) -> bytes:
-        self.card.motion.stop(self.axes(arg))
+        self.fw.motion.stop(self.axes(arg))
         return OK
 
     def _ab(self, arg: str) -> bytes:
         """AB aborts motion at once (AB1: motion only; there are no programs yet) [M Ch6]."""
         if arg.strip() and self.value(arg) not in (0, 1):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
-        self.card.motion.abort(list(range(self.n)), StopCode.ABORT_COMMAND)
+        self.fw.motion.abort(list(range(self.n)), StopCode.ABORT_COMMAND)
         return OK
 
     def _mo(self, arg: str) -> bytes:
-        self.card.motion.motor_off(self.axes(arg))
+        self.fw.motion.motor_off(self.axes(arg))
         return OK
 
     def _sh(self, arg: str) -> bytes:
-        self.card.motion.servo_here(self.axes(arg))
+        self.fw.motion.servo_here(self.axes(arg))
         return OK
 
-    def _mode_cmd(self, mode: Mode) -> Callable[[str], bytes]:
-        def handler(arg: str) -> bytes:
-            motion = self.card.motion
-            axes = self.axes(arg)
-            if any(motion.moving(a) for a in axes):
-                raise GalilError(TC.NOT_VALID_WHILE_RUNNING)
-            motion.mode[axes] = mode
-            return OK
-        return handler
+    def _mode_cmd(self, mode: Mode, arg: str) -> bytes:
+        """HM, FE, FI: the search the next BG starts on the axes [M Ch3 §Home Switch Input]."""
+        motion = self.fw.motion
+        axes = self.axes(arg)
+        if any(motion.moving(a) for a in axes):
+            raise GalilError(TC.NOT_VALID_WHILE_RUNNING)
+        motion.mode[axes] = mode
+        return OK
 
     def _dp(self, arg: str) -> bytes:
-        motion = self.card.motion
+        motion = self.fw.motion
         if any(motion.moving(a) for a, _ in self.per_axis(arg)):
             raise GalilError(TC.NOT_VALID_WHILE_RUNNING)
         return self._setter("DP", arg, motion.define_position, motion.reference, *POSITION_FORMAT,
                             PARAMS["PA"].coerce)
 
     def _de(self, arg: str) -> bytes:
-        motion = self.card.motion
+        motion = self.fw.motion
         return self._setter("DE", arg, motion.define_aux, motion.auxiliary, *POSITION_FORMAT,
                             PARAMS["PA"].coerce)
 
     def _ip(self, arg: str) -> bytes:
-        motion = self.card.motion
+        motion = self.fw.motion
         return self._setter("IP", arg, motion.increment, motion.reference, *POSITION_FORMAT,
                             PARAMS["PR"].coerce)
 
     def _am(self, arg: str) -> Trippoint:
         """AM: wait until the profiles of the axes are complete [M Ch6]."""
-        axes, moving = self.axes(arg), self.card.motion.core.profile.moving
+        axes, moving = self.axes(arg), self.fw.motion.core.profile.moving
         return Trippoint(lambda: not moving[axes].any())
 
     def _mc(self, arg: str) -> Trippoint:
         """MC: the profile complete and the axis in position: a stepper when its step count
         (TD) equals the reference [M Ch6 §Motion Complete Trippoint]; a servo within one count
         of it (spec §4.5, open question 25)."""
-        motion, axes = self.card.motion, self.axes(arg)
+        motion, axes = self.fw.motion, self.axes(arg)
 
         def ready() -> bool:
             if motion.core.profile.moving[axes].any():
@@ -263,57 +228,55 @@ class Interpreter:
         ms = self.value(arg)
         if not 0 <= ms <= 2_147_483_647:
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
-        card = self.card
-        end = card.now_ns + int(ms * 1e6)
-        return Trippoint(lambda: card.now_ns >= end)
+        fw = self.fw
+        end = fw.now_ns + int(ms * 1e6)
+        return Trippoint(lambda: fw.now_ns >= end)
 
     def _al(self, arg: str) -> bytes:
         """AL: arm the latch; IN1..IN4 capture X..W on a falling edge (Fig 3-1)."""
-        motion = self.card.motion
+        motion = self.fw.motion
         for a in self.axes(arg):
             motion.latch_armed[a] = True
             motion.latch_occurred[a] = False
         return OK
 
     # -- reports -----------------------------------------------------------------------------------
-    def _report(self, name: str) -> Callable[[str], bytes]:
+    def _report(self, name: str, arg: str) -> bytes:
+        """TP, TE, RP, TD, RL, TV, TT, SC, TS: one value per axis named (spec §4.4)."""
         digits, frac = REPORT_FORMATS[name]
-
-        def handler(arg: str) -> bytes:
-            values = self.card.report(name).tolist()
-            lz = not self.card.lz
-            return self.data(",".join([format_number(values[a], digits, frac, lz)
-                                       for a in _parse_axes(arg, self.n).axes]))
-        return handler
+        values = self.fw.report(name).tolist()
+        lz = not self.fw.lz
+        return self.data(",".join([format_number(values[a], digits, frac, lz)
+                                   for a in _parse_axes(arg, self.n).axes]))
 
     def _tc(self, arg: str) -> bytes:
         """TC: the code of the last `?`; TC1 adds its text [M Ch5 §Controller Response]."""
         n = self.value(arg) if arg.strip() else 0
         if n not in (0, 1):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
-        code = self.card.error_code
+        code = self.fw.error_code
         if n == 1:
             return self.data(f"{code} {TEXTS.get(code, '')}")
         return self.data(self.fmt(code, 3, 0))
 
     def _tb(self, arg: str) -> bytes:
-        return self.data(self.fmt(self.card.status_byte(), 3, 0))
+        return self.data(self.fmt(self.fw.status_byte(), 3, 0))
 
     def _ti(self, arg: str) -> bytes:
         """TI n: input bank n as a byte (0: IN1-IN8)."""
         bank = int(self.value(arg)) if arg.strip() else 0
-        return self.data(self.fmt(self.card.input_bank(bank), 3, 0))
+        return self.data(self.fmt(self.fw.input_bank(bank), 3, 0))
 
     def _tz(self, arg: str) -> bytes:
         """TZ: the I/O summary, one line per block."""
-        card = self.card
+        fw = self.fw
         lines = [
-            f"Block 0 (8-1) dedicated as input- value {card.input_bank(0)} "
-            f"({card.input_bank(0):08b})",
-            f"Block 0 (8-1) dedicated as output- value {card.outputs & 0xFF} "
-            f"({card.outputs & 0xFF:08b})",
+            f"Block 0 (8-1) dedicated as input- value {fw.input_bank(0)} "
+            f"({fw.input_bank(0):08b})",
+            f"Block 0 (8-1) dedicated as output- value {fw.outputs & 0xFF} "
+            f"({fw.outputs & 0xFF:08b})",
             # no ':' in the text: a host library counts ':' as the end of a reply
-            "Analog inputs (1-8) " + ",".join(f"{v:.4f}" for v in card.analog.tolist()),
+            "Analog inputs (1-8) " + ",".join(f"{v:.4f}" for v in fw.analog.tolist()),
         ]
         return "\r\n".join(lines).encode() + CRLF + OK
 
@@ -335,39 +298,34 @@ class Interpreter:
         return self.data(f"DMC13{self.n}8 Rev 1.1a")
 
     # -- settings ----------------------------------------------------------------------------------
-    def _flag(self, arg: str, name: str) -> bytes:
+    def _flag(self, name: str, arg: str) -> bytes:
+        """EO (echo) and LZ (leading zeros): 0 or 1, `?` reports it."""
         if arg.strip() == "?":
-            return self.data(self.fmt(getattr(self.card, name), 1, 0))
+            return self.data(self.fmt(getattr(self.fw, name), 1, 0))
         v = self.value(arg) if arg.strip() else 0
         if v not in (0, 1):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
-        setattr(self.card, name, int(v))
+        setattr(self.fw, name, int(v))
         return OK
-
-    def _eo(self, arg: str) -> bytes:
-        return self._flag(arg, "echo")
-
-    def _lz(self, arg: str) -> bytes:
-        return self._flag(arg, "lz")
 
     def _tm(self, arg: str) -> bytes:
         """TM: the sample time in us; reported, the servo period stays the configured one."""
         if arg.strip() == "?":
-            return self.data(self.fmt(self.card.tm_us, 5, 0))
+            return self.data(self.fmt(self.fw.tm_us, 5, 0))
         v = self.value(arg)
         if not 250 <= v <= 20_000:
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
-        self.card.tm_us = v
+        self.fw.tm_us = v
         return OK
 
     def _dr(self, arg: str) -> bytes:
         """DR -n: the data record every 2^n samples into the secondary FIFO; DR 0 off [M Ch4]."""
         if arg.strip() == "?":
-            return self.data(self.fmt(-self.card.record_rate, 2, 0))
+            return self.data(self.fmt(-self.fw.record_rate, 2, 0))
         v = self.value(arg) if arg.strip() else 0
         if v != int(v) or not -8 <= v <= 8:
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
-        self.card.record_rate = abs(int(v))
+        self.fw.record_rate = abs(int(v))
         return OK
 
     def _qz(self, arg: str) -> bytes:
@@ -375,11 +333,8 @@ class Interpreter:
         return self.data(f"{self.n},24,16,28")
 
     def _rs(self, arg: str) -> bytes:
-        self.card.firmware_reset()
-        return OK
-
-    def _master_reset(self, arg: str) -> bytes:
-        self.card.firmware_reset()
+        """RS and ^R^S: the power-on state [M Ch4 §Clearing FIFO Buffer]."""
+        self.fw.reset()
         return OK
 
     def _cn(self, arg: str) -> bytes:
@@ -402,11 +357,11 @@ class Interpreter:
         return 1 << (int(n) - 1)
 
     def _sb(self, arg: str) -> bytes:
-        self.card.outputs |= self._bit(arg)
+        self.fw.outputs |= self._bit(arg)
         return OK
 
     def _cb(self, arg: str) -> bytes:
-        self.card.outputs &= ~self._bit(arg)
+        self.fw.outputs &= ~self._bit(arg)
         return OK
 
     def _ob(self, arg: str) -> bytes:
@@ -415,16 +370,16 @@ class Interpreter:
             raise GalilError(TC.NOT_ENOUGH_FIELDS)
         bit = self._bit(str(fields[0]))
         on = self.value(str(fields[1])) != 0
-        self.card.outputs = self.card.outputs | bit if on else self.card.outputs & ~bit
+        self.fw.outputs = self.fw.outputs | bit if on else self.fw.outputs & ~bit
         return OK
 
     def _op(self, arg: str) -> bytes:
         if arg.strip() == "?":
-            return self.data(self.fmt(self.card.outputs, 3, 0))
+            return self.data(self.fmt(self.fw.outputs, 3, 0))
         v = self.value(arg)
         if v != int(v) or not 0 <= v <= 255:
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
-        self.card.outputs = int(v)
+        self.fw.outputs = int(v)
         return OK
 
     # -- interrupts --------------------------------------------------------------------------------
@@ -441,7 +396,7 @@ class Interpreter:
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
         if o is not None and not (o == int(o) and 8 <= o <= 255):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
-        self.card.enable_interrupts(None if m is None else int(m), None if n is None else int(n),
+        self.fw.enable_interrupts(None if m is None else int(m), None if n is None else int(n),
                                     None if o is None else int(o))
         return OK
 
@@ -450,7 +405,7 @@ class Interpreter:
         n = self.value(arg) if arg.strip() else 0
         if n != int(n) or not 0 <= n <= 15:
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
-        self.card.interrupt(0xF0 + int(n))
+        self.fw.interrupt(InterruptStatus.USER + int(n))
         return OK
 
     # -- variables ---------------------------------------------------------------------------------
@@ -460,11 +415,12 @@ class Interpreter:
         if index is not None:
             raise GalilError(TC.MISSING_BRACKET, "arrays come with programs")
         if not value.strip():
-            return self.data(self.fmt(self.card.env.variable(name), *VARIABLE_FORMAT))
+            return self.data(self.fmt(self.fw.env.variable(name), *VARIABLE_FORMAT))
         v = self.value(value)
-        if name not in self.variables and len(self.variables) >= 254:
+        variables = self.fw.variables
+        if name not in variables and len(variables) >= 254:
             raise GalilError(67)
-        self.variables[name] = v
+        variables[name] = v
         return OK
 
     def _label(self, arg: str) -> bytes:

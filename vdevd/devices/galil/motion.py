@@ -16,6 +16,7 @@ from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
+from vdevmaps.galil import AxisStatus, AxisSwitch
 
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.params import COUNTS_PER_VOLT, DAC_FULL_SCALE, PARAMS
@@ -63,38 +64,6 @@ class StopCode(enum.IntEnum):
     OFF_ON_ERROR = 8
     FIND_EDGE = 9
     HOMED = 10
-
-
-class AxisStatus(enum.IntFlag):
-    """The axis status word of the data record (ch. 4 "Axis Status Information")."""
-
-    MOTOR_OFF = 1 << 0
-    OFF_ON_ERROR = 1 << 1
-    LATCH_ARMED = 1 << 2
-    FINAL_DECEL = 1 << 3
-    STOPPING = 1 << 4
-    SLEWING = 1 << 5
-    CONTOUR = 1 << 6
-    NEGATIVE = 1 << 7
-    COORDINATED = 1 << 8
-    HM_PHASE2_OR_FI = 1 << 9
-    HM_PHASE1 = 1 << 10
-    HOMING = 1 << 11
-    FIND_EDGE = 1 << 12
-    PA_ONLY = 1 << 13
-    PA_OR_PR = 1 << 14
-    MOVING = 1 << 15
-
-
-class AxisSwitch(enum.IntFlag):
-    """The axis switch byte of the data record (ch. 4 "Axis Switch Information")."""
-
-    SM_JUMPER = 1 << 0
-    HOME = 1 << 1
-    REVERSE_LIMIT = 1 << 2
-    FORWARD_LIMIT = 1 << 3
-    LATCH_INPUT = 1 << 6
-    LATCH_OCCURRED = 1 << 7
 
 
 _PLANTS = {"servo": PlantKind.SERVO, "stepper": PlantKind.STEPPER, "ideal": PlantKind.IDEAL}

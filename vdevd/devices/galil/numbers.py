@@ -16,6 +16,14 @@ MIN_VALUE = -(2**31)
 MAX_VALUE = 2**31 - 1 / SCALE
 GALIL_REAL_SIZE = 6
 
+#: reply formats (integer digits, fraction digits) of the interrogation commands (spec §4.4)
+POSITION_FORMAT = (10, 0)  # PF default
+VARIABLE_FORMAT = (10, 4)  # VF default
+REPORT_FORMATS: dict[str, tuple[int, int]] = {
+    "TP": POSITION_FORMAT, "TE": POSITION_FORMAT, "RP": POSITION_FORMAT, "TD": POSITION_FORMAT,
+    "RL": POSITION_FORMAT, "TV": (7, 0), "TT": (1, 4), "SC": (3, 0), "TS": (3, 0),
+}
+
 
 def units(value: float) -> int:
     """`value` in 1/65536 units, rounded to nearest (halves away from zero)."""

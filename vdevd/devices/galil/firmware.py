@@ -1,0 +1,362 @@
+"""The DMC-13X8 firmware: the card's state and its sample loop, without I/O (manual ch. 3-6).
+
+The card (card.py) hands it the A16 window (bus.py) and a callback that raises the VME interrupt
+line; it runs `step()` every servo sample and `serve()` when a command arrives. The firmware owns
+the motion (motion.py), the command interpreter (interpreter.py, which depends on it and never on
+the card), the I/O, the error code, the variables, the EI conditions, the report formats, the
+timing and the master reset. Register offsets and codes are `vdevmaps.galil`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import lru_cache
+
+import numpy as np
+from vdevmaps.galil import GeneralStatus, InterruptCondition, InterruptStatus
+
+from vdevd.devices.galil import syntax
+from vdevd.devices.galil.bus import A16Window
+from vdevd.devices.galil.errors import TC, GalilError
+from vdevd.devices.galil.interpreter import OK, Interpreter, Trippoint
+from vdevd.devices.galil.motion import GalilMotion, StopCode
+from vdevd.devices.galil.numbers import REPORT_FORMATS
+from vdevd.devices.galil.params import COUNTS_PER_VOLT, PARAMS
+from vdevd.devices.galil.record import record_dtype
+from vdevd.rt import wrap_int32
+
+#: a host repeats its lines (`TPX\r`): frame each content of the command FIFO once (pure)
+_next_frame = lru_cache(maxsize=256)(syntax.next_frame)
+
+_EXCESS_ERROR = int(InterruptCondition.EXCESS_ERROR)  # plain ints on the sample path
+_ALL_COMPLETE = int(InterruptCondition.ALL_COMPLETE)
+_COMMAND_DONE = int(InterruptCondition.COMMAND_DONE)
+_LIMIT_SWITCH = int(InterruptCondition.LIMIT_SWITCH)
+_INPUTS = int(InterruptCondition.INPUTS)
+
+
+class Firmware:
+    """One card's firmware state over its A16 window; `raise_irq(code | vector << 8)` asserts the
+    interrupt line, `clear_irq()` drops it (EI0); `clock()` is the time in ns (the card's, which
+    the rack may set between samples; by default the time of the last sample)."""
+
+    def __init__(self, n: int, period_ns: int, plant: str, tm_us: int, bus: A16Window, *,
+                 raise_irq: Callable[[int], None], clear_irq: Callable[[], None],
+                 clock: Callable[[], int] | None = None, record_endian: str = "little") -> None:
+        self.n = n
+        self.period_ns = period_ns
+        self.plant = plant
+        self.sm_jumper = plant == "stepper"  # SM jumpers installed [M Ch6 §Stepper Motor Operation]
+        self.configured_tm_us = tm_us
+        self.bus = bus
+        self.raise_irq = raise_irq
+        self.clear_irq = clear_irq
+        self.clock = clock
+        bus.on_assert = self._assert
+        bus.on_clear = self.host_cleared
+        self._dtype = record_dtype(n, record_endian)
+        self.ticks = 0  # samples since power-on: the card's tick count
+        self.env = _Env(self)
+        self.analog = np.zeros(8)
+        self.inputs = 0xFF  # IN1-IN8 logic levels: open inputs read 1
+        self.interp = Interpreter(self)
+        self.reset()
+
+    @property
+    def now_ns(self) -> int:
+        """The time now (WT measures from it)."""
+        return self.clock() if self.clock is not None else self.ticks * self.period_ns
+
+    # -- power-on, RS and ^R^S ---------------------------------------------------------------------
+    def reset(self) -> None:
+        """Power-on / RS: default parameters, positions 0, variables gone, interrupts and record
+        off [M Ch4 §Clearing FIFO Buffer; spec §1.4]."""
+        self.motion = GalilMotion(self.n, self.period_ns, self.plant)
+        self.variables: dict[str, float] = {}
+        self.error_code = 0
+        self.echo = 0
+        self.lz = 0
+        self.tm_us = float(self.configured_tm_us)
+        self.record_rate = 0
+        self.outputs = 0
+        self.ei_mask = 0
+        self.ei_inputs = 0
+        self.vector: int | None = None
+        self.time_origin = self.ticks
+        self._trip: Trippoint | None = None
+        self._out = bytearray()
+
+    # -- the sample --------------------------------------------------------------------------------
+    def step(self) -> None:
+        """One sample: motion, interrupt conditions, the command interpreter, the data record."""
+        self.ticks += 1
+        motion = self.motion
+        done = motion.tick()
+        if done is not None:
+            self._motion_complete(done)
+        over = motion.check_error()
+        if over is not None and self.ei_mask & _EXCESS_ERROR:
+            self.ei_mask &= ~_EXCESS_ERROR
+            self.interrupt(InterruptStatus.EXCESS_ERROR)
+        if self._out or self._trip is not None or self.bus.commands_waiting:
+            self.serve()
+        rate = self.record_rate
+        if rate and not (self.ticks - self.time_origin) % (1 << rate):
+            self.bus.load_record(self.data_record())
+
+    def _motion_complete(self, done: np.ndarray) -> None:
+        """EI bits 0-3 per axis and bit 8 when every axis has stopped [M Ch4]."""
+        mask = self.ei_mask
+        for a in np.flatnonzero(done).tolist():
+            if mask & (1 << a):
+                self.interrupt(InterruptStatus.AXIS_COMPLETE + a)
+        if mask & _ALL_COMPLETE and not self.motion.core.profile.moving.any():
+            self.interrupt(InterruptStatus.ALL_COMPLETE)
+
+    # -- the command FIFO --------------------------------------------------------------------------
+    def serve(self) -> None:
+        """Decode the complete commands in the command FIFO, replying into the response FIFO;
+        a trippoint or a full response FIFO holds the interpreter (spec §2.4, §5.7)."""
+        bus = self.bus
+        while True:
+            if self._out:  # self._out, no local name: RS replaces it
+                del self._out[:bus.respond(self._out)]
+                if self._out:
+                    return
+            if self._trip is not None:
+                if not self._trip.ready():
+                    return
+                self._trip = None
+                self._reply(OK)
+                continue
+            buf = bus.command_bytes()
+            if not buf:
+                return
+            frame, used = _next_frame(buf)
+            if used:
+                bus.consume(used)
+            if frame is None:
+                if used:
+                    continue
+                return
+            if self.echo and not frame.binary:
+                self._out += buf[:used]
+            result = self._execute(frame)
+            if isinstance(result, Trippoint):
+                self._trip = result
+            else:
+                self._reply(result)
+
+    def host_cleared(self) -> None:
+        """The host cleared the FIFOs: "useful for emergency resets or Abort" [M Ch4]; a held
+        command-line trippoint and a reply in progress go too."""
+        self._trip = None
+        self._out.clear()
+
+    def _execute(self, frame: syntax.Frame) -> bytes | Trippoint:
+        if not frame.binary:
+            return self.interp.execute(frame.data.decode("latin-1"))
+        try:
+            text = syntax.binary_to_ascii(syntax.decode_binary(frame.data))
+        except GalilError as exc:
+            self.error_code = exc.code
+            return b"?"
+        return self.interp.execute(text)
+
+    def _reply(self, data: bytes) -> None:
+        self._out += data
+        if self.ei_mask & _COMMAND_DONE:
+            self.interrupt(InterruptStatus.COMMAND_DONE)
+
+    # -- interrupts [M Ch4 §Interrupts] --------------------------------------------------------------
+    def enable_interrupts(self, m: int | None, n: int | None, vector: int | None) -> None:
+        """EI: conditions, input mask, vector; EI0 clears the queue [M Ch4]."""
+        if m is not None:
+            self.ei_mask = m
+            if m == 0:
+                self.bus.clear_interrupts()
+                self.clear_irq()
+        if n is not None:
+            self.ei_inputs = n
+        if vector is not None:
+            self.vector = vector
+
+    def interrupt(self, code: int) -> None:
+        """Queue a status code; the line asserts while the host has interrupts enabled."""
+        self.bus.post_interrupt(int(code))
+
+    def _assert(self, code: int) -> None:
+        self.raise_irq(code | (self.vector or 0) << 8)
+
+    # -- inputs (the backdoor drives them) ---------------------------------------------------------
+    def set_limits(self, axis: int, forward: bool | None, reverse: bool | None) -> None:
+        """Limit switches of one axis (True = tripped); a tripped one raises EI bit 10 [M Ch3]."""
+        m = self.motion
+        fwd, rev = m.forward_limit.copy(), m.reverse_limit.copy()
+        if forward is not None:
+            fwd[axis] = bool(forward)
+        if reverse is not None:
+            rev[axis] = bool(reverse)
+        rising = m.set_limits(fwd, rev)
+        if rising.any() and self.ei_mask & _LIMIT_SWITCH:
+            self.interrupt(InterruptStatus.LIMIT_SWITCH)
+
+    def set_abort(self, active: bool) -> None:
+        """The ABORT input: motion stops at once, OE1 axes turn off [M Ch3 §Abort Input]."""
+        if active and not self.motion.abort_input:
+            self.motion.abort(list(range(self.n)), StopCode.ABORT_INPUT)
+        self.motion.abort_input = bool(active)
+
+    def set_input(self, input: int, level: int) -> None:
+        """General input IN1..IN8; a falling edge latches an armed axis (IN1..IN4, Fig 3-1) and
+        raises an enabled input interrupt (EI bit 15, then cleared) [M Ch4]."""
+        bit = 1 << (input - 1)
+        falling = bool(self.inputs & bit) and not level
+        self.inputs = self.inputs | bit if level else self.inputs & ~bit
+        if not falling:
+            return
+        a = input - 1
+        m = self.motion
+        if a < self.n and m.latch_armed[a]:
+            m.latched[a] = m.position()[a]
+            m.latch_armed[a], m.latch_occurred[a] = False, True
+        if self.ei_mask & _INPUTS and self.ei_inputs & bit:
+            self.ei_mask &= ~_INPUTS
+            self.interrupt(InterruptStatus.INPUT + input)
+
+    # -- what the card reports ---------------------------------------------------------------------
+    def report(self, name: str) -> np.ndarray:
+        """The per-axis values of TP, TE, RP, TD, RL, TV, TT, SC, TS (spec §4.4)."""
+        m = self.motion
+        if name == "TP":
+            return m.position()
+        if name == "TE":
+            return m.error()
+        if name == "RP":
+            return m.reference()
+        if name == "TD":
+            return m.auxiliary()
+        if name == "RL":
+            return m.latched
+        if name == "TV":
+            return np.rint(m.tv)
+        if name == "TT":
+            return m.torque()
+        if name == "SC":
+            return m.stop_code.astype(float)
+        if name == "TS":
+            return m.tell_switches().astype(float)
+        raise KeyError(name)
+
+    def status_byte(self) -> int:
+        """TB: bit 6 data record active, bit 0 echo on (spec §4.4)."""
+        return (0x40 if self.record_rate else 0) | (0x01 if self.echo else 0)
+
+    def input_bank(self, bank: int) -> int:
+        """TI n: IN1-IN8 as a byte for bank 0 (spec §4.4)."""
+        if bank == 0:
+            return self.inputs
+        if 2 <= bank <= 10:
+            return 0xFF  # extended I/O banks unconfigured; aux-encoder inputs open
+        raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+
+    def latch_inputs(self) -> np.ndarray:
+        """IN1..IN4 are the X..W latch inputs (Fig 3-1)."""
+        return np.array([(self.inputs >> a) & 1 for a in range(self.n)], dtype=bool)
+
+    def data_record(self) -> bytes:
+        """The REV4 record of this sample [M Ch4 §DMA / Secondary FIFO Memory Map]."""
+        m = self.motion
+        rec = np.zeros((), dtype=self._dtype)
+        rec["sample_number"] = (self.ticks - self.time_origin) & 0xFFFF
+        rec["input_bank_0"] = self.inputs
+        for bank in _UNUSED_INPUT_BANKS:
+            rec[bank] = 0xFF
+        rec["output_bank_0"] = self.outputs & 0xFF
+        rec["error_code"] = self.error_code & 0xFF
+        rec["general_status"] = int(GeneralStatus.ECHO_ON) if self.echo else 0
+        ax = rec["axis"]
+        ax["status"] = m.status_word()
+        ax["switches"] = m.switches(self.latch_inputs())
+        ax["stop_code"] = m.stop_code
+        ax["reference_position"] = wrap_int32(m.reference())
+        ax["motor_position"] = wrap_int32(m.position())
+        ax["position_error"] = wrap_int32(m.error())
+        ax["aux_position"] = wrap_int32(m.auxiliary())
+        ax["velocity"] = wrap_int32(m.tv * 64)
+        ax["torque"] = np.rint(m.torque() * COUNTS_PER_VOLT).clip(-32767, 32767)
+        ax["analog_in"] = np.rint(self.analog[: self.n] * COUNTS_PER_VOLT).clip(-32767, 32767)
+        return rec.tobytes()
+
+
+#: banks 1-9 of the record's inputs: no extended I/O, open inputs read 1
+_UNUSED_INPUT_BANKS = tuple(f"input_bank_{i}" for i in range(1, 10))
+#: `_DEx` and `_DPx` read what DE and DP defined: the auxiliary encoder and the reference
+_DEFINED = {"DE": "TD", "DP": "RP"}
+
+
+class _Env:
+    """Operands (`_TPX`), variables and @IN/@OUT/@AN for the expression evaluator (spec §4.4)."""
+
+    def __init__(self, fw: Firmware) -> None:
+        self.fw = fw
+
+    def operand(self, name: str) -> float:
+        fw, m = self.fw, self.fw.motion
+        if name == "TIME":
+            return float(fw.ticks - fw.time_origin)
+        scalars = {"TC": fw.error_code, "TB": fw.status_byte(), "OP": fw.outputs,
+                   "EO": fw.echo, "LZ": fw.lz, "TM": fw.tm_us, "DR": fw.record_rate}
+        if name in scalars:
+            return float(scalars[name])
+        if name.startswith("TI") and name[2:].isdigit():
+            return float(fw.input_bank(int(name[2:])))
+        cmd, letter = name[:2], name[2:]
+        if len(letter) != 1 or letter not in "XYZWABCD":
+            raise GalilError(TC.BAD_FUNCTION, name)
+        a = "XYZWABCD".index(letter) % 4
+        if a >= fw.n:
+            raise GalilError(TC.ONLY_ABCD_VALID, name)
+        cmd = _DEFINED.get(cmd, cmd)
+        if cmd in REPORT_FORMATS:
+            return float(fw.report(cmd)[a])
+        if cmd == "PA":
+            return float(m.destination()[a])
+        if cmd in PARAMS:
+            return float(m.values[cmd][a])
+        per_axis = {
+            "LF": not m.forward_limit[a], "LR": not m.reverse_limit[a], "HM": m.home_input[a],
+            "MO": not m.core.servo_on_mask[a], "BG": m.moving(a), "AL": m.latch_armed[a],
+        }
+        if cmd in per_axis:
+            return float(per_axis[cmd])
+        raise GalilError(TC.BAD_FUNCTION, name)
+
+    def variable(self, name: str) -> float:
+        try:
+            return self.fw.variables[name]
+        except KeyError:
+            raise GalilError(TC.VARIABLE_ERROR, name) from None
+
+    def array(self, name: str, index: int) -> float:
+        raise GalilError(TC.BAD_FUNCTION, f"no array {name}")
+
+    def function(self, name: str, arg: float) -> float:
+        fw = self.fw
+        n = int(arg)
+        if name == "IN":
+            if 1 <= n <= 8:
+                return float((fw.inputs >> (n - 1)) & 1)
+            if 17 <= n <= 88:
+                return 1.0  # extended inputs unconfigured, unused aux-encoder inputs open
+        elif name == "OUT":
+            if 1 <= n <= 8:
+                return float((fw.outputs >> (n - 1)) & 1)
+            if 17 <= n <= 80:
+                return 0.0
+        elif name == "AN":
+            if 1 <= n <= 8:
+                return float(fw.analog[n - 1])
+        else:
+            raise GalilError(TC.BAD_FUNCTION, name)
+        raise GalilError(TC.NUMBER_OUT_OF_RANGE, f"@{name}[{n}]")
