@@ -60,7 +60,7 @@ _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
      "sinusoidal commutation (spec §5.8): issue 20", TC.UNRECOGNIZED_COMMAND),
     (("QS", "YA", "YB", "YC", "YR", "YS"), "stepper position maintenance (spec §5.6): issue 20",
      TC.UNRECOGNIZED_COMMAND),
-    (("OC",), "output compare: issue 20", TC.UNRECOGNIZED_COMMAND),
+    (("OC",), "output compare: not built yet (no issue schedules it)", TC.UNRECOGNIZED_COMMAND),
     (("CO",), "extended I/O banks: the card has none configured", TC.UNRECOGNIZED_COMMAND),
     (("TR",), "program trace: there are no programs yet", TC.UNRECOGNIZED_COMMAND),
     (("PF", "VF"), "reply formats are fixed at the defaults (PF 10.0, VF 10.4)",
