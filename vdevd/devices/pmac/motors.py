@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from vdevd.devices.pmac import status
-from vdevd.devices.pmac.homing import HomeSearch
+from vdevd.devices.pmac.homing import Found, HomeAction, HomeSearch, Jog
 from vdevd.devices.pmac.ivars import IVars
 from vdevd.devices.pmac.status import MotorStatus1 as S1
 from vdevd.devices.pmac.status import pack
@@ -430,12 +430,43 @@ class Motors:
 
     # -- homing (homing.py) -----------------------------------------------------------------------------
     def home(self, m: int) -> None:
-        """HM: home search at Ixx23 to the I7mn2/I7mn3 capture trigger (`HomeSearch.start`)."""
-        self.homing.start(m)
+        """HM: home search at Ixx23 to the I7mn2/I7mn3 capture trigger (`HomeSearch.start`); a
+        killed motor closes its loop first."""
+        if not self._start(m):
+            return
+        self.timed[m] = False
+        self._home_action(m, self.homing.start(m))
 
     def home_zero(self, m: int) -> None:
         """HMZ: the present commanded position becomes motor position 0 (`HomeSearch.zero`)."""
-        self.homing.zero(m)
+        self._home_action(m, self.homing.zero(m))
+
+    def _home_action(self, m: int, action: HomeAction) -> None:
+        """Do what a home search answered for motor m [§2.7]."""
+        if isinstance(action, Jog):
+            self._push_inputs()  # software limits off while searching
+            self._jog_at(m, action.velocity)
+            self._after_command(m)
+            self._home_found(self.homing.check(initial=True))
+        else:
+            self._home_found([(m, action)])
+
+    def _home_found(self, found: list[tuple[int, Found]]) -> int:
+        """Each motor's home origin set and, after a trigger, the timed move to it at |Ixx23|;
+        AxisFlag.HOMED if a trigger moved a motor."""
+        if not found:
+            return 0
+        events = 0
+        for m, home in found:
+            self.origin[m] = home.origin
+            if home.speed is not None:
+                acc, jerk = self._accel(m, home.speed)
+                self.timed[m] = True
+                self.abort_decel[m] = False
+                self.core.move_absolute(m, home.origin, home.speed * 1000, acc, acc, jerk)
+                events |= int(AxisFlag.HOMED)
+        self._push_inputs()
+        return events
 
     # -- inputs ----------------------------------------------------------------------------------------
     def set_flags(self, m: int, *, plus_limit: bool | None = None, minus_limit: bool | None = None,
@@ -454,7 +485,7 @@ class Motors:
             self.amp_fault_in[m] = amp_fault
         self._push_inputs()
         if self.homing.any_searching and home is not None:
-            self.homing.check(initial=True)
+            self._home_found(self.homing.check(initial=True))
 
     def set_encoder_loss(self, m: int, lost: bool) -> None:
         """Backdoor: the encoder of motor m stops counting while `lost`."""
@@ -492,7 +523,7 @@ class Motors:
             core.set_inputs(hard_limit_pos=pos, hard_limit_neg=neg)
             stopped = (core.axes.flags & _STOPPED) != 0
             self.abort_decel |= stopped & core.profile.moving  # a limit stop at Ixx15
-            self.homing.searching &= core.profile.moving
+            self.homing.stopped(core.profile.moving)
         if not np.array_equal(fault, core.amp_fault):
             core.set_inputs(amp_fault=fault)
         if len(rising):
@@ -534,7 +565,7 @@ class Motors:
         if self._soft_on and core.profile.active:
             self._check_soft_limits()
         if self.homing.any_searching:
-            events |= self.homing.check()
+            events |= self._home_found(self.homing.check())
         if events & _FE_TRIP:
             trip = ((core.axes.flags & _FE_TRIP) != 0) & self._closed()
             if trip.any():
