@@ -12,7 +12,7 @@ Servo loop [§2.7, PMAC1-UM p.108]: with K = Ixx30 * 2^-19 (16-bit DAC units),
 (CV, CA, AV per servo cycle). The derivative acts on the actual velocity AV = CV - (FE - FE_prev),
 so it maps onto the core's PID (derivative on the error) as kd = K*Ixx09*Ixx31/128 and a velocity
 feed-forward reduced by kd. Output clamped to Ixx69, integrator held while the output saturates
-or (Ixx34 = 1) while the commanded velocity is not zero (`PmacPid`).
+or (Ixx34 = 1) while the commanded velocity is not zero (`pid.PmacPid`).
 
 Plant (servo): a torque-mode amplifier and an almost frictionless motor (`PLANT_AMP_GAIN`,
 `PLANT_VISCOUS`), chosen so the factory gains (Ixx30 2000, Ixx31 = Ixx32 1280, Ixx33 0) close the
@@ -29,9 +29,10 @@ import numpy as np
 from vdevd.devices.pmac import status
 from vdevd.devices.pmac.homing import Found, HomeAction, HomeSearch, Jog
 from vdevd.devices.pmac.ivars import IVars
+from vdevd.devices.pmac.pid import PmacPid
 from vdevd.devices.pmac.status import MotorStatus1 as S1
 from vdevd.devices.pmac.status import pack
-from vdevd.rt import AxisFlag, MotionCore, Pid, PlantKind
+from vdevd.rt import AxisFlag, MotionCore, PlantKind
 from vdevd.rt.axes import MOTION_STICKY
 
 DAC_FULL_SCALE = 32767  # 16-bit DAC, +-10 V [§2.7]
@@ -66,31 +67,6 @@ class MotorError(Exception):
     def __init__(self, code: int, message: str = "") -> None:
         super().__init__(f"ERR{code:03d}" + (f": {message}" if message else ""))
         self.code = code
-
-
-class PmacPid(Pid):
-    """The core's PID with PMAC's integrator hold [§2.7]: the error is not integrated while the
-    output is saturated at Ixx69, nor (Ixx34 = 1, `hold_moving`) while the commanded velocity is
-    not zero. Costs nothing while no motor has an integral gain (`integrating`)."""
-
-    def __init__(self, n: int, terms: np.ndarray) -> None:
-        super().__init__(n, terms)
-        self.hold_moving = np.zeros(n, dtype=bool)
-        self.integrating = False
-        self._hold = np.zeros(n, dtype=bool)
-        self._sat = np.zeros(n, dtype=bool)
-        self._abs = np.zeros(n)
-
-    def update(self, out: np.ndarray) -> None:
-        if self.integrating:  # `out` still holds the previous output here
-            hold, sat = self._hold, self._sat
-            np.not_equal(self.cmd_vel, 0.0, out=hold)
-            hold &= self.hold_moving
-            np.abs(out, out=self._abs)
-            np.greater_equal(self._abs, self.out_limit, out=sat)
-            hold |= sat
-            self.integ -= self.e * hold  # the parent adds e back: no net integration
-        super().update(out)
 
 
 class Motors:
