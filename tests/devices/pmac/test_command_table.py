@@ -9,11 +9,10 @@ from pathlib import Path
 
 import pytest
 
+from tests.devices.pmac.test_online import Card
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
 from vdevd.devices.pmac.online import Interpreter
 from vdevd.devices.pmac.reply import frame
-
-from .test_online import Card
 
 DIGEST = Path(__file__).resolve().parents[3].parent / "shared" / "spec" / "pmac.md"
 #: digest words that are not commands: the variable letters with a number (`I{n}`, `M{n}`);
