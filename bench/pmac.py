@@ -38,6 +38,7 @@ if __package__ in (None, ""):  # run as a script: python bench/pmac.py
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import zmq  # noqa: E402
+from vdevmaps.pmac import RESP_CONTROL  # noqa: E402
 
 from bench.common import (  # noqa: E402
     child,
@@ -174,7 +175,7 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
         fns: dict[str, Callable[[], Any]] = {RAW: raw_read, DPRAM: dpram, TCP_RAW: tcp, ETHERNET: ethernet}
         if diag:
             region = rack.card(CARD).region("dpram")
-            fns[READ] = lambda: region.read(0x0F40, 4)
+            fns[READ] = lambda: region.read(RESP_CONTROL, 4)
 
         series, counts, card_ns, stats = measure_commands(
             rack, Rack, fns, {DPRAM: dpram}, n, repeats, warmup, block, seed)

@@ -13,9 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import zmq
-
-from vdevclient._pcomm_codes import COMM_EOT, COMM_ERROR, COMM_TIMEOUT, INTRBUFFER, MAX_COMM_BUFFER
-from vdevclient._pmac_bus import (
+from vdevmaps.pmac import (
     ACK,
     CMD_CHAR,
     CMD_CONTROL,
@@ -25,6 +23,10 @@ from vdevclient._pmac_bus import (
     IR_STATUS,
     LINE,
     RESP_CONTROL,
+)
+
+from vdevclient._pcomm_codes import COMM_EOT, COMM_ERROR, COMM_TIMEOUT, INTRBUFFER, MAX_COMM_BUFFER
+from vdevclient._pmac_bus import (
     RESP_HEAD,
     RESP_SLOT,
     Posted,

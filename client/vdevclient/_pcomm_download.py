@@ -10,10 +10,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from vdevmaps.pmac import CMD_MAX, CR
+
 from vdevclient._cargs import text as _text
 from vdevclient._pcomm_codes import COMM_EOT, MAX_COMM_BUFFER
 from vdevclient._pcomm_device import _Device, _guarded, _reply
-from vdevclient._pmac_bus import CMD_MAX, CR, PreprocessError, parse_slot, preprocess
+from vdevclient._pmac_bus import PreprocessError, parse_slot, preprocess
 
 log = logging.getLogger("vdevclient.pcomm")  # the public module's logger
 

@@ -10,10 +10,7 @@ import logging
 import struct
 from typing import Any
 
-from vdevclient._cargs import target as _target
-from vdevclient._pcomm_codes import COMM_EOT
-from vdevclient._pcomm_device import _NS_PER_MS, _Device, _guarded, _number, _reply
-from vdevclient._pmac_bus import (
+from vdevmaps.pmac import (
     BG_CS_COUNT,
     BG_READY,
     BG_STATUS,
@@ -22,12 +19,12 @@ from vdevclient._pmac_bus import (
     RT_MASK,
     RT_MOTOR,
     RT_READY,
-    MotorReport,
-    join48,
-    motor_report,
-    pmac_float,
-    realtime_motor,
 )
+
+from vdevclient._cargs import target as _target
+from vdevclient._pcomm_codes import COMM_EOT
+from vdevclient._pcomm_device import _NS_PER_MS, _Device, _guarded, _number, _reply
+from vdevclient._pmac_bus import MotorReport, join48, motor_report, pmac_float, realtime_motor
 
 log = logging.getLogger("vdevclient.pcomm")  # the public module's logger
 

@@ -1,50 +1,32 @@
 """The Turbo PMAC's DPRAM and host port as the host sees them (spec pmac.md §2.10, §2.11), and the
 number formats PComm32 converts, without I/O.
 
-The client runs on machines without the daemon, so the offsets are duplicated here from the card's
-modules: `vdevd/devices/pmac/dpram.py` (DPRAM layout, ASCII handshake, reporting buffers) and
-`vdevd/devices/pmac/hostport.py` (host port and interrupt controller). Keep them in step.
+The offsets, control words and interrupt bits are vdevmaps.pmac's, the map the daemon's card
+serves (the client never imports the daemon).
 """
 
 from __future__ import annotations
 
-import enum
 import math
 import re
 import struct
 from dataclasses import dataclass
 from typing import NamedTuple
 
-CARD_TYPE = "pmac-turbo"
-DPRAM, HOST, LINE = "dpram", "host", "inta"
+from vdevmaps.pmac import (
+    CR,
+    ERROR_FLAG,
+    RESP_BUFFER,
+    RESP_CONTROL,
+    RESP_MAX,
+    RT_MOTOR,
+    RT_MOTORS,
+)
 
-# -- DPRAM (vdevd/devices/pmac/dpram.py) ---------------------------------------------------------------
-DPRAM_SIZE = 0x4000  # 8k x 16 [UM p.402]
-BASE = 0x060000  # PMAC address of host offset 0: A <-> 4 (A - BASE)
-CMD_CONTROL, CMD_CHAR, CMD_BUFFER, CMD_MAX = 0x0E9C, 0x0E9E, 0x0EA0, 160
-RESP_CONTROL, RESP_COUNT, RESP_BUFFER, RESP_MAX = 0x0F40, 0x0F42, 0x0F44, 255
 #: one read takes a whole response slot: control, count, up to 255 characters and their NUL
 RESP_SLOT = RESP_BUFFER - RESP_CONTROL + RESP_MAX + 1
 #: the slot's head, control word and count: all there is of an ACK, an error or an empty line
 RESP_HEAD = RESP_BUFFER - RESP_CONTROL
-CR, ACK, BELL = 0x0D, 0x06, 0x07
-
-# -- host port and interrupt controller (vdevd/devices/pmac/hostport.py) ----------------------------
-HOST_SIZE = 16
-IR_STATUS, IR_MASK = 8, 9  # status (write 1 to clear), enable mask
-
-
-class HostIrq(enum.IntFlag):
-    """Interrupt controller bits IR0-IR7 (ASSUMPTION of spec §2.11, the card's README)."""
-
-    IN_POSITION = 1 << 0
-    BUFFER_REQUEST = 1 << 1
-    FATAL_FOLLOWING_ERROR = 1 << 2
-    WARNING_FOLLOWING_ERROR = 1 << 3
-    ASCII_READY = 1 << 4
-    COMPARE_EQU1 = 1 << 5
-    COMPARE_EQU5 = 1 << 6
-    DPRAM = 1 << 7
 
 
 # -- the ASCII response slot -----------------------------------------------------------------------------
@@ -68,7 +50,7 @@ def command_bytes(line: bytes) -> bytes:
 def error_number(word: int) -> int | None:
     """The ERRnnn of a response control word (0x80 | hundreds, BCD tens and units [EPICS-VME]),
     or None when the word is not an error."""
-    if not word & 0x8000:
+    if not word & ERROR_FLAG:
         return None
     return (word >> 8 & 0x0F) * 100 + (word >> 4 & 0x0F) * 10 + (word & 0x0F)
 
@@ -82,7 +64,7 @@ def parse_slot(slot: bytes) -> Posted | None:
     text = slot[4:3 + (slot[2] | slot[3] << 8)]  # the count includes the NUL
     if b"\0" in text:
         text = text[:text.index(b"\0")]
-    if word & 0x8000:
+    if word & ERROR_FLAG:
         return Posted(text, None, error_number(word) or 0)
     return Posted(text, word & 0xFF)
 
@@ -124,12 +106,7 @@ def pmac_float(low: int, high: int) -> float:
         return math.copysign(math.inf, mantissa)
 
 
-# -- the reporting buffers, Turbo layout (vdevd/devices/pmac/dpram.py) ---------------------------
-RT_HOST_BUSY, RT_READY, RT_MASK = 0x006A, 0x006E, 0x0070  # X:$06001A, X:$06001B, L:$06001C
-RT_TIMER, RT_MOTORS, RT_MOTOR = 0x006C, 0x0074, 48  # Y:$06001B; $06001D + 12 words per motor
-BG_CS_COUNT, BG_HOST_BUSY, BG_READY = 0x0674, 0x0676, 0x067A  # Y:$06019D, X:$06019D, X:$06019E
-BG_TIMER, BG_STATUS = 0x0678, 0x0688  # Y:$06019E; L:$0601A2 global status
-READY = 0x8000  # bit 15 of a data-ready (or host-busy) word
+# -- the reporting buffers, Turbo layout ------------------------------------------------------------
 _RT_RECORD = struct.Struct("<12i")
 
 

@@ -48,6 +48,7 @@ from collections.abc import Callable
 from typing import Any
 
 import zmq
+from vdevmaps.pmac import CARD_TYPE, CMD_MAX, CR, HOST, IR_MASK, RESP_CONTROL, HostIrq
 
 from vdevclient._cargs import put_text as _put_text
 from vdevclient._cargs import text as _text
@@ -96,17 +97,7 @@ from vdevclient._pcomm_dpr import (
     PmacDPRSetFloat,
     PmacDPRSetMem,
 )
-from vdevclient._pmac_bus import (
-    CARD_TYPE,
-    CMD_MAX,
-    CR,
-    HOST,
-    IR_MASK,
-    RESP_CONTROL,
-    HostIrq,
-    error_text,
-    parse_slot,
-)
+from vdevclient._pmac_bus import error_text, parse_slot
 from vdevclient.core import Rack, connect
 from vdevclient.errors import VdevClientError
 

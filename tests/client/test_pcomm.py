@@ -13,8 +13,6 @@ import pytest
 import vdevclient
 from vdevclient import pcomm
 from vdevclient._pmac_bus import (
-    CMD_CHAR,
-    RESP_CONTROL,
     Posted,
     PreprocessError,
     command_bytes,
@@ -22,12 +20,12 @@ from vdevclient._pmac_bus import (
     parse_slot,
     preprocess,
 )
+from vdevmaps.pmac import CMD_CHAR, IR_MASK, OPEN_USE, RESP_CONTROL
 
 from tests.client.galil import card, rack_config, round_trips
 from vdevd.testing import DaemonThread
 
 DEVICE = 0
-OPEN_USE = 0x1140  # DPRAM open-use space [UM p.402]
 GUARD_S = 5.0  # a guard against hangs, never a wait for timing
 
 
@@ -246,7 +244,7 @@ def test_ascii_ready_interrupt_calls_back_when_enabled(dev: int, rack: vdevclien
 
     assert pcomm.PmacINTRFuncCallInit(dev, callback, 42, pcomm.HostIrq.ASCII_READY)
     host = rack.card("pmac0").region("host")
-    assert host.read8(9) == pcomm.HostIrq.ASCII_READY
+    assert host.read8(IR_MASK) == pcomm.HostIrq.ASCII_READY
     assert response(dev, "ver")[0] == pcomm.COMM_EOT | 6
     assert fired.wait(GUARD_S)
     assert got[0] == (42, 4)
@@ -254,4 +252,4 @@ def test_ascii_ready_interrupt_calls_back_when_enabled(dev: int, rack: vdevclien
     assert response(dev, "cid")[0] == pcomm.COMM_EOT | 7  # acknowledged, so it fires again
     assert fired.wait(GUARD_S)
     assert pcomm.PmacINTRTerminate(dev)
-    assert host.read8(9) == 0
+    assert host.read8(IR_MASK) == 0

@@ -17,6 +17,7 @@ from typing import Any
 
 import pytest
 import vdevclient
+from vdevmaps.pmac import CARD_TYPE, CMD_BUFFER, CMD_CONTROL, RESP_BUFFER, RESP_CONTROL
 
 from vdevd.config import CardSpec, Config
 from vdevd.devices import card_class
@@ -27,12 +28,8 @@ with warnings.catch_warnings():  # dls-pmaclib imports telnetlib (deprecated in 
     from dls_pmaclib.dls_pmacremote import PmacEthernetInterface
 
 CARD = "pmac0"
-CARD_TYPE = "pmac-turbo"
 LOOPBACK = "tcp://127.0.0.1:*"
 PERIOD_NS = 442_710
-# DPRAM ASCII handshake [spec pmac.md §2.10]
-CMD_CONTROL, CMD_BUFFER = 0x0E9C, 0x0EA0
-RESP_CONTROL, RESP_BUFFER = 0x0F40, 0x0F44
 
 
 def card_config(**options: Any) -> Config:

@@ -18,6 +18,7 @@ from typing import Any
 import pytest
 import vdevclient
 from vdevclient import pcomm
+from vdevmaps.pmac import BG_CS, BG_CS_COUNT, BG_READY, BG_STATUS, RT_MASK, RT_MOTORS, RT_READY
 
 from tests.devices.pmac.conftest import Pmac, card_config
 from vdevd.testing import DaemonThread
@@ -27,9 +28,6 @@ ACK = "\x06"
 BELL = "\x07"
 # Ethernet requests [§3.2]
 GETRESPONSE, GETBUFFER, READREADY = 0xBF, 0xC5, 0xC2
-# DPRAM reporting buffers, Turbo layout (README "Reporting buffers")
-RT_READY, RT_MASK, RT_MOTOR1 = 0x006E, 0x0070, 0x0074
-BG_CS_COUNT, BG_READY, BG_STATUS, BG_CS1 = 0x0674, 0x067A, 0x0688, 0x069C
 
 
 @contextmanager
@@ -622,7 +620,7 @@ def test_realtime_buffer_layout_period_and_handshake(card: Pmac) -> None:
     timer_lo, timer_hi = struct.unpack("<HH", dpram.read(RT_READY - 2, 4))
     cycle = timer_lo | (timer_hi & 0xFF) << 16
     assert timer_hi & 0x8000 and cycle % 10 == 0
-    rec = struct.unpack("<12i", dpram.read(RT_MOTOR1, 48))
+    rec = struct.unpack("<12i", dpram.read(RT_MOTORS, 48))
     assert (rec[3] & 0xFFFFFF, rec[4] & 0xFFFFFF) == motor_words(1)
     assert (rec[0], rec[1], rec[10], rec[11]) == (0, 0, 100 * 96 * 32, 0)  # FE, actual position
     card.step(25)
@@ -642,5 +640,5 @@ def test_background_buffer_global_status_and_time_base(card: Pmac) -> None:
     assert dpram.read16(BG_READY) & 0x8000
     y_word, x_word = struct.unpack("<ii", dpram.read(BG_STATUS, 8))
     assert (x_word & 0xFFFFFF, y_word & 0xFFFFFF) == words(pc("???")[0])
-    cs2 = struct.unpack("<32i", dpram.read(BG_CS1 + 128, 128))
+    cs2 = struct.unpack("<32i", dpram.read(BG_CS + 128, 128))
     assert cs2[2] == round(3713707 * 0.5)  # time base at 50 %, I10 units

@@ -11,19 +11,25 @@ from collections.abc import Iterator
 import pytest
 import vdevclient
 from vdevclient import pcomm
+from vdevmaps.pmac import (
+    BG_CS,
+    BG_CS_COUNT,
+    BG_HOST_BUSY,
+    BG_READY,
+    BG_STATUS,
+    BG_TIMER,
+    READY,
+    RT_HOST_BUSY,
+    RT_MASK,
+    RT_MOTORS,
+    RT_READY,
+    RT_TIMER,
+)
 
 from tests.devices.pmac.conftest import Pmac
 from tests.devices.pmac.test_acceptance import pmac_pcomm
 
 DEVICE = 0
-# real-time buffer [dprrtdbt.h realtTURBO]: X:$06001A host busy, Y/X:$06001B timer and data ready,
-# L:$06001C motor mask, $06001D + 12(n-1) the motor records
-RT_HOST_BUSY, RT_TIMER, RT_READY, RT_MASK, RT_MOTOR1 = 0x006A, 0x006C, 0x006E, 0x0070, 0x0074
-# background buffer [dprbkg.h backgTURBO]: Y:$06019D C.S. count, X:$06019D host busy, $06019E timer
-# and data ready, L:$0601A2 global status, $0601A7 + $20(s-1) the C.S. records
-BG_CS_COUNT, BG_HOST_BUSY, BG_TIMER, BG_READY = 0x0674, 0x0676, 0x0678, 0x067A
-BG_STATUS, BG_CS1 = 0x0688, 0x069C
-READY = 0x8000
 SCALE = 96 * 32  # Ixx08 * 32, factory
 JOG_PER_CYCLE = 32 * 3713707 / 8388608  # Ixx22 = 32 counts/ms at the factory servo period
 
@@ -52,7 +58,7 @@ def timer(dpram: vdevclient.Region, at: int) -> tuple[int, bool]:
 
 
 def record(dpram: vdevclient.Region, motor: int) -> tuple[int, ...]:
-    return struct.unpack("<12i", dpram.read(RT_MOTOR1 + 48 * (motor - 1), 48))
+    return struct.unpack("<12i", dpram.read(RT_MOTORS + 48 * (motor - 1), 48))
 
 
 def join48(low: int, high: int) -> int:
@@ -154,11 +160,11 @@ def test_background_gives_global_and_the_requested_coordinate_systems_every_i49_
     first, second = words(pc("???")[0])
     assert (x_word & 0xFFFFFF, y_word & 0xFFFFFF) == (first, second) and first & 1 << 3
     for cs in (1, 2):
-        rec = struct.unpack("<32i", dpram.read(BG_CS1 + 128 * (cs - 1), 128))
+        rec = struct.unpack("<32i", dpram.read(BG_CS + 128 * (cs - 1), 128))
         w1, w2, w3 = words(pc(f"&{cs}??")[0])
         assert (rec[5] & 0xFFFFFF, rec[24] & 0xFFFFFF, rec[4] & 0xFFFFFF) == (w1, w2, w3)
         assert rec[2] == round(3713707 * (0.25 if cs == 2 else 1.0))  # time base, I10 units
-    assert dpram.read(BG_CS1 + 128 * 2, 128) == bytes(128)  # C.S. 3: not requested
+    assert dpram.read(BG_CS + 128 * 2, 128) == bytes(128)  # C.S. 3: not requested
 
 
 def test_background_waits_for_the_host_like_the_real_time_buffer(card: Pmac) -> None:

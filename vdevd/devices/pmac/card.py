@@ -15,20 +15,26 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
+from vdevmaps.pmac import (
+    CARD_TYPE,
+    CMD_CONTROL,
+    DPRAM,
+    DPRAM_BASE,
+    DPRAM_SIZE,
+    HOST,
+    HOST_SIZE,
+    IR_MASK,
+    IR_STATUS,
+    LINE,
+    RESP_CONTROL,
+    HostIrq,
+)
 
 from vdevd.devices.base import Card, CardContext, Option, control
-from vdevd.devices.pmac import dpram
 from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
 from vdevd.devices.pmac.ethernet_server import EthernetServer
 from vdevd.devices.pmac.firmware import Firmware, Identity
-from vdevd.devices.pmac.hostport import (
-    IR_MASK,
-    IR_STATUS,
-    HostIrq,
-    HostPort,
-    InterruptController,
-)
-from vdevd.devices.pmac.hostport import SIZE as HOST_SIZE
+from vdevd.devices.pmac.hostport import HostPort, InterruptController
 from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.reply import Reply, frame
 from vdevd.devices.pmac.servo_ic import ChannelFlag
@@ -89,8 +95,8 @@ class CommandPort:
         self.card.dpram.write(offset, data)
 
     def _check(self, offset: int, count: int) -> None:
-        if offset < 0 or count < 0 or offset + count > dpram.SIZE:
-            raise ValueError(f"DPRAM {offset:#x}+{count} outside {dpram.SIZE:#x}")
+        if offset < 0 or count < 0 or offset + count > DPRAM_SIZE:
+            raise ValueError(f"DPRAM {offset:#x}+{count} outside {DPRAM_SIZE:#x}")
 
     def host_port_read(self, offset: int) -> int:
         return self.card.host_read(offset)
@@ -110,11 +116,11 @@ class DpramMemory:
         self.region = region
 
     def read_word(self, space: str, addr: int) -> int:
-        off = 4 * (addr - dpram.BASE) + (2 if space == "X" else 0)
+        off = 4 * (addr - DPRAM_BASE) + (2 if space == "X" else 0)
         return self.region.get(off, 2)
 
     def write_word(self, space: str, addr: int, value: int) -> None:
-        off = 4 * (addr - dpram.BASE) + (2 if space == "X" else 0)
+        off = 4 * (addr - DPRAM_BASE) + (2 if space == "X" else 0)
         self.region.set(off, value & 0xFFFF, 2)
         self.region_written(off, 2)
 
@@ -123,7 +129,7 @@ class DpramMemory:
 
 
 class PmacCard(Card):
-    type_name: ClassVar[str] = "pmac-turbo"
+    type_name: ClassVar[str] = CARD_TYPE
     endian: ClassVar[str] = "little"
     default_period_ns: ClassVar[int] = SERVO_PERIOD_NS
     options: ClassVar[Mapping[str, Option]] = {
@@ -153,32 +159,32 @@ class PmacCard(Card):
         self.ethernet_error = ""
         self._server: EthernetServer | None = None
         self.dpram = self.add_region(Region(
-            "dpram", dpram.SIZE, widths=(1, 2, 4), endian="little",
+            DPRAM, DPRAM_SIZE, widths=(1, 2, 4), endian="little",
             description="DPRAM: ASCII command/response buffers, reporting buffers (UM p.402)"))
         self.host = self.add_region(Region(
-            "host", HOST_SIZE, widths=(1,), endian="little",
+            HOST, HOST_SIZE, widths=(1,), endian="little",
             description="host port (HI08 bytes 0-7) and interrupt controller (8 status, 9 mask)"))
         self.host.hook(0, HOST_SIZE, on_read=lambda o, n: bytes([self.host_read(o)]),
                        on_write=lambda o, d: self.host_write(o, d[0]),
                        peek=lambda o, n: bytes([self.host_read(o, peek=True)]))
-        self.inta = self.add_irq("inta")
+        self.inta = self.add_irq(LINE)
         self.irq = InterruptController(self.inta.trigger, self.inta.clear)
         store = ctx.nvram
         self.fw = Firmware(self.motors, self.period_ns, str(cfg.get("plant") or "servo"),
                            Identity(cid=int(cfg.get("cid") or 603382)), store=self._store)
-        self.fw.memory.mount(dpram.BASE, dpram.BASE + dpram.SIZE // 4 - 1, DpramMemory(self.dpram))
+        self.fw.memory.mount(DPRAM_BASE, DPRAM_BASE + DPRAM_SIZE // 4 - 1, DpramMemory(self.dpram))
         self.dpram_port = PortState()
         self.ascii = AsciiChannel(self.dpram.buf, self._dpram_execute, self._dpram_controlchar,
                                   lambda: self.irq.raise_(_ASCII_READY))
-        self.dpram.hook(dpram.CMD_CONTROL, 2, on_write=self.ascii.command_control)
-        self.dpram.hook(dpram.RESP_CONTROL, 2, on_write=self.ascii.response_control)
+        self.dpram.hook(CMD_CONTROL, 2, on_write=self.ascii.command_control)
+        self.dpram.hook(RESP_CONTROL, 2, on_write=self.ascii.response_control)
         self.reporting = Reporting(self.dpram.buf)
         self.host_port_state = CommandPort(self)
         self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)
         self._last_status2 = np.zeros(self.motors, dtype=np.int64)
         self.fw.restore((store.load(name) if store is not None else None) or {})
         self.fw.on_reset = self._firmware_reset
-        self.dpram.buf[:] = bytes(dpram.SIZE)
+        self.dpram.buf[:] = bytes(DPRAM_SIZE)
         self.ascii.reset()
         self._firmware_reset()
 
@@ -196,7 +202,7 @@ class PmacCard(Card):
     def reset(self) -> None:
         """The rack's reset: power cycle, DPRAM cleared."""
         self.fw.power_on_reset()
-        self.dpram.buf[:] = bytes(dpram.SIZE)
+        self.dpram.buf[:] = bytes(DPRAM_SIZE)
         self.ascii.reset()
 
     def _store(self, image: dict[str, Any]) -> None:

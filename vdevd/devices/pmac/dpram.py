@@ -1,5 +1,5 @@
 """The PCI DPRAM: the ASCII command/response handshake and the reporting buffers, without I/O
-[spec pmac.md §2.10].
+[spec pmac.md §2.10]. The offsets are vdevmaps.pmac's, which the client shares.
 
 Host byte offsets (little-endian, 16-bit control words) [UM p.402; EPICS-VME pmacDriver.c]:
 
@@ -28,33 +28,43 @@ from collections import deque
 from collections.abc import Callable
 
 import numpy as np
+from vdevmaps.pmac import (
+    ACK,
+    BG_CS,
+    BG_CS_COUNT,
+    BG_CS_SIZE,
+    BG_HOST_BUSY,
+    BG_READY,
+    BG_STATUS,
+    BG_TIMER,
+    CMD_BUFFER,
+    CMD_CHAR,
+    CMD_CONTROL,
+    CMD_MAX,
+    CR,
+    CS_COUNT,
+    CS_STATUS1,
+    CS_STATUS2,
+    CS_STATUS3,
+    CS_TIMEBASE,
+    READY,
+    RESP_CONTROL,
+    RESP_MAX,
+    RT_ACTUAL,
+    RT_BIAS,
+    RT_DAC,
+    RT_FE,
+    RT_HOST_BUSY,
+    RT_MASK,
+    RT_MOTOR,
+    RT_MOTORS,
+    RT_READY,
+    RT_STATUS1,
+    RT_STATUS2,
+    RT_TIMER,
+    RT_VEL,
+)
 
-SIZE = 0x4000  # 8k x 16: ends at 0x3FFC [UM p.402]
-BASE = 0x060000  # PMAC address of host offset 0; A <-> 4 (A - BASE)
-CMD_CONTROL, CMD_CHAR, CMD_BUFFER, CMD_MAX = 0x0E9C, 0x0E9E, 0x0EA0, 160
-RESP_CONTROL, RESP_COUNT, RESP_BUFFER, RESP_MAX = 0x0F40, 0x0F42, 0x0F44, 255
-# -- real-time (servo) motor data buffer, X:$06001A-$06019C [dprrtdbt.h realtTURBO; drvPmac.c] --
-REALTIME = 0x006A  # X:$06001A bit 15: host busy (the host is reading)
-RT_TIMER, RT_READY = 0x006C, 0x006E  # Y:$06001B timer bits 0-15; X:$06001B bits 0-7 timer 16-23
-RT_MASK = 0x0070  # L:$06001C: bit n-1 reports motor n (Y word motors 1-16, X word 17-32)
-RT_MOTORS, RT_MOTOR = 0x0074, 48  # $06001D + 12(n-1): twelve 32-bit words per motor
-#: word index in a motor record: following error (48-bit), previous DAC, servo status (word 1),
-#: motor status (word 2), position bias (48-bit), filtered velocity, 2 spares, actual position
-RT_FE, RT_DAC, RT_STATUS1, RT_STATUS2, RT_BIAS, RT_VEL, RT_ACTUAL = 0, 2, 3, 4, 5, 7, 10
-# -- background fixed data buffer, Y:$06019D-$0603A6 [dprbkg.h backgTURBO; drvPmac.c] ------------
-BG_CS_COUNT = 0x0674  # Y:$06019D bits 0-7: coordinate systems reported (the host writes it)
-BACKGROUND = 0x0676  # X:$06019D bit 15: host busy
-BG_TIMER, BG_READY = 0x0678, 0x067A  # as RT_TIMER, RT_READY, at $06019E
-BG_GLOBAL = 0x067C  # $06019F control panel, $0601A0 machine I/O, $0601A1 thumbwheel port
-BG_STATUS = 0x0688  # L:$0601A2: global status, Y:$000006 (??? word 2) then X:$000006 (word 1)
-BG_CS, BG_CS_SIZE = 0x069C, 128  # $0601A7 + $20(s-1): thirty-two 32-bit words per C.S.
-#: word index in a C.S. record: feed rate/time (48-bit), time base, time-base pointer, status
-#: (`??` word 3, word 1), 9 axis positions (48-bit), program status (`??` word 2), remaining
-#: program lines, move time left, TA/TS time left, executing line, 3 spares
-CS_FEED, CS_TIMEBASE, CS_STATUS3, CS_STATUS1, CS_STATUS2 = 0, 2, 4, 5, 24
-CS_COUNT = 16
-READY = 0x8000  # bit 15 of the host-busy and data-ready words
-CR, ACK = 0x0D, 0x06
 _SLOT_HEAD = struct.Struct("<HH")  # a posted line: control word, characters + 1
 
 
@@ -171,11 +181,11 @@ class Reporting:
 
     def realtime_due(self, cycle: int, period: float) -> bool:
         """At a multiple of I47 servo cycles (0 counts as 1) with the buffer requested."""
-        return cycle % max(int(period), 1) == 0 and self._requested(REALTIME, RT_READY)
+        return cycle % max(int(period), 1) == 0 and self._requested(RT_HOST_BUSY, RT_READY)
 
     def background_due(self, cycle: int, period: float) -> bool:
         """At a multiple of I50 servo cycles (0 counts as 1) with the buffer requested."""
-        return cycle % max(int(period), 1) == 0 and self._requested(BACKGROUND, BG_READY)
+        return cycle % max(int(period), 1) == 0 and self._requested(BG_HOST_BUSY, BG_READY)
 
     def motor_mask(self, motors: int) -> np.ndarray:
         """The indices of the motors (0-based, below `motors`) the host selected at L:$06001C."""

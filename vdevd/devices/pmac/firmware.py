@@ -16,6 +16,7 @@ import numpy as np
 
 from vdevd.devices.pmac.comp2d import CompError, CompTables
 from vdevd.devices.pmac.ect import ConversionTable, setup_address
+from vdevd.devices.pmac.errors import ERR_DATA, ERR_PHASE, CommandError
 from vdevd.devices.pmac.expr import ExprError
 from vdevd.devices.pmac.feedback import FeedbackSelect
 from vdevd.devices.pmac.gpio import GeneralIO
@@ -24,7 +25,7 @@ from vdevd.devices.pmac.memory import TOP, Memory
 from vdevd.devices.pmac.motors import MotorError, Motors
 from vdevd.devices.pmac.mvars import MVars
 from vdevd.devices.pmac.numbers import format_hex, format_value, quantize_float
-from vdevd.devices.pmac.online import ERR_DATA, ERR_PHASE, CommandError, Interpreter, PortState
+from vdevd.devices.pmac.online import Interpreter, PortState
 from vdevd.devices.pmac.registers import (
     CS_BASE,
     CS_STRIDE,

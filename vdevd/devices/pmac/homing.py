@@ -5,21 +5,59 @@ HM jogs at |Ixx23| toward sign(Ixx23) until the capture condition of the motor's
 (Ixx25) holds: I7mn2 on the flag I7mn3 selects, and the index pulse. The Servo IC latches the
 counter (X:b+3, Mxx73) and sets the position-captured flag; trigger + Ixx26/16 becomes motor
 position 0 and the motor moves there (EncoderPos = MotorPos + HomeCapture + Ixx26/16
-[A L900-914]). HMZ makes the present commanded position 0 without motion. Homing moves the
-motor's origin (`Motors.origin`), never the encoder count.
+[A L900-914]). HMZ makes the present commanded position 0 without motion. A search answers what
+its motor should do (`Jog`, `Found`) and `Motors` does it: homing moves the motor's origin
+(`Motors.origin`), never the encoder count.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
-from vdevd.devices.pmac.ivars import SERVO_IC_BASE
-from vdevd.rt import AxisFlag
+from vdevd.devices.pmac.ivars import SERVO_IC_BASE, IVars
+from vdevd.rt import MotionCore
 
-if TYPE_CHECKING:
-    from vdevd.devices.pmac.motors import Motors
+
+class MotorView(Protocol):
+    """What a home search reads of its motors (never writes): their count, I-variables, motion
+    core and raw flag inputs."""
+
+    @property
+    def n(self) -> int: ...
+    @property
+    def ivars(self) -> IVars: ...
+    @property
+    def core(self) -> MotionCore: ...
+    @property
+    def hmfl(self) -> np.ndarray: ...
+    @property
+    def plim(self) -> np.ndarray: ...
+    @property
+    def mlim(self) -> np.ndarray: ...
+
+
+@dataclass(frozen=True, slots=True)
+class Jog:
+    """Start the search: jog at `velocity` counts/ms with the jog accelerations, limits pushed
+    first (software limits are off while searching); then check the trigger at once."""
+
+    velocity: float
+
+
+@dataclass(frozen=True, slots=True)
+class Found:
+    """Home found: `origin` (core counts) becomes motor position 0; with `speed` (|Ixx23|,
+    counts/ms) the motor moves there as a timed jog-type move, without (HMZ) it stays put."""
+
+    origin: float
+    speed: float | None = None
+
+
+#: what `Motors` does after `HomeSearch.start` / `zero`
+HomeAction = Jog | Found
 
 
 def _ic_channel(address: int, motor: int) -> tuple[int, int]:
@@ -35,11 +73,11 @@ def _ic_channel(address: int, motor: int) -> tuple[int, int]:
 
 class HomeSearch:
     """The home searches of the motors of one card, with the capture registers and index pulses
-    they trigger on. It is part of its `Motors`: it starts the search with their jog profile,
-    reads their flag inputs and sets their origin. Per-motor Python only at the servo cycle a
-    trigger happens."""
+    they trigger on. It reads the motors through `MotorView` and answers what they should do
+    (`Jog`, `Found`); `Motors` does it. Per-motor Python only at the servo cycle a trigger
+    happens."""
 
-    def __init__(self, motors: Motors) -> None:
+    def __init__(self, motors: MotorView) -> None:
         self.motors = motors
         self.index_period = np.zeros(motors.n, dtype=np.int64)  # set_index (0: no index pulses)
         #: I7mn0's number for the Servo IC channel of each motor's flags (Ixx25)
@@ -68,79 +106,66 @@ class HomeSearch:
         self.searching[idx] = False
         self.any_searching = bool(self.searching.any())
 
+    def stopped(self, moving: np.ndarray) -> None:
+        """A limit or a stop ended the motion of the motors not `moving`: their search ends."""
+        self.searching &= moving
+
     def index_now(self) -> np.ndarray:
         """CHC: the encoder sits on an index pulse (a multiple of the index period)."""
         enc, period = self.motors.core.axes.encoder, self.index_period
         return (period > 0) & (enc % np.where(period > 0, period, 1) == 0)
 
     # -- HM and HMZ ------------------------------------------------------------------------------
-    def start(self, m: int) -> None:
-        """HM: home search at |Ixx23| toward sign(Ixx23) with the jog accelerations until the
-        capture trigger of I7mn2/I7mn3; then the motor moves to trigger + Ixx26/16, which is
-        motor position 0 [SRM p.101, UM "Homing"]. Software limits are off during the search.
-        Ixx23 = 0 homes where the motor is (as HMZ)."""
-        mo = self.motors
-        if not mo._start(m):
-            return
-        speed = float(mo.ivars.values[100 * (m + 1) + 23])
+    def start(self, m: int) -> HomeAction:
+        """HM, once the motor's loop is closed: home search at |Ixx23| toward sign(Ixx23) with
+        the jog accelerations until the capture trigger of I7mn2/I7mn3; then the motor moves to
+        trigger + Ixx26/16, which is motor position 0 [SRM p.101, UM "Homing"]. Software limits
+        are off during the search. Ixx23 = 0 homes where the motor is (as HMZ)."""
+        speed = float(self.motors.ivars.values[100 * (m + 1) + 23])
         self.home_complete[m] = False
-        mo.timed[m] = False
         if speed == 0:
-            self.zero(m)
-            return
+            return self.zero(m)
         self.searching[m] = True
         self.any_searching = True
         self.captured[m] = False
-        self._enc_prev[m] = mo.core.axes.encoder[m]
-        mo._push_inputs()
-        mo._jog_at(m, speed)
-        mo._after_command(m)
-        self.check(initial=True)
+        self._enc_prev[m] = self.motors.core.axes.encoder[m]
+        return Jog(speed)
 
-    def zero(self, m: int) -> None:
+    def zero(self, m: int) -> Found:
         """HMZ: the present commanded position becomes motor position 0, home complete set
         (the actual position then reads minus the following error); no motion."""
-        mo = self.motors
-        core = mo.core
+        core = self.motors.core
         self.end(m)
         here = core.axes.cmd_pos[m] if core.servo_on_mask[m] else core.axes.fb[m]
-        mo.origin[m] = float(here)
         self.home_complete[m] = True
-        mo._push_inputs()
+        return Found(float(here))
 
     # -- the trigger -----------------------------------------------------------------------------
-    def check(self, initial: bool = False) -> int:
-        """Searching motors whose capture condition holds: latch the capture, set home complete,
-        make trigger + Ixx26/16 motor position 0 and move there [§2.7]. `initial`: at the
-        command or an input change, not after a servo cycle (no index crossed since the last
-        check). Returns AxisFlag.HOMED if a motor triggered."""
+    def check(self, initial: bool = False) -> list[tuple[int, Found]]:
+        """Searching motors whose capture condition holds: latch the capture, set home complete;
+        for each, trigger + Ixx26/16 becomes motor position 0 and it moves there [§2.7]
+        (`Found`, with the motor). `initial`: at the command or an input change, not after a
+        servo cycle (no index crossed since the last check)."""
         mo = self.motors
         core, values = mo.core, mo.ivars.values
         self.searching &= core.profile.moving  # a limit or a stop ended the search
         idx = np.flatnonzero(self.searching)
         if not len(idx):
             self.any_searching = False
-            return 0
+            return []
         hit = idx[self._capture_level(idx, initial)]
-        events = 0
+        found = []
         for m in hit.tolist():
             capture = self._capture_value(m, initial)
             self.capture_counts[m] = capture
             self.captured[m] = True
             self.searching[m] = False
             self.home_complete[m] = True
-            mo.origin[m] = capture + float(values[100 * (m + 1) + 26]) / 16
-            speed = abs(float(values[100 * (m + 1) + 23]))
-            acc, jerk = mo._accel(m, speed)
-            mo.timed[m] = True
-            mo.abort_decel[m] = False
-            core.move_absolute(m, float(mo.origin[m]), speed * 1000, acc, acc, jerk)
-            events |= int(AxisFlag.HOMED)
+            origin = capture + float(values[100 * (m + 1) + 26]) / 16
+            found.append((m, Found(origin, abs(float(values[100 * (m + 1) + 23])))))
         np.copyto(self._enc_prev, core.axes.encoder)
         self.any_searching = bool(self.searching.any())
-        if len(hit):
-            mo._push_inputs()
-        return events
+        return found
 
     def _capture_level(self, idx: np.ndarray, initial: bool) -> np.ndarray:
         """The capture condition of I7mn2 (bit 0 index, bit 1 flag, bits 2/3 their low-true

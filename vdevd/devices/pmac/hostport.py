@@ -10,31 +10,19 @@ Interrupt controller (ASSUMPTION, proposed model of §2.11): offset 8 status (wr
 offset 9 enable mask; IR0 in-position, IR1 buffer request, IR2 fatal following error, IR3 warning
 following error, IR4 ASCII response ready, IR5 compare EQU1, IR6 compare EQU5, IR7 DPRAM. The line
 INTA is asserted while status & mask is not zero; each rising of a bit there is one event.
+
+The register offsets and the interrupt bits (`HostIrq`) are vdevmaps.pmac's, which the client
+shares.
 """
 
 from __future__ import annotations
 
-import enum
 from collections import deque
 from collections.abc import Callable
 
-SIZE = 16
-ISR, DATA, IR_STATUS, IR_MASK = 2, 7, 8, 9
-RXDF, TXDE = 0x01, 0x02
+from vdevmaps.pmac import DATA, ISR, RXDF, TXDE
+
 MAX_LINE = 256
-
-
-class HostIrq(enum.IntFlag):
-    """Interrupt controller bits IR0-IR7 (ASSUMPTION, §2.11)."""
-
-    IN_POSITION = 1 << 0
-    BUFFER_REQUEST = 1 << 1
-    FATAL_FOLLOWING_ERROR = 1 << 2
-    WARNING_FOLLOWING_ERROR = 1 << 3
-    ASCII_READY = 1 << 4
-    COMPARE_EQU1 = 1 << 5
-    COMPARE_EQU5 = 1 << 6
-    DPRAM = 1 << 7
 
 
 class HostPort:

@@ -12,7 +12,7 @@ Servo loop [§2.7, PMAC1-UM p.108]: with K = Ixx30 * 2^-19 (16-bit DAC units),
 (CV, CA, AV per servo cycle). The derivative acts on the actual velocity AV = CV - (FE - FE_prev),
 so it maps onto the core's PID (derivative on the error) as kd = K*Ixx09*Ixx31/128 and a velocity
 feed-forward reduced by kd. Output clamped to Ixx69, integrator held while the output saturates
-or (Ixx34 = 1) while the commanded velocity is not zero (`PmacPid`).
+or (Ixx34 = 1) while the commanded velocity is not zero (`pid.PmacPid`).
 
 Plant (servo): a torque-mode amplifier and an almost frictionless motor (`PLANT_AMP_GAIN`,
 `PLANT_VISCOUS`), chosen so the factory gains (Ixx30 2000, Ixx31 = Ixx32 1280, Ixx33 0) close the
@@ -27,11 +27,12 @@ import math
 import numpy as np
 
 from vdevd.devices.pmac import status
-from vdevd.devices.pmac.homing import HomeSearch
+from vdevd.devices.pmac.homing import Found, HomeAction, HomeSearch, Jog
 from vdevd.devices.pmac.ivars import IVars
+from vdevd.devices.pmac.pid import PmacPid
 from vdevd.devices.pmac.status import MotorStatus1 as S1
 from vdevd.devices.pmac.status import pack
-from vdevd.rt import AxisFlag, MotionCore, Pid, PlantKind
+from vdevd.rt import AxisFlag, MotionCore, PlantKind
 from vdevd.rt.axes import MOTION_STICKY
 
 DAC_FULL_SCALE = 32767  # 16-bit DAC, +-10 V [§2.7]
@@ -66,31 +67,6 @@ class MotorError(Exception):
     def __init__(self, code: int, message: str = "") -> None:
         super().__init__(f"ERR{code:03d}" + (f": {message}" if message else ""))
         self.code = code
-
-
-class PmacPid(Pid):
-    """The core's PID with PMAC's integrator hold [§2.7]: the error is not integrated while the
-    output is saturated at Ixx69, nor (Ixx34 = 1, `hold_moving`) while the commanded velocity is
-    not zero. Costs nothing while no motor has an integral gain (`integrating`)."""
-
-    def __init__(self, n: int, terms: np.ndarray) -> None:
-        super().__init__(n, terms)
-        self.hold_moving = np.zeros(n, dtype=bool)
-        self.integrating = False
-        self._hold = np.zeros(n, dtype=bool)
-        self._sat = np.zeros(n, dtype=bool)
-        self._abs = np.zeros(n)
-
-    def update(self, out: np.ndarray) -> None:
-        if self.integrating:  # `out` still holds the previous output here
-            hold, sat = self._hold, self._sat
-            np.not_equal(self.cmd_vel, 0.0, out=hold)
-            hold &= self.hold_moving
-            np.abs(out, out=self._abs)
-            np.greater_equal(self._abs, self.out_limit, out=sat)
-            hold |= sat
-            self.integ -= self.e * hold  # the parent adds e back: no net integration
-        super().update(out)
 
 
 class Motors:
@@ -430,12 +406,43 @@ class Motors:
 
     # -- homing (homing.py) -----------------------------------------------------------------------------
     def home(self, m: int) -> None:
-        """HM: home search at Ixx23 to the I7mn2/I7mn3 capture trigger (`HomeSearch.start`)."""
-        self.homing.start(m)
+        """HM: home search at Ixx23 to the I7mn2/I7mn3 capture trigger (`HomeSearch.start`); a
+        killed motor closes its loop first."""
+        if not self._start(m):
+            return
+        self.timed[m] = False
+        self._home_action(m, self.homing.start(m))
 
     def home_zero(self, m: int) -> None:
         """HMZ: the present commanded position becomes motor position 0 (`HomeSearch.zero`)."""
-        self.homing.zero(m)
+        self._home_action(m, self.homing.zero(m))
+
+    def _home_action(self, m: int, action: HomeAction) -> None:
+        """Do what a home search answered for motor m [§2.7]."""
+        if isinstance(action, Jog):
+            self._push_inputs()  # software limits off while searching
+            self._jog_at(m, action.velocity)
+            self._after_command(m)
+            self._home_found(self.homing.check(initial=True))
+        else:
+            self._home_found([(m, action)])
+
+    def _home_found(self, found: list[tuple[int, Found]]) -> int:
+        """Each motor's home origin set and, after a trigger, the timed move to it at |Ixx23|;
+        AxisFlag.HOMED if a trigger moved a motor."""
+        if not found:
+            return 0
+        events = 0
+        for m, home in found:
+            self.origin[m] = home.origin
+            if home.speed is not None:
+                acc, jerk = self._accel(m, home.speed)
+                self.timed[m] = True
+                self.abort_decel[m] = False
+                self.core.move_absolute(m, home.origin, home.speed * 1000, acc, acc, jerk)
+                events |= int(AxisFlag.HOMED)
+        self._push_inputs()
+        return events
 
     # -- inputs ----------------------------------------------------------------------------------------
     def set_flags(self, m: int, *, plus_limit: bool | None = None, minus_limit: bool | None = None,
@@ -454,7 +461,7 @@ class Motors:
             self.amp_fault_in[m] = amp_fault
         self._push_inputs()
         if self.homing.any_searching and home is not None:
-            self.homing.check(initial=True)
+            self._home_found(self.homing.check(initial=True))
 
     def set_encoder_loss(self, m: int, lost: bool) -> None:
         """Backdoor: the encoder of motor m stops counting while `lost`."""
@@ -492,7 +499,7 @@ class Motors:
             core.set_inputs(hard_limit_pos=pos, hard_limit_neg=neg)
             stopped = (core.axes.flags & _STOPPED) != 0
             self.abort_decel |= stopped & core.profile.moving  # a limit stop at Ixx15
-            self.homing.searching &= core.profile.moving
+            self.homing.stopped(core.profile.moving)
         if not np.array_equal(fault, core.amp_fault):
             core.set_inputs(amp_fault=fault)
         if len(rising):
@@ -534,7 +541,7 @@ class Motors:
         if self._soft_on and core.profile.active:
             self._check_soft_limits()
         if self.homing.any_searching:
-            events |= self.homing.check()
+            events |= self._home_found(self.homing.check())
         if events & _FE_TRIP:
             trip = ((core.axes.flags & _FE_TRIP) != 0) & self._closed()
             if trip.any():

@@ -6,9 +6,10 @@ right against the firmware state; the first invalid one ends the line with its e
 the lines already produced stay in the reply. The `#n`/`&n` addressing and a pending table
 download belong to the port (`PortState`), so each port addresses its own motor.
 
-Commands that belong to motion programs, PLCs, coordinate-system axis definitions and data
-gathering come in a later issue; until then they answer the error the card gives for a command
-it cannot execute (README "Not yet").
+The commands are the table of commands.py, bound to the interpreter's methods once per
+interpreter. Commands that belong to motion programs, PLCs, coordinate-system axis definitions and
+data gathering come in a later issue; until then those the parser recognises answer the error the
+card gives for a command it cannot execute (`commands.REFUSED`, README "Not yet").
 
 Lines made only of reports and motor addressing (`#1P`, `#2?`, `#3?PVF`, `I130`, `P99`), what
 hosts poll, are compiled once into their steps and then run without the general parse; each step
@@ -19,11 +20,14 @@ from __future__ import annotations
 
 import functools
 import re
+import string
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from vdevd.devices.pmac import expr
+from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
+from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_MACRO, CommandError
 from vdevd.devices.pmac.mvars import MDefError, parse_definition
 from vdevd.devices.pmac.numbers import format_value
 from vdevd.devices.pmac.reply import Reply
@@ -31,9 +35,6 @@ from vdevd.devices.pmac.reply import Reply
 if TYPE_CHECKING:
     from vdevd.devices.pmac.firmware import Firmware
 
-#: error numbers [DLS-lib PMAC_errors, Turbo SRM I6; digest §2.4]
-ERR_RUNNING, ERR_DATA, ERR_ILLEGAL, ERR_NOT_OPEN, ERR_IN_USE, ERR_MACRO = 1, 3, 4, 5, 7, 8
-ERR_NO_PROGRAM, ERR_PHASE = 15, 18
 #: compiled report lines kept per interpreter (the cache starts afresh when full)
 PLAN_CACHE = 256
 
@@ -42,22 +43,9 @@ _MOTOR = re.compile(r"#(\d+)(?![\d \t]*->)")
 _WORD = re.compile(r"[A-Z]+")
 _SIGNED = re.compile(r"\s*(-?\d+)")
 _HEXNUM = re.compile(r"\s*(\$[0-9A-F]+|-?\d+)")
-#: words answered by the card's identity [DLS-lib, EPICS-HW; digest §2.4]
-_IDENTITY = ("VERSION", "VER", "CID", "CPU", "TYPE", "DATE", "VID")
-#: words of later issues (motion programs, PLCs, gathering, C.S. definitions) -> error number
-_LATER = {
-    "OPEN": ERR_DATA, "CLOSE": ERR_NOT_OPEN, "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
-    "GATHER": ERR_DATA, "ENDGATHER": ERR_DATA, "ENABLE": ERR_DATA, "ENA": ERR_DATA,
-    "DISABLE": ERR_DATA, "DIS": ERR_DATA, "ABR": ERR_NO_PROGRAM,
-}
-
-
-class CommandError(Exception):
-    """An invalid command: `code` is the ERRnnn number."""
-
-    def __init__(self, code: int = ERR_DATA, message: str = "") -> None:
-        super().__init__(message or f"ERR{code:03d}")
-        self.code = code
+#: every word a run of letters may be: the table's and the refused ones [commands.py]
+_WORD_NAMES = frozenset(name for name, cmd in COMMANDS.items() if cmd.kind == WORD) | set(REFUSED)
+_LONGEST = max(map(len, _WORD_NAMES))
 
 
 @dataclass
@@ -122,7 +110,8 @@ class Line:
         return self.s[self.i:j]
 
 
-Handler = Callable[["Interpreter", Line, PortState, list[str]], None]
+#: a bound command: its static arguments applied, it takes the line, the port and the output
+Handler = Callable[[Line, PortState, list[str]], None]
 #: one step of a compiled report line: what its general handler does
 Step = Callable[["Firmware", PortState, list[str]], None]
 Plan = tuple[Step, ...]
@@ -134,6 +123,15 @@ class Interpreter:
     def __init__(self, fw: Firmware) -> None:
         self.fw = fw
         self._plans: dict[str, Plan | None] = {}  # line -> its steps; None: not a report line
+        bound = COMMANDS.bind(self)
+        #: first character -> handler; a letter starts a variable or a word (`letter`)
+        self._chars: dict[str, Handler] = {
+            name: fn for name, fn in bound.items() if COMMANDS[name].kind == CHAR}
+        self._chars.update(dict.fromkeys(string.ascii_uppercase, self.letter))
+        self._words: dict[str, Handler] = {
+            name: fn for name, fn in bound.items() if COMMANDS[name].kind == WORD}
+        self._words.update({name: functools.partial(self.refuse, code, name)
+                            for name, code in REFUSED.items()})
 
     # -- entry ---------------------------------------------------------------------------------
     def execute(self, port: PortState, text: str) -> Reply:
@@ -172,18 +170,20 @@ class Interpreter:
                 if port.table_left and (c.isdigit() or c == "-"):
                     self._table_entry(line, port)
                     continue
-                handler = _DISPATCH.get(c)
+                handler = self._chars.get(c)
                 if handler is None:
                     # ERR004: a character above 127 outside a comment [digest §2.4; A L3311]
                     raise CommandError(ERR_ILLEGAL if ord(c) > 127 else ERR_DATA,
                                        f"unrecognised {c!r}")
-                handler(self, line, port, reply.lines)
+                handler(line, port, reply.lines)
         except CommandError as exc:
             reply.error = exc.code
         return reply
 
     # -- addressing ------------------------------------------------------------------------------
-    def _motor(self, line: Line, port: PortState, out: list[str]) -> None:
+    def address_motor(self, line: Line, port: PortState, out: list[str]) -> None:
+        """#n addresses motor n (1-32), # reports it, ##n the group of eight, #n-> queries the
+        axis definition [§2.4, §2.5]."""
         m = _MOTOR.match(line.s, line.i)  # `#n` alone, the common case
         if m is not None:
             motor = int(m.group(1))
@@ -206,29 +206,33 @@ class Interpreter:
             # defining one waits for coordinate systems (a later issue)
             raise CommandError(ERR_DATA, "axis definitions are not supported yet")
 
-    def _cs(self, line: Line, port: PortState, out: list[str]) -> None:
+    def address_cs(self, line: Line, port: PortState, out: list[str]) -> None:
+        """&n addresses coordinate system n (1-16), & reports it [§2.5]."""
         line.take("&")
         port.cs = _select(line, out, port.cs, 16)
 
     # -- status ----------------------------------------------------------------------------------
-    def _status(self, line: Line, port: PortState, out: list[str]) -> None:
+    def status(self, line: Line, port: PortState, out: list[str]) -> None:
+        """? motor, ?? coordinate system, ??? global status words [§2.6]."""
         k = 0
         while line.take("?"):
             k += 1
         out.append(status_text(self.fw, port, k))
 
     # -- letters ---------------------------------------------------------------------------------
-    def _letter(self, line: Line, port: PortState, out: list[str]) -> None:
+    def letter(self, line: Line, port: PortState, out: list[str]) -> None:
+        """A variable (I/P/Q/M with a number or an expression) or the longest word the letters
+        start with [§2.5]."""
         s, i = line.s, line.i
-        if s[i] in "IPQM" and i + 1 < len(s) and (s[i + 1].isdigit() or s[i + 1] == "("):
+        if s[i] in VARIABLES and i + 1 < len(s) and (s[i + 1].isdigit() or s[i + 1] == "("):
             self._variable(line, port, out)
             return
-        k, handler = _longest_word(s, i)
-        if handler is None:
+        word = _longest_word(s, i)
+        if not word:
             m = _WORD.match(s, i)
             raise CommandError(ERR_DATA, f"unrecognised {m.group() if m is not None else ''!r}")
-        line.i += k
-        handler(self, line, port, out)
+        line.i += len(word)
+        self._words[word](line, port, out)
 
     # variables -----------------------------------------------------------------------------------
     def _variable(self, line: Line, port: PortState, out: list[str]) -> None:
@@ -301,12 +305,11 @@ class Interpreter:
             fw.mvars.define(n, d)
 
     # motor reports and commands ----------------------------------------------------------------------
-    def _report(self, what: str) -> Handler:
-        def run(self: Interpreter, line: Line, port: PortState, out: list[str]) -> None:
-            out.append(self.fw.motor_report(what, port.motor))
-        return run
+    def report(self, what: str, line: Line, port: PortState, out: list[str]) -> None:
+        """P, V, F: the addressed motor's position, velocity, following error [§2.5]."""
+        out.append(self.fw.motor_report(what, port.motor))
 
-    def _jog(self, line: Line, port: PortState, out: list[str]) -> None:
+    def jog(self, line: Line, port: PortState, out: list[str]) -> None:
         fw, m = self.fw, port.motor
         c = line.peek()
         line.i += 1 if c else 0
@@ -330,23 +333,23 @@ class Interpreter:
         else:
             raise CommandError(ERR_DATA, "J needs + - / ! = : or ^")
 
-    def _home(self, zero: bool) -> Handler:
-        def run(self: Interpreter, line: Line, port: PortState, out: list[str]) -> None:
-            self.fw.motor_call("home_zero" if zero else "home", port.motor)
-        return run
+    def home(self, zero: bool, line: Line, port: PortState, out: list[str]) -> None:
+        """HM/HOME home search, HMZ/HOMEZ zero-move homing [§2.7]."""
+        self.fw.motor_call("home_zero" if zero else "home", port.motor)
 
-    def _kill(self, line: Line, port: PortState, out: list[str]) -> None:
+    def kill(self, line: Line, port: PortState, out: list[str]) -> None:
+        """K: kill the addressed motor [§2.5]."""
         self.fw.motor_call("kill", port.motor)
 
-    def _open_loop(self, line: Line, port: PortState, out: list[str]) -> None:
+    def open_loop(self, line: Line, port: PortState, out: list[str]) -> None:
         if line.word().startswith("PEN"):
             raise CommandError(ERR_DATA, "program buffers come in a later issue")
         self.fw.motor_call("open_loop", port.motor, line.expression(self.fw.env(port)))
 
-    def _abort(self, line: Line, port: PortState, out: list[str]) -> None:
+    def abort(self, line: Line, port: PortState, out: list[str]) -> None:
         self.fw.abort_cs(port.cs)
 
-    def _dollar(self, line: Line, port: PortState, out: list[str]) -> None:
+    def dollar(self, line: Line, port: PortState, out: list[str]) -> None:
         fw = self.fw
         if line.take("$$$***"):
             fw.factory_reset()
@@ -359,7 +362,7 @@ class Interpreter:
         else:  # pragma: no cover - the dispatcher only calls with '$'
             raise CommandError(ERR_DATA)
 
-    def _feed(self, line: Line, port: PortState, out: list[str]) -> None:
+    def feed(self, line: Line, port: PortState, out: list[str]) -> None:
         line.take("%")
         line.skip()
         if line.peek().isdigit() or line.peek() == ".":
@@ -371,29 +374,25 @@ class Interpreter:
             out.append(format_value(round(self.fw.feed[port.cs - 1], 1)))
 
     # words ---------------------------------------------------------------------------------------
-    def _identity(self, name: str) -> Handler:
-        def run(self: Interpreter, line: Line, port: PortState, out: list[str]) -> None:
-            out.append(self.fw.identity(name))
-        return run
+    def identity(self, name: str, line: Line, port: PortState, out: list[str]) -> None:
+        """CID, VERSION, DATE, TYPE, CPU, VID [§2.4]."""
+        out.append(self.fw.identity(name))
 
-    def _save(self, line: Line, port: PortState, out: list[str]) -> None:
+    def save(self, line: Line, port: PortState, out: list[str]) -> None:
+        """SAVE: the non-volatile image [§2.5]."""
         self.fw.save()
 
-    def _later(self, name: str) -> Handler:
-        def run(self: Interpreter, line: Line, port: PortState, out: list[str]) -> None:
-            raise CommandError(_LATER[name], f"{name} comes in a later issue")
-        return run
+    def refuse(self, code: int, name: str, line: Line, port: PortState, out: list[str]) -> None:
+        """A command of a later issue: the error the card answers for it (commands.REFUSED)."""
+        raise CommandError(code, f"{name} comes in a later issue")
 
-    def _program_control(self, line: Line, port: PortState, out: list[str]) -> None:
-        raise CommandError(ERR_NO_PROGRAM, "no motion program buffers yet")
-
-    def _hold(self, line: Line, port: PortState, out: list[str]) -> None:
+    def hold(self, line: Line, port: PortState, out: list[str]) -> None:
         """H: feed hold of the addressed C.S.; with no axes defined it holds nothing."""
 
-    def _macro_station(self, line: Line, port: PortState, out: list[str]) -> None:
+    def macro_station(self, line: Line, port: PortState, out: list[str]) -> None:
         raise CommandError(ERR_MACRO, "no MACRO ring on this card")
 
-    def _list(self, line: Line, port: PortState, out: list[str]) -> None:
+    def list_table(self, line: Line, port: PortState, out: list[str]) -> None:
         line.skip()
         if line.take("COMP"):
             line.skip()
@@ -401,7 +400,7 @@ class Interpreter:
             return
         raise CommandError(ERR_DATA, "LIST of program buffers comes in a later issue")
 
-    def _define(self, line: Line, port: PortState, out: list[str]) -> None:
+    def define(self, line: Line, port: PortState, out: list[str]) -> None:
         line.take("INE")
         line.skip()
         if not line.take("COMP"):
@@ -411,7 +410,7 @@ class Interpreter:
         port.table_motor = port.motor
         line.i = end
 
-    def _delete(self, line: Line, port: PortState, out: list[str]) -> None:
+    def delete(self, line: Line, port: PortState, out: list[str]) -> None:
         line.take("ETE")
         line.skip()
         if line.take("COMP"):
@@ -430,65 +429,65 @@ class Interpreter:
         line.skip()
         line.take(",")
 
-    def _memory(self, space: str, write: bool) -> Handler:
-        def run(self: Interpreter, line: Line, port: PortState, out: list[str]) -> None:
-            line.skip()
-            line.take(":")
+    def memory(self, space: str, write: bool, line: Line, port: PortState,
+               out: list[str]) -> None:
+        """R{space}:{addr}[,{count}] reads, W{space}:{addr},{value}[,...] writes memory words
+        [§2.5]."""
+        line.skip()
+        line.take(":")
+        m = _HEXNUM.match(line.s, line.i)
+        if m is None:
+            raise CommandError(ERR_DATA)
+        addr = _number(m.group(1))
+        line.i = m.end()
+        values: list[int] = []
+        while line.take(","):
             m = _HEXNUM.match(line.s, line.i)
             if m is None:
                 raise CommandError(ERR_DATA)
-            addr = _number(m.group(1))
+            values.append(_number(m.group(1)))
             line.i = m.end()
-            values: list[int] = []
-            while line.take(","):
-                m = _HEXNUM.match(line.s, line.i)
-                if m is None:
-                    raise CommandError(ERR_DATA)
-                values.append(_number(m.group(1)))
-                line.i = m.end()
-            if write:
-                self.fw.write_words(space, addr, values)
-            else:
-                count = values[0] if values else 1
-                out.extend(self.fw.read_words(space, addr, count))
-        return run
+        if write:
+            self.fw.write_words(space, addr, values)
+        else:
+            count = values[0] if values else 1
+            out.extend(self.fw.read_words(space, addr, count))
 
-    def _lock(self, unlock: bool) -> Handler:
-        def run(self: Interpreter, line: Line, port: PortState, out: list[str]) -> None:
-            n = line.integer()
-            if n is None or not 0 <= n <= 7:
-                raise CommandError(ERR_DATA)
-            line.skip()
-            if unlock:
-                self.fw.locks &= ~(1 << n)
-                return
-            if not line.take(",P"):
-                raise CommandError(ERR_DATA)
-            p = line.integer()
-            if p is None or p >= 8192:
-                raise CommandError(ERR_DATA)
-            # LOCK{n},P{m}: P{m} = 1 if the bit was already set, else 0 and the bit is set [A L3264]
-            held = bool(self.fw.locks >> n & 1)
-            self.fw.locks |= 1 << n
-            self.fw.p[p] = 1.0 if held else 0.0
-        return run
+    def lock(self, unlock: bool, line: Line, port: PortState, out: list[str]) -> None:
+        """LOCK{n},P{m} / UNLOCK{n} [A L3264]."""
+        n = line.integer()
+        if n is None or not 0 <= n <= 7:
+            raise CommandError(ERR_DATA)
+        line.skip()
+        if unlock:
+            self.fw.locks &= ~(1 << n)
+            return
+        if not line.take(",P"):
+            raise CommandError(ERR_DATA)
+        p = line.integer()
+        if p is None or p >= 8192:
+            raise CommandError(ERR_DATA)
+        # LOCK{n},P{m}: P{m} = 1 if the bit was already set, else 0 and the bit is set [A L3264]
+        held = bool(self.fw.locks >> n & 1)
+        self.fw.locks |= 1 << n
+        self.fw.p[p] = 1.0 if held else 0.0
 
-    def _movetime(self, line: Line, port: PortState, out: list[str]) -> None:
+    def movetime(self, line: Line, port: PortState, out: list[str]) -> None:
         """MOVETIME: time left in the C.S.'s present move, ms (V1.937 [A L3262]); no program
         runs yet, so 0."""
         out.append("0")
 
-    def _undefine(self, line: Line, port: PortState, out: list[str]) -> None:
+    def undefine(self, line: Line, port: PortState, out: list[str]) -> None:
         """UNDEFINE [ALL]: clears axis definitions, of the addressed C.S. only since V1.938
         [A L3284]; none exist yet, so there is nothing to clear."""
         line.skip()
         line.take("ALL")
 
-    def _setphase(self, line: Line, port: PortState, out: list[str]) -> None:
+    def setphase(self, line: Line, port: PortState, out: list[str]) -> None:
         """SETPHASE: Ixx75 into the phase position register [A L3263]; the motors here are not
         commutated (Ixx01 = 0), so the register is not used."""
 
-    def _passthrough(self, line: Line, port: PortState, out: list[str]) -> None:
+    def passthrough(self, line: Line, port: PortState, out: list[str]) -> None:
         """A word accepted and ignored (PASSWORD on a card without one)."""
         line.i = len(line.s)
 
@@ -509,15 +508,14 @@ def variable_text(fw: Firmware, port: PortState, kind: str, n: int) -> str:
     return f"{kind}{n}={text}" if fw.i9 & 1 else text
 
 
-def _longest_word(s: str, i: int) -> tuple[int, Handler | None]:
-    """The longest of the words the letters at `i` start with: its length and handler."""
+def _longest_word(s: str, i: int) -> str:
+    """The longest of the words the letters at `i` start with ("" for none)."""
     m = _WORD.match(s, i)
     word = m.group() if m is not None else ""
     for k in range(min(len(word), _LONGEST), 0, -1):
-        handler = _WORDS.get(word[:k])
-        if handler is not None:
-            return k, handler
-    return 0, None
+        if word[:k] in _WORD_NAMES:
+            return word[:k]
+    return ""
 
 
 def compile_reports(text: str) -> Plan | None:
@@ -546,7 +544,7 @@ def compile_reports(text: str) -> Plan | None:
                 j += 1
             steps.append(functools.partial(_report_status, j - i))
             i = j
-        elif c in "IPQM" and i + 1 < n and (s[i + 1].isdigit() or s[i + 1] == "("):
+        elif c in VARIABLES and i + 1 < n and (s[i + 1].isdigit() or s[i + 1] == "("):
             m = _INT.match(s, i + 1)
             if m is None or s[m.end():m.end() + 1] in (".", ","):
                 return None  # an expression index, a range or a list
@@ -558,12 +556,12 @@ def compile_reports(text: str) -> Plan | None:
             steps.append(functools.partial(_report_variable, c, int(m.group())))
             i = j
         else:
-            k, handler = _longest_word(s, i)
-            what = s[i:i + k]
-            if handler is None or _REPORTS.get(what) is not handler:
+            what = _longest_word(s, i)
+            cmd = COMMANDS.get(what)
+            if cmd is None or cmd.handler != "report":
                 return None
-            steps.append(functools.partial(_report_motor, what))
-            i += k
+            steps.append(functools.partial(_report_motor, *cmd.args))
+            i += len(what)
 
 
 def _address_motor(motor: int, fw: Firmware, port: PortState, out: list[str]) -> None:
@@ -598,42 +596,3 @@ def _select(line: Line, out: list[str], current: int, top: int) -> int:
 
 def _number(text: str) -> int:
     return int(text[1:], 16) if text.startswith("$") else int(text)
-
-
-_DISPATCH: dict[str, Handler] = {"#": Interpreter._motor, "&": Interpreter._cs,
-                                 "?": Interpreter._status, "$": Interpreter._dollar,
-                                 "%": Interpreter._feed}
-for _c in "ABCDEFGHIJKLMNOPQRSTUVWXYZ":
-    _DISPATCH[_c] = Interpreter._letter
-
-_I = Interpreter
-#: the words; a run of letters is the longest of them it starts with
-_WORDS: dict[str, Handler] = {
-    **{name: _I._identity(_I, name) for name in _IDENTITY},  # type: ignore[arg-type]
-    "SAVE": _I._save,
-    "DEFINE": _I._define, "DEF": _I._define,
-    "DELETE": _I._delete, "DEL": _I._delete,
-    "LIST": _I._list,
-    "LOCK": _I._lock(_I, False),  # type: ignore[arg-type]
-    "UNLOCK": _I._lock(_I, True),  # type: ignore[arg-type]
-    **{name: _I._later(_I, name) for name in _LATER},  # type: ignore[arg-type]
-    "PASSWORD": _I._passthrough,
-    "MOVETIME": _I._movetime, "UNDEFINE": _I._undefine, "UNDEF": _I._undefine,
-    "SETPHASE": _I._setphase,
-    "HOMEZ": _I._home(_I, True), "HMZ": _I._home(_I, True),  # type: ignore[arg-type]
-    "HOME": _I._home(_I, False), "HM": _I._home(_I, False),  # type: ignore[arg-type]
-    "MS": _I._macro_station,
-    "RX": _I._memory(_I, "X", False), "RY": _I._memory(_I, "Y", False),  # type: ignore[arg-type]
-    "RL": _I._memory(_I, "L", False), "RD": _I._memory(_I, "D", False),  # type: ignore[arg-type]
-    "WX": _I._memory(_I, "X", True), "WY": _I._memory(_I, "Y", True),  # type: ignore[arg-type]
-    "WL": _I._memory(_I, "L", True), "WD": _I._memory(_I, "D", True),  # type: ignore[arg-type]
-}
-_WORDS.update({
-    "J": _I._jog, "K": _I._kill, "O": _I._open_loop, "A": _I._abort, "H": _I._hold,
-    "P": _I._report(_I, "P"), "V": _I._report(_I, "V"), "F": _I._report(_I, "F"),  # type: ignore[arg-type]
-    "B": _I._program_control, "R": _I._program_control, "S": _I._program_control,
-    "Q": _I._program_control,
-})
-_LONGEST = max(map(len, _WORDS))
-#: the motor reports a compiled line may hold
-_REPORTS = {what: _WORDS[what] for what in "PVF"}

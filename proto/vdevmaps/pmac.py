@@ -1,0 +1,73 @@
+"""The Turbo PMAC's bus maps: the DPRAM (ASCII handshake, reporting buffers) and the PCI host port
+with its interrupt controller [spec pmac.md §2.10, §2.11; the card's README "The bus"].
+
+Host byte offsets into the `dpram` region (little-endian, 16-bit control words) and the `host`
+region (byte registers). The daemon (vdevd/devices/pmac) serves them, the client
+(vdevclient.pcomm) drives them.
+"""
+
+from __future__ import annotations
+
+import enum
+
+CARD_TYPE = "pmac-turbo"
+#: the card's regions and interrupt line
+DPRAM, HOST, LINE = "dpram", "host", "inta"
+
+# -- DPRAM [UM p.402] ---------------------------------------------------------------------------------
+DPRAM_SIZE = 0x4000  # 8k x 16: ends at 0x3FFC
+DPRAM_BASE = 0x060000  # PMAC address of host offset 0: A <-> 4 (A - DPRAM_BASE)
+OPEN_USE = 0x1140  # variable-sized buffers and open-use space ($060450)
+
+# -- the DPRAM ASCII handshake [EPICS-VME pmacDriver.c] -------------------------------------------------
+#: host -> card: control word (1: a command is there), control character, the command, its length
+CMD_CONTROL, CMD_CHAR, CMD_BUFFER, CMD_MAX = 0x0E9C, 0x0E9E, 0x0EA0, 160
+#: card -> host: control word (terminator or error), characters + 1, the line, its length
+RESP_CONTROL, RESP_COUNT, RESP_BUFFER, RESP_MAX = 0x0F40, 0x0F42, 0x0F44, 255
+#: the response control word's low byte: a data line (CR) or the final acknowledgement (ACK); an
+#: error is 0x80 | hundreds digit in the high byte, BCD tens and units in the low byte
+CR, ACK, BELL = 0x0D, 0x06, 0x07
+ERROR_FLAG = 0x8000
+
+# -- the real-time (servo) motor data buffer, X:$06001A-$06019C [dprrtdbt.h realtTURBO] -----------------
+RT_HOST_BUSY = 0x006A  # X:$06001A bit 15: the host is reading
+RT_TIMER, RT_READY = 0x006C, 0x006E  # Y:$06001B timer bits 0-15; X:$06001B timer 16-23, bit 15 ready
+RT_MASK = 0x0070  # L:$06001C: bit n-1 reports motor n (Y word motors 1-16, X word 17-32)
+RT_MOTORS, RT_MOTOR = 0x0074, 48  # $06001D + 12(n-1): twelve 32-bit words per motor
+#: word index in a motor record: following error (48-bit), previous DAC, servo status (word 1),
+#: motor status (word 2), position bias (48-bit), filtered velocity, 2 spares, actual position
+RT_FE, RT_DAC, RT_STATUS1, RT_STATUS2, RT_BIAS, RT_VEL, RT_ACTUAL = 0, 2, 3, 4, 5, 7, 10
+
+# -- the background fixed data buffer, Y:$06019D-$0603A6 [dprbkg.h backgTURBO] --------------------------
+BG_CS_COUNT = 0x0674  # Y:$06019D bits 0-7: coordinate systems reported (the host writes it)
+BG_HOST_BUSY = 0x0676  # X:$06019D bit 15: the host is reading
+BG_TIMER, BG_READY = 0x0678, 0x067A  # as RT_TIMER, RT_READY, at $06019E
+BG_GLOBAL = 0x067C  # $06019F control panel, $0601A0 machine I/O, $0601A1 thumbwheel port
+BG_STATUS = 0x0688  # L:$0601A2: global status, Y:$000006 (??? word 2) then X:$000006 (word 1)
+BG_CS, BG_CS_SIZE = 0x069C, 128  # $0601A7 + $20(s-1): thirty-two 32-bit words per C.S.
+#: word index in a C.S. record: feed rate/time (48-bit), time base, time-base pointer, status
+#: (`??` word 3, word 1), 9 axis positions (48-bit), program status (`??` word 2), remaining
+#: program lines, move time left, TA/TS time left, executing line, 3 spares
+CS_FEED, CS_TIMEBASE, CS_STATUS3, CS_STATUS1, CS_STATUS2 = 0, 2, 4, 5, 24
+CS_COUNT = 16
+READY = 0x8000  # bit 15 of the host-busy and data-ready words
+
+# -- the host port and interrupt controller (ASSUMPTION, §2.11: DSP563xx HI08 convention) ----------------
+HOST_SIZE = 16
+#: interface status (RXDF: a character from the card waits, TXDE: the host may write), the data
+#: byte characters pass through, the interrupt status (write 1 to clear) and enable mask
+ISR, DATA, IR_STATUS, IR_MASK = 2, 7, 8, 9
+RXDF, TXDE = 0x01, 0x02
+
+
+class HostIrq(enum.IntFlag):
+    """Interrupt controller bits IR0-IR7 (ASSUMPTION, the proposed model of §2.11)."""
+
+    IN_POSITION = 1 << 0
+    BUFFER_REQUEST = 1 << 1
+    FATAL_FOLLOWING_ERROR = 1 << 2
+    WARNING_FOLLOWING_ERROR = 1 << 3
+    ASCII_READY = 1 << 4
+    COMPARE_EQU1 = 1 << 5
+    COMPARE_EQU5 = 1 << 6
+    DPRAM = 1 << 7

@@ -1,0 +1,102 @@
+"""The on-line commands of the Turbo PMAC as plain data [spec pmac.md §2.4, §2.5, §1.7, §1.8].
+
+`COMMANDS` names, for each command, the `Interpreter` method that runs it and the static
+arguments it gets first (`RX` is `memory("X", False, line, port, out)`); `kind` says how the
+parser finds it: `CHAR` commands start with their one character (`#`, `&`, `?`, `$`, `%`), `WORD`
+commands are the longest word a run of letters starts with (after the variables `I`, `P`, `Q`,
+`M` with a number, which come first). The interpreter binds the table once (`COMMANDS.bind`).
+
+`COMMANDS.not_emulated` lists the on-line commands the digest documents that the card does not run
+yet, with the reason; `REFUSED` is the error number those the parser recognises answer (the others
+are unrecognised: ERR003). Motion programs, PLCs, coordinate-system axis definitions and data
+gathering come in issue 21 (README "Not yet").
+"""
+
+from __future__ import annotations
+
+from vdevd.devices.commands import Command, CommandTable
+from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, ERR_NOT_OPEN
+
+CHAR, WORD = "char", "word"
+#: the variable letters: followed by a number or `(`, a variable, not a word [§2.5]
+VARIABLES = "IPQM"
+#: words answered by the card's identity [DLS-lib, EPICS-HW; digest §2.4]
+IDENTITY = ("VERSION", "VER", "CID", "CPU", "TYPE", "DATE", "VID")
+
+_S24, _S25, _S17, _S18 = "§2.4", "§2.5", "§1.7 [A L3118-3219]", "§1.8"
+
+
+def _word(name: str, handler: str, *args: object, section: str = _S25) -> Command:
+    return Command(name, handler, args, WORD, section)
+
+
+def _char(name: str, handler: str, section: str = _S25) -> Command:
+    return Command(name, handler, (), CHAR, section)
+
+
+COMMANDS = CommandTable(
+    [
+        # addressing, status, reset, feed rate: dispatched on their first character
+        _char("#", "address_motor"),          # #n, #, ##n, #n-> [§2.4 "Ports", SRM p.270]
+        _char("&", "address_cs"),             # &n, &
+        _char("?", "status"),                 # ? ?? ??? [§2.6]
+        _char("$", "dollar"),                 # $ $* $$ $$* $$$ $$$***
+        _char("%", "feed"),                   # % %{v}
+        # identity [§2.4 "Number formatting"]
+        *(_word(name, "identity", name, section=_S24) for name in IDENTITY),
+        # motor commands and reports [§2.5, §2.7]
+        _word("J", "jog"),
+        _word("HOME", "home", False), _word("HM", "home", False),
+        _word("HOMEZ", "home", True), _word("HMZ", "home", True),
+        _word("K", "kill"),
+        _word("O", "open_loop"),
+        _word("P", "report", "P"), _word("V", "report", "V"), _word("F", "report", "F"),
+        # coordinate system [§2.5, §2.8]
+        _word("A", "abort"),
+        _word("H", "hold"),
+        _word("UNDEFINE", "undefine", section=f"{_S25} [A L3284]"),
+        _word("UNDEF", "undefine", section=f"{_S25} [A L3284]"),
+        # global
+        _word("SAVE", "save"),
+        _word("PASSWORD", "passthrough", section=_S24),
+        _word("LOCK", "lock", False, section=f"{_S18} [A L3264]"),
+        _word("UNLOCK", "lock", True, section=f"{_S18} [A L3264]"),
+        _word("MOVETIME", "movetime", section=f"{_S18} [A L3262]"),
+        _word("SETPHASE", "setphase", section=f"{_S18} [A L3263]"),
+        _word("MS", "macro_station"),
+        # tables [§1.7]
+        _word("DEFINE", "define", section=_S17), _word("DEF", "define", section=_S17),
+        _word("DELETE", "delete", section=_S17), _word("DEL", "delete", section=_S17),
+        _word("LIST", "list_table", section=_S17),
+        # memory words [§2.5, §2.1]
+        *(_word(f"{rw}{space}", "memory", space, rw == "W")
+          for rw in "RW" for space in "XYLD"),
+    ],
+    not_emulated={
+        "OPEN": "program, PLC and rotary buffers: motion programs and PLCs come in issue 21",
+        "CLOSE": "no buffer can be open yet (issue 21)",
+        "CLEAR": "no buffer can be open yet (issue 21)",
+        "LEARN": "no buffer can be open yet (issue 21)",
+        "B": "program run control: motion programs come in issue 21",
+        "R": "program run control: motion programs come in issue 21",
+        "S": "program run control: motion programs come in issue 21",
+        "Q": "program run control (quit; Q{n} is a variable): motion programs come in issue 21",
+        "ABR": "abort and run a program: motion programs come in issue 21",
+        "ENABLE": "PLC control: PLCs come in issue 21",
+        "ENA": "PLC control: PLCs come in issue 21",
+        "DISABLE": "PLC control: PLCs come in issue 21",
+        "DIS": "PLC control: PLCs come in issue 21",
+        "GATHER": "data gathering comes in issue 21",
+        "ENDGATHER": "data gathering comes in issue 21",
+        "!": "the V1.936 axis-move command needs coordinate systems (issue 21): unrecognised",
+        "^": "jog-until-trigger ({jog}^{c}) needs triggered moves: after a jog, ^ is unrecognised",
+    },
+)
+
+#: not emulated words the parser recognises -> the error number they answer (README "Not yet")
+REFUSED: dict[str, int] = {
+    "OPEN": ERR_DATA, "CLOSE": ERR_NOT_OPEN, "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
+    "GATHER": ERR_DATA, "ENDGATHER": ERR_DATA, "ENABLE": ERR_DATA, "ENA": ERR_DATA,
+    "DISABLE": ERR_DATA, "DIS": ERR_DATA, "ABR": ERR_NO_PROGRAM,
+    "B": ERR_NO_PROGRAM, "R": ERR_NO_PROGRAM, "S": ERR_NO_PROGRAM, "Q": ERR_NO_PROGRAM,
+}
