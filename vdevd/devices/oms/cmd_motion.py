@@ -336,6 +336,9 @@ def load_encoder(fw: Firmware, cmd: Command) -> None:
 
 # -- homing (queued; the queue waits for the search to end) ------------------------------------
 def home_search(fw: Firmware, cmd: Command) -> None:
+    """HM/HR search home forward/reverse and ramp to a stop there, KM/KR stop at once; the
+    home position becomes the operand (0 without one) [S §4.3, §4.8; spec §5.5]. Queued: the
+    queue waits for the search to end."""
     forward = cmd.mnemonic in ("HM", "KM")
     ramp = cmd.mnemonic in ("HM", "HR")
     pairs = fw.per_axis(cmd, integer=True)

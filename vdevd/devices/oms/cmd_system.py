@@ -13,6 +13,8 @@ if TYPE_CHECKING:
 
 
 def select_axis(fw: Firmware, cmd: Command) -> None:
+    """AX..AK: single-axis mode on that axis [S App C L1336-1342]; an axis the card does not
+    have is a command error."""
     fw.axis = fw.check_axis(AXES.index(cmd.mnemonic[1]))
     fw.mode = "single"
 
