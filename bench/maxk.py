@@ -30,6 +30,7 @@ if __package__ in (None, ""):  # run as a script: python bench/maxk.py
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import zmq  # noqa: E402
+from vdevmaps.oms import RING_SIZE, Shm  # noqa: E402
 
 from bench.common import (  # noqa: E402
     connect,
@@ -102,7 +103,7 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
         batch_ops = 0
         if diag:
             shm = rack.card(CARD).region("shm")
-            fns[READ] = lambda: shm.read(0x0F8, 4)
+            fns[READ] = lambda: shm.read(Shm.RESPONSE_INSERT, 4)
             fns[REPLAY], batch_ops = replay_of(stack.enter_context(maxk.open(3, endpoint=d.endpoint)))
 
         series, counts, card_ns, stats = measure_commands(
@@ -120,7 +121,7 @@ def replay_of(card: Any) -> tuple[Callable[[], Any], int]:
     no library around it, and the number of ops in that batch. Each replay moves the ring
     position, the insert index and the release on as the client would (the card answers only a
     new command); `card` must not be used afterwards."""
-    from vdevclient._maxk_bus import RING_SIZE, Shm, ring_pieces
+    from vdevclient._maxk_bus import ring_pieces
     from vdevclient.core import compact
 
     rack = card.rack

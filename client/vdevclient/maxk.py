@@ -28,32 +28,35 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
-from vdevclient._maxk_bus import (
+from vdevmaps.oms import (
     AXES,
     CAPTURE_SIZE,
     CARD_TYPE,
+    MAX_MESSAGE,
+    MU,
+    RING_SIZE,
+    SHM,
+    AxisFlags,
+    DirectCommand,
+    FirmwareState,
+    MaxkDoorbell,
+    Mu,
+    Omisr,
+    Shm,
+)
+
+from vdevclient._maxk_bus import (
     COMMAND_ERROR,
     EVENT_BITS,
     FIRMWARE_PHASE,
     INDICES,
     INDICES_SIZE,
-    MAX_MESSAGE,
-    MU,
     ODBR_ALL,
-    RING_SIZE,
     RUNNING,
-    SHM,
     WK_ALL,
     WK_NOTIFICATION,
-    AxisFlags,
     CaptureEntry,
-    DirectCommand,
-    FirmwareState,
-    MaxkDoorbell,
     MessageTooLong,
-    Mu,
-    Omisr,
-    Shm,
     be32,
     capture_entries,
     frame,
@@ -424,9 +427,9 @@ class Maxk:
         the read and the clear is lost."""
         ops = self._begin()
         first = len(ops)
-        ops += (self._odbr, self._read(Shm.W_FLAGS, 8),
-                self._mu_word(Mu.ODBR, ODBR_ALL), self._word(Shm.W_FLAGS, WK_ALL),
-                self._word(Shm.K_FLAGS, WK_ALL))
+        ops += (self._odbr, self._read(Shm.W_STATUS_FLAGS, 8),
+                self._mu_word(Mu.ODBR, ODBR_ALL), self._word(Shm.W_STATUS_FLAGS, WK_ALL),
+                self._word(Shm.K_STATUS_FLAGS, WK_ALL))
         res = self._batch(ops)
         odbr, wk = le32(res[first]), res[first + 1]
         flags = StatusFlags.from_words(odbr | self._sticky, be32(wk), be32(wk, 4))
@@ -446,7 +449,7 @@ class Maxk:
                  for i in range(8) if mask >> i & 1]
         clear = sum(EVENT_BITS << i for i in range(8) if mask >> i & 1)
         words = []
-        for i, (offset, notify) in enumerate(zip((Shm.W_FLAGS, Shm.K_FLAGS), WK_NOTIFICATION,
+        for i, (offset, notify) in enumerate(zip((Shm.W_STATUS_FLAGS, Shm.K_STATUS_FLAGS), WK_NOTIFICATION,
                                                  strict=True)):
             if mask >> (8 + i) & 1:
                 waits.append(self._wait(offset, WK_ALL, 0, timeout_ns, equal=False))
@@ -455,7 +458,7 @@ class Maxk:
         ops = self._begin()
         first = len(ops)
         ops += waits
-        ops += (self._odbr, self._read(Shm.W_FLAGS, 8), self._mu_word(Mu.ODBR, clear), *words)
+        ops += (self._odbr, self._read(Shm.W_STATUS_FLAGS, 8), self._mu_word(Mu.ODBR, clear), *words)
         res = self._batch(ops, len(waits) * timeout_ns)
         if not all(r and r["fired"] for r in res[first:first + len(waits)]):  # None after one ran out
             raise MaxkTimeout(f"{self.card}: axes {_letters(mask)} not done within "
@@ -495,9 +498,9 @@ class Maxk:
             timeout_ns = self._timeout_ns(None)
             ops += (self._word(Shm.POSITION_REQUEST, 1),
                     self._wait(Shm.POSITION_REQUEST, 0xFFFF_FFFF, 0, timeout_ns))
-            xs, wk = Shm.COHERENT_MOTOR, Shm.WK_COHERENT_MOTOR
+            xs, wk = Shm.COHERENT_MOTOR_POSITION, Shm.WK_COHERENT_MOTOR_POSITION
         else:
-            xs, wk = Shm.MOTOR_POSITION, Shm.WK_MOTOR
+            xs, wk = Shm.MOTOR_POSITION, Shm.WK_MOTOR_POSITION
         ops.append(self._read(xs, _POSITIONS.size))
         if n > 8:
             ops.append(self._read(wk, _WK_POSITIONS.size))
@@ -530,15 +533,15 @@ class Maxk:
     def read_limits(self) -> int:
         """The limit switch word (Table 3-2): raw input levels, bit i negative and bit i+8 positive
         limit of X..S; W, K at bits 16/17 and 24/25."""
-        return self._read_word(Shm.LIMITS)
+        return self._read_word(Shm.LIMIT_SWITCH_STATUS)
 
     def read_home(self) -> int:
         """The home switch word (Table 3-3): bits 0-7 X..S, 8-9 W, K."""
-        return self._read_word(Shm.HOME)
+        return self._read_word(Shm.HOME_SWITCH_STATUS)
 
     def read_gpio(self) -> int:
         """The general-purpose I/O word: bit n = IOn."""
-        return self._read_word(Shm.GPIO)
+        return self._read_word(Shm.GPIO_STATUS)
 
     def read_fw_status(self) -> int:
         """The firmware state word (Table 3-4, FirmwareState)."""

@@ -11,15 +11,13 @@ import pytest
 import vdevclient
 from vdevclient import maxk
 from vdevclient._maxk_bus import (
-    CAPTURE_ENTRY_SIZE,
-    RING_SIZE,
-    Shm,
     capture_entries,
     frame,
     ring_pieces,
     ring_slice,
     strip_reply,
 )
+from vdevmaps.oms import CAPTURE_ENTRY_SIZE, RING_SIZE, Shm
 
 from tests.client.galil import card, rack_config, round_trips
 from vdevd.testing import DaemonThread

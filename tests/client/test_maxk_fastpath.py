@@ -3,7 +3,8 @@
 
 from __future__ import annotations
 
-from vdevclient._maxk_bus import RING_SIZE, ring_pieces, ring_slice
+from vdevclient._maxk_bus import ring_pieces, ring_slice
+from vdevmaps.oms import RING_SIZE
 
 
 def test_ring_pieces_place_each_byte_where_the_ring_puts_it() -> None:

@@ -11,12 +11,12 @@ from pathlib import Path
 import pytest
 import vdevclient
 from vdevclient import maxk
+from vdevmaps.oms import Omisr
 
 from tests.client.galil import rack_config
 from tests.client.test_maxk import MOVE_MS, maxk_card
 from vdevd.testing import DaemonThread
 
-ODI = 1 << 3  # OMISR: outbound doorbell interrupt [S §3.4]
 FIRMWARE_USER_SET = 0x0001_0004  # running, power-up (user) parameters loaded [spec §2.3]
 FIRMWARE_FACTORY = 0x0004_0004
 
@@ -39,7 +39,7 @@ def test_a_move_s_id_rings_the_done_doorbell_and_raises_inta(mixed: DaemonThread
             m.send_string("AX MR2000 GO ID")
             assert m.wait_done(0b1, MOVE_MS) == maxk.StatusFlags(done=0b1)
             events = [e for e in irq.events(timeout_s=10) if e["line"] == "inta"]
-            assert any(int(e["status"]) & ODI for e in events)
+            assert any(int(e["status"]) & Omisr.ODI for e in events)
         finally:
             irq.close()
 

@@ -19,6 +19,7 @@ from typing import Any
 
 import pytest
 import vdevclient
+from vdevmaps.oms import RING_SIZE, MaxkDoorbell, Mu, Omisr, Shm
 
 from vdevd.config import CardSpec, Config
 from vdevd.devices import card_class
@@ -29,30 +30,6 @@ CARD_TYPE = "oms-maxk"
 AXES = 4
 LOOPBACK = "tcp://127.0.0.1:*"
 
-# shared memory (region `shm`, big-endian words) [S Table 3-1; spec §2.2]
-DIRECT_COMMAND = 0x04C
-POSITION_REQUEST = 0x050
-COHERENT_MOTOR = 0x054  # X..S
-COHERENT_ENCODER = 0x074
-SEMAPHORE = 0x094
-CMD_INSERT = 0x0F0  # host's write index of the command ring
-CMD_PROCESS = 0x0F4  # the firmware's read index
-RSP_INSERT = 0x0F8  # the firmware's write index of the response ring
-RSP_PROCESS = 0x0FC  # the host's read index
-CMD_RING = 0x100
-RSP_RING = 0x500
-RING_SIZE = 1024
-# message unit (region `mu`, little-endian registers) [spec §2.9]
-OMISR = 0x030
-OMIMR = 0x034
-OMR0 = 0x058
-ODBR = 0x060
-OM0I = 1 << 0  # OMISR: a text reply was posted (OMR0 written)
-ODI = 1 << 3  # OMISR: the outbound doorbell is not zero
-# outbound doorbell bits [S §3.4.1-3.4.4]
-DONE_X = 1 << 0  # + axis: done, X..S
-OVERTRAVEL_X = 1 << 8
-COMMAND_ERROR = 1 << 24
 
 
 def card_config(**options: Any) -> Config:
@@ -97,27 +74,27 @@ class Maxk:
         (spec §2.4 steps 2-3)."""
         data = text.encode("latin-1") if isinstance(text, str) else bytes(text)
         assert len(data) < RING_SIZE, "the host must not write more than 1023 bytes at once"
-        put = self.shm.read32(CMD_INSERT)
+        put = self.shm.read32(Shm.COMMAND_INSERT)
         first = data[: RING_SIZE - put]
-        self._write_bytes(CMD_RING + put, first)
-        self._write_bytes(CMD_RING, data[len(first):])
-        self.shm.write32(CMD_INSERT, (put + len(data)) % RING_SIZE)
+        self._write_bytes(Shm.COMMAND_RING + put, first)
+        self._write_bytes(Shm.COMMAND_RING, data[len(first):])
+        self.shm.write32(Shm.COMMAND_INSERT, (put + len(data)) % RING_SIZE)
 
     # -- the response ring --------------------------------------------------------------------
     def pending(self) -> bytes:
         """The bytes between 0x0FC and 0x0F8 (one posted reply, LF included), left in place."""
-        start, end = self.shm.read32(RSP_PROCESS), self.shm.read32(RSP_INSERT)
+        start, end = self.shm.read32(Shm.RESPONSE_PROCESS), self.shm.read32(Shm.RESPONSE_INSERT)
         if end >= start:
-            return self._read_bytes(RSP_RING + start, end - start)
-        return (self._read_bytes(RSP_RING + start, RING_SIZE - start)
-                + self._read_bytes(RSP_RING, end))
+            return self._read_bytes(Shm.RESPONSE_RING + start, end - start)
+        return (self._read_bytes(Shm.RESPONSE_RING + start, RING_SIZE - start)
+                + self._read_bytes(Shm.RESPONSE_RING, end))
 
     def release(self) -> None:
         """Hand the reply back: 0x0FC := 0x0F8, clear OM0I, semaphore := 0 (the card may then
         post the next reply, so OM0I is cleared before the semaphore)."""
-        self.shm.write32(RSP_PROCESS, self.shm.read32(RSP_INSERT))
-        self.mu.write32(OMISR, OM0I)
-        self.shm.write32(SEMAPHORE, 0)
+        self.shm.write32(Shm.RESPONSE_PROCESS, self.shm.read32(Shm.RESPONSE_INSERT))
+        self.mu.write32(Mu.OMISR, Omisr.OM0I)
+        self.shm.write32(Shm.MESSAGE_SEMAPHORE, 0)
 
     def reply(self) -> str | None:
         """The posted reply without its LF (and released), or None when none is posted."""
@@ -159,16 +136,16 @@ class Maxk:
     # -- the message unit ---------------------------------------------------------------------
     def odbr(self) -> int:
         """The outbound doorbell (done, over-travel, slip, command error) [S §3.4]."""
-        return self.mu.read32(ODBR)
+        return self.mu.read32(Mu.ODBR)
 
     def clear_odbr(self, bits: int = 0xFFFFFFFF) -> None:
         """Clear doorbell bits by writing ones [S §3.4.1]."""
-        self.mu.write32(ODBR, bits)
+        self.mu.write32(Mu.ODBR, bits)
 
     def command_error(self) -> bool:
         """ODBR bit 24, then cleared [S §3.4.4]."""
-        raised = bool(self.odbr() & COMMAND_ERROR)
-        self.clear_odbr(COMMAND_ERROR)
+        raised = bool(self.odbr() & MaxkDoorbell.COMMAND_ERROR)
+        self.clear_odbr(MaxkDoorbell.COMMAND_ERROR)
         return raised
 
     # -- the shared memory ---------------------------------------------------------------------

@@ -9,18 +9,18 @@ from typing import Any
 
 from hypothesis import given
 from hypothesis import strategies as st
+from vdevmaps.oms import MU_SIZE, RING_SIZE, SHM_SIZE, Mu, Omisr, Shm
 
 from vdevd.devices.base import CardContext
 from vdevd.devices.oms import rings
 from vdevd.devices.oms.card import MaxkCard
-from vdevd.devices.oms.layout import MU_SIZE, RING_SIZE, SHM_SIZE, Mu, Omisr, Shm
+from vdevd.devices.oms.commands import OPERANDS
 from vdevd.devices.oms.mu import MessageUnit
 from vdevd.devices.oms.params import Params
 from vdevd.devices.oms.syntax import MEMO_BYTES, MEMO_ENTRIES, Lexer
-from vdevd.devices.oms.table import TABLE
 
 #: the card's mnemonics and operand kinds
-CARD_TABLE = {name: spec.operand for name, spec in TABLE.items()}
+CARD_TABLE = OPERANDS
 
 #: streams a host sends, valid or not, some cut where a later write goes on
 PIECES = [b"AX RP;", b"AX RP", b";", b"AA RP;", b"WY;", b"AY RP;WY;", b"AX MR1000 GO ID;", b"XYZZY;",
@@ -76,31 +76,31 @@ class Host:
             self.shm.write(offset, data)
 
     def send(self, text: bytes) -> None:
-        put = rings.u32(self.shm.buf, Shm.CMD_INSERT)
+        put = rings.u32(self.shm.buf, Shm.COMMAND_INSERT)
         if self.byte_wise:
             for i, c in enumerate(text):
-                self.shm.write(Shm.CMD_RING + (put + i) % RING_SIZE, bytes([c]))
+                self.shm.write(Shm.COMMAND_RING + (put + i) % RING_SIZE, bytes([c]))
         else:
             first = text[:RING_SIZE - put]
-            for offset, piece in ((Shm.CMD_RING + put, first), (Shm.CMD_RING, text[len(first):])):
+            for offset, piece in ((Shm.COMMAND_RING + put, first), (Shm.COMMAND_RING, text[len(first):])):
                 if len(piece) in (2, 4) and offset % len(piece):
                     self.shm.write(offset, piece[:1])
                     offset, piece = offset + 1, piece[1:]
                 if piece:
                     self.shm.write(offset, piece)
-        self.word(Shm.CMD_INSERT, (put + len(text)) % RING_SIZE)
+        self.word(Shm.COMMAND_INSERT, (put + len(text)) % RING_SIZE)
 
     def replies(self) -> list[bytes]:
         """Every reply the card posts as the last one is released (0x0FC := 0x0F8, OM0I W1C,
         semaphore 0)."""
         out = []
         buf = self.shm.buf
-        while (end := rings.u32(buf, Shm.RSP_INSERT)) != (start := rings.u32(buf, Shm.RSP_PROCESS)):
-            out.append(bytes(buf[Shm.RSP_RING + (start + i) % RING_SIZE]
+        while (end := rings.u32(buf, Shm.RESPONSE_INSERT)) != (start := rings.u32(buf, Shm.RESPONSE_PROCESS)):
+            out.append(bytes(buf[Shm.RESPONSE_RING + (start + i) % RING_SIZE]
                              for i in range((end - start) % RING_SIZE)))
-            self.word(Shm.RSP_PROCESS, end)
+            self.word(Shm.RESPONSE_PROCESS, end)
             self.mu.write(Mu.OMISR, int(Omisr.OM0I).to_bytes(4, "little"))
-            self.word(Shm.SEMAPHORE, 0)
+            self.word(Shm.MESSAGE_SEMAPHORE, 0)
         return out
 
     def state(self) -> tuple[bytes, list[int]]:
@@ -124,7 +124,7 @@ STEPS: list[tuple[str, Any]] = [
     ("word", (Shm.DIRECT_COMMAND, 2)),  # kill all motion
     ("send", b"AW MR100 GO ID;"),
     ("tick", 300),
-    ("word", (Shm.W_FLAGS, 0x0101_0101)),  # W done cleared by writing ones
+    ("word", (Shm.W_STATUS_FLAGS, 0x0101_0101)),  # W done cleared by writing ones
     ("word", (Shm.POSITION_REQUEST, 1)),
     ("send", b"AA RP;"),
     ("send", b"#UR?;AX RP;"),
@@ -156,11 +156,11 @@ def _post_as_before(buf: bytearray, text: bytes) -> None:
     """rings.post_response written piece by piece (the general path)."""
     if len(text) >= RING_SIZE:
         text = text[: RING_SIZE - 2] + b"\n"
-    insert = rings.u32(buf, Shm.RSP_INSERT) % RING_SIZE
+    insert = rings.u32(buf, Shm.RESPONSE_INSERT) % RING_SIZE
     for i, c in enumerate(text):
-        buf[Shm.RSP_RING + (insert + i) % RING_SIZE] = c
-    rings.put_u32(buf, Shm.RSP_INSERT, (insert + len(text)) % RING_SIZE)
-    rings.put_u32(buf, Shm.SEMAPHORE, 1)
+        buf[Shm.RESPONSE_RING + (insert + i) % RING_SIZE] = c
+    rings.put_u32(buf, Shm.RESPONSE_INSERT, (insert + len(text)) % RING_SIZE)
+    rings.put_u32(buf, Shm.MESSAGE_SEMAPHORE, 1)
 
 
 def test_a_reply_posted_at_any_ring_place_lands_as_byte_by_byte() -> None:
@@ -169,7 +169,7 @@ def test_a_reply_posted_at_any_ring_place_lands_as_byte_by_byte() -> None:
             text = bytes(48 + i % 10 for i in range(size - 1)) + b"\n"
             fast, slow = bytearray(SHM_SIZE), bytearray(SHM_SIZE)
             for buf in (fast, slow):
-                rings.put_u32(buf, Shm.RSP_INSERT, insert)
+                rings.put_u32(buf, Shm.RESPONSE_INSERT, insert)
             rings.post_response(fast, text)
             _post_as_before(slow, text)
             assert fast == slow, (insert, size)

@@ -13,8 +13,9 @@ from __future__ import annotations
 import math
 
 import pytest
+from vdevmaps.oms import MaxkDoorbell
 
-from tests.devices.oms.conftest import DONE_X, OVERTRAVEL_X, Maxk
+from tests.devices.oms.conftest import Maxk
 from tests.devices.oms.test_trajectory_scan import contour, cycles, firmware
 from vdevd.devices.oms.contour import ContourState
 from vdevd.devices.oms.firmware import Firmware
@@ -24,8 +25,8 @@ V, A = 4000.0, 20_000.0
 RAMP_S = V * V / (2 * A)  # 400 counts of path to stop
 RAMP_CYCLES = round(V / A * HZ)  # 205 update cycles to stop
 LINE = "AA; VV4000; VA20000; VP40000,20000; VE;"
-DONE_XY = DONE_X | DONE_X << 1
-OVERTRAVEL_Y = OVERTRAVEL_X << 1
+DONE_XY = MaxkDoorbell.DONE_X | MaxkDoorbell.DONE_X << 1
+OVERTRAVEL_Y = MaxkDoorbell.OVERTRAVEL_X << 1
 
 
 def xy(card: Maxk) -> tuple[int, int]:
@@ -114,7 +115,7 @@ def test_a_hard_limit_stops_the_contour_at_once_with_over_travel(maxk: Maxk) -> 
     here = xy(maxk)
     maxk.step(HZ // 4)
     assert xy(maxk) == here
-    assert maxk.odbr() & (OVERTRAVEL_X | OVERTRAVEL_Y | DONE_XY) == OVERTRAVEL_X
+    assert maxk.odbr() & (MaxkDoorbell.OVERTRAVEL_X | OVERTRAVEL_Y | DONE_XY) == MaxkDoorbell.OVERTRAVEL_X
     assert maxk.query("AX QA;")[2] == "L"
     maxk.send("AX MR-100; GO;")
     maxk.step(HZ // 4)
@@ -131,7 +132,7 @@ def test_a_soft_limit_ramps_the_contour_down_on_its_path(maxk: Maxk) -> None:
     assert all(abs(x - 2 * y) <= 2 for x, y in after)
     assert path(after[-1]) - path(here) == pytest.approx(RAMP_S, abs=8)
     assert after[-1] == after[-20]
-    assert maxk.odbr() & (OVERTRAVEL_X | OVERTRAVEL_Y | DONE_XY) == OVERTRAVEL_Y
+    assert maxk.odbr() & (MaxkDoorbell.OVERTRAVEL_X | OVERTRAVEL_Y | DONE_XY) == OVERTRAVEL_Y
 
 
 def test_a_contour_into_an_active_limit_does_not_move_and_one_away_runs(maxk: Maxk) -> None:
@@ -140,12 +141,12 @@ def test_a_contour_into_an_active_limit_does_not_move_and_one_away_runs(maxk: Ma
     maxk.send("AA; VID; VV4000; VA20000; VP1000,500; VE;")
     maxk.step(HZ // 2)
     assert xy(maxk) == (0, 0)
-    assert maxk.odbr() & (OVERTRAVEL_X | DONE_XY) == OVERTRAVEL_X
+    assert maxk.odbr() & (MaxkDoorbell.OVERTRAVEL_X | DONE_XY) == MaxkDoorbell.OVERTRAVEL_X
     maxk.clear_odbr()
     maxk.send("AA; VID; VV4000; VA20000; VP-1000,-500; VE;")
     maxk.step(HZ)
     assert xy(maxk) == (-1000, -500)
-    assert maxk.odbr() & (OVERTRAVEL_X | DONE_XY) == DONE_XY
+    assert maxk.odbr() & (MaxkDoorbell.OVERTRAVEL_X | DONE_XY) == DONE_XY
 
 
 # -- several axes, several contours --------------------------------------------------------------

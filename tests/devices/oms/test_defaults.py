@@ -12,20 +12,16 @@ from pathlib import Path
 
 import pytest
 import vdevclient
+from vdevmaps.oms import FirmwareState, Shm
 
-from tests.devices.oms.conftest import CMD_INSERT, CMD_PROCESS, DIRECT_COMMAND, Maxk, maxk_card
+from tests.devices.oms.conftest import Maxk, maxk_card
 from vdevd.nvram import NvramStore
 
 HZ = 1024
-FIRMWARE = 0x048  # Table 3-4
-RUNNING = 1 << 2
-NOT_DOWNLOADED = 1 << 0
-FLASH_CHECKSUM = 1 << 8
-DEFAULTS_CHECKSUM = 1 << 12
-POWER_UP_SET = 1 << 16
-FACTORY_SET = 1 << 18
-MOTOR_X = 0x000
 RESET_CONTROLLER = 3  # direct command (spec §2.6)
+CHECKSUM_ERROR_STATE = (FirmwareState.RUNNING | FirmwareState.DEFAULTS_CHECKSUM_ERROR
+                        | FirmwareState.FACTORY_SET)
+FLASH_ERROR_STATE = FirmwareState.NOT_DOWNLOADED | FirmwareState.APPLICATION_CHECKSUM_ERROR
 
 
 def cruise_velocity(maxk: Maxk, axis: str = "X", distance: str = "100000000") -> str:
@@ -41,7 +37,7 @@ def cruise_velocity(maxk: Maxk, axis: str = "X", distance: str = "100000000") ->
 # -- the firmware state word [S Table 3-4; spec §2.3] ----------------------------------------------
 def test_fresh_card_runs_with_the_factory_set(maxk: Maxk) -> None:
     """spec §2.3: 0x00040004, running + factory set (no APP archive)."""
-    assert maxk.shm.read32(FIRMWARE) == 0x00040004
+    assert maxk.shm.read32(Shm.FIRMWARE_STATE) == 0x00040004
 
 
 def test_app_then_power_cycle_loads_the_power_up_set(tmp_path: Path) -> None:
@@ -53,9 +49,10 @@ def test_app_then_power_cycle_loads_the_power_up_set(tmp_path: Path) -> None:
         maxk.step(1)  # VL is queued: it runs at the next update cycle
         maxk.send("APP;")
         assert not maxk.command_error()
-        assert maxk.shm.read32(FIRMWARE) == 0x00040004  # APP changes what is loaded only at power-up
+        # APP changes what is loaded only at power-up
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == 0x00040004
     with maxk_card(tmp_path) as maxk:
-        assert maxk.shm.read32(FIRMWARE) == 0x00010004
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == 0x00010004
         assert maxk.query("AX ?KP;") == "25.00"
         assert maxk.query("?KO;") == "-120.00"
         assert maxk.query("LT?;") == "=h"
@@ -69,7 +66,7 @@ def test_changes_without_app_are_lost_at_power_up(tmp_path: Path) -> None:
     with maxk_card(tmp_path) as maxk:
         maxk.send("AX KP25;")
     with maxk_card(tmp_path) as maxk:
-        assert maxk.shm.read32(FIRMWARE) == 0x00040004
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == 0x00040004
         assert maxk.query("AX ?KP;") == "10.00"
 
 
@@ -86,8 +83,8 @@ def test_reset_loads_the_power_up_set(tmp_path: Path) -> None:
     """A reset (direct command 3, spec §2.6) is a power-up of the firmware."""
     with maxk_card(tmp_path) as maxk:
         maxk.send("AX KP25; APP; KP40;")
-        maxk.shm.write32(DIRECT_COMMAND, RESET_CONTROLLER)
-        assert maxk.shm.read32(FIRMWARE) == 0x00010004
+        maxk.shm.write32(Shm.DIRECT_COMMAND, RESET_CONTROLLER)
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == 0x00010004
         assert maxk.query("AX ?KP;") == "25.00"
 
 
@@ -100,13 +97,13 @@ def test_rdf_loads_the_factory_set_and_rdp_the_power_up_set(tmp_path: Path) -> N
     with maxk_card(tmp_path) as maxk:
         maxk.send("AX KP40; RDF;")
         maxk.step(1)
-        state = maxk.shm.read32(FIRMWARE)
-        assert state & FACTORY_SET and not state & POWER_UP_SET
+        state = maxk.shm.read32(Shm.FIRMWARE_STATE)
+        assert state & FirmwareState.FACTORY_SET and not state & FirmwareState.POWER_UP_SET
         assert maxk.query("?KP;") == "10.00"
         maxk.send("RDP;")
         maxk.step(1)
-        state = maxk.shm.read32(FIRMWARE)
-        assert state & POWER_UP_SET and not state & FACTORY_SET
+        state = maxk.shm.read32(Shm.FIRMWARE_STATE)
+        assert state & FirmwareState.POWER_UP_SET and not state & FirmwareState.FACTORY_SET
         assert maxk.query("?KP;") == "25.00"
 
 
@@ -114,7 +111,7 @@ def test_rdp_without_stored_defaults_is_a_command_error(maxk: Maxk) -> None:
     maxk.send("AX KP25; RDP;")
     assert maxk.command_error()
     assert maxk.query("?KP;") == "25.00"
-    assert maxk.shm.read32(FIRMWARE) == 0x00040004
+    assert maxk.shm.read32(Shm.FIRMWARE_STATE) == 0x00040004
 
 
 def test_factory_defaults_of_section_2_14(maxk: Maxk) -> None:
@@ -141,12 +138,12 @@ def test_factory_defaults_of_section_2_14(maxk: Maxk) -> None:
 def test_unreadable_archive_is_a_checksum_error_and_the_factory_set_loads(tmp_path: Path) -> None:
     (tmp_path / "maxk0.nvram").write_bytes(b"\xc1 not a parameter archive")
     with maxk_card(tmp_path) as maxk:
-        assert maxk.shm.read32(FIRMWARE) == RUNNING | DEFAULTS_CHECKSUM | FACTORY_SET
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == CHECKSUM_ERROR_STATE
         maxk.send("AX RDP;")
         assert maxk.command_error()
         maxk.send("KP20; APP;")
     with maxk_card(tmp_path) as maxk:
-        assert maxk.shm.read32(FIRMWARE) == 0x00010004
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == 0x00010004
         assert maxk.query("AX ?KP;") == "20.00"
 
 
@@ -156,26 +153,26 @@ def test_defaults_checksum_fault_loads_the_factory_set(tmp_path: Path) -> None:
     with maxk_card(tmp_path) as maxk:
         maxk.send("AX KP25; APP;")
         maxk.control("set_firmware_state", state="defaults_checksum")
-        assert maxk.shm.read32(FIRMWARE) == RUNNING | DEFAULTS_CHECKSUM | FACTORY_SET
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == CHECKSUM_ERROR_STATE
         assert maxk.query("AX ?KP;") == "10.00"
         maxk.control("set_firmware_state", state="running")
-        assert maxk.shm.read32(FIRMWARE) == 0x00010004
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == 0x00010004
         assert maxk.query("AX ?KP;") == "25.00"
 
 
-@pytest.mark.parametrize(("state", "word"), [("no_firmware", NOT_DOWNLOADED),
-                                             ("flash_checksum", NOT_DOWNLOADED | FLASH_CHECKSUM)])
+@pytest.mark.parametrize(("state", "word"), [("no_firmware", FirmwareState.NOT_DOWNLOADED),
+                                             ("flash_checksum", FLASH_ERROR_STATE)])
 def test_without_firmware_the_card_takes_no_command(maxk: Maxk, state: str, word: int) -> None:
     """Table 3-4 bit 0 "application code not downloaded to RAM": nothing parses the command
     ring, so its process index stays (EPICS waits for 0x0F4 to reach 0x0F0, spec §2.4)."""
     maxk.control("set_firmware_state", state=state)
-    assert maxk.shm.read32(FIRMWARE) == word
+    assert maxk.shm.read32(Shm.FIRMWARE_STATE) == word
     maxk.send("WY;")
     maxk.step(4)
-    assert maxk.shm.read32(CMD_PROCESS) != maxk.shm.read32(CMD_INSERT)
+    assert maxk.shm.read32(Shm.COMMAND_PROCESS) != maxk.shm.read32(Shm.COMMAND_INSERT)
     assert maxk.reply() is None
     maxk.control("set_firmware_state", state="running")
-    assert maxk.shm.read32(FIRMWARE) == 0x00040004
+    assert maxk.shm.read32(Shm.FIRMWARE_STATE) == 0x00040004
     assert maxk.query("WY;").startswith("MAXk-4000")
 
 
@@ -228,7 +225,7 @@ def test_user_units_scale_positions_and_replies(maxk: Maxk) -> None:
     """UU# = counts per user unit: operands and RP/RE in units, fixed point ("##.#", CRM-1-1)."""
     maxk.send("AX UU1000; MR1.5; GO;")
     maxk.step(HZ // 2)
-    assert maxk.word(MOTOR_X) == 1500  # the card counts in counts
+    assert maxk.word(Shm.MOTOR_POSITION) == 1500  # the card counts in counts
     assert maxk.query("RP;") == "1.500"
     assert maxk.query("RE;") == "1.500"
     assert maxk.query("UF; RP;") == "1500"
@@ -258,7 +255,7 @@ def test_user_units_per_axis_in_aa_mode(maxk: Maxk) -> None:
     maxk.step(1)
     assert maxk.query("AA RP;") == "1.0,2,3.0,4"
     assert maxk.query("AA PP;") == "1.0,2,3.0,4"
-    assert [maxk.word(MOTOR_X + 4 * a) for a in range(4)] == [10, 2, 12, 4]
+    assert [maxk.word(Shm.MOTOR_POSITION + 4 * a) for a in range(4)] == [10, 2, 12, 4]
 
 
 @pytest.mark.parametrize("text", ["UU0", "UU-5", "UUx"])

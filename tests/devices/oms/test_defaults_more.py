@@ -14,8 +14,9 @@ import struct
 from pathlib import Path
 
 import pytest
+from vdevmaps.oms import CAPTURE_SIZE, FirmwareState, MaxkDoorbell, Mu, Shm
 
-from tests.devices.oms.conftest import ODBR, Maxk, maxk_card
+from tests.devices.oms.conftest import Maxk, maxk_card
 from vdevd.devices.oms.params import PARAMS
 from vdevd.nvram import NvramStore
 
@@ -23,15 +24,8 @@ from vdevd.nvram import NvramStore
 TYPES = ["stepper_encoder", "servo", "stepper_encoder", "stepper"]
 HZ = 1024
 VL, AC = 10000, 100000
-FIRMWARE = 0x048  # Table 3-4
-RUNNING = 1 << 2
-DEFAULTS_CHECKSUM = 1 << 12
-FACTORY_SET = 1 << 18
 POWER_UP_LOADED = 0x00010004  # running, power-up set in working memory
 FACTORY_LOADED = 0x00040004
-CAPTURE = 0x1540  # [S Table 3-5]
-SSI = 0x3520
-DONE_Z = 1 << 2
 
 
 def gpio(maxk: Maxk) -> int:
@@ -42,7 +36,7 @@ def gpio(maxk: Maxk) -> int:
 
 def capture_entries(maxk: Maxk) -> list[tuple[int, int, int, int, int]]:
     """The capture entries the card has inserted (ring from 0, no wrap) [S Table 3-6]."""
-    raw = maxk.shm.read(CAPTURE, 2 + 55 * 10)
+    raw = maxk.shm.read(Shm.CAPTURE_INSERT, CAPTURE_SIZE)
     return [struct.unpack_from(">iBBHH", raw, 2 + 10 * i) for i in range(raw[0])]
 
 
@@ -53,7 +47,7 @@ def z_homes_on_the_index_pulse(maxk: Maxk) -> bool:
     maxk.control("set_index", axis="Z", period=1000, phase=250)
     maxk.control("set_home_edge", axis="Z", position=5000)
     maxk.send(f"AZ VL{VL} AC{AC} HM0 ID;")
-    assert maxk.mu.wait_value(ODBR, 0, mask=DONE_Z, timeout_s=10, equal=False) is not None
+    assert maxk.mu.wait_value(Mu.ODBR, 0, mask=MaxkDoorbell.DONE_Z, timeout_s=10, equal=False) is not None
     maxk.send("AZ MA-250 GO;")
     maxk.step(HZ // 2)
     return maxk.query("AZ QA;")[3] == "H"
@@ -98,7 +92,7 @@ def test_app_stores_the_gpio_directions(tmp_path: Path) -> None:
         maxk.send("BD00F0; IO0,1; APP;")
         assert not maxk.command_error()
     with maxk_card(tmp_path, axis_types=TYPES) as maxk:
-        assert maxk.shm.read32(FIRMWARE) == POWER_UP_LOADED
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == POWER_UP_LOADED
         assert gpio(maxk) == 0xFF0E
         maxk.send("BH0;")
         assert not maxk.command_error()
@@ -144,7 +138,7 @@ def test_app_stores_the_ssi_encoder(tmp_path: Path) -> None:
         assert maxk.query("AX ECA?;") == "=12,125000"
         maxk.send("AX LP-1;")
         maxk.step(1)
-        assert maxk.shm.read32(SSI) == 0xFFF
+        assert maxk.shm.read32(Shm.SSI_POSITION) == 0xFFF
 
 
 def test_app_stores_the_reported_update_rate(tmp_path: Path) -> None:
@@ -162,7 +156,7 @@ def test_changes_to_the_io_configuration_without_app_are_lost(tmp_path: Path) ->
         maxk.send("AY KP25; APP;")
         configure_io(maxk)
     with maxk_card(tmp_path, axis_types=TYPES) as maxk:
-        assert maxk.shm.read32(FIRMWARE) == POWER_UP_LOADED
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == POWER_UP_LOADED
         assert_io_factory(maxk)
 
 
@@ -208,7 +202,7 @@ def test_rdf_restores_the_factory_io_configuration(tmp_path: Path) -> None:
         maxk.send("RDF;")
         assert not maxk.command_error()
         maxk.step(1)  # the firmware state word is published every update cycle
-        assert maxk.shm.read32(FIRMWARE) == FACTORY_LOADED
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == FACTORY_LOADED
         assert_io_factory(maxk, update_hz=2048)
         assert not z_homes_on_the_index_pulse(maxk)
 
@@ -227,7 +221,7 @@ def test_rdf_stops_the_capture_and_the_ssi_word(tmp_path: Path) -> None:
         maxk.control("set_input", bit=0, level=1)
         maxk.step(1)
         assert capture_entries(maxk) == []
-        assert maxk.shm.read32(SSI) == 0
+        assert maxk.shm.read32(Shm.SSI_POSITION) == 0
 
 
 def test_rdp_restores_the_stored_io_configuration(tmp_path: Path) -> None:
@@ -266,7 +260,7 @@ def format_1_image(kp: float) -> dict[str, object]:
 def test_format_1_image_loads_with_the_factory_io_configuration(tmp_path: Path) -> None:
     NvramStore(tmp_path).save("maxk0", format_1_image(kp=25))
     with maxk_card(tmp_path, axis_types=TYPES) as maxk:
-        assert maxk.shm.read32(FIRMWARE) == POWER_UP_LOADED
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == POWER_UP_LOADED
         assert maxk.query("AY ?KP;") == "25.00"
         assert_io_factory(maxk)
         configure_io(maxk)
@@ -278,7 +272,8 @@ def test_format_1_image_loads_with_the_factory_io_configuration(tmp_path: Path) 
 def test_image_of_another_format_is_a_checksum_error(tmp_path: Path) -> None:
     NvramStore(tmp_path).save("maxk0", {**format_1_image(kp=25), "format": 3})
     with maxk_card(tmp_path, axis_types=TYPES) as maxk:
-        assert maxk.shm.read32(FIRMWARE) == RUNNING | DEFAULTS_CHECKSUM | FACTORY_SET
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == (
+            FirmwareState.RUNNING | FirmwareState.DEFAULTS_CHECKSUM_ERROR | FirmwareState.FACTORY_SET)
         assert maxk.query("AY ?KP;") == "10.00"
         maxk.send("RDP;")
         assert maxk.command_error()

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import pytest
 import vdevclient
+from vdevmaps.oms import FirmwareState, MaxkDoorbell, Mu, Omisr, Shm
 
 from vdevd.config import CardSpec, Config
 from vdevd.devices import card_class
@@ -28,25 +29,26 @@ QUANTUM_NS = 10_000_000  # epicsThreadSleepQuantum(), 10 ms
 FLUSH = -1
 BUFFER_SIZE = 1024
 
-# shared memory (drvMAXv.h struct MAXv_motor, the same offsets on the MAXk)
-CMD_POS = 0x000
-ENC_POS = 0x020
-FIRMWARE_STATUS = 0x048
-MSG_SEMAPHORE = 0x094
-OUT_PUT_INDEX = 0x0F0  # the host's insert index of the command ring
-OUT_GET_INDEX = 0x0F4
-IN_PUT_INDEX = 0x0F8  # the card's insert index of the response ring
-IN_GET_INDEX = 0x0FC
-OUT_BUFFER = 0x100
-IN_BUFFER = 0x500
-RUNNING = 1 << 2  # firmware_status.Bits.running
+# the driver's own names (drvMAXv.h struct MAXv_motor, the same offsets on the MAXk), so the
+# code below reads as drvMAXv.cc; the values come from the card's map
+CMD_POS = Shm.MOTOR_POSITION
+ENC_POS = Shm.ENCODER_POSITION
+FIRMWARE_STATUS = Shm.FIRMWARE_STATE
+MSG_SEMAPHORE = Shm.MESSAGE_SEMAPHORE
+OUT_PUT_INDEX = Shm.COMMAND_INSERT  # the host's insert index of the command ring
+OUT_GET_INDEX = Shm.COMMAND_PROCESS
+IN_PUT_INDEX = Shm.RESPONSE_INSERT  # the card's insert index of the response ring
+IN_GET_INDEX = Shm.RESPONSE_PROCESS
+OUT_BUFFER = Shm.COMMAND_RING
+IN_BUFFER = Shm.RESPONSE_RING
+RUNNING = FirmwareState.RUNNING  # firmware_status.Bits.running
 # message unit (spec §2.9): where the MAXk moved status1_flag and text_response
-OMISR = 0x030
-OMIMR = 0x034
-ODBR = 0x060
-TEXT_RESPONSE = 1 << 0  # OMISR OM0I
-DONE = 0xFF
-CMND_ERROR = 1 << 24
+OMISR = Mu.OMISR
+OMIMR = Mu.OMIMR
+ODBR = Mu.ODBR
+TEXT_RESPONSE = Omisr.OM0I
+DONE = 0xFF  # the eight done bits of ODBR
+CMND_ERROR = MaxkDoorbell.COMMAND_ERROR
 
 # drvOmsCom.h / drvMAXv.cc command strings
 ERROR_CLEAR = "IC"

@@ -16,15 +16,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from vdevmaps.oms import MaxkDoorbell, Mu, Shm
 
-from tests.devices.oms.conftest import DONE_X, ODBR, Maxk, maxk_card
+from tests.devices.oms.conftest import Maxk, maxk_card
 from vdevd.devices.oms.encoder import first_home_count
 from vdevd.nvram import NvramStore
 
 VL, AC = 10000, 100000
 PERIOD, PHASE = 1000, 250  # index pulses at ..., -750, 250, 1250, ... (places 0-3 each)
 TYPES = ["stepper_encoder", "stepper_encoder", "servo", "stepper"]
-FIRMWARE = 0x048  # Table 3-4
 POWER_UP_LOADED = 0x00010004  # running, power-up set in working memory
 
 
@@ -40,15 +40,16 @@ def card() -> Iterator[Maxk]:
 
 
 def done_within(maxk: Maxk, timeout_s: float = 10.0) -> bool:
-    return maxk.mu.wait_value(ODBR, 0, mask=DONE_X, timeout_s=timeout_s, equal=False) is not None
+    return maxk.mu.wait_value(Mu.ODBR, 0, mask=MaxkDoorbell.DONE_X, timeout_s=timeout_s,
+                              equal=False) is not None
 
 
 def move_to(maxk: Maxk, position: int) -> None:
     """MA, GO, ID on X and wait for done (then clear it)."""
-    maxk.clear_odbr(DONE_X)
+    maxk.clear_odbr(MaxkDoorbell.DONE_X)
     maxk.send(f"AX MA{position} GO ID;")
     assert done_within(maxk)
-    maxk.clear_odbr(DONE_X)
+    maxk.clear_odbr(MaxkDoorbell.DONE_X)
 
 
 def on_switch(maxk: Maxk, position: int) -> bool:
@@ -117,7 +118,7 @@ def test_hm_homes_on_the_pulse_count_in_the_tables_quadrant(card: Maxk, table: s
     card.control("set_home_edge", axis="X", position=5000)
     card.send(f"AX {table} HM0 ID;")
     assert done_within(card)
-    card.clear_odbr(DONE_X)
+    card.clear_odbr(MaxkDoorbell.DONE_X)
     assert on_switch(card, 5000 - home)
     assert not on_switch(card, 4999 - home)
 
@@ -136,7 +137,7 @@ def test_hr_meets_the_pulse_from_above(card: Maxk, table: str, home: int) -> Non
     card.control("set_home_edge", axis="X", position=-6000, width=1000)
     card.send(f"AX {table} HR0 ID;")
     assert done_within(card)
-    card.clear_odbr(DONE_X)
+    card.clear_odbr(MaxkDoorbell.DONE_X)
     top = -5000 - home
     assert on_switch(card, top - 1)
     assert not on_switch(card, top)
@@ -177,7 +178,7 @@ def test_hs_mode_ignores_the_table(card: Maxk) -> None:
     card.control("set_home_edge", axis="X", position=5000)
     card.send("AX HT2,2,2,0 HS HM0 ID;")
     assert done_within(card)
-    card.clear_odbr(DONE_X)
+    card.clear_odbr(MaxkDoorbell.DONE_X)
     assert on_switch(card, 0)
     assert not on_switch(card, -1)
 
@@ -252,7 +253,7 @@ def test_an_image_without_tables_loads_with_the_factory_table(tmp_path: Path) ->
     del image["home_pattern"]
     store.save("maxk0", image)
     with maxk_card(tmp_path, axis_types=TYPES) as maxk:
-        assert maxk.shm.read32(FIRMWARE) == POWER_UP_LOADED
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == POWER_UP_LOADED
         assert maxk.query("AZ ?KP;") == "25.00"
         assert maxk.query("AA HT?;") == "=1011,=1011,=1011,=1011"
 
@@ -266,5 +267,5 @@ def test_a_bad_stored_table_loads_as_the_factory_table(tmp_path: Path) -> None:
     image["home_pattern"] = ["2222", "13", 7, "0111"]
     store.save("maxk0", image)
     with maxk_card(tmp_path, axis_types=TYPES) as maxk:
-        assert maxk.shm.read32(FIRMWARE) == POWER_UP_LOADED
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == POWER_UP_LOADED
         assert maxk.query("AA HT?;") == "=1011,=1011,=1011,=0111"

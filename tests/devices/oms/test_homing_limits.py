@@ -10,15 +10,13 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import pytest
+from vdevmaps.oms import MaxkDoorbell, Mu, Shm
 
-from tests.devices.oms.conftest import DONE_X, ODBR, OVERTRAVEL_X, Maxk, maxk_card
+from tests.devices.oms.conftest import Maxk, maxk_card
 
 DT = 1 / 1024
 VL, AC = 10000, 100000
 STOP = VL**2 / (2 * AC)  # counts run while ramping down from VL at AC
-LIMITS, HOMES = 0x040, 0x044  # [S Table 3-1]
-W_FLAGS = 0x0CC
-W_NOTIFY = 1 << 25  # [S §3.4.5]
 
 
 @pytest.fixture
@@ -36,8 +34,8 @@ def qa(maxk: Maxk, axis: str = "X") -> str:
     return maxk.query(f"A{axis} QA;")
 
 
-def done_within(maxk: Maxk, bits: int = DONE_X, timeout_s: float = 10.0) -> bool:
-    return maxk.mu.wait_value(ODBR, 0, mask=bits, timeout_s=timeout_s, equal=False) is not None
+def done_within(maxk: Maxk, bits: int = MaxkDoorbell.DONE_X, timeout_s: float = 10.0) -> bool:
+    return maxk.mu.wait_value(Mu.ODBR, 0, mask=bits, timeout_s=timeout_s, equal=False) is not None
 
 
 # -- home switch [S §4.3, §4.8; spec §5.5] ---------------------------------------------------------
@@ -50,7 +48,7 @@ def test_hm_loads_the_operand_at_the_switch_and_ramps_to_a_stop(steppers: Maxk) 
     assert done_within(steppers)
     assert number(steppers, "AX RP") == pytest.approx(100 + STOP, abs=VL * DT + 1)
     assert qa(steppers)[3] == "H"  # beyond the edge: on the switch
-    assert steppers.shm.read32(HOMES) & 1 == 0  # active low: the raw level reads 0
+    assert steppers.shm.read32(Shm.HOME_SWITCH_STATUS) & 1 == 0  # active low: the raw level reads 0
 
 
 def test_the_switch_edge_is_the_operand_after_homing(steppers: Maxk) -> None:
@@ -93,10 +91,10 @@ def test_an_axis_on_its_switch_is_homed_where_it_stands(steppers: Maxk) -> None:
 def test_home_switch_polarity_hh_hl(steppers: Maxk) -> None:
     """The home input is active low from the factory; HH makes the high level active [S §2.14].
     The word at 0x044 shows raw levels (X in bit 0, Table 3-3)."""
-    assert steppers.shm.read32(HOMES) & 0xF == 0xF  # open inputs read high: no switch active
+    assert steppers.shm.read32(Shm.HOME_SWITCH_STATUS) & 0xF == 0xF  # open inputs read high: no switch active
     assert qa(steppers)[3] == "N"
     steppers.control("set_home", axis="X", active=True)
-    assert steppers.shm.read32(HOMES) & 0xF == 0xE
+    assert steppers.shm.read32(Shm.HOME_SWITCH_STATUS) & 0xF == 0xE
     assert qa(steppers)[3] == "H"
     steppers.send("AX HH;")
     assert qa(steppers)[3] == "N"  # the same low level is now inactive ...
@@ -112,7 +110,7 @@ def test_homing_that_meets_a_limit_stops_with_over_travel_and_no_done(steppers: 
     steppers.control("set_limits", axis="X", positive=True)
     steppers.step(2)
     assert number(steppers, "AX RV") == 0
-    assert steppers.odbr() & OVERTRAVEL_X
+    assert steppers.odbr() & MaxkDoorbell.OVERTRAVEL_X
     assert not done_within(steppers, timeout_s=2)
     assert qa(steppers) == "PNLN"
 
@@ -153,10 +151,10 @@ def test_hi_needs_an_encoder(steppers: Maxk) -> None:
 def test_limit_word_shows_raw_levels(steppers: Maxk) -> None:
     """Table 3-2: X..S negative in bits 0-7, positive in 8-15; the factory polarity is active
     low, so idle (pulled-up) inputs read 1 and an active switch 0."""
-    assert steppers.shm.read32(LIMITS) == 0x0F0F
+    assert steppers.shm.read32(Shm.LIMIT_SWITCH_STATUS) == 0x0F0F
     steppers.control("set_limits", axis="Y", positive=True)
     steppers.control("set_limits", axis="Z", negative=True)
-    assert steppers.shm.read32(LIMITS) == 0x0D0B
+    assert steppers.shm.read32(Shm.LIMIT_SWITCH_STATUS) == 0x0D0B
     assert int(steppers.query("QL;"), 16) == 0x0D0B
 
 
@@ -170,7 +168,7 @@ def test_hard_limit_stops_at_once_flags_over_travel_and_flushes_the_queue(steppe
     steppers.step(2)
     assert number(steppers, "AX RV") == 0
     assert number(steppers, "AX RP") - here <= 2 * VL * DT + 1
-    assert steppers.odbr() & OVERTRAVEL_X
+    assert steppers.odbr() & MaxkDoorbell.OVERTRAVEL_X
     assert qa(steppers)[2] == "L"
     assert not done_within(steppers, timeout_s=2)
     assert number(steppers, "AX RQC") == 2559
@@ -185,7 +183,7 @@ def test_soft_limit_mode_decelerates_at_ac(steppers: Maxk) -> None:
     steppers.step(300)
     assert number(steppers, "AX RV") == 0
     assert number(steppers, "AX RP") - here == pytest.approx(STOP, abs=VL * DT + 1)
-    assert steppers.odbr() & OVERTRAVEL_X
+    assert steppers.odbr() & MaxkDoorbell.OVERTRAVEL_X
 
 
 def test_limits_off_are_ignored(steppers: Maxk) -> None:
@@ -194,9 +192,9 @@ def test_limits_off_are_ignored(steppers: Maxk) -> None:
     steppers.control("set_limits", axis="X", positive=True)
     steppers.step(100)
     assert number(steppers, "AX RV") == 10000
-    assert not steppers.odbr() & OVERTRAVEL_X
+    assert not steppers.odbr() & MaxkDoorbell.OVERTRAVEL_X
     assert qa(steppers)[2] == "N"
-    assert steppers.shm.read32(LIMITS) & 0x100 == 0  # the raw level still shows
+    assert steppers.shm.read32(Shm.LIMIT_SWITCH_STATUS) & 0x100 == 0  # the raw level still shows
 
 
 def test_motion_away_from_an_active_limit_is_allowed_toward_it_refused(steppers: Maxk) -> None:
@@ -209,13 +207,13 @@ def test_motion_away_from_an_active_limit_is_allowed_toward_it_refused(steppers:
     steppers.send("AX CA MR100 GO ID;")
     steppers.step(100)
     assert number(steppers, "AX RP") == -100
-    assert steppers.odbr() & OVERTRAVEL_X
-    assert not steppers.odbr() & DONE_X
+    assert steppers.odbr() & MaxkDoorbell.OVERTRAVEL_X
+    assert not steppers.odbr() & MaxkDoorbell.DONE_X
     assert qa(steppers) == "PNLN"
     steppers.clear_odbr()
     steppers.send("AX JG5000 ID;")  # a jog toward it too
     steppers.step(10)
-    assert steppers.odbr() & (OVERTRAVEL_X | DONE_X) == OVERTRAVEL_X
+    assert steppers.odbr() & (MaxkDoorbell.OVERTRAVEL_X | MaxkDoorbell.DONE_X) == MaxkDoorbell.OVERTRAVEL_X
 
 
 def test_lth_makes_the_high_level_active(steppers: Maxk) -> None:
@@ -226,7 +224,7 @@ def test_lth_makes_the_high_level_active(steppers: Maxk) -> None:
     steppers.send("AX MR100 GO ID;")
     steppers.step(20)
     assert number(steppers, "AX RP") == 0
-    assert steppers.odbr() & OVERTRAVEL_X
+    assert steppers.odbr() & MaxkDoorbell.OVERTRAVEL_X
     steppers.send("AX LTL;")
     assert qa(steppers)[2] == "N"
 
@@ -239,8 +237,8 @@ def test_w_axis_over_travel_sets_its_status_word_and_odbr_bit_25() -> None:
         maxk.step(300)
         maxk.control("set_limits", axis="W", positive=True)
         maxk.step(2)
-        assert maxk.odbr() & W_NOTIFY
-        assert maxk.shm.read32(W_FLAGS) & (1 << 8)
-        assert not maxk.shm.read32(W_FLAGS) & 1
+        assert maxk.odbr() & MaxkDoorbell.W_NOTIFICATION
+        assert maxk.shm.read32(Shm.W_STATUS_FLAGS) & (1 << 8)
+        assert not maxk.shm.read32(Shm.W_STATUS_FLAGS) & 1
         assert maxk.query("AW QA;")[2] == "L"
         assert int(maxk.query("QL;"), 16) & (1 << 24) == 0  # W positive: bit 24, active low

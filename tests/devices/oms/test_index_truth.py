@@ -19,14 +19,13 @@ from collections.abc import Iterator
 
 import numpy as np
 import pytest
+from vdevmaps.oms import CAPTURE_SIZE, HomeEvent, MaxkDoorbell, Mu, Shm
 
-from tests.devices.oms.conftest import DONE_X, ODBR, Maxk, maxk_card
+from tests.devices.oms.conftest import Maxk, maxk_card
 from vdevd.devices.oms.encoder import first_rise_count
 
 PERIOD, PHASE = 1000, 250
 TYPES = ["stepper_encoder", "stepper_encoder", "servo", "stepper"]
-CAPTURE = 0x1540  # insert index, removal index, 55 entries of 10 bytes [S Table 3-5]
-INDEX_EVENT = 0x02  # Table 3-6 byte 5: "encoder home event"
 AROUND = range(244, 262)  # the pulse at 250-253 and some counts either side
 PHASE_A, PHASE_B = (1, 1, 0, 0), (0, 1, 1, 0)
 
@@ -62,10 +61,10 @@ def card() -> Iterator[Maxk]:
 
 
 def move_to(maxk: Maxk, position: int) -> None:
-    maxk.clear_odbr(DONE_X)
+    maxk.clear_odbr(MaxkDoorbell.DONE_X)
     maxk.send(f"AX MA{position} GO ID;")
-    assert maxk.mu.wait_value(ODBR, 0, mask=DONE_X, timeout_s=10, equal=False) is not None
-    maxk.clear_odbr(DONE_X)
+    assert maxk.mu.wait_value(Mu.ODBR, 0, mask=MaxkDoorbell.DONE_X, timeout_s=10, equal=False) is not None
+    maxk.clear_odbr(MaxkDoorbell.DONE_X)
 
 
 def set_switch(maxk: Maxk, active: bool) -> None:
@@ -79,14 +78,14 @@ def ea_home(maxk: Maxk) -> bool:
 def take_entries(maxk: Maxk) -> list[tuple[int, int, int]]:
     """(position, axis, home-event bits) of the capture entries since the last call; the host
     removes them (removal index := insert index) [S §3.7]."""
-    raw = maxk.shm.read(CAPTURE, 2 + 55 * 10)
+    raw = maxk.shm.read(Shm.CAPTURE_INSERT, CAPTURE_SIZE)
     insert, removal = raw[0], raw[1]
     out = []
     while removal != insert:
         position, axis, home, _, _ = struct.unpack_from(">iBBHH", raw, 2 + 10 * removal)
         out.append((position, axis, home))
         removal = (removal + 1) % 55
-    maxk.shm.write(CAPTURE + 1, bytes([insert]))
+    maxk.shm.write(Shm.CAPTURE_REMOVAL, bytes([insert]))
     return out
 
 
@@ -96,7 +95,7 @@ def walk(maxk: Maxk, counts: list[int]) -> list[int]:
     for c in counts:
         move_to(maxk, c)
         found += [position for position, axis, home in take_entries(maxk)
-                  if axis == 0 and home == INDEX_EVENT]
+                  if axis == 0 and home == HomeEvent.ENCODER_HOME]
     return found
 
 
@@ -129,7 +128,7 @@ def test_ea_home_agrees_with_where_hi_homing_stops(card: Maxk) -> None:
     card.send("AX HI HT2,0,1,2;")
     move_to(card, 300)
     card.send("AX KR0 ID;")
-    assert card.mu.wait_value(ODBR, 0, mask=DONE_X, timeout_s=10, equal=False) is not None
+    assert card.mu.wait_value(Mu.ODBR, 0, mask=MaxkDoorbell.DONE_X, timeout_s=10, equal=False) is not None
     move_to(card, 0)
     assert ea_home(card)
     move_to(card, 1)
@@ -202,7 +201,7 @@ def test_the_switch_coming_true_on_the_pulse_is_an_event(card: Maxk) -> None:
     take_entries(card)
     set_switch(card, True)
     card.step(1)
-    assert take_entries(card) == [(251, 0, INDEX_EVENT)]
+    assert take_entries(card) == [(251, 0, HomeEvent.ENCODER_HOME)]
     set_switch(card, False)
     card.step(1)
     assert take_entries(card) == []

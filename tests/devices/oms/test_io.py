@@ -8,19 +8,17 @@ setting is IO0-7 inputs, IO8-15 outputs (spec §8.18); an open input reads high.
 from __future__ import annotations
 
 import pytest
+from vdevmaps.oms import Shm
 
 from tests.devices.oms.conftest import Maxk, maxk_card
 
-GPIO = 0x09C  # [S Table 3-1]
-MOTOR_X = 0x000
-DAC_X = 0x2E80
 HZ = 1024
 
 
 def gpio(maxk: Maxk) -> tuple[str, int]:
     """(BX, the word at 0x09C) after one update cycle."""
     maxk.step(1)
-    return maxk.query("BX;"), maxk.shm.read32(GPIO)
+    return maxk.query("BX;"), maxk.shm.read32(Shm.GPIO_STATUS)
 
 
 # -- digital I/O [S §4.4] -----------------------------------------------------------------------
@@ -105,18 +103,18 @@ def test_sw_holds_the_queue_until_the_input_is_high(maxk: Maxk) -> None:
     maxk.control("set_input", bit=4, level=0)
     maxk.send("AX SW4; MR1000; GO;")
     maxk.step(HZ // 2)
-    assert maxk.word(MOTOR_X) == 0
+    assert maxk.word(Shm.MOTOR_POSITION) == 0
     assert maxk.query("RQC;") != "2559"  # the wait and the move are in the queue
     maxk.control("set_input", bit=4, level=1)
     maxk.step(HZ // 2)
-    assert maxk.word(MOTOR_X) == 1000
+    assert maxk.word(Shm.MOTOR_POSITION) == 1000
 
 
 def test_sw_on_other_axes_does_not_block_x(maxk: Maxk) -> None:
     maxk.control("set_input", bit=5, level=0)
     maxk.send("AY SW5; MR500; GO; AX MR700; GO;")
     maxk.step(HZ // 2)
-    assert (maxk.word(MOTOR_X), maxk.word(MOTOR_X + 4)) == (700, 0)
+    assert (maxk.word(Shm.MOTOR_POSITION), maxk.word(Shm.MOTOR_POSITION + 4)) == (700, 0)
 
 
 # -- analog inputs [S §4.5.1, Table 6-2; spec §5.7] --------------------------------------------------
@@ -153,8 +151,8 @@ def test_ao_drives_the_dac_of_an_axis_that_is_not_a_servo() -> None:
         maxk.send("AY AO2.5; AZ AO-10;")
         assert not maxk.command_error()
         maxk.step(1)
-        assert maxk.word(DAC_X + 4) == round(2.5 / 10 * 32767)
-        assert maxk.word(DAC_X + 8) == -32767
+        assert maxk.word(Shm.DAC + 4) == round(2.5 / 10 * 32767)
+        assert maxk.word(Shm.DAC + 8) == -32767
         assert maxk.control("get_outputs")["dac_volts"][1] == pytest.approx(2.5, abs=0.001)
         maxk.send("AX AO1;")  # X is a servo: its DAC belongs to the loop
         assert maxk.command_error()
@@ -162,7 +160,7 @@ def test_ao_drives_the_dac_of_an_axis_that_is_not_a_servo() -> None:
         assert maxk.command_error()
         maxk.send("AA AO,1,,3;")
         maxk.step(1)
-        assert [maxk.word(DAC_X + 4 * a) for a in (1, 3)] == [3277, 9830]
+        assert [maxk.word(Shm.DAC + 4 * a) for a in (1, 3)] == [3277, 9830]
 
 
 # -- auxiliary outputs [S §4.6, §2.14; spec §4.3 AN/AF] -----------------------------------------------

@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from vdevmaps.oms import MaxkDoorbell, Mu
 
-from tests.devices.oms.conftest import DONE_X, ODBR, Maxk, maxk_card
+from tests.devices.oms.conftest import Maxk, maxk_card
 from vdevd.devices.oms.profile import linear
 from vdevd.rt.profiles import Phase
 
@@ -36,7 +37,7 @@ def steppers() -> Iterator[Maxk]:
 def seconds_until(maxk: Maxk, bits: int, timeout_s: float = 20.0) -> float:
     """Simulated seconds until any of the doorbell `bits` is set (fails on time-out)."""
     start = maxk.rack.sim.now_ns()
-    got = maxk.mu.wait_value(ODBR, 0, mask=bits, timeout_s=timeout_s, equal=False)
+    got = maxk.mu.wait_value(Mu.ODBR, 0, mask=bits, timeout_s=timeout_s, equal=False)
     assert got is not None, f"ODBR {bits:#x} not set within {timeout_s} s"
     return (maxk.rack.sim.now_ns() - start) / NS
 
@@ -49,7 +50,7 @@ def number(maxk: Maxk, text: str) -> int:
 def test_trapezoid_takes_d_over_vl_plus_vl_over_ac_and_ends_at_the_target(steppers: Maxk) -> None:
     """VB = 0: t = |d|/VL + VL/AC, "±0 counts for point-to-point moves" [S App C; spec §5.2]."""
     steppers.send("AX VL10000 AC100000 MR50000 GO ID;")
-    elapsed = seconds_until(steppers, DONE_X)
+    elapsed = seconds_until(steppers, MaxkDoorbell.DONE_X)
     assert elapsed == pytest.approx(50000 / 10000 + 10000 / 100000, abs=2 * DT)
     assert number(steppers, "AX RP") == 50000
     assert steppers.word(0x000) == 50000  # the X motor position word [S Table 3-1]
@@ -64,7 +65,7 @@ def test_velocity_during_the_cruise_is_vl(steppers: Maxk) -> None:
 def test_short_move_is_a_triangle_of_peak_sqrt_ac_d(steppers: Maxk) -> None:
     """|d| < VL²/AC: no cruise; t = 2·sqrt(|d|/AC), peak sqrt(AC·|d|) [spec §5.2]."""
     steppers.send("AX VL10000 AC100000 MR-400 GO ID;")
-    assert seconds_until(steppers, DONE_X) == pytest.approx(2 * math.sqrt(400 / 100000),
+    assert seconds_until(steppers, MaxkDoorbell.DONE_X) == pytest.approx(2 * math.sqrt(400 / 100000),
                                                              abs=2 * DT)
     assert number(steppers, "AX RP") == -400
     steppers.send("AX MR400 GO;")
@@ -82,7 +83,7 @@ def test_move_starts_at_vb_and_takes_the_base_velocity_profile_time(steppers: Ma
     assert vb <= first <= vb + ac * DT + 1  # RV is rounded to a count/s
     ramp = (vl - vb) / ac
     expected = 2 * ramp + (d - (vl * vl - vb * vb) / ac) / vl
-    assert DT + seconds_until(steppers, DONE_X) == pytest.approx(expected, abs=2 * DT)
+    assert DT + seconds_until(steppers, MaxkDoorbell.DONE_X) == pytest.approx(expected, abs=2 * DT)
     assert number(steppers, "AX RP") == d
     assert number(steppers, "AX RV") == 0
 
@@ -101,7 +102,7 @@ def test_short_move_with_vb_peaks_at_sqrt_vb2_plus_ac_d(steppers: Maxk) -> None:
     steppers.send(f"AX VB{vb} VL{vl} AC{ac} MR{d} GO ID;")
     steppers.step(round((peak - vb) / ac / DT))
     assert number(steppers, "AX RV") == pytest.approx(peak, abs=2 * ac * DT)
-    seconds_until(steppers, DONE_X)
+    seconds_until(steppers, MaxkDoorbell.DONE_X)
     assert number(steppers, "AX RP") == d
 
 
@@ -132,8 +133,8 @@ def test_id_sets_done_and_the_doorbell_only_after_the_move(steppers: Maxk) -> No
     steppers.send("AX VL10000 AC100000 MR5000 GO ID;")
     steppers.step(100)
     assert steppers.query("AX QA;")[1] == "N"
-    assert not steppers.odbr() & DONE_X
-    seconds_until(steppers, DONE_X)
+    assert not steppers.odbr() & MaxkDoorbell.DONE_X
+    seconds_until(steppers, MaxkDoorbell.DONE_X)
     assert steppers.query("AX QA;")[1] == "D"
     assert number(steppers, "AX RP") == 5000
 
@@ -146,7 +147,7 @@ def test_a_stop_flushes_the_queue_so_a_pending_id_never_fires(steppers: Maxk, st
     steppers.send(stop + ";")
     steppers.step(512)
     assert number(steppers, "AX RV") == 0
-    assert steppers.mu.wait_value(ODBR, 0, mask=DONE_X, timeout_s=10, equal=False) is None
+    assert steppers.mu.wait_value(Mu.ODBR, 0, mask=MaxkDoorbell.DONE_X, timeout_s=10, equal=False) is None
     assert steppers.query("AX QA;")[1] == "N"
     assert 0 < number(steppers, "AX RP") < 10000
 
@@ -167,7 +168,7 @@ def test_nested_loops_repeat_their_moves(steppers: Maxk) -> None:
     """LS#/LE nest; the queue space is reused (RQC back where it was after the loops)."""
     free = number(steppers, "AX RQC")
     steppers.send("AX VL100000 AC1000000 LS3 MR100 GO LS2 MR10 GO LE LE ID;")
-    seconds_until(steppers, DONE_X)
+    seconds_until(steppers, MaxkDoorbell.DONE_X)
     assert number(steppers, "AX RP") == 3 * (100 + 2 * 10)
     assert number(steppers, "AX RQC") == free
 
@@ -178,7 +179,7 @@ def test_sw_holds_the_queue_until_the_input_is_high(steppers: Maxk) -> None:
     steppers.step(200)
     assert number(steppers, "AX RP") == 0
     steppers.control("set_input", bit=3, level=1)
-    seconds_until(steppers, DONE_X)
+    seconds_until(steppers, MaxkDoorbell.DONE_X)
     assert number(steppers, "AX RP") == 100
 
 
@@ -186,7 +187,7 @@ def test_wt_holds_the_queue_for_milliseconds_of_card_time(steppers: Maxk) -> Non
     steppers.send("AX VL100000 AC8000000 WT250 MR100 GO ID;")
     steppers.step(round(0.245 / DT))
     assert number(steppers, "AX RP") == 0
-    elapsed = 0.245 + seconds_until(steppers, DONE_X)
+    elapsed = 0.245 + seconds_until(steppers, MaxkDoorbell.DONE_X)
     move = 2 * math.sqrt(100 / 8000000)
     assert elapsed == pytest.approx(0.25 + move, abs=3 * DT)
     assert number(steppers, "AX RP") == 100

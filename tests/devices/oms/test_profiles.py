@@ -21,8 +21,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from vdevmaps.oms import MaxkDoorbell, Shm
 
-from tests.devices.oms.conftest import DONE_X, Maxk, card_config, maxk_card
+from tests.devices.oms.conftest import Maxk, card_config, maxk_card
 from vdevd.config import ConfigError, parse
 from vdevd.daemon import build_rack
 from vdevd.devices.oms.params import PROFILES
@@ -31,7 +32,6 @@ from vdevd.rt.profiles import Phase
 
 DT = 1 / 1024  # the factory update rate [S §2.13]
 NS = 1_000_000_000
-MOTOR = 0x000  # X..S motor position words [S Table 3-1]
 # a fast axis, so that whole-count rounding is small beside the accelerations measured
 VL, AC = 1_000_000, 8_000_000
 D = 600_000  # long enough to cruise with every profile
@@ -160,7 +160,7 @@ class Trace:
 def trace(maxk: Maxk, text: str, axes: int, cycles: int) -> Trace:
     """Send `text` and sample the first `axes` motor words and the done bits each cycle."""
     def words() -> tuple[int, ...]:
-        return struct.unpack(f">{axes}i", maxk.shm.read(MOTOR, 4 * axes))
+        return struct.unpack(f">{axes}i", maxk.shm.read(Shm.MOTOR_POSITION, 4 * axes))
 
     maxk.clear_odbr()
     start = maxk.rack.sim.now_ns()
@@ -173,7 +173,7 @@ def trace(maxk: Maxk, text: str, axes: int, cycles: int) -> Trace:
         samples.append(words())
         bits = maxk.odbr()
         for a in range(axes):
-            if math.isnan(done[a]) and bits & DONE_X << a:
+            if math.isnan(done[a]) and bits & MaxkDoorbell.DONE_X << a:
                 done[a] = times[-1]
     return Trace(np.array(times), np.array(samples, dtype=float).T, done)
 
@@ -250,7 +250,7 @@ def test_parabolic_move_starts_at_ac_falls_to_zero_and_ends_on_target_in_time(
 
 def test_parabolic_move_with_vb_follows_the_planner_and_ends_on_target(mixed: Maxk) -> None:
     vb = 200_000
-    p0 = mixed.word(MOTOR)
+    p0 = mixed.word(Shm.MOTOR_POSITION)
     tr = trace(mixed, f"AX VL{VL} VB{vb} AC{AC} MR{D} GO ID;", 1, 850)
     assert_ends_on_target(tr, 0, p0 + D, parabolic_time(D, vb, VL, AC))
     assert tr.x[0][1] - p0 == round(vb * DT + AC * DT**2 / 2)  # the jump to VB, at AC

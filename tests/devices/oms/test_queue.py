@@ -8,12 +8,12 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import pytest
+from vdevmaps.oms import MaxkDoorbell
 
-from tests.devices.oms.conftest import COMMAND_ERROR, DONE_X, Maxk
+from tests.devices.oms.conftest import Maxk
 from vdevd.devices.oms.queue import CHAIN_LIMIT, QUEUE_UNITS, AxisQueue, Group, Item, Run
 
-DONE_Y = DONE_X << 1
-DONE_XY = DONE_X | DONE_Y
+DONE_XY = MaxkDoorbell.DONE_X | MaxkDoorbell.DONE_Y
 ALL_DONE = 0xFF
 
 Log = list[tuple[str, int]]
@@ -269,7 +269,7 @@ def test_id_sets_done_only_when_the_move_has_ended(maxk: Maxk) -> None:
     assert abs(cycles - 107.5) <= 3
     maxk.step(2)
     assert maxk.query("RP;") == "1000"
-    assert done_bits(maxk) == DONE_X
+    assert done_bits(maxk) == MaxkDoorbell.DONE_X
     assert maxk.query("QA;") == "PDNN"
 
 
@@ -277,8 +277,8 @@ def test_clearing_the_doorbell_does_not_clear_the_done_flag(maxk: Maxk) -> None:
     """spec §3.4: "Clearing the ODBR bit does not clear D"."""
     maxk.send("AX MR100; GO; ID;")
     maxk.step(100)
-    assert done_bits(maxk) == DONE_X
-    maxk.clear_odbr(DONE_X)
+    assert done_bits(maxk) == MaxkDoorbell.DONE_X
+    maxk.clear_odbr(MaxkDoorbell.DONE_X)
     assert done_bits(maxk) == 0
     assert maxk.query("QA;")[1] == "D"
 
@@ -318,8 +318,8 @@ def test_am_axes_run_their_own_queues(maxk: Maxk) -> None:
     """AM, "Axis multitasking mode": each axis runs from its own queue (spec §4.1): Y finishes
     and flags done while X is still moving."""
     maxk.send("AM; VL10000,10000; MR100000,100; GO; ID;")
-    step_until(maxk, lambda: bool(done_bits(maxk) & DONE_Y), limit=200)
-    assert not done_bits(maxk) & DONE_X
+    step_until(maxk, lambda: bool(done_bits(maxk) & MaxkDoorbell.DONE_Y), limit=200)
+    assert not done_bits(maxk) & MaxkDoorbell.DONE_X
     assert maxk.query("AA RV;").startswith("10000,0,")
     assert maxk.query("AY QA;")[1] == "D" and maxk.query("AX QA;")[1] == "N"
 
@@ -328,7 +328,7 @@ def test_single_axis_queues_are_independent(maxk: Maxk) -> None:
     """A long X move does not hold Y's commands."""
     maxk.send("AX VL1000; MR100000; GO; ID; AY MR100; GO; ID;")
     maxk.step(200)
-    assert done_bits(maxk) == DONE_Y
+    assert done_bits(maxk) == MaxkDoorbell.DONE_Y
     assert maxk.query("AA RP;").split(",")[1] == "100"
 
 
@@ -423,6 +423,6 @@ def test_app_c_example_1_home_then_absolute_move(maxk: Maxk) -> None:
     maxk.control("set_home", axis="X", active=True)
     step_until(maxk, lambda: done_bits(maxk) != 0, limit=5000, every=50)
     assert maxk.query("RP;") == "10000"
-    assert done_bits(maxk) == DONE_X
+    assert done_bits(maxk) == MaxkDoorbell.DONE_X
     assert maxk.query("QA;") == "PDNH"
-    assert not maxk.odbr() & COMMAND_ERROR
+    assert not maxk.odbr() & MaxkDoorbell.COMMAND_ERROR

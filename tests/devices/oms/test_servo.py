@@ -9,13 +9,13 @@ vdevd/devices/oms/servo.py, updating at 1024 Hz unless told.
 from __future__ import annotations
 
 import pytest
+from vdevmaps.oms import Shm
 
 from tests.devices.oms.conftest import Maxk, maxk_card
 
 HZ = 1024  # the factory update rate [S §2.13]
-MOTOR_X, ENCODER_X = 0x000, 0x020  # [S Table 3-1]
-DAC_X = 0x2E80  # X..S at 0x2E80 + 4·axis, W and K at 0x2EC8, 0x2ECC (spec §2.2)
-DAC_W, DAC_K = 0x2EC8, 0x2ECC
+DAC_W = Shm.WK_DAC
+DAC_K = Shm.WK_DAC + 4
 FULL_SCALE = 32767  # ±10 V [S §1.1]
 
 
@@ -25,7 +25,7 @@ def seconds(maxk: Maxk, s: float) -> None:
 
 def positions(maxk: Maxk, axis: int = 0) -> tuple[int, int]:
     """(motor, encoder) of an axis X..S from the words the card updates every cycle."""
-    return maxk.word(MOTOR_X + 4 * axis), maxk.word(ENCODER_X + 4 * axis)
+    return maxk.word(Shm.MOTOR_POSITION + 4 * axis), maxk.word(Shm.ENCODER_POSITION + 4 * axis)
 
 
 def following_error(maxk: Maxk) -> int:
@@ -41,7 +41,7 @@ def test_factory_gains_settle_a_move_at_every_update_rate(update_hz: int) -> Non
         maxk.step(update_hz // 2)
         assert maxk.query("RP;") == "6000"
         assert maxk.query("RE;") == "6000"
-        assert abs(maxk.word(DAC_X)) <= 20  # at rest the loop holds with next to no output
+        assert abs(maxk.word(Shm.DAC)) <= 20  # at rest the loop holds with next to no output
         maxk.step(update_hz)
         assert positions(maxk) == (6000, 6000)  # and stays there
 
@@ -95,7 +95,7 @@ def test_ko_on_an_open_loop_servo_turns_the_motor(maxk: Maxk) -> None:
     open loop, the output is KO alone; KO2000 runs the motor forward, KO0 lets it stop."""
     maxk.send("AX CL0; LP0; KO2000;")
     seconds(maxk, 0.5)
-    assert maxk.word(DAC_X) == 2000
+    assert maxk.word(Shm.DAC) == 2000
     first = int(maxk.query("RE;"))
     seconds(maxk, 0.5)
     second = int(maxk.query("RE;"))
@@ -103,7 +103,7 @@ def test_ko_on_an_open_loop_servo_turns_the_motor(maxk: Maxk) -> None:
     assert abs(int(maxk.query("RP;")) - second) <= 1  # open loop: the command follows the motor
     maxk.send("KO0;")
     seconds(maxk, 0.2)
-    assert maxk.word(DAC_X) == 0
+    assert maxk.word(Shm.DAC) == 0
     rest = int(maxk.query("RE;"))
     seconds(maxk, 0.5)
     assert int(maxk.query("RE;")) == rest
@@ -113,18 +113,18 @@ def test_ko3277_puts_about_one_volt_on_the_dac(maxk: Maxk) -> None:
     """[S §2.9 step 4c]: "Send the KO3277; command ... The output of MAXk will be near 1VDC"."""
     maxk.send("AX CL0; KO3277;")
     maxk.step(1)
-    assert maxk.word(DAC_X) == 3277
+    assert maxk.word(Shm.DAC) == 3277
     assert maxk.control("get_outputs")["dac_volts"][0] == pytest.approx(1.0, abs=0.001)
     maxk.send("KO-3277;")
     maxk.step(1)
-    assert maxk.word(DAC_X) == -3277
+    assert maxk.word(Shm.DAC) == -3277
 
 
 def test_open_loop_output_is_ko_whatever_the_position_error(maxk: Maxk) -> None:
     """CL0: no PID, however far the motor is from its last command [spec §5.3]."""
     maxk.send("AX CL0; KO500; KP100; KD0;")
     seconds(maxk, 1.0)
-    assert maxk.word(DAC_X) == 500
+    assert maxk.word(Shm.DAC) == 500
 
 
 def test_cl1_closes_the_loop_where_the_motor_is(maxk: Maxk) -> None:
@@ -193,7 +193,7 @@ def test_kf_friction_offset_acts_in_the_direction_of_motion(maxk: Maxk) -> None:
     assert following_error(maxk) == pytest.approx(forward - 30, abs=2)
     seconds(maxk, 1.0)
     assert positions(maxk) == (10000, 10000)
-    assert abs(maxk.word(DAC_X)) <= 20  # at rest KF does nothing
+    assert abs(maxk.word(Shm.DAC)) <= 20  # at rest KF does nothing
     maxk.send("MR-10000; GO;")
     seconds(maxk, 1.0)
     assert following_error(maxk) == pytest.approx(-(forward - 30), abs=2)
@@ -204,11 +204,11 @@ def test_svp_minus_inverts_the_output_ko_included(maxk: Maxk) -> None:
     KO ...)": "LP0; KO2000;" then RE reads negative."""
     maxk.send("AX CL0; SVP-; LP0; KO2000;")
     seconds(maxk, 0.5)
-    assert maxk.word(DAC_X) == -2000
+    assert maxk.word(Shm.DAC) == -2000
     assert int(maxk.query("RE;")) < 0
     maxk.send("SVP+;")
     maxk.step(1)
-    assert maxk.word(DAC_X) == 2000
+    assert maxk.word(Shm.DAC) == 2000
 
 
 def test_edi_inverts_the_encoder_direction(maxk: Maxk) -> None:
@@ -222,7 +222,7 @@ def test_edi_inverts_the_encoder_direction(maxk: Maxk) -> None:
     assert counts > 0
     assert maxk.query("EDI; RE;") == str(-counts)
     maxk.step(1)
-    assert maxk.word(ENCODER_X) == -counts
+    assert maxk.word(Shm.ENCODER_POSITION) == -counts
     assert maxk.query("EDN; RE;") == str(counts)
 
 
@@ -233,7 +233,7 @@ def test_dac_words_of_every_axis_show_its_output() -> None:
         for a, letter in enumerate("XYZTUVRSWK"):
             maxk.send(f"A{letter} CL0; KO{100 * (a + 1)};")
         maxk.step(1)
-        assert [maxk.word(DAC_X + 4 * a) for a in range(8)] == [100 * (a + 1) for a in range(8)]
+        assert [maxk.word(Shm.DAC + 4 * a) for a in range(8)] == [100 * (a + 1) for a in range(8)]
         assert (maxk.word(DAC_W), maxk.word(DAC_K)) == (900, 1000)
 
 
@@ -241,7 +241,7 @@ def test_output_is_clamped_to_the_dac_range(maxk: Maxk) -> None:
     """±32767 is ±10 V; the PID cannot ask for more (spec §5.3)."""
     maxk.send("AX KP32767; LP0; MR100000; GO;")
     maxk.step(5)
-    assert maxk.word(DAC_X) == FULL_SCALE
+    assert maxk.word(Shm.DAC) == FULL_SCALE
 
 
 # -- gains: queries and ranges [S §2.13; spec §4.2, §4.4] ------------------------------------------
@@ -310,7 +310,7 @@ def test_psm_makes_a_stepper_a_servo_with_its_loop_open() -> None:
         assert maxk.query("PSM; CL?;") == "off"
         maxk.send("LP0; KO3277;")
         seconds(maxk, 0.2)
-        assert maxk.word(DAC_X + 4) == 3277
+        assert maxk.word(Shm.DAC + 4) == 3277
         assert int(maxk.query("RE;")) > 0
         maxk.send("KO0; CL1;")
         seconds(maxk, 0.5)
@@ -324,7 +324,7 @@ def test_pso_axis_steps_and_has_no_dac_output(maxk: Maxk) -> None:
     maxk.send("AX PSO; MR1000; GO;")
     seconds(maxk, 0.5)
     assert maxk.query("RP;") == "1000"
-    assert maxk.word(DAC_X) == 0
+    assert maxk.word(Shm.DAC) == 0
 
 
 def test_ea_on_an_open_loop_stepper_is_a_command_error(maxk: Maxk) -> None:

@@ -13,15 +13,12 @@ import struct
 from collections.abc import Iterator
 
 import pytest
+from vdevmaps.oms import CAPTURE_SIZE, MaxkDoorbell, Mu, Shm
 
-from tests.devices.oms.conftest import DONE_X, ODBR, OMISR, Maxk, maxk_card
+from tests.devices.oms.conftest import Maxk, maxk_card
 
 DT = 1 / 1024
-SLIP_X, SLIP_Y = 1 << 16, 1 << 17  # [S §3.4.3]
 OM1I = 1 << 1  # OMISR: OMR1 written (capture data) [S §3.7]
-OMR1 = 0x05C
-CAPTURE = 0x1540  # insert index, removal index, 55 entries of 10 bytes [S Table 3-5]
-SSI = 0x3520
 
 
 @pytest.fixture
@@ -40,8 +37,8 @@ def ea(maxk: Maxk, axis: str = "X") -> str:
     return maxk.query(f"A{axis} EA;")
 
 
-def done_within(maxk: Maxk, bits: int = DONE_X, timeout_s: float = 10.0) -> bool:
-    return maxk.mu.wait_value(ODBR, 0, mask=bits, timeout_s=timeout_s, equal=False) is not None
+def done_within(maxk: Maxk, bits: int = MaxkDoorbell.DONE_X, timeout_s: float = 10.0) -> bool:
+    return maxk.mu.wait_value(Mu.ODBR, 0, mask=bits, timeout_s=timeout_s, equal=False) is not None
 
 
 # -- slip and stall [S §4.7; spec §5.4] ----------------------------------------------------------
@@ -55,7 +52,7 @@ def test_slip_beyond_es_kills_the_axis_and_reports_it(card: Maxk) -> None:
     card.step(2)
     assert number(card, "AX RV") == 0
     assert ea(card)[2] == "S"
-    assert card.odbr() & SLIP_X
+    assert card.odbr() & MaxkDoorbell.SLIP_X
     assert not done_within(card, timeout_s=1)
     motor, encoder = number(card, "AX RP"), number(card, "AX RE")
     assert motor - encoder == 50  # the encoder lost 50 counts; the motor's count is the pulses
@@ -71,14 +68,14 @@ def test_loading_the_encoder_starts_slip_detection_again(card: Maxk, load: str) 
     assert done_within(card)
     card.control("set_encoder_slip", axis="X", counts=50)
     card.step(2)
-    assert card.odbr() & SLIP_X
+    assert card.odbr() & MaxkDoorbell.SLIP_X
     card.send(f"AX IC {load}1000;")
     card.clear_odbr()
     card.step(2)
     assert number(card, "AX RE") == 1000
     card.send("AX MR1000 GO ID;")
     assert done_within(card)
-    assert not card.odbr() & SLIP_X
+    assert not card.odbr() & MaxkDoorbell.SLIP_X
     assert (number(card, "AX RP"), number(card, "AX RE")) == (2000, 2000)
 
 
@@ -90,7 +87,7 @@ def test_slip_within_es_and_es0_are_not_reported(card: Maxk) -> None:
     card.step(100)
     assert number(card, "AX RV") == 10000
     assert number(card, "AZ RV") == 10000
-    assert not card.odbr() & (SLIP_X | 1 << 18)
+    assert not card.odbr() & (MaxkDoorbell.SLIP_X | 1 << 18)
     assert ea(card, "Z") == "DDNNN"
 
 
@@ -99,9 +96,9 @@ def test_a_lost_encoder_is_a_stall_once_the_motor_ran_es_counts(card: Maxk) -> N
     card.step(200)
     card.control("set_encoder_loss", axis="X", active=True)
     card.step(round(0.015 / DT))  # 150 counts of 200
-    assert not card.odbr() & SLIP_X
+    assert not card.odbr() & MaxkDoorbell.SLIP_X
     card.step(round(0.01 / DT))
-    assert card.odbr() & SLIP_X
+    assert card.odbr() & MaxkDoorbell.SLIP_X
     assert number(card, "AX RV") == 0
 
 
@@ -112,7 +109,7 @@ def test_servo_runaway_disables_the_pid_and_reports_a_slip(card: Maxk) -> None:
     card.step(100)
     card.control("set_encoder_loss", axis="Y", active=True)
     card.step(round(4.0 / DT))
-    assert card.odbr() & SLIP_Y
+    assert card.odbr() & MaxkDoorbell.SLIP_Y
     assert ea(card, "Y")[2] == "S"
     assert card.query("AY CL?;") == "off"
     assert not card.odbr() & (1 << 1)  # no done
@@ -123,7 +120,7 @@ def test_servo_stall_beyond_es_kills_but_keeps_the_loop(card: Maxk) -> None:
     card.step(300)
     card.control("set_encoder_loss", axis="Y", active=True)
     card.step(round(0.2 / DT))
-    assert card.odbr() & SLIP_Y
+    assert card.odbr() & MaxkDoorbell.SLIP_Y
     assert card.query("AY CL?;") == "on"
 
 
@@ -134,7 +131,7 @@ def test_amplifier_fault_kills_the_servo_and_reports_a_slip(card: Maxk) -> None:
     card.step(300)
     card.control("set_amp_fault", axis="Y", active=True)
     card.step(2)
-    assert card.odbr() & SLIP_Y
+    assert card.odbr() & MaxkDoorbell.SLIP_Y
     assert ea(card, "Y")[2] == "S"
     assert card.query("AY CL?;") == "off"
     assert number(card, "AY RV") == 0
@@ -174,7 +171,7 @@ def test_without_cl1_the_slip_stays(card: Maxk) -> None:
 # -- real-time position capture [S §3.7; spec §2.8] ---------------------------------------------
 def entries(card: Maxk) -> tuple[int, int, list[tuple[int, int, int, int, int]]]:
     """(insert, removal, every entry of the ring) [S Table 3-5, 3-6]."""
-    raw = card.shm.read(CAPTURE, 2 + 55 * 10)
+    raw = card.shm.read(Shm.CAPTURE_INSERT, CAPTURE_SIZE)
     table = [struct.unpack_from(">iBBHH", raw, 2 + 10 * i) for i in range(55)]
     return raw[0], raw[1], table
 
@@ -191,7 +188,7 @@ def test_input_edge_captures_the_encoder_and_writes_omr1(card: Maxk) -> None:
     assert (insert, removal) == (1, 0)
     position, axis, home, rising, falling = table[0]
     assert (axis, home, rising, falling) == (2, 0, 0, 1)  # Z: falling edge of IO0
-    assert card.mu.read32(OMR1) == 2 and card.mu.read32(OMISR) & OM1I
+    assert card.mu.read32(Mu.OMR1) == 2 and card.mu.read32(Mu.OMISR) & OM1I
     card.control("set_input", bit=0, level=1)
     card.step(1)
     insert, _, table = entries(card)
@@ -250,15 +247,15 @@ def test_eca_publishes_the_masked_encoder_word(card: Maxk) -> None:
     """`AX; PSE; ECA12,125000;` [S §4.9.1]: the SSI word of X at 0x3520, 12 bits."""
     card.send("AX ECA12,125000 MR5000 GO ID;")
     assert done_within(card)
-    assert card.shm.read32(SSI) == 5000 & 0xFFF
+    assert card.shm.read32(Shm.SSI_POSITION) == 5000 & 0xFFF
     assert card.query("AX ECA?;") == "=12,125000"
-    assert card.shm.read32(SSI + 4 * 2) == 0  # Z has no SSI
+    assert card.shm.read32(Shm.SSI_POSITION + 4 * 2) == 0  # Z has no SSI
     card.send("AX LP-1;")
     card.step(1)
-    assert card.shm.read32(SSI) == 0xFFF
+    assert card.shm.read32(Shm.SSI_POSITION) == 0xFFF
     card.send("AZ ECA32,4000000 LP-2;")
     card.step(1)
-    assert card.shm.read32(SSI + 8) == 0xFFFFFFFE
+    assert card.shm.read32(Shm.SSI_POSITION + 8) == 0xFFFFFFFE
 
 
 @pytest.mark.parametrize("command", ["AX ECA33,125000", "AX ECA12,100000", "AY ECA12,125000",

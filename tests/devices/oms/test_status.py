@@ -10,14 +10,12 @@ from collections.abc import Iterator
 
 import pytest
 import vdevclient
+from vdevmaps.oms import AxisFlags, FirmwareState, MaxkDoorbell, Shm
 
-from tests.devices.oms.conftest import DONE_X, OVERTRAVEL_X, Maxk, card_config
+from tests.devices.oms.conftest import Maxk, card_config
 from vdevd.testing import DaemonThread
 
 QA_FIELD = re.compile(r"[PM][DN][LN][HN]")  # direction, done, over-travel, home [spec §4.2]
-LIMITS, HOMES, FIRMWARE = 0x040, 0x044, 0x048
-MOTOR, ENCODER = 0x000, 0x020
-RUNNING, FACTORY_SET = 1 << 2, 1 << 18  # Table 3-4
 
 
 def finish(maxk: Maxk, moves: str, ticks: int = 200) -> None:
@@ -98,11 +96,11 @@ def test_ca_clears_the_done_flag_of_the_addressed_axis(maxk: Maxk) -> None:
 def test_done_flag_and_doorbell_are_independent(maxk: Maxk) -> None:
     """spec §3.4: RA clears D, not the ODBR done bit; W1C of the ODBR bit leaves D."""
     finish(maxk, "AX MR100 GO ID;")
-    assert maxk.odbr() == DONE_X
+    assert maxk.odbr() == MaxkDoorbell.DONE_X
     maxk.query("RA;")
-    assert maxk.odbr() == DONE_X
+    assert maxk.odbr() == MaxkDoorbell.DONE_X
     finish(maxk, "MR100 GO ID;")
-    maxk.clear_odbr(DONE_X)
+    maxk.clear_odbr(MaxkDoorbell.DONE_X)
     assert maxk.query("QA;") == "PDNN"
 
 
@@ -124,7 +122,7 @@ def test_limit_stops_the_axis_flags_overtravel_and_flushes_the_id(maxk: Maxk) ->
     maxk.step(5)
     assert maxk.query("RV;") == "0"
     assert maxk.query("QA;") == "PNLN"
-    assert maxk.odbr() == OVERTRAVEL_X
+    assert maxk.odbr() == MaxkDoorbell.OVERTRAVEL_X
     assert maxk.query("RQC;") == "2559"
     maxk.step(200)
     assert maxk.odbr() & 0xFF == 0
@@ -152,42 +150,45 @@ def test_positions_are_published_every_cycle(maxk: Maxk) -> None:
     cycle"; they agree with RP and RE."""
     maxk.send("AM VL10000,10000,10000,10000; MR1000,-2000,3000,-4000; GO;")
     maxk.step(30)
-    moving = [maxk.word(MOTOR + 4 * a) for a in range(4)]
+    moving = [maxk.word(Shm.MOTOR_POSITION + 4 * a) for a in range(4)]
     assert moving == [int(v) for v in maxk.query("AA RP;").split(",")]
     assert 0 < moving[0] < 1000
     maxk.step(600)
-    assert [maxk.word(MOTOR + 4 * a) for a in range(4)] == [1000, -2000, 3000, -4000]
-    assert [maxk.word(ENCODER + 4 * a) for a in range(4)] == [
+    assert [maxk.word(Shm.MOTOR_POSITION + 4 * a) for a in range(4)] == [1000, -2000, 3000, -4000]
+    assert [maxk.word(Shm.ENCODER_POSITION + 4 * a) for a in range(4)] == [
         int(v) for v in maxk.query("AA RE;").split(",")]
 
 
 def test_limit_word_is_raw_levels(maxk: Maxk) -> None:
     """Table 3-2: bits 0-7 negative, 8-15 positive limits, raw input levels; open inputs read 1
     and an active-low switch reads 0 (spec §2.3); QL answers the same word in hex."""
-    assert maxk.shm.read32(LIMITS) == 0x0F0F
+    assert maxk.shm.read32(Shm.LIMIT_SWITCH_STATUS) == 0x0F0F
     assert int(maxk.query("QL;"), 16) == 0x0F0F
     maxk.control("set_limits", axis="Y", positive=True)
     maxk.control("set_limits", axis="T", negative=True)
-    assert maxk.shm.read32(LIMITS) == 0x0F0F & ~(1 << 9) & ~(1 << 3)
-    assert int(maxk.query("QL;"), 16) == maxk.shm.read32(LIMITS)
+    assert maxk.shm.read32(Shm.LIMIT_SWITCH_STATUS) == 0x0F0F & ~(1 << 9) & ~(1 << 3)
+    assert int(maxk.query("QL;"), 16) == maxk.shm.read32(Shm.LIMIT_SWITCH_STATUS)
 
 
 def test_home_word_is_raw_levels(maxk: Maxk) -> None:
     """Table 3-3: bits 0-7 X..S home inputs (raw levels, factory active low)."""
-    assert maxk.shm.read32(HOMES) == 0x0F
+    assert maxk.shm.read32(Shm.HOME_SWITCH_STATUS) == 0x0F
     maxk.control("set_home", axis="Z", active=True)
-    assert maxk.shm.read32(HOMES) == 0x0F & ~(1 << 2)
+    assert maxk.shm.read32(Shm.HOME_SWITCH_STATUS) == 0x0F & ~(1 << 2)
 
 
 def test_firmware_state_is_running_with_factory_parameters(maxk: Maxk) -> None:
     """Table 3-4 (spec §2.3): bit 2 running, bit 18 factory default parameter set loaded."""
-    assert maxk.shm.read32(FIRMWARE) == RUNNING | FACTORY_SET
+    assert maxk.shm.read32(Shm.FIRMWARE_STATE) == FirmwareState.RUNNING | FirmwareState.FACTORY_SET
 
 
 # -- a ten-axis card: W and K [S §3.4.5; spec §3.1, §8.4] --------------------------------------------
-W_FLAGS, K_FLAGS = 0x0CC, 0x0D0
-W_NOTIFY, K_NOTIFY = 1 << 25, 1 << 26
-W_MOTOR, K_MOTOR = 0x0AC, 0x0B0
+K_MOTOR = Shm.WK_MOTOR_POSITION + 4
+
+
+def wk_flags(maxk: Maxk) -> tuple[int, int]:
+    """The W and K status-flag words (spec §3.1)."""
+    return maxk.shm.read32(Shm.W_STATUS_FLAGS), maxk.shm.read32(Shm.K_STATUS_FLAGS)
 
 
 @pytest.fixture
@@ -204,22 +205,23 @@ def test_w_and_k_done_go_to_their_flag_words_and_notification_bits(maxk10: Maxk)
     the ODBR layout (bit 0 done) and are cleared by writing ones (spec §3.1, ASSUMPTION)."""
     maxk = maxk10
     finish(maxk, "AW MR100 GO ID; AK MR-50 GO ID;", ticks=300)
-    assert maxk.odbr() == W_NOTIFY | K_NOTIFY
-    assert (maxk.shm.read32(W_FLAGS), maxk.shm.read32(K_FLAGS)) == (DONE_X, DONE_X)
-    assert (maxk.word(W_MOTOR), maxk.word(K_MOTOR)) == (100, -50)
+    assert maxk.odbr() == MaxkDoorbell.W_NOTIFICATION | MaxkDoorbell.K_NOTIFICATION
+    assert wk_flags(maxk) == (AxisFlags.DONE, AxisFlags.DONE)
+    assert (maxk.word(Shm.WK_MOTOR_POSITION), maxk.word(K_MOTOR)) == (100, -50)
     assert maxk.query("QI;").split(",")[8:] == ["PDNN", "MDNN"]
-    maxk.shm.write32(W_FLAGS, DONE_X)
+    maxk.shm.write32(Shm.W_STATUS_FLAGS, AxisFlags.DONE)
     maxk.step(1)
-    assert (maxk.shm.read32(W_FLAGS), maxk.shm.read32(K_FLAGS)) == (0, DONE_X)
-    assert maxk.odbr() == W_NOTIFY | K_NOTIFY, "ODBR bit 25 stays until the host clears it"
+    assert wk_flags(maxk) == (0, AxisFlags.DONE)
+    assert maxk.odbr() == MaxkDoorbell.W_NOTIFICATION | MaxkDoorbell.K_NOTIFICATION, (
+        "ODBR bit 25 stays until the host clears it")
 
 
 def test_ten_axis_limit_and_home_words(maxk10: Maxk) -> None:
     """Table 3-2: W/K negative limits in bits 16-17, positive in 24-25; Table 3-3: W/K home in
     bits 8-9. Open inputs read 1."""
-    assert maxk10.shm.read32(LIMITS) == 0x0303FFFF
-    assert maxk10.shm.read32(HOMES) == 0x3FF
+    assert maxk10.shm.read32(Shm.LIMIT_SWITCH_STATUS) == 0x0303FFFF
+    assert maxk10.shm.read32(Shm.HOME_SWITCH_STATUS) == 0x3FF
     maxk10.control("set_limits", axis="K", positive=True)
     maxk10.control("set_home", axis="W", active=True)
-    assert maxk10.shm.read32(LIMITS) == 0x0103FFFF
-    assert maxk10.shm.read32(HOMES) == 0x2FF
+    assert maxk10.shm.read32(Shm.LIMIT_SWITCH_STATUS) == 0x0103FFFF
+    assert maxk10.shm.read32(Shm.HOME_SWITCH_STATUS) == 0x2FF

@@ -12,12 +12,11 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import pytest
+from vdevmaps.oms import MaxkDoorbell, Shm
 
-from tests.devices.oms.conftest import DONE_X, Maxk, maxk_card
+from tests.devices.oms.conftest import Maxk, maxk_card
 
 HZ = 1024
-MOTOR_X, ENCODER_X = 0x000, 0x020  # X..S at + 4·axis [S Table 3-1]
-DAC_X = 0x2E80
 JOG = 5000  # counts/s: at the factory AC, ST ramps down over 6.25 counts
 WATCH = 512  # update cycles watched, one at a time, once the loop had time to settle
 
@@ -30,8 +29,8 @@ def servo() -> Iterator[Maxk]:
 
 def snapshot(maxk: Maxk, axis: int = 0) -> tuple[int, int, int]:
     """(motor, encoder, DAC) of an axis X..S from the words the card writes every cycle."""
-    return (maxk.word(MOTOR_X + 4 * axis), maxk.word(ENCODER_X + 4 * axis),
-            maxk.word(DAC_X + 4 * axis))
+    return (maxk.word(Shm.MOTOR_POSITION + 4 * axis), maxk.word(Shm.ENCODER_POSITION + 4 * axis),
+            maxk.word(Shm.DAC + 4 * axis))
 
 
 def assert_settled(maxk: Maxk, axis: int = 0) -> int:
@@ -83,7 +82,7 @@ def test_a_home_search_settles_on_a_whole_count(servo: Maxk, search: str) -> Non
     servo.control("set_home_edge", axis="X", position=1234.5)
     servo.send(f"AX {search} ID;")
     servo.step(HZ)
-    assert servo.odbr() & DONE_X
+    assert servo.odbr() & MaxkDoorbell.DONE_X
     assert_settled(servo)
 
 
@@ -102,7 +101,7 @@ def test_st_of_a_move_settles_and_its_queued_id_never_fires(servo: Maxk) -> None
     servo.step(700)
     servo.send("AX ST;")
     assert_settled(servo)
-    assert servo.odbr() & DONE_X == 0
+    assert servo.odbr() & MaxkDoorbell.DONE_X == 0
     assert servo.query("AX QA;")[1] == "N"
 
 
@@ -111,6 +110,6 @@ def test_a_move_after_a_stop_runs_from_the_whole_count_and_sets_done(servo: Maxk
     here = assert_settled(servo)
     servo.send("AX MR1000; GO; ID;")
     servo.step(HZ)
-    assert servo.odbr() & DONE_X
+    assert servo.odbr() & MaxkDoorbell.DONE_X
     assert servo.query("AX QA;")[1] == "D"
     assert assert_settled(servo) == here + 1000

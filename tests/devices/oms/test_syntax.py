@@ -7,23 +7,15 @@ from __future__ import annotations
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from vdevmaps.oms import MaxkDoorbell, Mu, Omisr, Shm
 
-from tests.devices.oms.conftest import (
-    CMD_INSERT,
-    CMD_PROCESS,
-    COMMAND_ERROR,
-    OM0I,
-    OMISR,
-    RSP_INSERT,
-    SEMAPHORE,
-    Maxk,
-)
+from tests.devices.oms.conftest import Maxk
 from vdevd.devices.oms import firmware  # noqa: F401  (registers the command handlers)
+from vdevd.devices.oms.commands import OPERANDS
 from vdevd.devices.oms.syntax import Command, Lexer, Operand, numbers
-from vdevd.devices.oms.table import TABLE
 
 #: the card's mnemonics and operand kinds
-CARD_TABLE = {name: spec.operand for name, spec in TABLE.items()}
+CARD_TABLE = OPERANDS
 #: with VO, the velocity override of the vector commands (`VO[n]=pct` [E-traj]; spec §4.3)
 WITH_VO = {**CARD_TABLE, "VO": Operand.NUMBERS}
 
@@ -219,7 +211,7 @@ def test_command_split_across_two_ring_writes(maxk: Maxk) -> None:
     maxk.send("AX #UR20")
     maxk.step(1)
     assert maxk.reply() is None
-    assert maxk.shm.read32(CMD_PROCESS) == maxk.shm.read32(CMD_INSERT)
+    assert maxk.shm.read32(Shm.COMMAND_PROCESS) == maxk.shm.read32(Shm.COMMAND_INSERT)
     assert maxk.query("48; #UR?;") == "2048"
     assert not maxk.command_error()
 
@@ -228,17 +220,17 @@ def test_command_split_across_two_ring_writes(maxk: Maxk) -> None:
 def assert_refused(maxk: Maxk, text: str) -> None:
     """`text` raises ODBR bit 24 and posts no reply; then WY is still answered."""
     maxk.clear_odbr()
-    before = maxk.shm.read32(RSP_INSERT)
+    before = maxk.shm.read32(Shm.RESPONSE_INSERT)
     maxk.send(text)
     maxk.step(2)
-    assert maxk.odbr() & COMMAND_ERROR, f"{text!r} did not raise the command-error bit"
-    assert maxk.shm.read32(RSP_INSERT) == before, f"{text!r} posted a reply"
-    assert maxk.shm.read32(SEMAPHORE) == 0
-    assert not maxk.mu.read32(OMISR) & OM0I
-    assert maxk.shm.read32(CMD_PROCESS) == maxk.shm.read32(CMD_INSERT)
-    maxk.clear_odbr(COMMAND_ERROR)
+    assert maxk.odbr() & MaxkDoorbell.COMMAND_ERROR, f"{text!r} did not raise the command-error bit"
+    assert maxk.shm.read32(Shm.RESPONSE_INSERT) == before, f"{text!r} posted a reply"
+    assert maxk.shm.read32(Shm.MESSAGE_SEMAPHORE) == 0
+    assert not maxk.mu.read32(Mu.OMISR) & Omisr.OM0I
+    assert maxk.shm.read32(Shm.COMMAND_PROCESS) == maxk.shm.read32(Shm.COMMAND_INSERT)
+    maxk.clear_odbr(MaxkDoorbell.COMMAND_ERROR)
     assert maxk.query("WY;").startswith("MAXk-4000"), "the card stopped answering"
-    assert not maxk.odbr() & COMMAND_ERROR
+    assert not maxk.odbr() & MaxkDoorbell.COMMAND_ERROR
 
 
 @pytest.mark.parametrize("text", [
@@ -284,7 +276,7 @@ def test_error_discards_that_command_only(maxk: Maxk) -> None:
     """spec §4.4: after `XYZZY` and `VL0` the commands that follow in the same write run."""
     maxk.clear_odbr()
     assert maxk.query("XYZZY; AX VL0; AY; WY;").startswith("MAXk-4000")
-    assert maxk.odbr() & COMMAND_ERROR
+    assert maxk.odbr() & MaxkDoorbell.COMMAND_ERROR
     assert maxk.query("RP;") == "0"
     maxk.send("AX LP77 AY LP-3 XYZZY AA;")
     maxk.step(2)

@@ -24,12 +24,13 @@ from dataclasses import dataclass
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from vdevmaps.oms import MaxkDoorbell
 
 from tests.devices.oms.conftest import Maxk, maxk_card
+from vdevd.devices.oms.commands import OPERANDS
 from vdevd.devices.oms.contour import junction_speeds, plan_legs
 from vdevd.devices.oms.firmware import Firmware
 from vdevd.devices.oms.syntax import Lexer
-from vdevd.devices.oms.table import TABLE
 
 HZ = 1024
 PERIOD = 976_562e-9  # s, 1/1024 rounded to whole ns (the card's update period)
@@ -37,8 +38,8 @@ DT = 0.125  # s between trajectory points
 CYCLES = 128  # update cycles between points
 MAX_AXES = 8  # [E-traj] (trajectoryScan.h)
 AXIS_NAMES = "XYZTUVRS"  # [E-traj L113]
-DONE_X, DONE_Y = 1 << 0, 1 << 1
 IN_BIT = 3  # a factory input (IO0-7)
+DONE_XY = MaxkDoorbell.DONE_X | MaxkDoorbell.DONE_Y
 
 
 @dataclass(frozen=True)
@@ -185,10 +186,10 @@ def test_the_trajectory_scan_runs_both_tasks_together_from_vg(card: Maxk) -> Non
     assert card.query("QI;")[1::5][:2] == "NN"
     write(card, execute_strings(SCAN))
     assert_follows(run_path(card, round(DURATION / PERIOD) - 1))  # to 3 cycles before the end
-    assert card.odbr() & (DONE_X | DONE_Y) == 0
+    assert card.odbr() & (MaxkDoorbell.DONE_X | MaxkDoorbell.DONE_Y) == 0
     assert card.query("QI;")[1::5][:2] == "NN"
     card.step(4)
-    assert card.odbr() & (DONE_X | DONE_Y) == DONE_X | DONE_Y
+    assert card.odbr() & DONE_XY == DONE_XY
     assert card.query("QI;")[1::5][:2] == "DD"
     assert positions(card) == (X_TRAJ.end, Y_TRAJ.end)
 
@@ -214,7 +215,7 @@ def test_the_abort_halts_kills_and_flushes_and_a_new_scan_runs(card: Maxk) -> No
     card.step(HZ)
     assert positions(card) == here
     assert card.query("AM; RQC;").split(",")[:2] == ["2559", "2559"]
-    assert card.odbr() & (DONE_X | DONE_Y) == 0
+    assert card.odbr() & (MaxkDoorbell.DONE_X | MaxkDoorbell.DONE_Y) == 0
     write(card, execute_strings(SCAN))
     card.step(HZ // 2)
     assert positions(card) == here
@@ -224,7 +225,7 @@ def test_the_abort_halts_kills_and_flushes_and_a_new_scan_runs(card: Maxk) -> No
     write(card, load_strings(SCAN) + execute_strings(SCAN))
     assert_follows(run_path(card, 1 + round(DURATION / PERIOD), every=16))
     card.step(4)
-    assert card.odbr() & (DONE_X | DONE_Y) == DONE_X | DONE_Y
+    assert card.odbr() & DONE_XY == DONE_XY
 
 
 def test_a_four_axis_card_takes_the_eight_fields_of_every_vp_si_and_ks(maxk: Maxk) -> None:
@@ -252,7 +253,7 @@ def test_an_input_bit_holds_the_start_after_vg_until_it_goes_high(card: Maxk) ->
     assert_follows(run_path(card, 1 + round(DURATION / PERIOD)))
     card.step(4)
     assert positions(card) == (X_TRAJ.end, Y_TRAJ.end)
-    assert card.odbr() & (DONE_X | DONE_Y) == DONE_X | DONE_Y
+    assert card.odbr() & DONE_XY == DONE_XY
 
 
 def test_vh1_halts_on_the_path_and_vg_resumes_it_to_its_end(card: Maxk) -> None:
@@ -271,11 +272,11 @@ def test_vh1_halts_on_the_path_and_vg_resumes_it_to_its_end(card: Maxk) -> None:
     card.step(HZ // 4)
     assert positions(card)[0] == rest
     assert positions(card)[1] == Y_TRAJ.end
-    assert card.odbr() & (DONE_X | DONE_Y) == DONE_Y
+    assert card.odbr() & (MaxkDoorbell.DONE_X | MaxkDoorbell.DONE_Y) == MaxkDoorbell.DONE_Y
     write(card, ["AM;VG[1];"])
     card.step(HZ)
     assert positions(card)[0] == X_TRAJ.end
-    assert card.odbr() & DONE_X
+    assert card.odbr() & MaxkDoorbell.DONE_X
 
 
 # -- the pieces, on a 4-axis card ------------------------------------------------------------------
@@ -288,7 +289,7 @@ def run_to_end(maxk: Maxk, text: str, seconds: float = 1.0) -> int:
 
 
 @pytest.mark.parametrize(("vid", "done"), [
-    ("VID[1]1;", DONE_X), ("VID[1];", DONE_X), ("VID[1]0;", 0), ("", 0)])
+    ("VID[1]1;", MaxkDoorbell.DONE_X), ("VID[1];", MaxkDoorbell.DONE_X), ("VID[1]0;", 0), ("", 0)])
 def test_vid_before_the_points_sets_the_done_flags_at_the_end_or_not(
         maxk: Maxk, vid: str, done: int) -> None:
     """`VID[n]1` (or bare) in the definition: done flag and doorbell bit at the contour's end
@@ -310,7 +311,7 @@ def test_a_bad_vid_is_a_command_error(maxk: Maxk, bad: str) -> None:
 
 
 def test_the_lexer_takes_the_a_and_r_flags_of_vp_and_vc() -> None:
-    lexer = Lexer({name: spec.operand for name, spec in TABLE.items()})
+    lexer = Lexer(OPERANDS)
     got = lexer.feed(b"VP[1]A1000,,,;vp[2]r-5,3;VC[3]R1,2,90;VP5,6;VID[4]1;")
     assert [(c.mnemonic, c.index, c.operand, c.error) for c in got] == [
         ("VP", 1, "A1000,,,", ""), ("VP", 2, "R-5,3", ""), ("VC", 3, "R1,2,90", ""),

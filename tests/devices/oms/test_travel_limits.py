@@ -9,8 +9,9 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import pytest
+from vdevmaps.oms import MaxkDoorbell
 
-from tests.devices.oms.conftest import DONE_X, OVERTRAVEL_X, Maxk, card_config, maxk_card
+from tests.devices.oms.conftest import Maxk, card_config, maxk_card
 from vdevd.daemon import build_rack
 
 LOW, HIGH = -1000, 5000
@@ -39,7 +40,7 @@ def test_a_motion_past_the_high_limit_stops_at_it_as_a_limit_stop(card: Maxk,
     card.send(command)
     card.step(HZ)
     assert x(card) == HIGH
-    assert card.odbr() & (OVERTRAVEL_X | DONE_X) == OVERTRAVEL_X
+    assert card.odbr() & (MaxkDoorbell.OVERTRAVEL_X | MaxkDoorbell.DONE_X) == MaxkDoorbell.OVERTRAVEL_X
     assert card.query("AX QA;") == "PNLN"
     assert card.query("AX RQC;") == "2559"
 
@@ -48,7 +49,7 @@ def test_a_motion_inside_the_limits_is_not_touched(card: Maxk) -> None:
     card.send("AX MA4999 GO ID;")
     card.step(HZ)
     assert x(card) == 4999
-    assert card.odbr() & (OVERTRAVEL_X | DONE_X) == DONE_X
+    assert card.odbr() & (MaxkDoorbell.OVERTRAVEL_X | MaxkDoorbell.DONE_X) == MaxkDoorbell.DONE_X
     assert card.query("AX QA;") == "PDNN"
 
 
@@ -59,18 +60,19 @@ def test_at_the_limit_a_motion_further_is_refused_and_one_back_runs(card: Maxk) 
     card.clear_odbr()
     card.send("AX MR-1 GO;")
     card.step(10)
-    assert x(card) == LOW and card.odbr() & OVERTRAVEL_X
+    assert x(card) == LOW and card.odbr() & MaxkDoorbell.OVERTRAVEL_X
     card.clear_odbr()
     card.send("AX MR500 GO ID;")
     card.step(HZ)
-    assert x(card) == LOW + 500 and card.odbr() & (OVERTRAVEL_X | DONE_X) == DONE_X
+    assert x(card) == LOW + 500
+    assert card.odbr() & (MaxkDoorbell.OVERTRAVEL_X | MaxkDoorbell.DONE_X) == MaxkDoorbell.DONE_X
     assert card.query("AX QA;") == "PDNN"
 
 
 def test_the_other_axes_have_none(card: Maxk) -> None:
     card.send("AY MA20000 GO;")
     card.step(2 * HZ)
-    assert card.word(4) == 20000 and not card.odbr() & (OVERTRAVEL_X << 1)
+    assert card.word(4) == 20000 and not card.odbr() & (MaxkDoorbell.OVERTRAVEL_X << 1)
 
 
 def test_a_contour_stops_inside_the_limit_with_over_travel(card: Maxk) -> None:
@@ -79,12 +81,12 @@ def test_a_contour_stops_inside_the_limit_with_over_travel(card: Maxk) -> None:
     card.send("AA; VV4000; VA20000; VP8000,4000; VE;")
     card.step(3 * HZ)
     assert HIGH - 5 <= x(card) <= HIGH and card.word(4) == pytest.approx(x(card) / 2, abs=1)
-    assert card.odbr() & (OVERTRAVEL_X | DONE_X) == OVERTRAVEL_X
+    assert card.odbr() & (MaxkDoorbell.OVERTRAVEL_X | MaxkDoorbell.DONE_X) == MaxkDoorbell.OVERTRAVEL_X
     assert card.query("AX QA;") == "PNLN"
     card.clear_odbr()
     card.send("AA; VV4000; VA20000; VP0,0; VE;")
     card.step(3 * HZ)
-    assert (x(card), card.word(4)) == (0, 0) and not card.odbr() & OVERTRAVEL_X
+    assert (x(card), card.word(4)) == (0, 0) and not card.odbr() & MaxkDoorbell.OVERTRAVEL_X
     assert card.query("AX QA;") == "MNNN"
 
 
@@ -92,7 +94,7 @@ def test_the_factory_setting_has_none() -> None:
     with maxk_card() as card:
         card.send("AX VL200000; MA3000000 GO;")
         card.step(20 * HZ)
-        assert x(card) == 3_000_000 and not card.odbr() & OVERTRAVEL_X
+        assert x(card) == 3_000_000 and not card.odbr() & MaxkDoorbell.OVERTRAVEL_X
 
 
 @pytest.mark.parametrize("bad", [

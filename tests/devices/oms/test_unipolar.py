@@ -14,12 +14,13 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import pytest
+from vdevmaps.oms import Shm
 
 from tests.devices.oms.conftest import Maxk, maxk_card
 
 HZ = 1024
-DAC_X, DAC_Y = 0x2E80, 0x2E84  # [spec §2.2]
-ENCODER_Y = 0x024
+DAC_Y = Shm.DAC + 4
+ENCODER_Y = Shm.ENCODER_POSITION + 4
 FULL_SCALE = 32767
 OUTPUTS = ["bipolar", "unipolar", "bipolar", "bipolar"]
 
@@ -42,7 +43,7 @@ def run_together(maxk: Maxk, distance: int, ticks: int) -> list[tuple[int, int, 
     seen = []
     for _ in range(ticks):
         maxk.step(1)
-        seen.append((maxk.word(DAC_X), maxk.word(DAC_Y), direction(maxk, 1)))
+        seen.append((maxk.word(Shm.DAC), maxk.word(DAC_Y), direction(maxk, 1)))
     return seen
 
 
@@ -118,7 +119,7 @@ def test_bipolar_is_the_default_and_keeps_the_sign_on_the_word() -> None:
     with maxk_card() as maxk:
         maxk.send("AX CL0; KO-3277;")
         maxk.step(1)
-        assert maxk.word(DAC_X) == -3277
+        assert maxk.word(Shm.DAC) == -3277
         assert maxk.control("get_outputs")["dac_volts"][0] == pytest.approx(-1.0, abs=0.001)
         maxk.send("AX CL1; MR-100 GO;")
         maxk.step(1)

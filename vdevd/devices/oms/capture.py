@@ -23,15 +23,17 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+from vdevmaps.oms import HomeEvent
 
 from vdevd.devices.oms.encoder import switch_holds
 
 if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
 
-HOME_RISING = 0x01  # Table 3-6, byte 5
-INDEX = 0x02
-HOME_FALLING = 0x04
+# Table 3-6 byte 5 as plain ints (an IntFlag costs a conversion in numpy arithmetic)
+HOME_RISING = int(HomeEvent.SWITCH_RISING)
+INDEX = int(HomeEvent.ENCODER_HOME)
+HOME_FALLING = int(HomeEvent.SWITCH_FALLING)
 HOME_EVENTS = HOME_RISING | INDEX | HOME_FALLING
 
 

@@ -14,30 +14,33 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
+from vdevmaps.oms import (
+    AXES,
+    CAPTURE_MESSAGE,
+    CARD_TYPE,
+    MU,
+    MU_SIZE,
+    SHM,
+    SHM_SIZE,
+    UPDATE_RATES,
+    DirectCommand,
+    FirmwareState,
+    Shm,
+)
 
 from vdevd.devices.base import Card, CardContext, Option, axis_number, control
 from vdevd.devices.oms import rings
 from vdevd.devices.oms.defaults import IMAGE_FORMATS
 from vdevd.devices.oms.firmware import Firmware
 from vdevd.devices.oms.layout import (
-    AXIS_LETTERS,
-    CAPTURE_MESSAGE,
     COHERENT_DAC_WORDS,
     COHERENT_ENCODER_WORDS,
     COHERENT_MOTOR_WORDS,
     DAC_WORDS,
     ENCODER_WORDS,
     MOTOR_WORDS,
-    MU_SIZE,
-    SHM_SIZE,
     SSI_WORDS,
-    UPDATE_RATES,
-    DirectCommand,
-    Shm,
     home_word,
-)
-from vdevd.devices.oms.layout import (
-    Firmware as FwFlags,
 )
 from vdevd.devices.oms.mu import MessageUnit
 from vdevd.devices.oms.params import AXIS_TYPES, PROFILES, SERVO_OUTPUTS
@@ -46,7 +49,8 @@ from vdevd.rt import wrap_int32
 from vdevd.rt.axes import AxisFlag
 
 VERSION = "1.50"
-_SEMAPHORE, _CMD_INSERT, _RSP_PROCESS = int(Shm.SEMAPHORE), int(Shm.CMD_INSERT), int(Shm.RSP_PROCESS)
+_SEMAPHORE = int(Shm.MESSAGE_SEMAPHORE)
+_CMD_INSERT, _RSP_PROCESS = int(Shm.COMMAND_INSERT), int(Shm.RESPONSE_PROCESS)
 
 
 def _default_types(n: int) -> list[str]:
@@ -82,7 +86,7 @@ def _travel_limits(cfg: Mapping[str, Any], n: int) -> list[tuple[float, float] |
 
 
 class MaxkCard(Card):
-    type_name: ClassVar[str] = "oms-maxk"
+    type_name: ClassVar[str] = CARD_TYPE
     endian: ClassVar[str] = "big"
     options: ClassVar[Mapping[str, Option]] = {
         "board": Option(int, 1, min=1, max=8, help="board number (J5 jumpers, 1-8)"),
@@ -124,19 +128,19 @@ class MaxkCard(Card):
         self.travel_limits = _travel_limits(cfg, self.n)
 
         self.shm = self.add_region(Region(
-            "shm", SHM_SIZE, widths=(1, 2, 4), endian="big",
+            SHM, SHM_SIZE, widths=(1, 2, 4), endian="big",
             description="BAR2 shared memory: positions, status, rings, capture (Table 3-1)"))
         self.mem = self.shm.buf
         self.words = np.frombuffer(self.mem, dtype=">i4")
         for offset, fn in ((Shm.DIRECT_COMMAND, self._direct_command),
                            (Shm.POSITION_REQUEST, self._position_request),
-                           (Shm.SEMAPHORE, self._semaphore_written),
-                           (Shm.W_FLAGS, self._wk_clear), (Shm.K_FLAGS, self._wk_clear),
-                           (Shm.CMD_INSERT, self._commands_written),
-                           (Shm.RSP_PROCESS, self._response_released)):
+                           (Shm.MESSAGE_SEMAPHORE, self._semaphore_written),
+                           (Shm.W_STATUS_FLAGS, self._wk_clear), (Shm.K_STATUS_FLAGS, self._wk_clear),
+                           (Shm.COMMAND_INSERT, self._commands_written),
+                           (Shm.RESPONSE_PROCESS, self._response_released)):
             self.shm.hook(offset, 4, on_write=fn)
         self.mu_region = self.add_region(Region(
-            "mu", MU_SIZE, widths=(4,), endian="little",
+            MU, MU_SIZE, widths=(4,), endian="little",
             description="BAR4 message unit: OMISR, OMIMR, OMR0/1, ODBR, IDBR (MPC8245)"))
         self.mu_region.hook(0, MU_SIZE, on_read=self._mu_read, on_write=self._mu_write,
                             peek=self._mu_peek)
@@ -206,14 +210,14 @@ class MaxkCard(Card):
         running (bit 2), an archive checksum error (bit 12) and which parameter set is in
         working memory: the power-up set (bit 16) or the factory set (bit 18)."""
         if self.fault == "no_firmware":
-            return int(FwFlags.NOT_DOWNLOADED)
+            return int(FirmwareState.NOT_DOWNLOADED)
         if self.fault == "flash_checksum":
-            return int(FwFlags.NOT_DOWNLOADED | FwFlags.FLASH_CHECKSUM)
-        state = int(FwFlags.RUNNING)
+            return int(FirmwareState.NOT_DOWNLOADED | FirmwareState.APPLICATION_CHECKSUM_ERROR)
+        state = int(FirmwareState.RUNNING)
         if self.defaults_bad():
-            state |= int(FwFlags.DEFAULTS_CHECKSUM)
-        state |= int(FwFlags.POWER_UP_SET if self.fw.loaded == "power_up"
-                     else FwFlags.FACTORY_SET)
+            state |= int(FirmwareState.DEFAULTS_CHECKSUM_ERROR)
+        state |= int(FirmwareState.POWER_UP_SET if self.fw.loaded == "power_up"
+                     else FirmwareState.FACTORY_SET)
         return state
 
     # -- the host's accesses to the shared memory ----------------------------------------------------
@@ -244,8 +248,8 @@ class MaxkCard(Card):
 
     def _wk_clear(self, offset: int, data: bytes) -> None:
         """W/K status words: the host clears bits by writing ones."""
-        base = Shm.W_FLAGS if offset < Shm.K_FLAGS else Shm.K_FLAGS
-        i = 0 if base == Shm.W_FLAGS else 1
+        base = Shm.W_STATUS_FLAGS if offset < Shm.K_STATUS_FLAGS else Shm.K_STATUS_FLAGS
+        i = 0 if base == Shm.W_STATUS_FLAGS else 1
         old = self.fw.wk_flags[i]
         value = self._store(offset, data, base)
         if value is not None:
@@ -345,12 +349,12 @@ class MaxkCard(Card):
         words[ENCODER_WORDS[:n]] = wrap_int32(encoder)
         words[DAC_WORDS[:n]] = self._dac()
         mem = self.mem
-        rings.put_u32(mem, Shm.LIMITS, fw.limit_word())
-        rings.put_u32(mem, Shm.HOMES, home_word(m.home_level))
-        rings.put_u32(mem, Shm.FIRMWARE, self.firmware_state())
-        rings.put_u32(mem, Shm.GPIO, fw.gpio_levels())
-        rings.put_u32(mem, Shm.W_FLAGS, fw.wk_flags[0])
-        rings.put_u32(mem, Shm.K_FLAGS, fw.wk_flags[1])
+        rings.put_u32(mem, Shm.LIMIT_SWITCH_STATUS, fw.limit_word())
+        rings.put_u32(mem, Shm.HOME_SWITCH_STATUS, home_word(m.home_level))
+        rings.put_u32(mem, Shm.FIRMWARE_STATE, self.firmware_state())
+        rings.put_u32(mem, Shm.GPIO_STATUS, fw.gpio_levels())
+        rings.put_u32(mem, Shm.W_STATUS_FLAGS, fw.wk_flags[0])
+        rings.put_u32(mem, Shm.K_STATUS_FLAGS, fw.wk_flags[1])
         words[SSI_WORDS[:n]] = fw.ssi.words(encoder, gray=self.ssi_gray)
 
     def snapshot(self) -> None:
@@ -387,7 +391,7 @@ class MaxkCard(Card):
 
     # -- backdoor ------------------------------------------------------------------------------------
     def _axis(self, axis: str | int) -> int:
-        return axis_number(axis, AXIS_LETTERS, self.n)
+        return axis_number(axis, AXES, self.n)
 
     @control()
     def set_limits(self, axis: str, positive: bool | None = None,
@@ -437,7 +441,7 @@ class MaxkCard(Card):
     def _encoder_axis(self, axis: str, types: str = "EM") -> int:
         a = self._axis(axis)
         if self.fw.params.ptype[a] not in types:
-            raise ValueError(f"axis {AXIS_LETTERS[a]} is PS{self.fw.params.ptype[a]}, "
+            raise ValueError(f"axis {AXES[a]} is PS{self.fw.params.ptype[a]}, "
                              f"this needs PS{' or PS'.join(types)}")
         return a
 

@@ -6,8 +6,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from vdevd.devices.oms.servo import COUNTS_PER_VOLT
-from vdevd.devices.oms.syntax import Command, Operand, beyond_axes, hex_words
-from vdevd.devices.oms.table import CommandError, command
+from vdevd.devices.oms.syntax import Command, CommandError, beyond_axes, hex_words
 
 if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
@@ -34,7 +33,6 @@ def _polarity_reply(fw: Firmware, high: list[bool]) -> str:
     return ",".join("=h" if high[a] else "=l" for a in fw.selected())
 
 
-@command("LT", operand=Operand.LETTERS)
 def limit_level(fw: Firmware, cmd: Command) -> str | None:
     """LTH / LTL: limit switches active high / low; LT? -> =h / =l [S §4.2]."""
     if cmd.query:
@@ -45,7 +43,6 @@ def limit_level(fw: Firmware, cmd: Command) -> str | None:
     return None
 
 
-@command("LH", "LL")
 def limit_level_legacy(fw: Firmware, cmd: Command) -> None:
     """The older spelling of LTH / LTL ("LL - low (default)")."""
     for a in fw.selected():
@@ -53,7 +50,6 @@ def limit_level_legacy(fw: Firmware, cmd: Command) -> None:
     fw.motion.apply_limits()
 
 
-@command("LM", operand=Operand.LETTERS)
 def limit_mode(fw: Firmware, cmd: Command) -> str | None:
     """LMH hard (stop at once), LMS soft (decelerate), LMF off; LM? -> =h / =s / =f."""
     if cmd.query:
@@ -64,7 +60,6 @@ def limit_mode(fw: Firmware, cmd: Command) -> str | None:
     return None
 
 
-@command("LF", "LN")
 def limits_off_on(fw: Firmware, cmd: Command) -> None:
     """LF limits off, LN limits on (hard) for the addressed axes (README)."""
     for a in fw.selected():
@@ -72,7 +67,6 @@ def limits_off_on(fw: Firmware, cmd: Command) -> None:
     fw.motion.apply_limits()
 
 
-@command("HH", "HL")
 def home_level(fw: Firmware, cmd: Command) -> None:
     """Home switch active high / low (factory low) [S §2.14]."""
     for a in fw.selected():
@@ -80,7 +74,6 @@ def home_level(fw: Firmware, cmd: Command) -> None:
     fw.motion.apply_limits()
 
 
-@command("QL", "RL")
 def query_limits(fw: Firmware, cmd: Command) -> str:
     """The limit word (Table 3-2, raw levels) in hex (RL: the same report, spec §4.3)."""
     return f"{fw.limit_word():x}"
@@ -105,13 +98,11 @@ def _hex_word(cmd: Command, what: str) -> int:
     return words[0]
 
 
-@command("BD", operand=Operand.HEX)
 def bit_direction(fw: Firmware, cmd: Command) -> None:
     """Directions of the 16 I/O bits, 1 = output (`BD%04x`) [S §4.4]."""
     fw.gpio_dir = _hex_word(cmd, "mask")
 
 
-@command("IO", operand=Operand.NUMBERS)
 def io_direction(fw: Firmware, cmd: Command) -> None:
     """IO bit,dir: one bit's direction (1 = output)."""
     try:
@@ -123,7 +114,6 @@ def io_direction(fw: Firmware, cmd: Command) -> None:
     fw.gpio_dir = fw.gpio_dir | 1 << bit if direction else fw.gpio_dir & ~(1 << bit)
 
 
-@command("BH", "BL", operand=Operand.NUMBERS)
 def bit_high_low(fw: Firmware, cmd: Command) -> None:
     bit = _bit(cmd)
     if not fw.gpio_dir >> bit & 1:
@@ -131,19 +121,16 @@ def bit_high_low(fw: Firmware, cmd: Command) -> None:
     fw.gpio_out = fw.gpio_out | 1 << bit if cmd.mnemonic == "BH" else fw.gpio_out & ~(1 << bit)
 
 
-@command("BW", operand=Operand.HEX)
 def bit_write(fw: Firmware, cmd: Command) -> None:
     """Write all output bits at once (hex)."""
     fw.gpio_out = _hex_word(cmd, "word")
 
 
-@command("BX")
 def bit_report(fw: Firmware, cmd: Command) -> str:
     """The 16 I/O bits, exactly 4 hex digits [E-traj]."""
     return f"{fw.gpio_levels():04x}"
 
 
-@command("AI", operand=Operand.NUMBERS)
 def analog_input(fw: Firmware, cmd: Command) -> str:
     """AI ch: the input in volts, three decimals (format assumed, README)."""
     try:
@@ -155,7 +142,6 @@ def analog_input(fw: Firmware, cmd: Command) -> str:
     return f"{fw.analog_in[ch]:.3f}"
 
 
-@command("AO", operand=Operand.NUMBERS)
 def analog_output(fw: Firmware, cmd: Command) -> None:
     """AO volts (one per axis in AA/AM): the DAC of an axis that is not a servo as a
     general-purpose analog output, -10..+10 V [S §4.5.2]; refused on a servo axis, whose DAC
@@ -169,7 +155,6 @@ def analog_output(fw: Firmware, cmd: Command) -> None:
         fw.motion.servo.set_analog_out(a, round(v * COUNTS_PER_VOLT))
 
 
-@command("AN", "AF")
 def aux_output(fw: Firmware, cmd: Command) -> None:
     """Auxiliary output of the addressed axes on / off [S §4.6; spec §4.3 AN/AF]; the backdoor
     `get_outputs` shows them (README)."""

@@ -17,8 +17,7 @@ from vdevd.devices.oms.params import (
 )
 from vdevd.devices.oms.queue import Group, Run, at_once
 from vdevd.devices.oms.ssi import CLOCKS, MAX_BITS
-from vdevd.devices.oms.syntax import Command, Operand, beyond_axes, hex_words
-from vdevd.devices.oms.table import CommandError, command
+from vdevd.devices.oms.syntax import Command, CommandError, beyond_axes, hex_words
 
 if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
@@ -56,7 +55,6 @@ def _starts(fw: Firmware, start: Callable[[int], None]) -> Make:
 
 
 # -- parameters (queued: they apply to the moves that follow them) -------------------------------
-@command("VL", "VB", "AC", "HV", "HD", "HG", "ES", "SE", operand=Operand.NUMBERS)
 def motion_parameter(fw: Firmware, cmd: Command) -> str | None:
     """Queued per-axis parameters [S §2.14]: `ES` the encoder slip tolerance, `SE` the aux
     output settle time in ms (both proposed, spec §4.3); `ES?` and `SE?` reply `=n` per
@@ -114,17 +112,14 @@ def _loads_target(fw: Firmware, d: float, relative: bool) -> Make:
     return at_once(set_target)
 
 
-@command("MA", operand=Operand.NUMBERS)
 def move_absolute(fw: Firmware, cmd: Command) -> None:
     _target(fw, cmd, relative=False)
 
 
-@command("MR", operand=Operand.NUMBERS)
 def move_relative(fw: Firmware, cmd: Command) -> None:
     _target(fw, cmd, relative=True)
 
 
-@command("MP", "MM")
 def direction_logic(fw: Firmware, cmd: Command) -> None:
     """Direction logic positive / minus of the addressed axes: the direction `MO` steps in;
     `MA`/`MR` take their direction from the target (README)."""
@@ -133,7 +128,6 @@ def direction_logic(fw: Firmware, cmd: Command) -> None:
         fw.step_direction[a] = 1.0 if cmd.mnemonic == "MP" else -1.0
 
 
-@command("MO")
 def move_one(fw: Firmware, cmd: Command) -> None:
     """Move one count in the direction `MP`/`MM` set (plus at power-up), each addressed axis on
     its own, as `MR1 GO` / `MR-1 GO` (proposed: the issue names MO, no retrieved source gives
@@ -177,7 +171,6 @@ def _go(fw: Firmware, clear_done: bool) -> Make:
     return make
 
 
-@command("GO", "GD")
 def go(fw: Firmware, cmd: Command) -> None:
     """Start the pending moves: in AA mode together (a group), in AM mode each axis on its own;
     the queue waits for the move to end [S App C]."""
@@ -192,7 +185,6 @@ def go(fw: Firmware, cmd: Command) -> None:
     fw.armed.clear()
 
 
-@command("JG", operand=Operand.NUMBERS)
 def jog(fw: Firmware, cmd: Command) -> None:
     """Run at the signed velocity until stopped; a new JG changes the velocity on the fly."""
     pairs = fw.per_axis(cmd, integer=True)
@@ -206,7 +198,6 @@ def jog(fw: Firmware, cmd: Command) -> None:
         fw.enqueue([a], "JG", _starts(fw, start), units=2)
 
 
-@command("ID")
 def interrupt_done(fw: Firmware, cmd: Command) -> None:
     """At this point of the queue set the done flag and the doorbell done bit; in AA mode when
     every axis of the last AA move has reached it [S App C; spec §3.4]."""
@@ -229,7 +220,6 @@ def _flags(fw: Firmware, cmd: Command) -> list[int]:
     return [a for a, v in fw.per_axis(cmd) if v]
 
 
-@command("ST")
 def stop(fw: Firmware, cmd: Command) -> None:
     """Decelerate the addressed axes to a stop at AC and flush their queues; a contour on one
     of them slows to rest on its path (Firmware.flush)."""
@@ -238,43 +228,36 @@ def stop(fw: Firmware, cmd: Command) -> None:
         fw.motion.stop(a)
 
 
-@command("SA")
 def stop_all(fw: Firmware, cmd: Command) -> None:
     for a in range(fw.n):
         fw.flush(a, ramp=True)
         fw.motion.stop(a)
 
 
-@command("KL")
 def kill_all(fw: Firmware, cmd: Command) -> None:
     fw.kill(list(range(fw.n)))
 
 
-@command("KS", operand=Operand.NUMBERS)
 def kill_selected(fw: Firmware, cmd: Command) -> None:
     fw.kill(_flags(fw, cmd))
 
 
-@command("SI", operand=Operand.NUMBERS)
 def stop_individual(fw: Firmware, cmd: Command) -> None:
     for a in _flags(fw, cmd):
         fw.flush(a, ramp=True)
         fw.motion.stop(a)
 
 
-@command("FL")
 def flush(fw: Firmware, cmd: Command) -> None:
     for a in fw.selected():
         fw.flush(a)
 
 
-@command("WQ")
 def wait_queue(fw: Firmware, cmd: Command) -> None:
     """Accepted: the host-side wait of EPICS' stop string needs nothing here (README)."""
 
 
 # -- loops and waits (queued) --------------------------------------------------------------------
-@command("LS", operand=Operand.NUMBERS)
 def loop_start(fw: Firmware, cmd: Command) -> None:
     pairs = fw.per_axis(cmd, integer=True) if fw.mode == "single" else [
         (a, v) for a, v in fw.per_axis(cmd, integer=True)]
@@ -286,12 +269,10 @@ def loop_start(fw: Firmware, cmd: Command) -> None:
         fw.enqueue([a], "LS", at_once(lambda axis: None), units=2, kind="LS", count=int(v))
 
 
-@command("LE")
 def loop_end(fw: Firmware, cmd: Command) -> None:
     fw.enqueue(fw.selected(), "LE", at_once(lambda axis: None), kind="LE")
 
 
-@command("SW", operand=Operand.NUMBERS)
 def wait_input(fw: Firmware, cmd: Command) -> None:
     """Hold the queue until general-purpose input bit # is high."""
     pairs = fw.per_axis(cmd, integer=True)
@@ -305,7 +286,6 @@ def wait_input(fw: Firmware, cmd: Command) -> None:
         fw.enqueue([a], "SW", make, units=2)
 
 
-@command("WT", operand=Operand.NUMBERS)
 def wait_time(fw: Firmware, cmd: Command) -> None:
     """Hold the queue for # milliseconds (README)."""
     pairs = fw.per_axis(cmd, integer=True)
@@ -341,24 +321,24 @@ def _load(fw: Firmware, cmd: Command, which: str) -> None:
         fw.enqueue([a], cmd.mnemonic, at_once(load), units=2)
 
 
-@command("LP", operand=Operand.NUMBERS)
 def load_position(fw: Firmware, cmd: Command) -> None:
     """Load motor and encoder position [S §2.13]."""
     _load(fw, cmd, "both")
 
 
-@command("LO", operand=Operand.NUMBERS)
 def load_motor(fw: Firmware, cmd: Command) -> None:
     _load(fw, cmd, "motor")
 
 
-@command("LPE", operand=Operand.NUMBERS)
 def load_encoder(fw: Firmware, cmd: Command) -> None:
     _load(fw, cmd, "encoder")
 
 
 # -- homing (queued; the queue waits for the search to end) ------------------------------------
-def _home(fw: Firmware, cmd: Command) -> None:
+def home_search(fw: Firmware, cmd: Command) -> None:
+    """HM/HR search home forward/reverse and ramp to a stop there, KM/KR stop at once; the
+    home position becomes the operand (0 without one) [S §4.3, §4.8; spec §5.5]. Queued: the
+    queue waits for the search to end."""
     forward = cmd.mnemonic in ("HM", "KM")
     ramp = cmd.mnemonic in ("HM", "HR")
     pairs = fw.per_axis(cmd, integer=True)
@@ -385,10 +365,6 @@ def _home(fw: Firmware, cmd: Command) -> None:
         fw.enqueue([a], cmd.mnemonic, make, units=2)
 
 
-command("HM", "HR", "KM", "KR", operand=Operand.NUMBERS)(_home)
-
-
-@command("HI", "HS")
 def home_mode(fw: Firmware, cmd: Command) -> None:
     """Home mode of the addressed axes: HI "Home Encoder" (home = the AND of phase A, phase B,
     index and switch as the truth table HT/EH sets them, by default `Home = Phase +A * Phase -B
@@ -403,7 +379,6 @@ def home_mode(fw: Firmware, cmd: Command) -> None:
         fw.motion.set_home_mode(a, index)
 
 
-@command("HT", "EH", operand=Operand.NUMBERS)
 def home_truth_table(fw: Firmware, cmd: Command) -> str | None:
     """The home logic of HI mode [S §4.3, §4.8] for the addressed axes: `HT a,b,i,s` sets the
     entry of phase A, phase B, index and home switch, `EH a,b,i` the encoder's three only (the
@@ -430,7 +405,6 @@ def _capture_axes(fw: Firmware, pairs: list[tuple[int, int]]) -> None:
         raise CommandError("capture needs an incremental encoder (PSE or PSM) [S §3.7]")
 
 
-@command("CPH", operand=Operand.NUMBERS)
 def capture_home(fw: Firmware, cmd: Command) -> str | None:
     """CPH#: capture the encoder position on home events, the Table 3-6 bits: 1 the home
     switch's rising edge, 2 the encoder index pulse, 4 the falling edge (0 off); `CPH?` ->
@@ -448,7 +422,7 @@ def capture_home(fw: Firmware, cmd: Command) -> str | None:
     return None
 
 
-def _capture_inputs(fw: Firmware, cmd: Command) -> str | None:
+def capture_inputs(fw: Firmware, cmd: Command) -> str | None:
     """CPR/CPF hex: capture the encoder position when these general-purpose input lines rise
     (CPR) or fall (CPF), bit n = IOn, one mask per axis in AA/AM (0 off); `CPR?` -> `=hhhh`."""
     cap = fw.capture
@@ -473,11 +447,7 @@ def _capture_inputs(fw: Firmware, cmd: Command) -> str | None:
     return None
 
 
-command("CPR", "CPF", operand=Operand.HEX)(_capture_inputs)
-
-
 # -- absolute encoders ------------------------------------------------------------------------
-@command("ECA", operand=Operand.NUMBERS)
 def ssi_encoder(fw: Firmware, cmd: Command) -> str | None:
     """ECA bits,clock: the addressed PSE axis reads an SSI absolute encoder of 1-32 bits at
     one of the §4.9 clock rates [S §4.9.1]; `ECA?` -> `=bits,clock`."""

@@ -7,20 +7,16 @@ from typing import TYPE_CHECKING
 
 from vdevd.devices.oms.cmd_io import axis_letters
 from vdevd.devices.oms.params import PARAMS
-from vdevd.devices.oms.syntax import Command, Operand
-from vdevd.devices.oms.table import CommandError, command
+from vdevd.devices.oms.syntax import Command, CommandError
 
 if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
-
-GAINS = ("KP", "KI", "KD", "KU", "KV", "KA", "KF", "KO")
 
 
 def _type_reply(fw: Firmware, prefix: str) -> str:
     return ",".join(prefix + fw.params.ptype[a] for a in fw.selected())
 
 
-@command("PS", operand=Operand.LETTERS)
 def axis_type(fw: Firmware, cmd: Command) -> str | None:
     """PSO / PSE / PSM: open-loop stepper, stepper with encoder, servo (per axis in AA/AM:
     `PSM,M,O`); PS? -> =O/=E/=M. An axis made a servo starts with its loop open (CL0), as the
@@ -36,13 +32,12 @@ def axis_type(fw: Firmware, cmd: Command) -> str | None:
     return None
 
 
-@command("?PS")
 def axis_type_old(fw: Firmware, cmd: Command) -> str:
     """The older query form: the type letter without `=` (firmware before 1.30, [A-base])."""
     return _type_reply(fw, "")
 
 
-def _gain(fw: Firmware, cmd: Command) -> str | None:
+def gain(fw: Firmware, cmd: Command) -> str | None:
     """KP KI KD KU KV KA KF KO [S §2.13]: set per axis (a value out of range is refused and
     nothing changes); `KP?` replies `=10.00`, the older `?KP` `10.00`; either query is a
     command error on an axis that is not a servo (EPICS probes PSM with `?KP`)."""
@@ -66,12 +61,6 @@ def _gain(fw: Firmware, cmd: Command) -> str | None:
     return None
 
 
-for _name in GAINS:
-    command(_name, operand=Operand.NUMBERS)(_gain)
-    command("?" + _name)(_gain)
-
-
-@command("CL", operand=Operand.NUMBERS)
 def closed_loop(fw: Firmware, cmd: Command) -> str | None:
     """CL1 closes the loop (PID hold), CL0 opens it (output KO only) [S §2.13]; one value per
     axis in AA/AM; CL? -> on/off."""
@@ -85,14 +74,12 @@ def closed_loop(fw: Firmware, cmd: Command) -> str | None:
     return None
 
 
-@command("HN", "HF")
 def hold(fw: Firmware, cmd: Command) -> None:
     """Hold on / off: the older form of CL1 / CL0 [S §2.13]."""
     for a in fw.selected():
         fw.set_closed_loop(a, cmd.mnemonic == "HN")
 
 
-@command("SVP", operand=Operand.LETTERS)
 def servo_polarity(fw: Firmware, cmd: Command) -> None:
     """SVP- inverts the servo output, KO included; SVP+ normal [S §2.9 step 5]."""
     for a, sign in axis_letters(fw, cmd, "+-"):
@@ -100,7 +87,6 @@ def servo_polarity(fw: Firmware, cmd: Command) -> None:
     fw.apply_gains()
 
 
-@command("EDI", "EDN")
 def encoder_direction(fw: Firmware, cmd: Command) -> None:
     """Encoder direction inverted / normal [S §2.9 step 5]: negates the encoder as the card
     reports it (RE, PE, the encoder words)."""
@@ -112,7 +98,6 @@ def _has_encoder(fw: Firmware, a: int) -> bool:
     return fw.params.ptype[a] in ("E", "M")
 
 
-@command("EA")
 def encoder_status(fw: Firmware, cmd: Command) -> str:
     """Five characters per axis: slip detection E/D, position maintenance E/D, slip S/N,
     in deadband D/N, encoder home H/N [spec §4.2 EA]; a command error on an axis without
@@ -134,7 +119,6 @@ def encoder_status(fw: Firmware, cmd: Command) -> str:
     return ",".join(out)
 
 
-@command("ER", operand=Operand.NUMBERS)
 def encoder_ratio(fw: Firmware, cmd: Command) -> None:
     """ER enc,motor: encoder counts per motor count, PSE axes only (spec §4.3, §4.4); the
     axis's position, velocity and acceleration operands are then encoder counts."""
@@ -152,7 +136,6 @@ def encoder_ratio(fw: Firmware, cmd: Command) -> None:
         fw.motion.core.set_encoder_scale(a, enc / mot)
 
 
-@command("UU", operand=Operand.NUMBERS)
 def user_units(fw: Firmware, cmd: Command) -> None:
     """UU counts per user unit (one per axis in AA/AM): later position, velocity and
     acceleration operands and the RP/RE/RV replies are in user units [spec §4.1, §4.3]. Not
@@ -164,7 +147,6 @@ def user_units(fw: Firmware, cmd: Command) -> None:
         fw.params.user_units[a] = v
 
 
-@command("UF")
 def user_units_off(fw: Firmware, cmd: Command) -> None:
     """User units off: counts again."""
     for a in fw.selected():

@@ -4,48 +4,41 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from vdevd.devices.oms.layout import AXIS_LETTERS, UPDATE_RATES
-from vdevd.devices.oms.syntax import Command, Operand
-from vdevd.devices.oms.table import CommandError, command
+from vdevmaps.oms import AXES, UPDATE_RATES
+
+from vdevd.devices.oms.syntax import Command, CommandError
 
 if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
 
 
-def _select_axis(fw: Firmware, cmd: Command) -> None:
-    fw.axis = fw.check_axis(AXIS_LETTERS.index(cmd.mnemonic[1]))
+def select_axis(fw: Firmware, cmd: Command) -> None:
+    """AX..AK: single-axis mode on that axis [S App C L1336-1342]; an axis the card does not
+    have is a command error."""
+    fw.axis = fw.check_axis(AXES.index(cmd.mnemonic[1]))
     fw.mode = "single"
 
 
-for _letter in AXIS_LETTERS:
-    command(f"A{_letter}")(_select_axis)
-
-
-@command("AA")
 def all_axes(fw: Firmware, cmd: Command) -> None:
     """Coordinated multi-axis mode: one operand per axis; GO starts them together."""
     fw.mode = "AA"
 
 
-@command("AM")
 def multitasking(fw: Firmware, cmd: Command) -> None:
     """Multitasking mode: one operand per axis, each axis runs its own queue."""
     fw.mode = "AM"
 
 
-@command("WY")
 def who_are_you(fw: Firmware, cmd: Command) -> str:
     """Model (MAXk-n000, A for 10 axes), firmware version, serial, FPGA [S §2.6]."""
     return fw.identity()
 
 
-@command("CA")
 def clear_done(fw: Firmware, cmd: Command) -> None:
     for a in fw.selected():
         fw.done[a] = False
 
 
-@command("IC")
 def interrupt_clear(fw: Firmware, cmd: Command) -> None:
     """Clear the done and slip latches of the addressed axes (scope assumed, README)."""
     for a in fw.selected():
@@ -53,7 +46,6 @@ def interrupt_clear(fw: Firmware, cmd: Command) -> None:
         fw.slip[a] = False
 
 
-@command("II", "EF")
 def accepted(fw: Firmware, cmd: Command) -> None:
     """Accepted without effect on this card (README)."""
 
@@ -71,12 +63,10 @@ def axis_status(fw: Firmware, a: int) -> str:
         "L" if limit else "N") + ("H" if m.home_active()[a] else "N")
 
 
-@command("QA")
 def query_axis(fw: Firmware, cmd: Command) -> str:
     return ",".join(axis_status(fw, a) for a in fw.selected())
 
 
-@command("RA")
 def report_axis(fw: Firmware, cmd: Command) -> str:
     """As QA, then clear the done flag(s) [spec §8.8]."""
     reply = query_axis(fw, cmd)
@@ -85,12 +75,10 @@ def report_axis(fw: Firmware, cmd: Command) -> str:
     return reply
 
 
-@command("QI")
 def query_all(fw: Firmware, cmd: Command) -> str:
     return ",".join(axis_status(fw, a) for a in range(fw.n))
 
 
-@command("RI")
 def report_all(fw: Firmware, cmd: Command) -> str:
     reply = query_all(fw, cmd)
     fw.done[:] = False
@@ -101,44 +89,36 @@ def _ints(values: list[int]) -> str:
     return ",".join(str(v) for v in values)
 
 
-@command("RP")
 def report_position(fw: Firmware, cmd: Command) -> str:
     """Motor position: counts, or user units when UU is on (firmware.report)."""
     return fw.report(fw.motor_position(), fw.selected())
 
 
-@command("RE")
 def report_encoder(fw: Firmware, cmd: Command) -> str:
     return fw.report(fw.encoder_position(), fw.selected(), "encoder")
 
 
-@command("RV")
 def report_velocity(fw: Firmware, cmd: Command) -> str:
     return fw.report(fw.motion.velocity(), fw.selected())
 
 
-@command("PP")
 def positions(fw: Firmware, cmd: Command) -> str:
     return fw.report(fw.motor_position(), list(range(fw.n)))
 
 
-@command("PE")
 def encoders(fw: Firmware, cmd: Command) -> str:
     return fw.report(fw.encoder_position(), list(range(fw.n)), "encoder")
 
 
-@command("RQC")
 def queue_free(fw: Firmware, cmd: Command) -> str:
     return _ints([fw.queues[a].free for a in fw.selected()])
 
 
-@command("#WS", "WS", operand=Operand.NUMBERS)
 def watchdog(fw: Firmware, cmd: Command) -> str:
     """The watchdog timeout counter, 0: the virtual card never misses its watchdog."""
     return "=0"
 
 
-@command("#UR", operand=Operand.NUMBERS)
 def update_rate(fw: Firmware, cmd: Command) -> str | None:
     """Update rate in Hz; `#UR?` answers without `=` (EPICS reads it with atol) [spec §8.10]."""
     if cmd.query:
@@ -153,23 +133,19 @@ def update_rate(fw: Firmware, cmd: Command) -> str | None:
     return None
 
 
-@command("APP")
 def store_defaults(fw: Firmware, cmd: Command) -> None:
     """Store the working parameters as the power-up defaults [S §2.13-2.14]."""
     fw.store_defaults()
 
 
-@command("RDF")
 def restore_factory(fw: Firmware, cmd: Command) -> None:
     fw.restore_defaults(factory=True)
 
 
-@command("RDP")
 def restore_power_up(fw: Firmware, cmd: Command) -> None:
     fw.restore_defaults(factory=False)
 
 
-@command("RS")
 def reset(fw: Firmware, cmd: Command) -> None:
     """Reset the controller (as the direct command RESET_CONTROLLER, README)."""
     fw.reset_requested = True

@@ -9,8 +9,7 @@ from typing import TYPE_CHECKING
 
 from vdevd.devices.oms.contour import Contour, ContourState, Point, Turn
 from vdevd.devices.oms.queue import Group, Run
-from vdevd.devices.oms.syntax import Command, Operand, beyond_axes, hex_words, numbers
-from vdevd.devices.oms.table import CommandError, command
+from vdevd.devices.oms.syntax import Command, CommandError, beyond_axes, hex_words, numbers
 
 if TYPE_CHECKING:
     from vdevd.devices.oms.firmware import Firmware
@@ -25,7 +24,6 @@ def _multi(fw: Firmware, cmd: Command) -> None:
 
 
 # -- MT: all axes arrive together ------------------------------------------------------------------
-@command("MT", operand=Operand.NUMBERS)
 def move_together(fw: Firmware, cmd: Command) -> None:
     """A straight line to absolute targets: every axis's velocity and acceleration scaled so
     that all arrive at once [S App C L1356]. The move starts when every axis's queue reaches
@@ -85,7 +83,6 @@ def _values(cmd: Command, text: str | None = None) -> list[float | None]:
         raise CommandError("malformed number") from None
 
 
-@command("VV", operand=Operand.NUMBERS)
 def vector_velocity(fw: Firmware, cmd: Command) -> None:
     """VV[n]v[,vend]: the velocity of the segments defined from now and the speed each ends
     at, counts/s (`VV1000,0` ends at rest, `VV v` runs on) [S App C; spec §4.3]. `VV[n]0`,
@@ -110,7 +107,6 @@ def vector_velocity(fw: Firmware, cmd: Command) -> None:
         fw.contours[task].end_velocity = end
 
 
-@command("VA", operand=Operand.NUMBERS)
 def vector_acceleration(fw: Firmware, cmd: Command) -> None:
     """VA[n]a: the acceleration of the segments defined from now, counts/s^2, for the ramps
     within them [E-traj L1422: `VA[n]` before each point]; before the first VP it is the
@@ -132,7 +128,6 @@ def _point(cmd: Command) -> tuple[bool, list[float | None]]:
     return flag == "R", _values(cmd, text)
 
 
-@command("VP", operand=Operand.POINT)
 def vector_point(fw: Firmware, cmd: Command) -> None:
     """VP[n][A|R]p,p...: a straight segment to absolute positions (A, or no flag), or by
     distances from the end of the segment before (R); an empty field keeps the axis where it
@@ -144,7 +139,6 @@ def vector_point(fw: Firmware, cmd: Command) -> None:
     c.add(Point(tuple(values), relative))
 
 
-@command("VC", operand=Operand.POINT)
 def vector_circle(fw: Firmware, cmd: Command) -> None:
     """VC[n][A|R]cx,cy,degrees: an arc of the first two axes around (cx, cy), absolute (A, or
     no flag) or from where the arc starts (R); negative degrees run clockwise (spec §8.14)."""
@@ -155,7 +149,6 @@ def vector_circle(fw: Firmware, cmd: Command) -> None:
     _contour(fw, cmd).add(Turn((cx, cy), relative, deg))
 
 
-@command("VIO", operand=Operand.HEX)
 def vector_io(fw: Firmware, cmd: Command) -> None:
     """VIO on,off,mask: at the start of the next segment the outputs in `mask` take the
     levels of `on` (README)."""
@@ -171,7 +164,6 @@ def vector_io(fw: Firmware, cmd: Command) -> None:
     c.io_on, c.io_off = on & mask, ~on & mask & 0xFFFF
 
 
-@command("VE")
 def vector_end(fw: Firmware, cmd: Command) -> None:
     """The end of the contour definition: the contour starts once every axis of it has reached
     this point of its queue (and, after VH[n]0, VG[n] has come), decelerating to rest at its
@@ -205,7 +197,6 @@ def vector_end(fw: Firmware, cmd: Command) -> None:
     fw.live_contours.append(c)
 
 
-@command("VID", operand=Operand.NUMBERS)
 def vector_done(fw: Firmware, cmd: Command) -> None:
     """VID[n]1 (or a bare VID[n]): when the task's contour ends, set the done flags of its
     axes and ring their doorbell bits; VID[n]0: do not [E-traj L1296: "done flag and
@@ -219,7 +210,6 @@ def vector_done(fw: Firmware, cmd: Command) -> None:
     c.notify = not values or values[0] == 1.0
 
 
-@command("VO", operand=Operand.NUMBERS)
 def vector_override(fw: Firmware, cmd: Command) -> None:
     """VO[n]=pct: a fixed velocity override 0-200 %, at once, in place of a VOA input [S App
     C]; a bare `VO` goes back to the fixed override in force (100 % unless VO set one)."""
@@ -232,7 +222,6 @@ def vector_override(fw: Firmware, cmd: Command) -> None:
     fw.override_analog.pop(task, None)
 
 
-@command("VOA", operand=Operand.NUMBERS)
 def vector_override_analog(fw: Firmware, cmd: Command) -> None:
     """VOA[n]ch[,full]: the override follows analog input `ch`, 100 % at `full` volts (5 V
     unless given), clamped to 0-200 %, sampled every update cycle [S §4.5.1, App C `VOA0,5`];
@@ -251,7 +240,6 @@ def vector_override_analog(fw: Firmware, cmd: Command) -> None:
     fw.override_analog[task] = (int(ch), full)
 
 
-@command("VH", operand=Operand.NUMBERS)
 def vector_hold(fw: Firmware, cmd: Command) -> None:
     """VH[n]0: "don't start until I tell you to start" [E-traj L1300-1301]: the task's next
     contour waits at its start for VG[n]. VH[n]1: halt [E-traj L812-816]: the running contour
@@ -267,7 +255,6 @@ def vector_hold(fw: Firmware, cmd: Command) -> None:
         fw.vector_released.discard(task)
 
 
-@command("VG")
 def vector_go(fw: Firmware, cmd: Command) -> None:
     """VG[n] ("GO!" [E-traj L579-585]): resume a halted contour; start the contour VH[n]0
     holds at its start, or, if it has not reached its start yet, let it start when it does."""

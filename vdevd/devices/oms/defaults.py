@@ -17,8 +17,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from vdevmaps.oms import UPDATE_RATES
+
 from vdevd.devices.oms.capture import HOME_EVENTS
-from vdevd.devices.oms.layout import UPDATE_RATES
 from vdevd.devices.oms.ssi import CLOCKS, MAX_BITS
 
 if TYPE_CHECKING:

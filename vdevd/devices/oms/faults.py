@@ -16,7 +16,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from vdevd.devices.oms.layout import Doorbell
+from vdevmaps.oms import AxisFlags
+
 from vdevd.rt.axes import AxisFlag
 
 if TYPE_CHECKING:
@@ -46,4 +47,4 @@ def react_to_faults(fw: Firmware, events: int) -> None:
 
 def _report(fw: Firmware, a: int) -> None:
     fw.slip[a] = True
-    fw.flag(a, Doorbell.SLIP)
+    fw.flag(a, AxisFlags.SLIP)

@@ -2,8 +2,8 @@
 
 The card (card.py) feeds it the bytes of the command ring and runs `cycle()` every update
 period; the firmware answers through `replies` (posted one at a time by the card, spec oms.md
-§2.5) and raises doorbell bits through `ring(bits)`. Handlers of the commands live in the
-`cmd_*` modules (table.py).
+§2.5) and raises doorbell bits through `ring(bits)`. The command table (commands.py) names the
+handlers, functions of the `cmd_*` modules; it is bound to them once, here.
 """
 
 from __future__ import annotations
@@ -14,30 +14,24 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from vdevmaps.oms import AXES, AxisFlags, MaxkDoorbell
 
-from vdevd.devices.oms import (  # noqa: F401 (they register their commands)
-    cmd_io,
-    cmd_motion,
-    cmd_servo,
-    cmd_system,
-    cmd_vector,
-)
+from vdevd.devices.oms import cmd_io, cmd_motion, cmd_servo, cmd_system, cmd_vector
 from vdevd.devices.oms.capture import Capture
+from vdevd.devices.oms.commands import COMMANDS, OPERANDS
 from vdevd.devices.oms.contour import Contour, ContourState
 from vdevd.devices.oms.defaults import image as defaults_image
 from vdevd.devices.oms.defaults import load_io
 from vdevd.devices.oms.faults import FAULT_EVENTS, react_to_faults
-from vdevd.devices.oms.layout import AXIS_LETTERS, Doorbell
 from vdevd.devices.oms.layout import limit_word as pack_limit_word
 from vdevd.devices.oms.motion import HARD_STOP, OmsMotion
 from vdevd.devices.oms.params import UNIT_OPERANDS, Params
 from vdevd.devices.oms.queue import AxisQueue, Group, Item, Run
 from vdevd.devices.oms.ssi import Ssi
-from vdevd.devices.oms.syntax import Command, Lexer, beyond_axes, numbers
-from vdevd.devices.oms.table import TABLE, CommandError
+from vdevd.devices.oms.syntax import Command, CommandError, Lexer, beyond_axes, numbers
 
-_LEXER_TABLE = {name: spec.operand for name, spec in TABLE.items()}
-_HANDLERS = {name: spec.handler for name, spec in TABLE.items()}
+#: mnemonic -> handler(firmware, command) -> reply text or None
+_HANDLERS = COMMANDS.bind(cmd_system, cmd_motion, cmd_servo, cmd_io, cmd_vector)
 
 
 class Firmware:
@@ -62,7 +56,7 @@ class Firmware:
         self.serial = serial
         self.factory_types = list(types)
         self.params = Params(n, types)
-        self.lexer = Lexer(_LEXER_TABLE)
+        self.lexer = Lexer(OPERANDS)
         self.replies: deque[bytes] = deque()
         self.last_error = ""
         self.errors = 0
@@ -143,7 +137,7 @@ class Firmware:
     def command_error(self, why: str) -> None:
         self.last_error = why
         self.errors += 1
-        self.ring_doorbell(Doorbell.COMMAND_ERROR)
+        self.ring_doorbell(_COMMAND_ERROR)
 
     # -- the update cycle ---------------------------------------------------------------------------
     def cycle(self) -> None:
@@ -164,19 +158,20 @@ class Firmware:
         """Over-travel: a limit stopped or refused a motion [spec §3.4, §5.6]."""
         for a in self.motion.new_limit_stops().tolist():
             self.flush(a)
-            self.flag(a, Doorbell.OVERTRAVEL)
+            self.flag(a, AxisFlags.OVERTRAVEL)
         if events & FAULT_EVENTS:
             react_to_faults(self, events)
 
     # -- events to the host -------------------------------------------------------------------------
-    def flag(self, a: int, base: int) -> None:
-        """A done (base 0), over-travel (8) or slip (16) event of axis a: ODBR bit base + a for
-        X..S; for W and K the W/K status word bit `base` and ODBR bit 25/26 [S §3.4.5]."""
+    def flag(self, a: int, event: int) -> None:
+        """A done, over-travel or slip event (`AxisFlags`) of axis a: ODBR bit `event` << a for
+        X..S [S §3.4.1-3.4.3]; for W and K the W/K status word bit `event` and ODBR bit 25/26
+        [S §3.4.5]."""
         if a < 8:
-            self.ring_doorbell(1 << (base + a))
+            self.ring_doorbell(int(event) << a)
         else:
-            self.wk_flags[a - 8] |= 1 << base
-            self.ring_doorbell(Doorbell.W_NOTIFY if a == 8 else Doorbell.K_NOTIFY)
+            self.wk_flags[a - 8] |= int(event)
+            self.ring_doorbell(_WK_NOTIFICATION[a - 8])
 
     # -- helpers for handlers -----------------------------------------------------------------------
     def selected(self) -> list[int]:
@@ -372,7 +367,7 @@ class Firmware:
             m.direction[a] = 1.0 if pos[a] > here[a] else -1.0
             if a in past:
                 m.travel_stop(a, pos[a] > here[a])
-            self.flag(a, Doorbell.OVERTRAVEL)
+            self.flag(a, AxisFlags.OVERTRAVEL)
             self.flush(a, ramp=a not in hard)
         if hard and c.state is not ContourState.ENDED:
             self.drop_contours(hard[0])
@@ -437,7 +432,7 @@ class Firmware:
     def set_done(self, a: int) -> None:
         """ID reached: the axis's done flag and its doorbell bit."""
         self.done[a] = True
-        self.flag(a, Doorbell.DONE)
+        self.flag(a, AxisFlags.DONE)
 
     def kill(self, axes: list[int]) -> None:
         """Stop at once, without deceleration, and flush the queues [spec §2.6]."""
@@ -527,15 +522,17 @@ class Firmware:
         m.apply_limits()
 
     def letter(self, a: int) -> str:
-        return AXIS_LETTERS[a]
+        return AXES[a]
 
     def check_axis(self, a: int) -> int:
         if not 0 <= a < self.n:
-            raise CommandError(f"no axis {AXIS_LETTERS[a]} on this card")
+            raise CommandError(f"no axis {AXES[a]} on this card")
         return a
 
 
 _NOISE = 1e-6  # counts: an arc's cos/sin rounding is no motion
+_COMMAND_ERROR = int(MaxkDoorbell.COMMAND_ERROR)
+_WK_NOTIFICATION = (int(MaxkDoorbell.W_NOTIFICATION), int(MaxkDoorbell.K_NOTIFICATION))
 
 
 def _until_ended(c: Contour) -> Callable[[], Run]:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from vdevd.devices.oms.layout import INTA_SOURCES, Mu, Omisr
+from vdevmaps.oms import INTA_SOURCES, Mu, Omisr
 
 _OM0I, _OM1I, _ODI = int(Omisr.OM0I), int(Omisr.OM1I), int(Omisr.ODI)
 _DOORBELL_BITS = 0x1FFFFFFF  # bits 29-31 of the MPC824x doorbell are reserved

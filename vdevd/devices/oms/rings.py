@@ -12,14 +12,15 @@ from __future__ import annotations
 
 import struct
 
-from vdevd.devices.oms.layout import CAPTURE_ENTRIES, CAPTURE_ENTRY, RING_SIZE, Shm
+from vdevmaps.oms import CAPTURE_ENTRY_SIZE, CAPTURE_SLOTS, RING_SIZE, Shm
 
 _U32 = struct.Struct(">I")
 _ENTRY = struct.Struct(">iBBHH")
 # the offsets as plain ints (an IntEnum costs a conversion on every access)
-_SEMAPHORE, _CMD_INSERT, _CMD_PROCESS = int(Shm.SEMAPHORE), int(Shm.CMD_INSERT), int(Shm.CMD_PROCESS)
-_RSP_INSERT, _RSP_PROCESS = int(Shm.RSP_INSERT), int(Shm.RSP_PROCESS)
-_CMD_RING, _RSP_RING = int(Shm.CMD_RING), int(Shm.RSP_RING)
+_SEMAPHORE = int(Shm.MESSAGE_SEMAPHORE)
+_CMD_INSERT, _CMD_PROCESS = int(Shm.COMMAND_INSERT), int(Shm.COMMAND_PROCESS)
+_RSP_INSERT, _RSP_PROCESS = int(Shm.RESPONSE_INSERT), int(Shm.RESPONSE_PROCESS)
+_CMD_RING, _RSP_RING = int(Shm.COMMAND_RING), int(Shm.RESPONSE_RING)
 
 
 def u32(buf: bytearray, offset: int) -> int:
@@ -73,11 +74,11 @@ def push_capture(buf: bytearray, position: int, axis: int, home_bits: int, risin
                  falling: int) -> None:
     """Store one capture entry at the insert index; when the ring is full the removal index is
     pushed on (the oldest entry is lost) [S §3.7]."""
-    insert = buf[Shm.CAPTURE] % CAPTURE_ENTRIES
-    at = Shm.CAPTURE + 2 + insert * CAPTURE_ENTRY
+    insert = buf[Shm.CAPTURE_INSERT] % CAPTURE_SLOTS
+    at = Shm.CAPTURE_ENTRIES + insert * CAPTURE_ENTRY_SIZE
     position = (position + 2**31) % 2**32 - 2**31
     _ENTRY.pack_into(buf, at, position, axis, home_bits, rising & 0xFFFF, falling & 0xFFFF)
-    insert = (insert + 1) % CAPTURE_ENTRIES
-    buf[Shm.CAPTURE] = insert
-    if insert == buf[Shm.CAPTURE + 1] % CAPTURE_ENTRIES:
-        buf[Shm.CAPTURE + 1] = (insert + 1) % CAPTURE_ENTRIES
+    insert = (insert + 1) % CAPTURE_SLOTS
+    buf[Shm.CAPTURE_INSERT] = insert
+    if insert == buf[Shm.CAPTURE_REMOVAL] % CAPTURE_SLOTS:
+        buf[Shm.CAPTURE_REMOVAL] = (insert + 1) % CAPTURE_SLOTS

@@ -31,6 +31,11 @@ class Operand(enum.Enum):
     POINT = "point"  # numbers after an optional A (absolute) or R (relative) flag (`VP[1]A,5`)
 
 
+class CommandError(Exception):
+    """The firmware refuses a command: ODBR bit 24, no reply, nothing else changes [S §3.4.4;
+    spec §4.4]. A handler raises it; the firmware flags it and parses on."""
+
+
 @dataclass(frozen=True, slots=True)
 class Command:
     """One command: mnemonic, task index (`VV[2]`), operand text, and an error if malformed."""
