@@ -150,6 +150,11 @@ class Card:
     async def close_services(self) -> None:
         """Stop what `open_services` started (override)."""
 
+    def listeners(self) -> dict[str, str]:
+        """The bound endpoints of what `open_services` started, by the name the card's config
+        gives each (`vdevd serve --ready-file`); override with them."""
+        return {}
+
     def nvram(self) -> dict[str, Any]:
         """What the card keeps in flash, to be saved atomically (override)."""
         return {}

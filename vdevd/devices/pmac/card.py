@@ -317,6 +317,9 @@ class PmacCard(Card):
             await self._server.wait_closed()
             self._server = None
 
+    def listeners(self) -> dict[str, str]:
+        return {"ethernet": self.ethernet_endpoint} if self.ethernet_endpoint else {}
+
     def describe(self) -> dict[str, Any]:
         info = super().describe()
         info.update(device=self.device, motors=self.motors, ethernet=self.ethernet_endpoint)
