@@ -357,9 +357,11 @@ class Rack:
             raise VdevError(ErrorCode.BAD_PARAM, "sim step takes exactly one of ns, ticks, seconds")
         if "ns" in args:
             ns = args["ns"]
+        elif "card" in args:  # the span of the card's next `ticks` ticks, exact
+            card, n = self.card(args["card"]), args["ticks"]
+            ns = card.time_of_tick(card.ticks + n) - card.time_of_tick(card.ticks)
         elif "ticks" in args:
-            period = self.card(args["card"]).period_ns if "card" in args else self.sched.tick_ns
-            ns = args["ticks"] * period
+            ns = args["ticks"] * self.sched.tick_ns
         else:
             seconds = float(args["seconds"])
             if not 0 <= seconds <= MAX_WAIT_NS / 1e9:  # also NaN and infinities

@@ -95,12 +95,11 @@ class GenericServoCard(Card):
     def tick(self, n: int) -> int:
         """Run up to n ticks in the motion core; stop at a tick that interrupted the host."""
         done = 0
-        period = self.period_ns
         while done < n:
             k, events = self.core.run(n - done)
             done += k
             self.ticks += k
-            self.now_ns = self.ticks * period
+            self.now_ns = self.time_of_tick(self.ticks)
             if events:
                 self._on_events()
                 if self.pause:
