@@ -34,7 +34,7 @@ from vdevd.waits import Reply, Waiter, Waits, make_waiter
 
 log = logging.getLogger("vdevd.rack")
 
-__all__ = ["ClockMode", "EventSink", "NullSink", "Rack", "Reply", "Waiter"]
+__all__ = ["ClockMode", "EventSink", "NullSink", "Rack"]
 
 
 class EventSink(Protocol):
