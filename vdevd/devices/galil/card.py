@@ -2,8 +2,10 @@
 
 The card is the hardware around the firmware (firmware.py): the A16 window (bus.py, the register
 map of `vdevmaps.galil`) behind region `a16`, the VME interrupt line `irq` at the jumpered level,
-and the backdoor. Every servo sample it runs the firmware's `step()`; with `decode = "arrival"` a
-host write that completes a command runs the firmware's `serve()` at once.
+the stage (the axis world of `[[card.axis]]`, sensed after the motion of every sample and put on
+the limit, home, index and latch inputs) and the backdoor. Every servo sample it runs the
+firmware's `step()`; with `decode = "arrival"` a host write that completes a command runs the
+firmware's `serve()` at once. A VME card: no PCI configuration space.
 """
 
 from __future__ import annotations
