@@ -12,7 +12,16 @@ from typing import Any
 import pytest
 import vdevclient
 
-from tests.devices.galil.conftest import CARD, TM_S, Dmc, card_config, stop_distance, stored_acc
+from tests.devices.galil.conftest import (
+    CARD,
+    TM_S,
+    Dmc,
+    card_config,
+    host_command,
+    stop_distance,
+    stored_acc,
+)
+from tests.devices.galil.test_interrupts import LIMIT_SWITCH, enable, service, status, wait
 from vdevd.devices.base import CardContext
 from vdevd.devices.galil.card import GalilCard
 from vdevd.testing import DaemonThread
@@ -137,6 +146,19 @@ def test_m_ch3_limit_switch_input_jg_into_the_stages_limit_stops_with_its_stop_c
     dmc.cmd("PA 0;BG X;AM X")
     assert dmc.value("SC X") == AT_POSITION
     assert ts(dmc) & ts_bit
+
+
+def test_m_ch4_configuring_interrupts_the_stages_limit_raises_c0(
+        rack: vdevclient.Rack, a16: vdevclient.Region) -> None:
+    """EI bit 10: a jog reaching the stage's forward limit queues C0 [M Ch4 §Configuring
+    Interrupts, §Servicing Interrupts]; nothing but the configured stage trips the switch."""
+    enable(a16)
+    host_command(a16, b"EI 1024,,32\r")
+    host_command(a16, b"JG 20000;BGX\r", replies=2)
+    event = wait(rack.card(CARD), timeout_s=5.0)
+    assert event["status"] == status(LIMIT_SWITCH, 32)
+    assert service(a16) == LIMIT_SWITCH
+    assert host_command(a16, b"MG _LFX\r").strip().startswith(b"0")
 
 
 def test_m_ch6_independent_axis_positioning_a_move_past_the_limit_stops_at_the_switch(
