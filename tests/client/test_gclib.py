@@ -166,3 +166,27 @@ main()
     out = capsys.readouterr().out.splitlines()
     assert out == [f"galil0 on {daemon.endpoint}, DMC1348 Rev 1.1a", "position 0000002000",
                    "Unexpected GclibError: question mark returned by controller"]
+
+
+def test_m_ch3_home_switch_input_hm_and_a_jog_into_the_limit_on_a_configured_stage() -> None:
+    """An application homes X with gclib [M Ch3 §Home Switch Input] on a stage whose switches are
+    only in the card's `[[card.axis]]` table: HM;BG ends on the index (3500) as position 0 with
+    SC 10; a jog then stops at the forward limit (physical 20000: 16500 counts) with SC 2 and
+    TS bit 3 clear [M Ch3 §Limit Switch Input; spec §4.4]."""
+    stage = {"limits": [-20_000, 20_000], "home": [3000, 30_000],
+             "index": {"period": 4096, "phase": 3500}}
+    with DaemonThread(rack_config(card(GALIL, "galil0", axis=[stage]))) as d:
+        g = gclib.py()
+        g.GOpen(f"galil0 --endpoint {d.endpoint}")
+        try:
+            g.GCommand("SP 5000;AC 256000;DC 256000;HM X;BG X")
+            g.GMotionComplete("X")
+            assert int(float(g.GCommand("SC X"))) == 10
+            assert g.GCommand("RP X") == "0000000000"
+            g.GCommand("JG 5000;BG X")
+            g.GMotionComplete("X")
+            assert int(float(g.GCommand("SC X"))) == 2
+            assert not int(float(g.GCommand("TS X"))) & 0x08
+            assert 16_500 < float(g.GCommand("RP X")) < 16_500 + 60
+        finally:
+            g.GClose()

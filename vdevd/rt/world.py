@@ -196,6 +196,11 @@ class AxisWorld:
         self.home_lo[axis], self.home_hi[axis] = low, high
         self._mechanics_changed()
 
+    def remove_home_window(self, axis: int) -> None:
+        """No home switch on the stage of `axis` (a force still holds the input active)."""
+        self.home_lo[axis], self.home_hi[axis] = np.inf, -np.inf
+        self._mechanics_changed()
+
     def set_limits(self, axis: int, negative: float, positive: float) -> None:
         if negative >= positive:
             raise ValueError(f"limits [{negative}, {positive}]: need negative < positive")

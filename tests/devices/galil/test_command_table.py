@@ -75,3 +75,12 @@ def test_a_command_not_emulated_has_a_reason_and_a_tc_code() -> None:
 def test_every_command_of_the_table_binds_to_the_interpreter() -> None:
     handlers = COMMANDS.bind(Interpreter.__new__(Interpreter))
     assert set(handlers) == set(COMMANDS)
+
+
+def test_the_readme_not_emulated_table_lists_the_table_s_commands() -> None:
+    """README.md "Not emulated" names every command of `not_emulated`, and no other."""
+    readme = (Path(__file__).resolve().parents[3] / "vdevd" / "devices" / "galil" / "README.md")
+    section = readme.read_text(encoding="utf-8").split("\n## Not emulated\n", 1)[1].split("\n## ")[0]
+    listed = {name for line in section.splitlines() if line.startswith("| `")
+              for name in line.split("`")[1].split()}
+    assert listed == set(COMMANDS.not_emulated)

@@ -2,27 +2,33 @@
 
 The card is the hardware around the firmware (firmware.py): the A16 window (bus.py, the register
 map of `vdevmaps.galil`) behind region `a16`, the VME interrupt line `irq` at the jumpered level,
-and the backdoor. Every servo sample it runs the firmware's `step()`; with `decode = "arrival"` a
-host write that completes a command runs the firmware's `serve()` at once.
+the stage (the axis world of `[[card.axis]]`, sensed after the motion of every sample and put on
+the limit, home, index and latch inputs) and the backdoor. Every servo sample it runs the
+firmware's `step()`; with `decode = "arrival"` a host write that completes a command runs the
+firmware's `serve()` at once. A VME card: no PCI configuration space.
 """
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
 from vdevmaps.galil import WINDOW_SIZE, A16Reg
 
-from vdevd.devices.base import Card, CardContext, Option, axis_number, control
+from vdevd.devices.base import Card, CardContext, Option, control
 from vdevd.devices.galil.bus import FREEZE_MODES, A16Window
 from vdevd.devices.galil.firmware import Firmware
 from vdevd.devices.galil.params import COUNTS_PER_VOLT
-from vdevd.devices.galil.syntax import AXIS_LETTERS
+from vdevd.devices.galil.syntax import AXIS_ALIASES, AXIS_LETTERS
 from vdevd.region import Region
 from vdevd.rt import PlantKind
 
 _DATA = int(A16Reg.DATA)  # a plain int: an enum member costs a lookup on every access
+DEFAULT_INDEX_PERIOD = 4096.0  # counts between index pulses when [[card.axis]] gives none
+SYNONYMS = AXIS_ALIASES[: len(AXIS_LETTERS)]  # A B C D name X Y Z W [M "Using This Manual"]
+END_OF_TRAVEL = sys.float_info.max  # set_home_edge: the switch reaches the end of travel
 
 
 class GalilCard(Card):
@@ -43,21 +49,31 @@ class GalilCard(Card):
                          help="decode a command when its terminator arrives, or at the next sample"),
     }
 
+    #: the manual's axis letters; A B C D are synonyms of X Y Z W (any case)
+    axis_letters: ClassVar[str] = AXIS_LETTERS
+    control_params: ClassVar[Mapping[str, Mapping[str, str]]] = {
+        "set_input": {"input": "line"}, "set_analog": {"input": "channel"}}
+
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         super().__init__(name, config, ctx)
-        cfg = self.config
-        self.n = int(cfg.get("axes") or 4)
-        self.configured_tm_us = int(cfg.get("tm_us") or 1000)
-        if not cfg.get("period_ns"):
+        opts = self.opts
+        self.n = opts.axes
+        self.configured_tm_us = opts.tm_us
+        if opts.period_ns is None:
             self.period_ns = self.configured_tm_us * 1000
-        base = int(cfg.get("base", 0xFFF0))
-        if base % WINDOW_SIZE:
-            raise ValueError(f"base: {base:#x} is not a multiple of 16 (A4..A15 jumpers)")
-        self.base = base
-        self.irq_level = int(cfg.get("irq_level") or 5)
-        self.plant = str(cfg.get("plant") or "servo")
-        self.decode_on_arrival = str(cfg.get("decode") or "arrival") == "arrival"
-        self.bus = A16Window(freeze_mode=str(cfg.get("freeze_mode") or "toggle_n5"))
+        if opts.base % WINDOW_SIZE:
+            raise ValueError(f"base: {opts.base:#x} is not a multiple of 16 (A4..A15 jumpers)")
+        self.base = opts.base
+        self.irq_level = opts.irq_level
+        self.plant = opts.plant
+        self.decode_on_arrival = opts.decode == "arrival"
+        self.make_world(self.n)
+        for a in range(self.n):  # no [[card.axis]] index: one pulse per 4096 counts (README.md)
+            if a >= len(opts.axis) or opts.axis[a].index is None:
+                self.world.set_index(a, DEFAULT_INDEX_PERIOD, 0.0)
+        self._probing = any(len(p) for p in self.world.probes)
+        self._phys_prev = np.zeros(self.n)
+        self.bus = A16Window(freeze_mode=opts.freeze_mode)
         self.a16 = self.add_region(Region(
             "a16", WINDOW_SIZE, widths=(1,), endian="big", aligned=False,
             description="A16 short I/O, D08(O): FIFOs N+1, control N+3, secondary FIFO N+5/N+7"))
@@ -67,8 +83,10 @@ class GalilCard(Card):
         self.irq = self.add_irq("irq")
         self.firmware = Firmware(self.n, self.period_ns, self.plant, self.configured_tm_us, self.bus,
                                  raise_irq=self._raise_irq, clear_irq=self.irq.clear,
-                                 clock=lambda: self.now_ns,
-                                 record_endian=str(cfg.get("record_endian") or "little"))
+                                 clock=lambda: self.now_ns, record_endian=opts.record_endian,
+                                 sense=self._sense)
+        self.firmware.on_reset = self._world_changed  # RS: the world on the new motion firmware
+        self._world_changed()
 
     def reset(self) -> None:
         """Power-on: the window empty, the line released, the firmware reset."""
@@ -117,82 +135,110 @@ class GalilCard(Card):
         the jumpered level (README.md "Interrupts")."""
         self.irq.trigger(status | self.irq_level << 16)
 
-    # -- backdoor ----------------------------------------------------------------------------------
-    def _axis(self, axis: str | int) -> int:
-        return axis_number(axis, AXIS_LETTERS, self.n)
+    # -- the axis world (README.md "Axis world") ---------------------------------------------------
+    def _sense(self) -> None:
+        """After the motion of every sample: the switches where the stage now is, and the probe
+        positions it crossed (only for a world with mechanics or probes)."""
+        if self.world.mechanical:
+            self.sense_world()
+        if self._probing:
+            self._sense_probes()
 
-    @control()
-    def set_switches(self, axis: str, forward_limit: bool | None = None,
-                     reverse_limit: bool | None = None, home: int | None = None) -> None:
-        """Limit switches (True = tripped) and the home input logic level of one axis."""
-        a, m = self._axis(axis), self.firmware.motion
-        self.firmware.set_limits(a, forward_limit, reverse_limit)
-        if home is not None:
-            m.set_home_edge(a, None)
-            m.home_input[a] = bool(home)
+    def _sense_probes(self) -> None:
+        """A probe position crossed pulses the axis's latch input; the latch reads the encoder
+        at the probe position (physical position plus the card's zero)."""
+        core, world = self.firmware.motion.core, self.world
+        now = core.physical()
+        for a in range(self.n):
+            at = world.probe_between(a, float(self._phys_prev[a]), float(now[a]))
+            if at is not None:
+                reading = np.floor((at + float(core.zero[a])) * float(core.encoder_scale[a]))
+                self.firmware.probe(a, float(reading) + float(self.firmware.motion.enc_offset[a]))
+        self._phys_prev = now
 
-    @control()
-    def set_home_edge(self, axis: str, position: float | None = None) -> None:
-        """A home switch at `position`: the input reads 1 below it and 0 above it (None: the
-        level set by set_switches)."""
-        self.firmware.motion.set_home_edge(self._axis(axis), position)
+    def physical_positions(self) -> np.ndarray:
+        """Where the stage is: the core's position less every zero DP, HM, FI and RS defined
+        (DE on a servo axis defines the auxiliary encoder only; on a stepper axis TP's offset)."""
+        return self.firmware.motion.core.physical()
 
-    @control()
-    def set_index(self, axis: str, period: float = 4096, phase: float = 0) -> None:
-        """Encoder index pulses at phase + k * period counts (default one per 4096 counts)."""
-        if not period > 0:
-            raise ValueError("period must be positive")
-        a, m = self._axis(axis), self.firmware.motion
-        m.index_period[a], m.index_phase[a] = float(period), float(phase)
+    def apply_world(self) -> None:
+        """The world's levels and faults on the card's inputs: a tripped switch is an active
+        FLS/RLS input, an active home switch reads 0 on the HOME input (README.md "Backdoor")."""
+        w, fw = self.world, self.firmware
+        m = fw.motion
+        core = m.core
+        fw.set_limits(w.limit_pos, w.limit_neg)
+        np.logical_not(w.home, out=m.home_input)
+        m.index_period[:], m.index_phase[:] = w.index_period, w.index_phase
+        servo = core.kinds == PlantKind.SERVO
+        for a in np.flatnonzero(servo).tolist():  # no amplifier-fault input: the motor coasts
+            core.plant.set(a, peak_torque=1e-9 if w.amp_fault[a] else np.inf)
+        core.set_inputs(amp_fault=w.amp_fault & ~servo, encoder_loss=w.encoder_loss)
+        for a in np.flatnonzero(core.jammed != w.jammed).tolist():
+            core.set_jammed(a, bool(w.jammed[a]))
+        fw.set_abort(w.estop)
 
-    @control()
-    def set_abort(self, active: bool) -> None:
-        """The ABORT input: motion stops at once, OE1 axes turn off [M Ch3 §Abort Input]."""
-        self.firmware.set_abort(active)
+    def axis_index(self, axis: str | int) -> int:
+        """X Y Z W, or A B C D (the manual's synonyms), any case; or 0..n-1."""
+        if isinstance(axis, str) and len(axis) == 1 and axis.upper() in SYNONYMS:
+            axis = AXIS_LETTERS[SYNONYMS.index(axis.upper())]
+        return super().axis_index(axis)
 
-    @control()
-    def set_input(self, input: int, level: int) -> None:
+    def drive_input(self, line: int, level: bool) -> None:
         """General input IN1..IN8 logic level; a falling edge latches an armed axis (IN1..IN4)
         and raises an enabled input interrupt (EI bit 15)."""
-        if not 1 <= input <= 8:
-            raise ValueError("input must be 1..8")
-        self.firmware.set_input(input, level)
+        if isinstance(line, bool) or not isinstance(line, int) or not 1 <= line <= 8:
+            raise ValueError(f"line {line!r} outside 1..8 (IN1..IN8)")
+        self.firmware.set_input(line, level)
 
-    @control()
-    def set_analog(self, input: int, volts: float) -> None:
+    def drive_analog(self, channel: int, volts: float) -> None:
         """Analog input AN1..AN8 in volts (+-10 V, 12-bit)."""
-        if not 1 <= input <= 8:
-            raise ValueError("input must be 1..8")
+        if isinstance(channel, bool) or not isinstance(channel, int) or not 1 <= channel <= 8:
+            raise ValueError(f"channel {channel!r} outside 1..8 (AN1..AN8)")
         step = 20 / 4096  # 4096 levels from -10 V to 10 V - one step
-        self.firmware.analog[input - 1] = min(max(round(float(volts) / step), -2048), 2047) * step
+        self.firmware.analog[channel - 1] = min(max(round(volts / step), -2048), 2047) * step
 
+    def drive_estop(self, active: bool) -> None:
+        """The ABORT input: motion stops at once, OE1 axes turn off [M Ch3 §Abort Input]."""
+        self.world.estop = active
+        self.firmware.set_abort(active)
+
+    # -- backdoor: the card's own actions ------------------------------------------------------------
     @control()
-    def set_amp_fault(self, axis: str, active: bool) -> None:
-        """An amplifier fault: the amplifier stops driving the motor (it coasts), the card keeps
-        servoing, so the position error grows until ER/OE act as on the real card."""
-        a = self._axis(axis)
-        core = self.firmware.motion.core
-        if core.kinds[a] == PlantKind.SERVO:
-            core.plant.set(a, peak_torque=1e-9 if active else np.inf)
+    def set_home_edge(self, axis: str | int, position: float | None = None) -> None:
+        """A home switch from `position` to the end of travel (physical counts): the HOME input
+        reads 1 below it, 0 at and above it (None: no switch there; set_home drives the input)."""
+        a = self.axis_index(axis)
+        if position is None:
+            self.world.remove_home_window(a)
         else:
-            fault = core.amp_fault.copy()
-            fault[a] = bool(active)
-            core.set_inputs(amp_fault=fault)
+            self.world.set_home_window(a, float(position), END_OF_TRAVEL)
+        self._world_changed()
 
     @control()
-    def set_encoder_loss(self, axis: str, active: bool) -> None:
-        """A lost encoder: the position reading freezes (the servo then runs away)."""
-        a = self._axis(axis)
-        core = self.firmware.motion.core
-        loss = core.encoder_loss.copy()
-        loss[a] = bool(active)
-        core.set_inputs(encoder_loss=loss)
-
-    @control()
-    def set_friction(self, axis: str, volts: float) -> None:
+    def set_friction(self, axis: str | int, volts: float) -> None:
         """Coulomb friction of a servo motor, as the DAC voltage it takes to overcome it."""
         if not volts >= 0:
             raise ValueError("volts must be >= 0")
-        a = self._axis(axis)
+        a = self.axis_index(axis)
         core = self.firmware.motion.core
         core.plant.set(a, coulomb=float(volts) * COUNTS_PER_VOLT * float(core.plant.amp_gain[a]))
+
+    # -- backdoor: deprecated names ----------------------------------------------------------------
+    @control(deprecated="set_limit")
+    def set_switches(self, axis: str | int, forward_limit: bool | None = None,
+                     reverse_limit: bool | None = None, home: int | None = None) -> None:
+        """Limit switches (True = tripped: set_limit positive/negative) and the home input's
+        logic level (0 = switch active: set_home)."""
+        self.axis_index(axis)
+        if forward_limit is not None:
+            self.set_limit(axis, "positive", bool(forward_limit))
+        if reverse_limit is not None:
+            self.set_limit(axis, "negative", bool(reverse_limit))
+        if home is not None:
+            self.set_home(axis, not home)
+
+    @control(deprecated="set_estop")
+    def set_abort(self, active: bool) -> None:
+        """The ABORT input (set_estop)."""
+        self.set_estop(active)

@@ -42,7 +42,9 @@ class Firmware:
 
     def __init__(self, n: int, period_ns: int, plant: str, tm_us: int, bus: A16Window, *,
                  raise_irq: Callable[[int], None], clear_irq: Callable[[], None],
-                 clock: Callable[[], int] | None = None, record_endian: str = "little") -> None:
+                 clock: Callable[[], int] | None = None, record_endian: str = "little",
+                 sense: Callable[[], None] | None = None,
+                 on_reset: Callable[[], None] | None = None) -> None:
         self.n = n
         self.period_ns = period_ns
         self.plant = plant
@@ -52,6 +54,8 @@ class Firmware:
         self.raise_irq = raise_irq
         self.clear_irq = clear_irq
         self.clock = clock
+        self.sense = sense
+        self.on_reset = on_reset
         bus.on_assert = self._assert
         bus.on_clear = self.host_cleared
         self._dtype = record_dtype(n, record_endian)
@@ -70,8 +74,13 @@ class Firmware:
     # -- power-on, RS and ^R^S ---------------------------------------------------------------------
     def reset(self) -> None:
         """Power-on / RS: default parameters, positions 0, variables gone, interrupts and record
-        off [M Ch4 §Clearing FIFO Buffer; spec §1.4]."""
+        off [M Ch4 §Clearing FIFO Buffer; spec §1.4]. The stage does not move: its physical
+        positions carry over (the switches stay where they are) and the encoders read 0 there."""
+        old = getattr(self, "motion", None)
         self.motion = GalilMotion(self.n, self.period_ns, self.plant)
+        self.motion.sense = self.sense
+        if old is not None:
+            self.motion.core.zero[:] = -old.core.physical()
         self.variables: dict[str, float] = {}
         self.error_code = 0
         self.echo = 0
@@ -85,6 +94,8 @@ class Firmware:
         self.time_origin = self.ticks
         self._trip: Trippoint | None = None
         self._out = bytearray()
+        if self.on_reset is not None:
+            self.on_reset()  # the card puts its inputs on the new motion firmware
 
     # -- the sample --------------------------------------------------------------------------------
     def step(self) -> None:
@@ -189,15 +200,10 @@ class Firmware:
         self.raise_irq(code | (self.vector or 0) << 8)
 
     # -- inputs (the backdoor drives them) ---------------------------------------------------------
-    def set_limits(self, axis: int, forward: bool | None, reverse: bool | None) -> None:
-        """Limit switches of one axis (True = tripped); a tripped one raises EI bit 10 [M Ch3]."""
-        m = self.motion
-        fwd, rev = m.forward_limit.copy(), m.reverse_limit.copy()
-        if forward is not None:
-            fwd[axis] = bool(forward)
-        if reverse is not None:
-            rev[axis] = bool(reverse)
-        rising = m.set_limits(fwd, rev)
+    def set_limits(self, forward: np.ndarray, reverse: np.ndarray) -> None:
+        """The limit switches of every axis (True = tripped); one becoming active raises EI bit 10
+        [M Ch3 §Limit Switch Input]."""
+        rising = self.motion.set_limits(forward, reverse)
         if rising.any() and self.ei_mask & _LIMIT_SWITCH:
             self.interrupt(InterruptStatus.LIMIT_SWITCH)
 
@@ -216,11 +222,27 @@ class Firmware:
         if not falling:
             return
         a = input - 1
+        if a < self.n:
+            self.latch(a, float(self.motion.position()[a]))
+        self._input_interrupt(input)
+
+    def probe(self, axis: int, reading: float) -> None:
+        """A pulse on the axis's latch input (IN1..IN4) shorter than a sample, the encoder
+        reading `reading` at its falling edge: the latch and the input interrupt of a falling
+        edge; the input reads its level again at the next sample."""
+        self.latch(axis, reading)
+        self._input_interrupt(axis + 1)
+
+    def latch(self, axis: int, reading: float) -> None:
+        """A falling edge on the latch input of an armed axis captures `reading` (Fig 3-1)."""
         m = self.motion
-        if a < self.n and m.latch_armed[a]:
-            m.latched[a] = m.position()[a]
-            m.latch_armed[a], m.latch_occurred[a] = False, True
-        if self.ei_mask & _INPUTS and self.ei_inputs & bit:
+        if m.latch_armed[axis]:
+            m.latched[axis] = reading
+            m.latch_armed[axis], m.latch_occurred[axis] = False, True
+
+    def _input_interrupt(self, input: int) -> None:
+        """EI bit 15 for an input of the mask, then cleared [M Ch4]."""
+        if self.ei_mask & _INPUTS and self.ei_inputs & (1 << (input - 1)):
             self.ei_mask &= ~_INPUTS
             self.interrupt(InterruptStatus.INPUT + input)
 

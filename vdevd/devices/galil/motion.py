@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 import numpy as np
@@ -117,13 +117,16 @@ class GalilMotion:
         self.pa_target = np.zeros(n)
         self.oe_tripped = np.zeros(n, dtype=bool)
         self.error_over = np.zeros(n, dtype=bool)  # |TE| > ER (TS bit 6, ERROR output)
-        # inputs: limits "active" (switch tripped), home input logic level, abort input
+        # inputs: limits "active" (switch tripped), home input logic level, abort input; the
+        # card's axis world drives them through `sense`, called after the motion of every sample
         self.forward_limit = np.zeros(n, dtype=bool)
         self.reverse_limit = np.zeros(n, dtype=bool)
         self.home_input = np.ones(n, dtype=bool)
-        self.home_edge = np.full(n, np.nan)  # backdoor: home input = (position < edge)
+        self.sense: Callable[[], None] | None = None
+        # index pulses at phase + k * period in physical counts (period 0: none)
         self.index_period = np.full(n, 4096.0)
         self.index_phase = np.zeros(n)
+        self._phys_prev = np.zeros(n)  # the physical encoder reading of the last search sample
         self.abort_input = False
         self.aux = np.zeros(n)  # TD for servo axes (no auxiliary encoder model): what DE set
         self.enc_offset = np.zeros(n)  # stepper axes: TP = encoder + offset (DE, DP)
@@ -135,10 +138,7 @@ class GalilMotion:
         self._tv_alpha = min(1.0, self.dt / TV_SECONDS)
         self._moving_prev = np.zeros(n, dtype=bool)
         self._searching = False
-        self._edges = False
-        self._has_edge = np.zeros(n, dtype=bool)
         self._tmp = np.zeros(n)
-        self._level = np.zeros(n, dtype=bool)
         self._done = np.zeros(n, dtype=bool)
         self._over = np.zeros(n, dtype=bool)
         self._new = np.zeros(n, dtype=bool)
@@ -281,6 +281,7 @@ class GalilMotion:
             self.home_level0[a] = self.home_input[a]
             speed = self.search_dir[a] * max(v["SP"][a], 1.0)
         self._searching = True
+        self._phys_prev[a] = self.core.axes.fb[a] - self.core.zero[a]
         self.core.jog(a, speed, v["AC"][a], v["DC"][a])
 
     def stop(self, axes: list[int], reason: StopCode = StopCode.STOP_COMMAND) -> None:
@@ -376,6 +377,8 @@ class GalilMotion:
         """One servo sample; the mask of axes whose motion completed at it (None: none did)."""
         core = self.core
         core.tick()
+        if self.sense is not None:  # the switches where the stage now is
+            self.sense()
         if self._pl:
             self._low_pass(core.axes.out)
         enc, tmp = core.axes.fb, self._tmp
@@ -383,9 +386,6 @@ class GalilMotion:
         tmp *= self._tv_gain
         self.tv *= 1.0 - self._tv_alpha
         self.tv += tmp
-        if self._edges:  # home switches at a position read the encoder (set_home_edge)
-            np.less(enc, self.home_edge, out=self._level)
-            np.copyto(self.home_input, self._level, where=self._has_edge)
         if self._searching:
             self._search_step(enc)
         np.copyto(self._enc_prev, enc)
@@ -409,14 +409,6 @@ class GalilMotion:
         np.clip(out, -self.out_limit, self.out_limit, out=out)
         out *= on
 
-    def set_home_edge(self, a: int, position: float | None) -> None:
-        """The home input of axis a reads (position < edge), or its level when None."""
-        self.home_edge[a] = np.nan if position is None else float(position)
-        self._has_edge[a] = position is not None
-        self._edges = bool(self._has_edge.any())
-        if position is not None:  # the input reads the switch at once, not at the next sample
-            self.home_input[a] = bool(self.core.axes.fb[a] < float(position))
-
     def _search_step(self, enc: np.ndarray) -> None:
         """Home input transitions and index pulses of the axes in an FE/FI/HM search."""
         phase = self.phase
@@ -425,9 +417,12 @@ class GalilMotion:
             return
         level = self.home_input
         edge = ((phase == Phase.EDGE) | (phase == Phase.BACK)) & (level != self.home_level0)
-        period = self.index_period
-        k_now = np.floor((enc - self.index_phase) / period)
-        k_prev = np.floor((self._enc_prev - self.index_phase) / period)
+        # index pulses are marks on the stage: count them in physical encoder counts
+        phys = enc - self.core.zero
+        period = np.where(self.index_period > 0, self.index_period, np.inf)
+        k_now = np.floor((phys - self.index_phase) / period)
+        k_prev = np.floor((self._phys_prev - self.index_phase) / period)
+        np.copyto(self._phys_prev, phys)
         index = (phase == Phase.INDEX) & (k_now != k_prev)
         v = self.values
         for a in np.flatnonzero(edge).tolist():
@@ -440,9 +435,7 @@ class GalilMotion:
                 self.core.jog(a, HOME_CREEP, v["AC"][a], v["DC"][a])
         for a in np.flatnonzero(index).tolist():  # the index becomes position 0, then DC
             boundary = max(k_now[a], k_prev[a]) * period[a] + self.index_phase[a]
-            self.core.redefine_and_stop(a, float(enc[a] - boundary), float(v["DC"][a]))
-            if self._has_edge[a]:  # the switch reads the renumbered position
-                self.home_input[a] = enc[a] < self.home_edge[a]
+            self.core.redefine_and_stop(a, float(phys[a] - boundary), float(v["DC"][a]))
             phase[a] = Phase.INDEX_STOP
 
     def _finish(self, idx: np.ndarray) -> None:
