@@ -215,3 +215,31 @@ def test_realtime_request_first_runs_the_ticks_fallen_due_since_the_last_pass() 
     assert rack.catch_ups == 1 and rack.now_ns == 4_500_000
     assert rack.read("c", "mem", 0, 4) == data  # no tick due yet: nothing more runs
     assert rack.catch_ups == 1
+
+
+class RecordingSink:
+    """An `EventSink` that keeps what the rack sends it."""
+
+    endpoint = "tcp://127.0.0.1:1"
+
+    def __init__(self) -> None:
+        self.events: list[Any] = []
+
+    def publish(self, event: Any) -> None:
+        self.events.append(("irq", event.line, event.seq))
+
+    def sync(self, card: str) -> None:
+        self.events.append(("sync", card))
+
+
+def test_events_go_to_the_sink_given_at_construction() -> None:
+    sink = RecordingSink()
+    rack = Rack([], "lockstep", sink=sink)
+    card = Counter("c", 1000, irq_at=(2,))
+    card.ctx.emit = rack.emit
+    rack.add_card(card)
+    assert rack.hello()["events"] == "tcp://127.0.0.1:1"
+    run(rack, "wait", card="c", on="irq", timeout_ns=10**6)
+    assert run(rack, "sync", card="c") is None
+    assert sink.events == [("irq", "irq", 1), ("sync", "c")]
+    assert rack.stats()["events_published"] == 1

@@ -1,6 +1,7 @@
 """`vdevd`: the daemon command.
 
-`vdevd serve [--config FILE] [--clock realtime|lockstep] [--endpoint URL] [--events URL]`
+`vdevd serve [--config FILE] [--clock realtime|lockstep] [--endpoint URL] [--events URL]
+[--state-dir DIR] [--ready-file PATH]`
 """
 
 from __future__ import annotations
@@ -22,6 +23,9 @@ def parser() -> argparse.ArgumentParser:
     serve.add_argument("--endpoint", metavar="URL", help="override [server] endpoint")
     serve.add_argument("--events", metavar="URL", help="override [server] events")
     serve.add_argument("--state-dir", metavar="DIR", help="override [state] dir")
+    serve.add_argument("--ready-file", metavar="PATH",
+                       help="write the bound endpoints as JSON to PATH (atomically) once all "
+                            "listeners are up")
     serve.add_argument("--log-level", default="INFO", type=str.upper,
                        choices=("DEBUG", "INFO", "WARNING", "ERROR"), help="default INFO")
     sub.add_parser("types", help="list the card types and their configuration keys")
@@ -54,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
     from vdevd.daemon import run
 
     try:
-        run(cfg)
+        run(cfg, args.ready_file)
     except Exception as exc:  # bind failures and the like: one line, not a traceback
         import zmq
 

@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import asyncio
+import json
 import logging
 import os
 import signal
 import socket
+import tempfile
 from contextlib import suppress
+from pathlib import Path
+from typing import Any
 
 import zmq
 
@@ -16,15 +20,16 @@ from vdevd.devices import card_class
 from vdevd.devices.base import CardContext
 from vdevd.nvram import NvramStore
 from vdevd.rack import Rack
-from vdevd.server import Server
+from vdevd.server import Publisher, Server
 
 log = logging.getLogger("vdevd")
 
 
 def build_rack(cfg: Config) -> Rack:
-    """The cards of `cfg` on one rack (not yet attached to a loop or sockets)."""
+    """The cards of `cfg` on one rack (not yet attached to a loop or sockets), publishing
+    through a `Publisher` that `Server.start` binds."""
     nvram = NvramStore(cfg.state_dir) if cfg.state_dir else None
-    rack = Rack([], cfg.clock, wake_ns=cfg.wake_us * 1000, waker=cfg.waker)
+    rack = Rack([], cfg.clock, sink=Publisher(), wake_ns=cfg.wake_us * 1000, waker=cfg.waker)
     for spec in cfg.cards:
         ctx = CardContext(emit=rack.emit, nvram=nvram)
         rack.add_card(card_class(spec.type)(spec.name, spec.options, ctx))
@@ -46,32 +51,54 @@ def sd_notify(message: str) -> None:
         s.sendto(message.encode(), addr)
 
 
-async def serve(cfg: Config, stop: asyncio.Event | None = None) -> None:
-    """Run until `stop` is set or SIGINT/SIGTERM arrives."""
+def write_ready_file(path: str | os.PathLike[str], info: dict[str, Any]) -> None:
+    """Write `info` as JSON to `path` atomically (temporary file in the same directory, fsync,
+    rename): a reader sees no file or the whole file, never part of it."""
+    target = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent or Path("."))
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(info, f, indent=1)
+            f.write("\n")
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, target)
+    except BaseException:
+        with suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+async def serve(cfg: Config, stop: asyncio.Event | None = None,
+                ready_file: str | os.PathLike[str] | None = None) -> None:
+    """Run until `stop` is set or SIGINT/SIGTERM arrives. Readiness (`ready_file`, then systemd's
+    READY=1) is announced once every listener is bound: the cards' ports, PUB, the endpoint."""
     loop = asyncio.get_running_loop()
     stop = stop or asyncio.Event()
     server = build_server(cfg)
     for sig in (signal.SIGINT, signal.SIGTERM):
         with suppress(NotImplementedError, RuntimeError, ValueError):
             loop.add_signal_handler(sig, stop.set)
-    server.start(loop)
-    cards = ", ".join(f"{c.name} ({c.type_name})" for c in server.rack.cards.values())
-    if not cards:
-        cards = "none"
-        log.warning("the configuration has no [[card]]: the rack is empty")
-    log.info("listening on %s, events on %s, clock %s; cards: %s",
-             server.endpoint, server.events, cfg.clock, cards)
-    await server.rack.open_services()
-    sd_notify("READY=1")
-    watchdog = asyncio.create_task(_watchdog()) if os.environ.get("WATCHDOG_USEC") else None
+    watchdog = None
     try:
+        await server.start(loop)
+        cards = ", ".join(f"{c.name} ({c.type_name})" for c in server.rack.cards.values())
+        if not cards:
+            cards = "none"
+            log.warning("the configuration has no [[card]]: the rack is empty")
+        log.info("listening on %s, events on %s, clock %s; cards: %s",
+                 server.endpoint, server.events, cfg.clock, cards)
+        if ready_file is not None:
+            write_ready_file(ready_file, server.listeners())
+        sd_notify("READY=1")
+        if os.environ.get("WATCHDOG_USEC"):
+            watchdog = asyncio.create_task(_watchdog())
         await stop.wait()
     finally:
         if watchdog is not None:
             watchdog.cancel()
         sd_notify("STOPPING=1")
-        await server.rack.close_services()
-        server.close()
+        await server.stop()
         log.info("stopped")
 
 
@@ -83,11 +110,11 @@ async def _watchdog() -> None:
         await asyncio.sleep(interval)
 
 
-def run(cfg: Config) -> None:
+def run(cfg: Config, ready_file: str | None = None) -> None:
     """Blocking entry point: uvloop when available."""
     try:
         import uvloop
     except ImportError:  # pragma: no cover - uvloop is a dependency on POSIX
-        asyncio.run(serve(cfg))
+        asyncio.run(serve(cfg, ready_file=ready_file))
         return
-    uvloop.run(serve(cfg))
+    uvloop.run(serve(cfg, ready_file=ready_file))

@@ -1,26 +1,24 @@
-"""The rack: the cards by name, the clock, the scheduler, and the operations of protocol v1.
+"""The rack: the cards by name, their clock, and the operations of protocol v1 (DESIGN.md).
 
 Sans-I/O except for the event loop's timers: `execute(request, reply)` serves one validated
 request and calls `reply(result)` or `reply(VdevError)` exactly once, at once or later (a wait).
-Interrupt events go to the `publish` callable given at construction.
+How time moves is `vdevd/pacing.py`'s, pending waits and timers are `vdevd/waits.py`'s; interrupt
+and `sync` events go to the `EventSink` given at construction (the server's PUB socket).
 """
 
 from __future__ import annotations
 
 import asyncio
-import heapq
-import itertools
 import logging
-import threading
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any, Protocol
 
 from vdevd.devices.base import Card
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.irq import IrqEvent
 from vdevd.metrics import Samples
+from vdevd.pacing import ClockMode, Pacer, Waker
 from vdevd.protocol import (
     CAPABILITIES,
     MAX_MESSAGE,
@@ -32,52 +30,38 @@ from vdevd.protocol import (
 )
 from vdevd.region import Region
 from vdevd.rt.scheduler import Scheduler
+from vdevd.waits import Reply, Waiter, Waits, make_waiter
 
 log = logging.getLogger("vdevd.rack")
 
-ClockMode = Literal["realtime", "lockstep"]
-Reply = Callable[[Any], None]
-
-#: waits that may be pending at once, over all clients
-MAX_PENDING = 1024
-#: lockstep: simulated ticks run between two looks at the socket while time is driven
-LOCKSTEP_CHUNK_TICKS = 1000
+__all__ = ["ClockMode", "EventSink", "NullSink", "Rack"]
 
 
-@dataclass(eq=False)
-class Waiter:
-    """A pending `wait` (or a lockstep `sim step`): resolved by its condition or its deadline."""
+class EventSink(Protocol):
+    """Where the rack's events go (the server's PUB socket; PROTOCOL.md "Events")."""
 
-    deadline_ns: int
-    reply: Reply
-    card: Card | None = None
-    on: str = "step"  # "step" | "irq" | "value"
-    line: str | None = None
-    after_seq: int = 0
-    region: Region | None = None
-    offset: int = 0
-    size: int = 4
-    mask: int = 0xFFFFFFFF
-    value: int = 0
-    equal: bool = True
-    extra: dict[str, Any] = field(default_factory=dict)
+    @property
+    def endpoint(self) -> str:
+        """The endpoint subscribers connect to ("" when there is none), for `hello`."""
+        ...
 
-    def fired(self) -> dict[str, Any] | None:
-        """The result if the condition holds now, else None."""
-        if self.on == "irq":
-            assert self.card is not None
-            event = (
-                self.card.last_event if self.line is None else self.card.line_events.get(self.line)
-            )
-            if event is not None and event.seq > self.after_seq:
-                return {"fired": True, "event": event.as_dict()}
-            return None
-        if self.on == "value":
-            assert self.region is not None
-            raw = self.region.get_peek(self.offset, self.size)
-            if ((raw & self.mask) == self.value) == self.equal:
-                return {"fired": True, "value": raw}
-        return None
+    def publish(self, event: IrqEvent) -> None:
+        """An interrupt assertion, on the card's topic."""
+
+    def sync(self, card: str) -> None:
+        """A `sync` event on the card's topic (the `sync` request)."""
+
+
+class NullSink:
+    """An event sink that drops everything (a rack served by no socket)."""
+
+    endpoint = ""
+
+    def publish(self, event: IrqEvent) -> None:
+        pass
+
+    def sync(self, card: str) -> None:
+        pass
 
 
 class Rack:
@@ -88,13 +72,13 @@ class Rack:
         cards: Iterable[Card],
         mode: ClockMode = "lockstep",
         *,
-        publish: Callable[[IrqEvent], None] | None = None,
-        events_endpoint: str = "",
+        sink: EventSink | None = None,
         wake_ns: int = 1_000_000,
-        waker: Literal["timer", "thread"] = "thread",
+        waker: Waker = "thread",
         clock: Callable[[], int] = time.perf_counter_ns,
     ) -> None:
-        """`clock`: the monotonic wall clock in ns that realtime follows (a test may pass its own)."""
+        """`sink`: where events go (default: nowhere); `wake_ns`, `waker`, `clock`: the
+        realtime pacing (`Pacer`)."""
         self.cards: dict[str, Card] = {}
         self._regions: dict[tuple[str, str], Region] = {}
         self.reads = 0  # counted apart from `requests`: the hot path keeps no dict
@@ -102,30 +86,12 @@ class Rack:
         for card in cards:
             self.add_card(card)
         self.mode: ClockMode = mode
-        self.publish = publish
-        self.publish_sync: Callable[[str], None] | None = None
-        self.events_endpoint = events_endpoint
-        self.wake_ns = wake_ns
-        self.waker = waker
-        self._clock = clock
-        self._waiters: list[Waiter] = []
-        self._timers: list[tuple[int, int, Callable[[], None]]] = []
-        self._seq = itertools.count()
-        self._driving = False
-        self._loop: asyncio.AbstractEventLoop | None = None
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-        self._t0 = 0  # realtime: the wall clock reading at simulated time 0
-        self._paced = False  # realtime and started: requests first run the ticks fallen due
-        self._next_wake = 0
+        self.sink: EventSink = sink if sink is not None else NullSink()
+        self.waits = Waits(self._internal)
+        self.pacer = Pacer(self.sched, self.waits, mode, wake_ns=wake_ns, waker=waker,
+                           clock=clock)
         # stats
         self.started_monotonic_ns = time.monotonic_ns()
-        self.late = Samples()
-        self.behind = Samples()
-        self.passes = 0
-        self.catch_ups = 0
-        self.overruns = 0
-        self.card_faults = 0
         self.requests: dict[str, int] = {}
         self.errors = 0
         self.latency = Samples()
@@ -148,28 +114,20 @@ class Rack:
     def emit(self, event: IrqEvent) -> None:
         """The sink every card's interrupt lines report to."""
         self.events_published += 1
-        if self.publish is not None:
-            self.publish(event)
+        self.sink.publish(event)
+
+    @property
+    def events_endpoint(self) -> str:
+        return self.sink.endpoint
 
     @property
     def now_ns(self) -> int:
         return self.sched.now_ns
 
-    # -- running -----------------------------------------------------------------------------------
+    # -- running (vdevd/pacing.py) -----------------------------------------------------------------
     def start(self, loop: asyncio.AbstractEventLoop) -> None:
         """Attach to the event loop; in realtime start pacing simulated time to wall time."""
-        self._loop = loop
-        if self.mode != "realtime":
-            return
-        self._t0 = self._clock() - self.sched.now_ns
-        self._paced = True
-        self._next_wake = self.sched.now_ns + self.wake_ns
-        if self.waker == "thread":
-            self._thread = threading.Thread(target=self._wake_thread, name="vdevd-waker",
-                                            daemon=True)
-            self._thread.start()
-        else:
-            loop.call_later(self.wake_ns / 1e9, self._pass)
+        self.pacer.start(loop)
 
     async def open_services(self) -> None:
         """Each card's own listeners (e.g. the PMAC Ethernet port), after `start`."""
@@ -184,158 +142,47 @@ class Rack:
                 log.exception("closing the services of %s", card.name)
 
     def stop(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=1.0)
+        self.pacer.stop()
 
-    def _wake_thread(self) -> None:
-        """Sleep to each wake deadline, then hand the pass to the event loop (no shared state)."""
-        assert self._loop is not None
-        loop, period, t0, clock = self._loop, self.wake_ns, self._t0, self._clock
-        deadline = t0 + ((clock() - t0) // period + 1) * period
-        while not self._stop.is_set():
-            delay = deadline - clock()
-            if delay > 0:
-                time.sleep(delay / 1e9)
-            try:
-                loop.call_soon_threadsafe(self._pass)
-            except RuntimeError:  # loop closed
-                return
-            deadline = t0 + ((clock() - t0) // period + 1) * period
+    def catch_up(self) -> None:
+        """Realtime: run the ticks fallen due since the last pass (`Pacer.catch_up`)."""
+        self.pacer.catch_up()
 
-    def _pass(self) -> None:
-        """Realtime: run every tick due by wall time (a batch after a late wake), then waiters."""
-        if self._stop.is_set():
-            return
-        wall = self._clock() - self._t0
-        self.passes += 1
-        self.late.add(wall - self._next_wake)
-        self.behind.add(wall - self.sched.now_ns)
-        if wall - self._next_wake >= self.wake_ns:
-            self.overruns += 1
-        self._advance(wall)
-        self._service()
-        self._next_wake = wall - wall % self.wake_ns + self.wake_ns
-        if self.waker == "timer" and self._loop is not None:
-            delay = self._next_wake - (self._clock() - self._t0)
-            self._loop.call_later(max(delay, 0) / 1e9, self._pass)
+    # the pacing's counters, as the rack's (stats, tests)
+    @property
+    def passes(self) -> int:
+        return self.pacer.passes
 
-    def _advance(self, target_ns: int, stop: Callable[[], bool] | None = None) -> int:
-        try:
-            return self.sched.advance(target_ns, stop)
-        except Exception:
-            # A card bug must not stop the rack: log it, count it, keep time moving.
-            self.card_faults += 1
-            log.exception("card raised during a tick; time continues")
-            self.sched.settle(max(self.sched.now_ns, min(target_ns, self.sched.next_tick_ns())))
-            return self.sched.now_ns
+    @property
+    def catch_ups(self) -> int:
+        return self.pacer.catch_ups
 
-    def _service(self) -> None:
-        """Run due timers, then resolve every waiter whose condition or deadline has come."""
-        now = self.sched.now_ns
-        while self._timers and self._timers[0][0] <= now:
-            _, _, action = heapq.heappop(self._timers)
-            action()
-        if not self._waiters:
-            return
-        keep: list[Waiter] = []
-        waiters, self._waiters = self._waiters, []
-        for w in waiters:
-            try:
-                result = w.fired()
-            except Exception as exc:  # a card's peek hook with a bug: this waiter only
-                w.reply(self._internal(exc, f"wait on {w.on}"))
-                continue
-            if result is None and now >= w.deadline_ns:
-                result = {"fired": False} if w.on != "step" else {}
-            if result is None:
-                keep.append(w)
-                continue
-            result["now_ns"] = now
-            result.update(w.extra)
-            w.reply(result)
-        self._waiters = keep + self._waiters  # a reply may have added waits (a batch resuming)
+    @property
+    def overruns(self) -> int:
+        return self.pacer.overruns
+
+    @property
+    def late(self) -> Samples:
+        return self.pacer.late
+
+    @property
+    def behind(self) -> Samples:
+        return self.pacer.behind
+
+    @property
+    def card_faults(self) -> int:
+        """Ticks and scheduled backdoor actions that raised."""
+        return self.pacer.card_faults + self.waits.control_faults
 
     def _add_waiter(self, w: Waiter) -> None:
-        if len(self._waiters) >= MAX_PENDING:
-            raise VdevError(ErrorCode.BUSY, f"more than {MAX_PENDING} waits pending")
-        result = w.fired()
-        if result is not None or (w.on == "step" and w.deadline_ns <= self.now_ns):
-            result = result or {}
-            result["now_ns"] = self.now_ns
-            result.update(w.extra)
-            w.reply(result)
-            return
-        self._waiters.append(w)
-        if self.mode == "lockstep" and not self._driving:
-            self._driving = True
-            if self._loop is None:
-                self._drive_sync()
-                return
-            # The first chunk at once: a wait that resolves in it (a reply at the next tick)
-            # costs no trip through the event loop; the rest runs as a task, between requests.
-            try:
-                self._drive_step()
-            finally:
-                if self._waiters:
-                    self._loop.create_task(self._drive())
-                else:
-                    self._driving = False
-
-    def _lockstep_target(self) -> tuple[int, bool]:
-        """Where lockstep time goes next, and whether it must go tick by tick."""
-        target = min(w.deadline_ns for w in self._waiters)
-        if self._timers:
-            target = min(target, self._timers[0][0])
-        chunk_end = self.sched.now_ns + LOCKSTEP_CHUNK_TICKS * self.sched.tick_ns
-        fine = any(w.on != "step" for w in self._waiters)
-        return min(target, chunk_end), fine
-
-    def _drive_step(self) -> None:
-        target, fine = self._lockstep_target()
-        stop = self._any_fired if fine else None
-        self._advance(max(target, self.sched.now_ns), stop)
-        self._service()
-
-    def _any_fired(self) -> bool:
-        """Whether a waiter resolves now; one whose condition raises does (_service answers it)."""
-        try:
-            return any(w.fired() is not None for w in self._waiters)
-        except Exception:
-            return True
-
-    async def _drive(self) -> None:
-        """Lockstep: advance time while anyone waits, looking at the sockets between chunks."""
-        try:
-            while self._waiters:
-                self._drive_step()
-                await asyncio.sleep(0)
-        finally:
-            self._driving = False
-
-    def _drive_sync(self) -> None:
-        """Lockstep without an event loop (in-process use and tests)."""
-        try:
-            while self._waiters:
-                self._drive_step()
-        finally:
-            self._driving = False
+        if self.waits.add(w, self.now_ns):
+            self.pacer.waiting()
 
     # -- requests ----------------------------------------------------------------------------------
-    def catch_up(self) -> None:
-        """Realtime: run the ticks that fell due since the last pass, so that a request sees the
-        hardware as it is at this wall time (within one servo period), not as at the last wake."""
-        if self._paced:
-            wall = self._clock() - self._t0
-            if wall - self.sched.now_ns >= self.sched.tick_ns:
-                self.catch_ups += 1
-                self._advance(wall)
-                self._service()
-
     def execute(self, req: Request, reply: Reply) -> None:
         """Serve one request; `reply` gets the result or a VdevError, exactly once."""
-        if self._paced:
-            self.catch_up()
+        if self.pacer.paced:
+            self.pacer.catch_up()
         op = req.op
         self.requests[op] = self.requests.get(op, 0) + 1
         try:
@@ -401,8 +248,8 @@ class Rack:
     def read(self, card: str, region: str, offset: int, size: int) -> bytes:
         """A `read` request on the hot path (protocol.read_fields): the same effects and
         counters as `execute` of a read, without building a Request."""
-        if self._paced:
-            self.catch_up()
+        if self.pacer.paced:
+            self.pacer.catch_up()
         self.reads += 1
         r = self._regions.get((card, region))
         try:
@@ -467,7 +314,7 @@ class Rack:
                         self._run_batch(ops, i + 1, results, reply)
                     except VdevError as exc:
                         reply(exc)
-                    except Exception as exc:  # resumed from _service: no execute() around it
+                    except Exception as exc:  # resumed from Waits.service: no execute() around it
                         reply(self._internal(exc, f"batch op {i + 1}.."))
 
                 try:
@@ -484,45 +331,8 @@ class Rack:
 
     def _make_waiter(self, args: dict[str, Any], reply: Reply) -> Waiter:
         card = self.card(args["card"])
-        timeout = args["timeout_ns"]
-        if not 0 <= timeout <= MAX_WAIT_NS:
-            raise VdevError(ErrorCode.BAD_PARAM, f"timeout_ns {timeout} outside 0..{MAX_WAIT_NS}")
-        w = Waiter(self.now_ns + timeout, reply, card=card, on=args["on"])
-        if w.on == "irq":
-            line = args.get("line")
-            if line is not None and line not in card.irq_lines:
-                raise VdevError(
-                    ErrorCode.NO_IRQ,
-                    f"card {card.name!r} has no irq line {line!r} "
-                    f"(lines: {', '.join(card.irq_lines)})",
-                )
-            w.line = line
-            w.after_seq = args.get("after_seq", card.irq_seq)
-        elif w.on == "value":
-            for key in ("region", "offset", "value"):
-                if key not in args:
-                    raise VdevError(ErrorCode.MALFORMED, f"wait on value: missing field {key!r}")
-            w.region = self.region(card.name, args["region"])
-            w.offset, w.size = args["offset"], args.get("size", 4)
-            if w.size not in (1, 2, 4, 8):
-                raise VdevError(ErrorCode.BAD_WIDTH, f"wait on value: size {w.size} not 1/2/4/8")
-            w.region.peek(w.offset, w.size)  # bounds check now, not at every tick
-            full = (1 << (8 * w.size)) - 1
-            w.mask = args.get("mask", full)
-            w.value = args["value"]
-            if not 0 <= w.mask <= full:
-                raise VdevError(ErrorCode.BAD_PARAM,
-                                f"wait on value: mask {w.mask:#x} outside {w.size} bytes")
-            if w.value & ~w.mask:  # also a negative value
-                raise VdevError(ErrorCode.BAD_PARAM, f"wait on value: value {w.value:#x} has "
-                                f"bits outside the mask {w.mask:#x}")
-            cmp = args.get("cmp", "eq")
-            if cmp not in ("eq", "ne"):
-                raise VdevError(ErrorCode.BAD_PARAM, f"wait on value: cmp {cmp!r} not eq or ne")
-            w.equal = cmp == "eq"
-        else:
-            raise VdevError(ErrorCode.BAD_PARAM, f"wait: 'on' must be irq or value, not {w.on!r}")
-        return w
+        return make_waiter(args, card, lambda name: self.region(card.name, name), self.now_ns,
+                           reply)
 
     def op_wait(self, args: dict[str, Any], reply: Reply) -> Any:
         self._add_waiter(self._make_waiter(args, reply))
@@ -547,9 +357,11 @@ class Rack:
             raise VdevError(ErrorCode.BAD_PARAM, "sim step takes exactly one of ns, ticks, seconds")
         if "ns" in args:
             ns = args["ns"]
+        elif "card" in args:  # the span of the card's next `ticks` ticks, exact
+            card, n = self.card(args["card"]), args["ticks"]
+            ns = card.time_of_tick(card.ticks + n) - card.time_of_tick(card.ticks)
         elif "ticks" in args:
-            period = self.card(args["card"]).period_ns if "card" in args else self.sched.tick_ns
-            ns = args["ticks"] * period
+            ns = args["ticks"] * self.sched.tick_ns
         else:
             seconds = float(args["seconds"])
             if not 0 <= seconds <= MAX_WAIT_NS / 1e9:  # also NaN and infinities
@@ -572,17 +384,7 @@ class Rack:
         if when is None or when <= self.now_ns:
             return card.control(action, params)
         card.check_control(action, params)
-
-        def later() -> None:
-            try:
-                card.control(action, params)
-            except VdevError as exc:
-                log.warning("scheduled control %s.%s failed: %s", card.name, action, exc.message)
-            except Exception:  # a bug in the card's backdoor must not stop the clock
-                self.card_faults += 1
-                log.exception("scheduled control %s.%s raised", card.name, action)
-
-        heapq.heappush(self._timers, (when, next(self._seq), later))
+        self.waits.schedule_control(when, card, action, params)
         return {"scheduled_ns": when}
 
     def _control_time(self, args: dict[str, Any]) -> int | None:
@@ -606,9 +408,7 @@ class Rack:
 
     def op_sync(self, args: dict[str, Any], reply: Reply) -> Any:
         """Publish a `sync` event on the card's topic (a subscriber's proof it is connected)."""
-        card = self.card(args["card"])
-        if self.publish_sync is not None:
-            self.publish_sync(card.name)
+        self.sink.sync(self.card(args["card"]).name)
         return None
 
     def op_stats(self, args: dict[str, Any], reply: Reply) -> Any:
@@ -619,9 +419,9 @@ class Rack:
         return {
             "clock": {
                 **self._clock_info(),
-                "epoch_monotonic_ns": self._t0,
-                "wake_ns": self.wake_ns,
-                "waker": self.waker,
+                "epoch_monotonic_ns": self.pacer.t0,
+                "wake_ns": self.pacer.wake_ns,
+                "waker": self.pacer.waker,
             },
             "scheduler": {
                 "passes": self.passes,
@@ -641,7 +441,7 @@ class Rack:
                           "read": self.requests.get("read", 0) + self.reads},
                 "errors": self.errors,
                 "latency_ns": self.latency.summary(),
-                "pending_waits": len(self._waiters),
+                "pending_waits": len(self.waits.pending),
             },
             "events_published": self.events_published,
             "uptime_s": (time.monotonic_ns() - self.started_monotonic_ns) / 1e9,

@@ -2,7 +2,8 @@
 
 ROUTER for requests, PUB for interrupts and events, both on the one event loop. The ROUTER is
 drained from `loop.add_reader` with NOBLOCK (no future per message): limits.md measured this at
-~95k msg/s against ~40k for zmq.asyncio.
+~95k msg/s against ~40k for zmq.asyncio. `start` binds in readiness order: the cards' own ports,
+then PUB, then the ROUTER last, so a client that reaches the endpoint finds everything else up.
 """
 
 from __future__ import annotations
@@ -33,8 +34,37 @@ _EVENTS = int(zmq.EVENTS)
 _POLLIN = int(zmq.POLLIN)
 
 
+class Publisher:
+    """The rack's event sink (`vdevd.rack.EventSink`) on the PUB socket: events are dropped until
+    the server binds it, as a PUB socket drops them while no one subscribes."""
+
+    def __init__(self) -> None:
+        self._sock: zmq.Socket | None = None
+        self.endpoint = ""
+
+    def attach(self, sock: zmq.Socket) -> None:
+        """Publish on `sock`, bound already."""
+        self._sock = sock
+        self.endpoint = sock.getsockopt_string(zmq.LAST_ENDPOINT)
+
+    def publish(self, event: IrqEvent) -> None:
+        self._send(event.card, {"kind": "irq", **event.as_dict()})
+
+    def sync(self, card: str) -> None:
+        self._send(card, {"kind": "sync", "card": card})
+
+    def _send(self, topic: str, body: dict[str, Any]) -> None:
+        if self._sock is None:
+            return
+        try:
+            self._sock.send_multipart([topic.encode(), protocol.encode_event(body)], zmq.NOBLOCK)
+        except zmq.ZMQError as exc:
+            log.debug("event dropped: %s", exc)
+
+
 class Server:
-    """Serves one rack on a ROUTER endpoint and publishes its events on a PUB endpoint."""
+    """Serves one rack on a ROUTER endpoint and publishes its events on a PUB endpoint; the
+    rack's sink must be a `Publisher` (as `daemon.build_rack` and `testing.rack_of` make it)."""
 
     def __init__(
         self,
@@ -45,7 +75,11 @@ class Server:
         ctx: zmq.Context | None = None,
         curve: CurveConfig | None = None,
     ) -> None:
+        if not isinstance(rack.sink, Publisher):
+            raise TypeError("a served rack publishes through a server.Publisher sink")
         self.rack = rack
+        self.publisher = rack.sink
+        self._bind_to = (endpoint, events)
         self.ctx = ctx or zmq.Context.instance()
         self.router = self.ctx.socket(zmq.ROUTER)
         self.pub = self.ctx.socket(zmq.PUB)
@@ -54,13 +88,10 @@ class Server:
         self.router.setsockopt(zmq.MAXMSGSIZE, protocol.HARD_MAX_MESSAGE)
         self.router.setsockopt(zmq.ROUTER_HANDOVER, 1)
         self._auth = secure(self.ctx, [self.router, self.pub], curve) if curve else None
-        self.router.bind(endpoint)
-        self.pub.bind(events)
-        self.endpoint = self.router.getsockopt_string(zmq.LAST_ENDPOINT)
-        self.events = self.pub.getsockopt_string(zmq.LAST_ENDPOINT)
-        rack.publish = self.publish
-        rack.publish_sync = self.publish_sync
-        rack.events_endpoint = self.events
+        #: the bound endpoints, once `start` has bound them
+        self.endpoint = ""
+        self.events = ""
+        self._reading = False
         self._loop: asyncio.AbstractEventLoop | None = None
         self._drain_scheduled = False
         self._draining = False
@@ -70,16 +101,35 @@ class Server:
         self._router_send = super(zmq.Socket, self.router).send  # type: ignore[misc]
 
     # -- lifecycle --------------------------------------------------------------------------------
-    def start(self, loop: asyncio.AbstractEventLoop) -> None:
+    async def start(self, loop: asyncio.AbstractEventLoop) -> None:
+        """Start the rack's clock, then bind every listener in readiness order: the cards' own
+        ports (`Rack.open_services`), the PUB socket, the ROUTER last; then serve requests."""
         self._loop = loop
-        loop.add_reader(self.router.getsockopt(zmq.FD), self._on_readable)
         self.rack.start(loop)
+        await self.rack.open_services()
+        endpoint, events = self._bind_to
+        self.pub.bind(events)
+        self.publisher.attach(self.pub)
+        self.events = self.publisher.endpoint
+        self.router.bind(endpoint)
+        self.endpoint = self.router.getsockopt_string(zmq.LAST_ENDPOINT)
+        loop.add_reader(self.router.getsockopt(zmq.FD), self._on_readable)
+        self._reading = True
         self._on_readable()  # anything queued before the reader was added
 
-    def close(self) -> None:
+    def listeners(self) -> dict[str, Any]:
+        """Every bound listener (the `--ready-file` contents): the endpoint, the events, and
+        each card's own (`Card.listeners`)."""
+        return {"endpoint": self.endpoint, "events": self.events,
+                "cards": {c.name: c.listeners() for c in self.rack.cards.values()}}
+
+    async def stop(self) -> None:
+        """Close the cards' own ports, stop the clock, close the sockets (what was started)."""
+        await self.rack.close_services()
         self.rack.stop()
-        if self._loop is not None:
+        if self._loop is not None and self._reading:
             self._loop.remove_reader(self.router.getsockopt(zmq.FD))
+            self._reading = False
         self.router.close()
         self.pub.close()
         if self._auth is not None:
@@ -188,19 +238,6 @@ class Server:
         if not self._draining:
             # an edge-triggered FD may have swallowed a readable edge while we sent
             self._schedule_drain()
-
-    # -- events -----------------------------------------------------------------------------------
-    def publish(self, event: IrqEvent) -> None:
-        self._publish(event.card, {"kind": "irq", **event.as_dict()})
-
-    def publish_sync(self, card: str) -> None:
-        self._publish(card, {"kind": "sync", "card": card})
-
-    def _publish(self, topic: str, body: dict[str, Any]) -> None:
-        try:
-            self.pub.send_multipart([topic.encode(), protocol.encode_event(body)], zmq.NOBLOCK)
-        except zmq.ZMQError as exc:
-            log.debug("event dropped: %s", exc)
 
 
 def _within_limit(req_id: Any, body: bytes) -> bytes:

@@ -19,13 +19,13 @@ from vdevd.config import Config, default_config
 from vdevd.daemon import build_rack
 from vdevd.devices.base import Card, CardContext
 from vdevd.rack import Rack
-from vdevd.server import Server
+from vdevd.server import Publisher, Server
 
 
 def rack_of(*cards: Callable[[CardContext], Card], mode: str = "lockstep") -> Rack:
     """A rack of a test's own cards, each made by `card(ctx)` with the rack's interrupt sink,
     for `DaemonThread(rack=...)`: `rack_of(lambda ctx: MyCard("c0", ctx))`."""
-    rack = Rack([], mode)  # type: ignore[arg-type]
+    rack = Rack([], mode, sink=Publisher())  # type: ignore[arg-type]
     for make in cards:
         rack.add_card(make(CardContext(emit=rack.emit)))
     return rack
@@ -80,15 +80,13 @@ class DaemonThread:
         rack = self._rack if self._rack is not None else build_rack(self.cfg)
         self.server = Server(rack, self.cfg.endpoint, self.cfg.events,
                              ctx=self._ctx, curve=self.cfg.curve)
-        self.endpoint, self.events = self.server.endpoint, self.server.events
-        self.server.start(self._loop)
-        await rack.open_services()
-        self._ready.set()
         try:
+            await self.server.start(self._loop)
+            self.endpoint, self.events = self.server.endpoint, self.server.events
+            self._ready.set()
             await self._stop.wait()
         finally:
-            await rack.close_services()
-            self.server.close()
+            await self.server.stop()
 
     def stop(self) -> None:
         if self._loop is not None and self._stop is not None and self._thread.is_alive():

@@ -12,6 +12,7 @@ from __future__ import annotations
 import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from fractions import Fraction
 from typing import Any, ClassVar
 
 from vdevd.devices.backdoor import WorldBackdoor, control
@@ -43,8 +44,8 @@ class Card(WorldBackdoor):
     type_name: ClassVar[str] = ""
     endian: ClassVar[str] = "little"
     options: ClassVar[Mapping[str, Option]] = {}
-    #: the servo period in ns when the configuration gives none
-    default_period_ns: ClassVar[int] = 1_000_000
+    #: the servo period in ns when the configuration gives none (exact: a Fraction may say it)
+    default_period_ns: ClassVar[int | Fraction] = 1_000_000
 
     #: deprecated parameter names of actions: {action: {old name: name}} (kept for old scripts)
     control_params: ClassVar[Mapping[str, Mapping[str, str]]] = {}
@@ -56,10 +57,10 @@ class Card(WorldBackdoor):
         self.opts: CardOptions = parse_options(self.options, config, name)
         self.config = dict(self.opts)
         self.ctx = ctx
-        self.period_ns = self.opts.period_ns or self.default_period_ns
         self.world = AxisWorld(0)
         self.now_ns = 0
         self.ticks = 0
+        self.set_period(self.opts.period_ns or self.default_period_ns)
         self.regions: dict[str, Region] = {}
         self.irq_lines: dict[str, IrqLine] = {}
         self.irq_seq = 0
@@ -98,6 +99,49 @@ class Card(WorldBackdoor):
         self.pause = True
         self.ctx.emit(event)
 
+    # -- the clock (DESIGN.md "Time that costs nothing", decision 0007) ---------------------------
+    @property
+    def period(self) -> Fraction:
+        """The servo period in ns, exact."""
+        return Fraction(self._period_num, self._period_den)
+
+    @property
+    def period_ns(self) -> int:
+        """The servo period rounded to whole ns (describe, hello, stats)."""
+        return self._period_ns
+
+    @period_ns.setter
+    def period_ns(self, value: int) -> None:
+        self.set_period(value)
+
+    def set_period(self, period: int | Fraction) -> None:
+        """Change the servo period (ns, exact), effective from the next tick: tick k after the
+        change is at t + floor((k - n) x period), n being the ticks run and t the last one's
+        time, or now if that would put the next tick in the past (a shorter period set between
+        ticks): no tick is ever due unrun."""
+        exact = Fraction(period)
+        if exact <= 0:
+            raise ValueError(f"servo period {period} ns is not positive")
+        last = self.time_of_tick(self.ticks) if self.ticks else 0
+        if last + exact.numerator // exact.denominator <= self.now_ns:
+            last = self.now_ns
+        self._base_ns = last
+        self._base_ticks = self.ticks
+        self._period_num, self._period_den = exact.numerator, exact.denominator
+        self._period_ns = round(exact)
+        self.pause = True  # a batch of ticks under way stops here: the scheduler recounts
+
+    def time_of_tick(self, k: int) -> int:
+        """The simulated time of tick k (k >= the ticks run when the period was last set):
+        floor of the exact time, so the long-run rate is the exact period's."""
+        return (self._base_ns
+                + (k - self._base_ticks) * self._period_num // self._period_den)
+
+    def ticks_due(self, t: int) -> int:
+        """The count of ticks whose time is at most `t`."""
+        return (self._base_ticks
+                + ((t - self._base_ns + 1) * self._period_den - 1) // self._period_num)
+
     # -- the firmware ----------------------------------------------------------------------------
     def step(self) -> None:
         """One servo tick of the firmware at `now_ns` (override)."""
@@ -106,12 +150,12 @@ class Card(WorldBackdoor):
         """Run up to n ticks; stop early after a tick that asserted an interrupt.
 
         Returns the number of ticks run. Cards may override for speed but must count `ticks` and keep
-        `now_ns` (= ticks * period_ns) the time of the tick being run.
+        `now_ns` (= `time_of_tick(ticks)`) the time of the tick being run.
         """
-        period = self.period_ns
+        time_of = self.time_of_tick
         for i in range(n):
             self.ticks += 1
-            self.now_ns = self.ticks * period
+            self.now_ns = time_of(self.ticks)
             self.step()
             if self.pause:
                 self.pause = False
@@ -127,6 +171,11 @@ class Card(WorldBackdoor):
 
     async def close_services(self) -> None:
         """Stop what `open_services` started (override)."""
+
+    def listeners(self) -> dict[str, str]:
+        """The bound endpoints of what `open_services` started, by the name the card's config
+        gives each (`vdevd serve --ready-file`); override with them."""
+        return {}
 
     def nvram(self) -> dict[str, Any]:
         """What the card keeps in flash, to be saved atomically (override)."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
+from fractions import Fraction
 from types import MappingProxyType
 from typing import Any
 
@@ -34,9 +35,9 @@ class Option:
 
     def check(self, key: str, value: Any) -> Any:
         """Return the value if valid, else raise ValueError naming `key`."""
-        ok_type = isinstance(value, self.type) and not (
-            isinstance(value, bool) and self.type in (int, float)
-        )
+        types = self.type if isinstance(self.type, tuple) else (self.type,)
+        ok_type = isinstance(value, self.type) and not (isinstance(value, bool)
+                                                        and bool not in types)
         if not ok_type and self.type is float and isinstance(value, int):
             value, ok_type = float(value), not isinstance(value, bool)
         if not ok_type:
@@ -71,7 +72,8 @@ def _type_name(t: type | tuple[type, ...]) -> str:
 
 #: the keys every [[card]] table may have beside its type's own (and `type`, `name`)
 COMMON_OPTIONS: Mapping[str, Option] = {
-    "period_ns": Option(int, None, min=1, help="servo period in ns (default: the card's own)"),
+    "period_ns": Option((int, Fraction), None, min=1,
+                        help="servo period in ns (default: the card's own; exact as a Fraction)"),
 }
 
 

@@ -1,6 +1,8 @@
 """The fixed-period scheduler: runs every card's servo ticks in simulated time (DESIGN.md "Clock").
 
-Simulated time is an int of ns. Card k ticks at multiples of its period. `advance(target)` runs
+Simulated time is an int of ns. Tick k of a card is at `time_of_tick(k)`, the floor of its exact
+time (a period may be a Fraction of ns, and change at run time: DESIGN.md "Time that costs
+nothing", decision 0007). `advance(target)` runs
 every tick due up to `target`: per card in one batch (`Card.tick(n)`) when nothing needs tick
 granularity, or tick by tick in time order when `fine` is set (a pending wait must stop at the
 exact tick its condition becomes true). The realtime pacing and lockstep driving live in the
@@ -16,11 +18,17 @@ from typing import Protocol
 
 class Tickable(Protocol):
     name: str
-    period_ns: int
     now_ns: int
     ticks: int
 
+    @property
+    def period_ns(self) -> int: ...
+
     def tick(self, n: int) -> int: ...
+
+    def time_of_tick(self, k: int) -> int: ...
+
+    def ticks_due(self, t: int) -> int: ...
 
 
 class Scheduler:
@@ -29,18 +37,19 @@ class Scheduler:
     def __init__(self, cards: Sequence[Tickable]) -> None:
         self.cards = list(cards)
         self.now_ns = 0
-        #: the rack's base tick: the shortest card period (`sim step ticks=`)
-        self.tick_ns = min((c.period_ns for c in self.cards), default=1_000_000)
 
     def add(self, card: Tickable) -> None:
         self.cards.append(card)
-        self.tick_ns = min(c.period_ns for c in self.cards)
+
+    @property
+    def tick_ns(self) -> int:
+        """The rack's base tick: the shortest card period now, in whole ns (`sim step ticks=`)."""
+        return min((c.period_ns for c in self.cards), default=1_000_000)
 
     def next_tick_ns(self) -> int:
-        """When the next tick of any card is due (tick k of a card is at k * period)."""
-        return min(
-            ((c.ticks + 1) * c.period_ns for c in self.cards), default=self.now_ns + self.tick_ns
-        )
+        """When the next tick of any card is due."""
+        return min((c.time_of_tick(c.ticks + 1) for c in self.cards),
+                   default=self.now_ns + self.tick_ns)
 
     def advance(self, target_ns: int, stop: Callable[[], bool] | None = None) -> int:
         """Run every tick with time <= target_ns and return the time reached.
@@ -53,18 +62,20 @@ class Scheduler:
             return self.now_ns
         if stop is None:
             for card in self.cards:
-                due = target_ns // card.period_ns - card.ticks
+                # counted again after a batch that stopped early: a tick may change the period
+                due = card.ticks_due(target_ns) - card.ticks
                 while due > 0:
-                    due -= card.tick(due)
+                    card.tick(due)
+                    due = card.ticks_due(target_ns) - card.ticks
             self.settle(target_ns)
             return target_ns
-        heap = [((c.ticks + 1) * c.period_ns, i) for i, c in enumerate(self.cards)]
+        heap = [(c.time_of_tick(c.ticks + 1), i) for i, c in enumerate(self.cards)]
         heapq.heapify(heap)
         while heap and heap[0][0] <= target_ns:
             t, i = heapq.heappop(heap)
             card = self.cards[i]
             card.tick(1)
-            heapq.heappush(heap, (t + card.period_ns, i))
+            heapq.heappush(heap, (card.time_of_tick(card.ticks + 1), i))
             if stop():
                 self.settle(t)
                 return t
@@ -79,4 +90,4 @@ class Scheduler:
 
     def lost_ticks(self) -> dict[str, int]:
         """Ticks due by now that were not run, per card (always 0 unless something is broken)."""
-        return {c.name: self.now_ns // c.period_ns - c.ticks for c in self.cards}
+        return {c.name: c.ticks_due(self.now_ns) - c.ticks for c in self.cards}

@@ -29,7 +29,8 @@ with warnings.catch_warnings():  # dls-pmaclib imports telnetlib (deprecated in 
 
 CARD = "pmac0"
 LOOPBACK = "tcp://127.0.0.1:*"
-PERIOD_NS = 442_710
+#: the servo period rounded to ns (hello's period_ns); exact: I10 x 10^6 / 2^23 ns [PMAC1-SRM p.46]
+PERIOD_NS = 442_708
 
 
 def card_config(**options: Any) -> Config:

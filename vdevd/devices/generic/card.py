@@ -98,13 +98,12 @@ class GenericServoCard(Card):
     def tick(self, n: int) -> int:
         """Run up to n ticks in the motion core; stop at a tick that interrupted the host."""
         done = 0
-        period = self.period_ns
         sensing = self.world.mechanical  # the switches follow the stage: sense every tick
         while done < n:
             k, events = self.core.run(1 if sensing else n - done)
             done += k
             self.ticks += k
-            self.now_ns = self.ticks * period
+            self.now_ns = self.time_of_tick(self.ticks)
             if sensing:
                 self.sense_world()
             if events:

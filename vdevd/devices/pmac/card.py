@@ -12,6 +12,7 @@ from __future__ import annotations
 import logging
 import re
 from collections.abc import Mapping
+from fractions import Fraction
 from typing import Any, ClassVar
 
 import numpy as np
@@ -52,8 +53,8 @@ from vdevd.security import is_local
 log = logging.getLogger("vdevd.pmac")
 _CONTROL = re.compile("[\x01-\x1a]")  # control characters act at once, wherever they are
 
-#: I10 default 3,713,707 / 8,388,608 ms = 0.44271 ms [PMAC1-SRM p.46]
-SERVO_PERIOD_NS = 442_710
+#: I10 default 3,713,707 / 8,388,608 ms = 0.44271 ms [PMAC1-SRM p.46], exact (Card.set_period)
+SERVO_PERIOD_NS = Fraction(3_713_707 * 1_000_000, 1 << 23)
 _ASCII_READY = int(HostIrq.ASCII_READY)  # plain ints: IntFlag operators are slow on 3.11
 #: the sources evaluated each servo cycle while their mask bit is set
 _MOTOR_SOURCES = int(HostIrq.IN_POSITION | HostIrq.WARNING_FOLLOWING_ERROR
@@ -147,7 +148,7 @@ class DpramMemory:
 class PmacCard(Card):
     type_name: ClassVar[str] = CARD_TYPE
     endian: ClassVar[str] = "little"
-    default_period_ns: ClassVar[int] = SERVO_PERIOD_NS
+    default_period_ns: ClassVar[int | Fraction] = SERVO_PERIOD_NS
     options: ClassVar[Mapping[str, Option]] = {
         "device": Option(int, 0, min=0, max=15, help="PComm32 device number (OpenPmacDevice)"),
         "motors": Option(int, 8, min=1, max=32, help="motors processed (Ixx00 = 1)"),
@@ -361,6 +362,9 @@ class PmacCard(Card):
             self._server.close()
             await self._server.wait_closed()
             self._server = None
+
+    def listeners(self) -> dict[str, str]:
+        return {"ethernet": self.ethernet_endpoint} if self.ethernet_endpoint else {}
 
     def describe(self) -> dict[str, Any]:
         info = super().describe()
