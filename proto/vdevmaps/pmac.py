@@ -14,6 +14,14 @@ CARD_TYPE = "pmac-turbo"
 #: the card's regions and interrupt line
 DPRAM, HOST, LINE = "dpram", "host", "inta"
 
+# -- PCI configuration header (ASSUMPTION: no public source gives the Turbo PMAC PCI's IDs; README
+# "PCI configuration space") ------------------------------------------------------------------------
+#: vendor 1234 (unassigned, the ID emulators use), device 504D ("PM"), revision 01, class 1180
+#: (other data acquisition and signal processing controller), subsystem 1234:0002
+PCI_VENDOR_ID, PCI_DEVICE_ID, PCI_REVISION = 0x1234, 0x504D, 0x01
+PCI_CLASS_CODE = 0x118000
+PCI_SUBSYSTEM_VENDOR_ID, PCI_SUBSYSTEM_ID = 0x1234, 0x0002
+
 # -- DPRAM [UM p.402] ---------------------------------------------------------------------------------
 DPRAM_SIZE = 0x4000  # 8k x 16: ends at 0x3FFC
 DPRAM_BASE = 0x060000  # PMAC address of host offset 0: A <-> 4 (A - DPRAM_BASE)

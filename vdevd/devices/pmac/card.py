@@ -27,6 +27,12 @@ from vdevmaps.pmac import (
     IR_MASK,
     IR_STATUS,
     LINE,
+    PCI_CLASS_CODE,
+    PCI_DEVICE_ID,
+    PCI_REVISION,
+    PCI_SUBSYSTEM_ID,
+    PCI_SUBSYSTEM_VENDOR_ID,
+    PCI_VENDOR_ID,
     RESP_CONTROL,
     HostIrq,
 )
@@ -40,6 +46,7 @@ from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.reply import Reply, frame
 from vdevd.devices.pmac.servo_ic import ChannelFlag
 from vdevd.devices.pmac.status import MotorStatus2
+from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region
 from vdevd.security import is_local
 
@@ -55,6 +62,15 @@ _MOTOR_SOURCES = int(HostIrq.IN_POSITION | HostIrq.WARNING_FOLLOWING_ERROR
 _IN_POSITION, _WARN_FE, _FATAL_FE = (int(MotorStatus2.IN_POSITION),
                                      int(MotorStatus2.WARNING_FOLLOWING_ERROR),
                                      int(MotorStatus2.FATAL_FOLLOWING_ERROR))
+#: the configuration header (README "PCI configuration space"): BAR0 the DPRAM (memory), BAR1 the
+#: host port (I/O); the IDs are an ASSUMPTION (vdevmaps.pmac)
+PCI_IDENTITY = PciIdentity(vendor=PCI_VENDOR_ID, device=PCI_DEVICE_ID, revision=PCI_REVISION,
+                           class_code=PCI_CLASS_CODE, subsystem_vendor=PCI_SUBSYSTEM_VENDOR_ID,
+                           subsystem=PCI_SUBSYSTEM_ID,
+                           bars=(Bar(DPRAM_SIZE), Bar(HOST_SIZE, io=True)))
+#: the backdoor actions that take a motor (deprecated parameter name `motor`, README "Backdoor")
+_AXIS_ACTIONS = ("set_limit", "set_home", "set_home_window", "set_index", "set_amp_fault",
+                 "set_encoder_loss", "jam", "set_limits", "set_mldt_base")
 
 
 class CommandPort:
@@ -146,13 +162,18 @@ class PmacCard(Card):
                         help="servo: amplifier and motor model; ideal: motors follow exactly"),
     }
 
+    #: motors are numbered from 1 [SRM]
+    axis_base: ClassVar[int] = 1
+    control_params: ClassVar[Mapping[str, Mapping[str, str]]] = {
+        action: {"motor": "axis"} for action in _AXIS_ACTIONS}
+
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         super().__init__(name, config, ctx)
-        cfg = self.config
-        self.device = int(cfg.get("device") or 0)
-        self.motors = int(cfg.get("motors") or 8)
-        self.ethernet = str(cfg.get("ethernet") or "")
-        self.allow = [str(a) for a in cfg.get("ethernet_allow") or []]
+        opts = self.opts
+        self.device = opts.device
+        self.motors = opts.motors
+        self.ethernet = opts.ethernet
+        self.allow = [str(a) for a in opts.ethernet_allow] if opts.ethernet_allow is not None else []
         if self.ethernet and not is_local(self.ethernet) and not self.allow:
             raise ValueError("ethernet: a non-loopback endpoint needs ethernet_allow "
                              "(the PMAC protocol has no authentication)")
@@ -169,10 +190,13 @@ class PmacCard(Card):
                        on_write=lambda o, d: self.host_write(o, d[0]),
                        peek=lambda o, n: bytes([self.host_read(o, peek=True)]))
         self.inta = self.add_irq(LINE)
+        self.pci = self.add_config_space(PCI_IDENTITY, self.inta)
         self.irq = InterruptController(self.inta.trigger, self.inta.clear)
         store = ctx.nvram
-        self.fw = Firmware(self.motors, self.period_ns, str(cfg.get("plant") or "servo"),
-                           Identity(cid=int(cfg.get("cid") or 603382)), store=self._store)
+        self.fw = Firmware(self.motors, self.period_ns, opts.plant, Identity(cid=opts.cid),
+                           store=self._store)
+        self.make_world(self.motors)
+        self._world_setup()
         self.fw.memory.mount(DPRAM_BASE, DPRAM_BASE + DPRAM_SIZE // 4 - 1, DpramMemory(self.dpram))
         self.dpram_port = PortState()
         self.ascii = AsciiChannel(self.dpram.buf, self._dpram_execute, self._dpram_controlchar,
@@ -189,6 +213,17 @@ class PmacCard(Card):
         self.ascii.reset()
         self._firmware_reset()
 
+    def _world_setup(self) -> None:
+        """The axis world's state beside `world`: the positions last sensed, the emergency stop,
+        whether index pulses or probes need a look every servo cycle (README "Axis world")."""
+        n = self.motors
+        self._prev_phys = self.physical_positions()
+        self._edges = np.full((4, n), np.nan)  # HMFL, PLIM, MLIM, USER edges (encoder counts)
+        self._user = np.zeros(n, dtype=bool)
+        self._chc = np.zeros(n, dtype=bool)
+        self._pulses = False
+        self._sensing = False
+
     # -- power-up ---------------------------------------------------------------------------------
     def _firmware_reset(self) -> None:
         """After `$$$`, `$$$***` and at start: the host port, the interrupt controller and the
@@ -199,6 +234,8 @@ class PmacCard(Card):
         self.dpram_port.motor, self.dpram_port.cs = 1, 1
         self.host_port_state.state = PortState()
         self.fw.ivars.values[58] = 1
+        if hasattr(self, "_prev_phys"):  # the inputs stay as the world has them
+            self.apply_world()
 
     def reset(self) -> None:
         """The rack's reset: power cycle, DPRAM cleared."""
@@ -217,6 +254,8 @@ class PmacCard(Card):
     def step(self) -> None:
         fw = self.fw
         fw.tick(self.now_ns)
+        if self._sensing:
+            self._sense()
         cycle = fw.servo_cycles
         iv = fw.ivars.values
         rep = self.reporting
@@ -334,58 +373,136 @@ class PmacCard(Card):
             info["ethernet_error"] = self.ethernet_error
         return info
 
-    # -- backdoor ---------------------------------------------------------------------------------
-    def _motor(self, motor: int) -> int:
-        if not 1 <= int(motor) <= self.motors:
-            raise ValueError(f"no motor {motor} on this {self.motors}-motor card")
-        return int(motor) - 1
 
-    @control()
-    def set_limits(self, motor: int, plus: bool | None = None, minus: bool | None = None) -> None:
-        """The overtravel-limit flags of motor n (1-based), True = limit tripped."""
-        m = self._motor(motor)
-        self.fw.motors.set_flags(m, plus_limit=plus, minus_limit=minus)
-        self._channel_flag(m, ChannelFlag.PLIM, plus)
-        self._channel_flag(m, ChannelFlag.MLIM, minus)
+    # -- the axis world (README "Axis world") -----------------------------------------------------
+    def axis_index(self, axis: str | int) -> int:
+        """Motor n (1-based, as the manual numbers motors) as an index; ValueError naming the
+        motors otherwise."""
+        n = self.motors
+        if isinstance(axis, str) and axis.strip().isdigit():
+            axis = int(axis)
+        if isinstance(axis, int) and not isinstance(axis, bool) and 1 <= axis <= n:
+            return axis - 1
+        raise ValueError(f"no motor {axis!r} on this {n}-motor card (motors 1..{n})")
 
-    @control()
-    def set_home(self, motor: int, active: bool) -> None:
-        """The home flag (HMFL) of motor n, True = active."""
-        m = self._motor(motor)
-        self.fw.motors.set_flags(m, home=active)
-        self._channel_flag(m, ChannelFlag.HMFL, active)
+    def physical_positions(self) -> np.ndarray:
+        """The stages' positions: homing moves only the motors' origins (Motors.origin) and a
+        power-up reset redefines the core's zero, which `physical()` takes out."""
+        return self.fw.motors.core.physical()
 
-    @control()
-    def set_amp_fault(self, motor: int, active: bool) -> None:
-        """The amplifier-fault flag of motor n."""
-        m = self._motor(motor)
-        self.fw.motors.set_flags(m, amp_fault=active)
-        self._channel_flag(m, ChannelFlag.FAULT, active)
+    def _sense(self) -> None:
+        """Every servo cycle while the world has mechanics, index pulses or probes: the switch
+        levels from the physical positions, where each changed level changed (for the capture),
+        the index (CHC) and probe (USER) pulses crossed this cycle; applied when one changed."""
+        w = self.world
+        phys = self.physical_positions()
+        prev, self._prev_phys = self._prev_phys, phys
+        changed = False
+        if w.mechanical:
+            before = (w.limit_pos, w.limit_neg, w.home)  # sense() replaces these arrays
+            if w.sense(phys):
+                self._switch_edges(prev, phys, before)
+                changed = True
+        if self._pulses:
+            changed = self._pulse(prev, phys) or changed
+        if changed:
+            self._apply(self._edges)
+            self._edges.fill(np.nan)
 
-    def _channel_flag(self, m: int, flag: ChannelFlag, level: bool | None) -> None:
-        """The same input as the motor's Servo IC channel shows it (X:b+0) and captures on it."""
-        if level is not None and m < self.fw.servo_ic.n:
-            self.fw.servo_ic.set_flag(m, flag, bool(level))
+    def _switch_edges(self, prev: np.ndarray, phys: np.ndarray,
+                      before: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+        """Where the home flag and the limit flags changed level between prev and phys, in
+        encoder counts (the Servo IC latches its counter at the flag's edge)."""
+        w = self.world
+        zero = self.fw.motors.core.zero
+        low, high = np.minimum(prev, phys), np.maximum(prev, phys)
 
-    @control()
-    def set_encoder_loss(self, motor: int, active: bool) -> None:
-        """The encoder of motor n stops counting while active."""
-        self.fw.motors.set_encoder_loss(self._motor(motor), active)
+        def crossed(at: np.ndarray) -> np.ndarray:
+            return (low <= at) & (at <= high)
 
-    @control()
-    def set_index(self, motor: int, period: int = 4096) -> None:
-        """The encoder index (C channel) of motor n every `period` counts."""
-        self.fw.motors.set_index(self._motor(motor), int(period))
+        lo_in, hi_in = crossed(w.home_lo), crossed(w.home_hi)
+        home = np.where(lo_in & (~hi_in | (phys >= prev)), w.home_lo,
+                        np.where(hi_in, w.home_hi, np.nan))
+        plim = np.where(crossed(w.pos_at), w.pos_at, np.nan)
+        mlim = np.where(crossed(w.neg_at), w.neg_at, np.nan)
+        for row, edge, old, new in ((0, home, before[2], w.home), (1, plim, before[0], w.limit_pos),
+                                    (2, mlim, before[1], w.limit_neg)):
+            self._edges[row] = np.where(old != new, edge + zero, np.nan)
 
-    @control()
-    def set_input(self, line: int, level: bool) -> None:
-        """The electrical level of JIO line 0-31 (reads follow direction and inversion)."""
-        self.fw.gpio.set_input(int(line), bool(level))
+    def _pulse(self, prev: np.ndarray, phys: np.ndarray) -> bool:
+        """The probe (USERn) and index (CHCn) inputs: high for the servo cycle in which the
+        stage crossed a probe position or an index pulse (CHC also while it stands on one)."""
+        w = self.world
+        user = np.zeros(self.motors, dtype=bool)
+        for a in self._probe_axes:
+            at = w.probe_between(a, float(prev[a]), float(phys[a]))
+            if at is not None:
+                user[a] = True
+                self._edges[3, a] = at + float(self.fw.motors.core.zero[a])
+        period = w.index_period
+        safe = np.where(period > 0, period, 1.0)
+        now = phys - w.index_phase
+        chc = (period > 0) & ((np.floor((prev - w.index_phase) / safe) != np.floor(now / safe))
+                              | (now % safe == 0))
+        changed = not (np.array_equal(user, self._user) and np.array_equal(chc, self._chc))
+        self._user, self._chc = user, chc
+        return changed
 
-    @control()
-    def set_analog(self, channel: int, volts: float) -> None:
+    def apply_world(self) -> None:
+        """The axis world's levels and faults on the motors' flag inputs and their Servo IC
+        channels (README "Backdoor")."""
+        self._apply(None)
+
+    def _apply(self, edges: np.ndarray | None) -> None:
+        w, fw = self.world, self.fw
+        mo, ic, core = fw.motors, fw.servo_ic, fw.motors.core
+        amp = w.amp_fault | w.estop
+        mo.apply_inputs(w.limit_pos, w.limit_neg, w.home, amp, self._user, edges)
+        for flag, levels in ((ChannelFlag.PLIM, w.limit_pos), (ChannelFlag.MLIM, w.limit_neg),
+                             (ChannelFlag.HMFL, w.home), (ChannelFlag.FAULT, amp),
+                             (ChannelFlag.USER, self._user), (ChannelFlag.CHC, self._chc)):
+            ic.set_flag_levels(flag, levels)
+        mo.set_encoder_losses(w.encoder_loss)
+        for a in np.flatnonzero(core.jammed != w.jammed).tolist():
+            core.set_jammed(a, bool(w.jammed[a]))
+        # index pulses in physical counts: the home search sees them on the encoder's count
+        mo.homing.index_period[:] = w.index_period
+        mo.homing.index_phase[:] = w.index_phase + core.zero
+        self._probe_axes = [a for a in range(w.n) if len(w.probes[a])]
+        self._pulses = bool(self._probe_axes) or bool((w.index_period > 0).any())
+        if not self._sensing:
+            self._prev_phys = self.physical_positions()
+        self._sensing = w.mechanical or self._pulses
+
+    def drive_input(self, line: int, level: bool) -> None:
+        """JIO line 0-31 at +5 V (True) or 0 V; reads follow direction and inversion."""
+        if isinstance(line, bool) or not isinstance(line, int) or not 0 <= line < 32:
+            raise ValueError(f"line {line!r} outside 0..31 (JIO)")
+        self.fw.gpio.set_input(line, bool(level))
+
+    def drive_analog(self, channel: int, volts: float) -> None:
         """The voltage at ANAI00-15 (JANA)."""
-        self.fw.gpio.set_analog(int(channel), float(volts))
+        if isinstance(channel, bool) or not isinstance(channel, int) or not 0 <= channel < 16:
+            raise ValueError(f"channel {channel!r} outside 0..15 (ANAI00-15)")
+        self.fw.gpio.set_analog(channel, float(volts))
+
+    def drive_estop(self, active: bool) -> None:
+        """ASSUMPTION (README "Backdoor"): the Turbo PMAC has no emergency-stop input; the
+        installation's stop chain cuts the amplifiers, so every motor's amplifier-fault input
+        (FAULTn) reads a fault while active: the motors are killed as Ixx24 says."""
+        self.world.estop = bool(active)
+        self.world.version += 1
+        self.apply_world()
+
+    # -- the card's own and the deprecated backdoor actions ---------------------------------------
+    @control(deprecated="set_limit")
+    def set_limits(self, axis: int, plus: bool | None = None, minus: bool | None = None) -> None:
+        """The overtravel-limit flags of motor n (1-based), True = limit tripped (held), False =
+        left to the mechanics; None: unchanged."""
+        if plus is not None:
+            self.set_limit(axis, "positive", bool(plus))
+        if minus is not None:
+            self.set_limit(axis, "negative", bool(minus))
 
     @control()
     def get_outputs(self) -> int:
@@ -393,12 +510,12 @@ class PmacCard(Card):
         return int(self.fw.gpio.outputs())
 
     @control()
-    def set_mldt_base(self, motor: int, mm: float) -> None:
+    def set_mldt_base(self, axis: int, mm: float) -> None:
         """MLDT: the magnet's distance from the sensor head at encoder count 0 of motor n's
         channel, mm (the timer reads base + encoder count, one count per timer LSB)."""
-        m = self._motor(motor)
+        m = self.axis_index(axis)
         if m >= self.fw.servo_ic.n:
-            raise ValueError(f"motor {motor} has no on-board channel")
+            raise ValueError(f"motor {axis} has no on-board channel")
         self.fw.servo_ic.set_mldt_base(m, float(mm))
 
     @control()

@@ -12,6 +12,7 @@ its motor should do (`Jog`, `Found`) and `Motors` does it: homing moves the moto
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -37,6 +38,8 @@ class MotorView(Protocol):
     def plim(self) -> np.ndarray: ...
     @property
     def mlim(self) -> np.ndarray: ...
+    @property
+    def user(self) -> np.ndarray: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,7 +82,9 @@ class HomeSearch:
 
     def __init__(self, motors: MotorView) -> None:
         self.motors = motors
-        self.index_period = np.zeros(motors.n, dtype=np.int64)  # set_index (0: no index pulses)
+        #: index pulses at index_phase + k x index_period encoder counts (period 0: none)
+        self.index_period = np.zeros(motors.n)
+        self.index_phase = np.zeros(motors.n)
         #: I7mn0's number for the Servo IC channel of each motor's flags (Ixx25)
         self.capture_ivar = np.zeros(motors.n, dtype=np.int64)
         self.clear()
@@ -111,8 +116,8 @@ class HomeSearch:
         self.searching &= moving
 
     def index_now(self) -> np.ndarray:
-        """CHC: the encoder sits on an index pulse (a multiple of the index period)."""
-        enc, period = self.motors.core.axes.encoder, self.index_period
+        """CHC: the encoder sits on an index pulse (phase + a multiple of the index period)."""
+        enc, period = self.motors.core.axes.encoder - self.index_phase, self.index_period
         return (period > 0) & (enc % np.where(period > 0, period, 1) == 0)
 
     # -- HM and HMZ ------------------------------------------------------------------------------
@@ -141,11 +146,14 @@ class HomeSearch:
         return Found(float(here))
 
     # -- the trigger -----------------------------------------------------------------------------
-    def check(self, initial: bool = False) -> list[tuple[int, Found]]:
+    def check(self, initial: bool = False, edges: np.ndarray | None = None
+              ) -> list[tuple[int, Found]]:
         """Searching motors whose capture condition holds: latch the capture, set home complete;
         for each, trigger + Ixx26/16 becomes motor position 0 and it moves there [§2.7]
         (`Found`, with the motor). `initial`: at the command or an input change, not after a
-        servo cycle (no index crossed since the last check)."""
+        servo cycle (no index crossed since the last check). `edges` (4 x motors, encoder
+        counts, NaN: unknown): where the HMFL, PLIM, MLIM and USER inputs changed level during
+        this cycle; a flag trigger captures there (else the present count)."""
         mo = self.motors
         core, values = mo.core, mo.ivars.values
         self.searching &= core.profile.moving  # a limit or a stop ended the search
@@ -156,7 +164,7 @@ class HomeSearch:
         hit = idx[self._capture_level(idx, initial)]
         found = []
         for m in hit.tolist():
-            capture = self._capture_value(m, initial)
+            capture = self._capture_value(m, initial, edges)
             self.capture_counts[m] = capture
             self.captured[m] = True
             self.searching[m] = False
@@ -178,12 +186,12 @@ class HomeSearch:
         ctrl = v[civ + 2].astype(np.int64)
         sel = v[civ + 3].astype(np.int64)
         flag = np.choose(np.clip(sel, 0, 3), [mo.hmfl[idx], mo.plim[idx], mo.mlim[idx],
-                                               np.zeros(len(idx), dtype=bool)])
+                                               mo.user[idx]])
         flag = np.where((ctrl & 8) != 0, ~flag, flag)
         period = self.index_period[idx]
-        enc = mo.core.axes.encoder[idx]
+        enc = mo.core.axes.encoder[idx] - self.index_phase[idx]
         safe = np.where(period > 0, period, 1)
-        prev = enc if initial else self._enc_prev[idx]
+        prev = enc if initial else self._enc_prev[idx] - self.index_phase[idx]
         crossed = (np.floor_divide(enc, safe) != np.floor_divide(prev, safe)) | (enc % safe == 0)
         index = (period > 0) & crossed
         index = np.where((ctrl & 4) != 0, ~index, index)
@@ -191,13 +199,22 @@ class HomeSearch:
         immediate = ~use_index & ~use_flag
         return immediate | ((index | ~use_index) & (flag | ~use_flag))
 
-    def _capture_value(self, m: int, initial: bool) -> int:
-        """The counter value latched: the index position crossed, else the present count."""
+    def _capture_value(self, m: int, initial: bool, edges: np.ndarray | None = None) -> int:
+        """The counter value latched: the index position crossed; else, on a flag, where the
+        flag changed level this cycle (`edges`); else the present count."""
         enc = int(self.motors.core.axes.encoder[m])
-        ctrl = int(self.motors.ivars.values[int(self.capture_ivar[m]) + 2])
-        period = int(self.index_period[m])
+        values = self.motors.ivars.values
+        civ = int(self.capture_ivar[m])
+        ctrl = int(values[civ + 2])
+        period = float(self.index_period[m])
         if ctrl & 1 and not ctrl & 4 and period > 0:
+            phase = float(self.index_phase[m])
             prev = enc if initial else int(self._enc_prev[m])
-            k = max(enc // period, prev // period) if enc % period else enc // period
-            return k * period
+            e, p = enc - phase, prev - phase
+            k = max(e // period, p // period) if e % period else e // period
+            return math.floor(k * period + phase + 0.5)
+        if ctrl & 2 and edges is not None:
+            edge = float(edges[int(values[civ + 3]) & 3, m])
+            if math.isfinite(edge):
+                return math.floor(edge)
         return enc

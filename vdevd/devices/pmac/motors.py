@@ -98,6 +98,7 @@ class Motors:
         self.mlim = np.zeros(n, dtype=bool)
         self.hmfl = np.zeros(n, dtype=bool)
         self.amp_fault_in = np.zeros(n, dtype=bool)  # the amplifier reports a fault (logical)
+        self.user = np.zeros(n, dtype=bool)  # USERn: the registration probe (card.py)
         self.phase_clock_error = False
         self.homing = HomeSearch(self)  # HM, HMZ, the capture registers and index pulses
         self._alloc_state()
@@ -463,16 +464,45 @@ class Motors:
         if self.homing.any_searching and home is not None:
             self._home_found(self.homing.check(initial=True))
 
+    def apply_inputs(self, plim: np.ndarray, mlim: np.ndarray, hmfl: np.ndarray,
+                     amp_fault: np.ndarray, user: np.ndarray | None = None,
+                     edges: np.ndarray | None = None) -> None:
+        """The axis world's levels on every motor's flag inputs at once (the card's
+        `apply_world`), in `set_flags`' sense. `edges` (4 x motors, encoder counts, NaN: none):
+        where the HMFL, PLIM, MLIM and USER levels changed during this servo cycle, which a
+        home search triggered by that change captures (the hardware latches the counter at the
+        edge, not at the next servo cycle)."""
+        flags = [(self.plim, plim), (self.mlim, mlim), (self.hmfl, hmfl),
+                 (self.amp_fault_in, amp_fault)]
+        if user is not None:
+            flags.append((self.user, user))
+        changed = False
+        for mine, level in flags:
+            if not np.array_equal(mine, level):
+                np.copyto(mine, level)
+                changed = True
+        if not changed:
+            return
+        self._push_inputs()
+        if self.homing.any_searching:
+            self._home_found(self.homing.check(initial=True, edges=edges))
+
     def set_encoder_loss(self, m: int, lost: bool) -> None:
         """Backdoor: the encoder of motor m stops counting while `lost`."""
         loss = self.core.encoder_loss.copy()
         loss[m] = lost
-        self.core.set_inputs(encoder_loss=loss)
+        self.set_encoder_losses(loss)
 
-    def set_index(self, m: int, period_counts: int) -> None:
-        """Backdoor: an index pulse (CHC) at every multiple of `period_counts` encoder counts
-        (0: none)."""
-        self.homing.index_period[m] = max(int(period_counts), 0)
+    def set_encoder_losses(self, lost: np.ndarray) -> None:
+        """The encoders of the motors where `lost` is True stop counting; the others count."""
+        if not np.array_equal(self.core.encoder_loss, lost):
+            self.core.set_inputs(encoder_loss=np.array(lost, dtype=bool))
+
+    def set_index(self, m: int, period_counts: float, phase: float = 0.0) -> None:
+        """Backdoor: an index pulse (CHC) at phase + k x `period_counts` encoder counts, for
+        every integer k (period 0: none)."""
+        self.homing.index_period[m] = max(float(period_counts), 0.0)
+        self.homing.index_phase[m] = float(phase)
 
     def _amp_faults(self) -> np.ndarray:
         """The amplifier faults the motors act on: not with Ixx24 bit 20 (input unused)."""

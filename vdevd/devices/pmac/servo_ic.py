@@ -333,6 +333,18 @@ class ServoIC:
         self.flags[c] = self.flags[c] | (1 << flag) if level else self.flags[c] & ~(1 << flag)
         self._cap_dirty = True
 
+    def set_flag_levels(self, flag: ChannelFlag, levels: np.ndarray) -> None:
+        """Drive input flag `flag` of the first len(levels) channels at once (the axis world)."""
+        if not INPUT_FLAGS >> flag & 1:
+            raise ValueError(f"{flag.name} is not an input flag")
+        k = min(len(levels), self.n)
+        bit = 1 << int(flag)
+        now = self.flags[:k]
+        new = np.where(levels[:k], now | bit, now & ~bit)
+        if not np.array_equal(new, now):
+            self.flags[:k] = new
+            self._cap_dirty = True
+
     def set_mldt_base(self, c: int, mm: float) -> None:
         """Distance of the magnet from the MLDT head (mm) at encoder count 0 of channel c: one
         timer LSB is one count, ~0.024 mm [A L421-425]."""
