@@ -568,6 +568,16 @@ class MotionCore:
             self._home_found(rising[self.profile.mode[rising] == ProfileMode.HOMING])
         self._configure()
 
+    def set_period(self, dt_ns: float) -> None:
+        """A new servo period from the next tick on (a card whose update rate changes): the
+        profiles go on at their planned times; the PID gains, per sample, stay as they are."""
+        if not dt_ns > 0:
+            raise ValueError("the period must be positive")
+        self.dt_ns, self.dt = dt_ns, dt_ns / 1e9
+        self.profile.set_dt(self.dt)
+        self.plant.set_dt(self.dt)
+        self.stepper.set_dt(self.dt)
+
     def physical(self) -> np.ndarray:
         """The stage's physical positions in counts: the actual positions less every
         redefinition of zero (a fresh array)."""

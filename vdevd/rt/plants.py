@@ -54,6 +54,11 @@ class StepperPlant:
         self._max_rate[axes] = float(max_rate)
         self._configure()
 
+    def set_dt(self, dt: float) -> None:
+        """A new tick length (the card's period changed)."""
+        self.dt, self._inv_dt = dt, 1.0 / dt
+        self._configure()
+
     def _configure(self) -> None:
         self._lim = self._max_rate * self.dt
         self._lim_neg = -self._lim
@@ -122,6 +127,11 @@ class ServoPlant:
         """Which axes this plant moves; the others keep their position with velocity 0 (axes of
         another kind on a mixed card, which their own plant then moves)."""
         self.enabled[:] = mask
+        self._configure()
+
+    def set_dt(self, dt: float) -> None:
+        """A new tick length (the card's period changed)."""
+        self.dt = dt
         self._configure()
 
     def _configure(self) -> None:

@@ -167,9 +167,9 @@ class ProfileGenerator:
     def __init__(self, axes: Axes, dt: float) -> None:
         n = axes.n
         self.axes = axes
-        self.dt = dt
         self.t = 0.0
         self.ticks = 0
+        self._t_base, self._ticks_base = 0.0, 0  # where the tick length last changed
         # phase table: start time, end time, p0, v0, a0, jerk; row = axis, column = phase
         self.table = np.zeros((6, n, MAX_PHASES))
         self.pt0, self.pend, self.pp0, self.pv0, self.pa0, self.pj = self.table
@@ -190,13 +190,24 @@ class ProfileGenerator:
         self.jerky = False
         # one tick of constant jerk: (pos, vel, acc) <- M @ (pos, vel, acc) + jstep, where jstep
         # is (j dt^3/6, j dt^2/2, j dt) of each axis's current phase
-        self._m3 = np.array([[1.0, dt, dt * dt / 2], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
         self._jstep = np.zeros((3, n))
-        self._jcoef = np.array([dt**3 / 6, dt * dt / 2, dt])[:, None]
+        self._set_matrices(dt)
         self._next = np.zeros((3, n))
         self._tau = np.zeros(n)
         self._tmp = np.zeros(n)
         self._pva = axes.cmd_pva
+
+    def _set_matrices(self, dt: float) -> None:
+        self.dt = dt
+        self._m3 = np.array([[1.0, dt, dt * dt / 2], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
+        self._jcoef = np.array([dt**3 / 6, dt * dt / 2, dt])[:, None]
+
+    def set_dt(self, dt: float) -> None:
+        """A new tick length from the next tick on (the card's period changed): the clock goes
+        on from the present time, and plans keep their times."""
+        self._t_base, self._ticks_base = self.t, self.ticks
+        self._set_matrices(dt)
+        self._jstep[:] = self._jcoef * self.j
 
     # -- planning (command time, one axis at a time) -------------------------------------------
     def state(self, axis: int) -> tuple[float, float, float]:
@@ -279,7 +290,7 @@ class ProfileGenerator:
         """Move the clock one tick; the axes whose plan ended this tick (None when no phase
         boundary was due)."""
         self.ticks += 1
-        self.t = t = self.ticks * self.dt
+        self.t = t = self._t_base + (self.ticks - self._ticks_base) * self.dt
         if t < self.next_t:
             if self.active:  # exact within a phase of constant jerk, up to rounding
                 nxt = self._next
