@@ -568,7 +568,7 @@ class MotionCore:
             self._home_found(rising[self.profile.mode[rising] == ProfileMode.HOMING])
         self._configure()
 
-    def set_period(self, dt_ns: float) -> None:
+    def set_period(self, dt_ns: int) -> None:
         """A new servo period from the next tick on (a card whose update rate changes): the
         profiles go on at their planned times; the PID gains, per sample, stay as they are."""
         if not dt_ns > 0:
