@@ -46,7 +46,7 @@ class MotionCore:
     is the PID's error; the following-error limit is checked; the PID computes the new output.
     """
 
-    def __init__(self, n: int, dt_ns: int, plant: PlantKind | Sequence[PlantKind] = PlantKind.SERVO
+    def __init__(self, n: int, dt_ns: float, plant: PlantKind | Sequence[PlantKind] = PlantKind.SERVO
                  ) -> None:
         if n < 1 or dt_ns <= 0:
             raise ValueError("need at least one axis and a positive period")
@@ -568,7 +568,7 @@ class MotionCore:
             self._home_found(rising[self.profile.mode[rising] == ProfileMode.HOMING])
         self._configure()
 
-    def set_period(self, dt_ns: int) -> None:
+    def set_period(self, dt_ns: float) -> None:
         """A new servo period from the next tick on (a card whose update rate changes): the
         profiles go on at their planned times; the PID gains, per sample, stay as they are."""
         if not dt_ns > 0:
