@@ -48,7 +48,8 @@ class OmsMotion:
         self.params = params
         self.ideal = ideal
         #: per axis: the planner of a move from rest (spec §5.2; ValueError on an unknown name)
-        self.planners = [profile.planner(name) for name in profiles or ["linear"] * n]
+        self.planners = [profile.planner(name) for name in
+                         (["linear"] * n if profiles is None else profiles)]
         kinds = [PlantKind.IDEAL if ideal else _KIND[t] for t in params.ptype]
         self.core = MotionCore(n, period_ns, kinds)
         # raw input levels (1 = TTL high); open inputs are pulled high [spec §2.3]
@@ -66,6 +67,10 @@ class OmsMotion:
         self.home_edge = np.full(n, math.inf)  # backdoor: a home switch at a position ...
         self.home_top = np.full(n, math.inf)  # ... active from home_edge up to home_top
         self.home_edge_set = False
+        #: the axis world's home switch (card.py): active, and its window in physical counts
+        self.home_world = np.zeros(n, dtype=bool)
+        self.window_lo = np.full(n, math.inf)
+        self.window_hi = np.full(n, -math.inf)
         self.home_index = np.zeros(n, dtype=bool)  # HI mode: home = the truth table (HT/EH)
         self.index_capture = np.zeros(n, dtype=bool)  # index pulses make capture entries
         self.encoders = Encoders(self.core, params)
@@ -239,12 +244,28 @@ class OmsMotion:
             elif not started and math.isfinite(self.home_edge[a]):
                 edge = self.home_edge[a] if ax.cmd_vel[a] >= 0 else self.home_top[a]
                 past = float(ax.pos[a]) - float(edge) if math.isfinite(edge) else 0.0
+            elif not started and self.window_lo[a] <= self.window_hi[a]:
+                past = self._past_window(a)
             before = float(ax.pos[a])
             self.core.redefine_and_stop(a, float(self.home_value[a]) + past, dec)
-            shift = float(ax.pos[a]) - before  # the switch and the index stay on the axis
-            self.home_edge[a] += shift
-            self.home_top[a] += shift
-            self.encoders.renumbered(a, shift)
+            self.renumbered(a, float(ax.pos[a]) - before)
+
+    def _past_window(self, a: int) -> float:
+        """How far the axis ran past the edge of its world home window (physical counts) that
+        it crossed in the last cycle; 0 when it met none (the switch held by the backdoor)."""
+        ax = self.core.axes
+        up = ax.cmd_vel[a] >= 0
+        edge = float(self.window_lo[a] if up else self.window_hi[a])
+        past = float(self.core.physical()[a]) - edge
+        travel = abs(float(ax.vel[a])) * self.core.dt + 1.0
+        return past if 0.0 <= (past if up else -past) <= travel else 0.0
+
+    def renumbered(self, a: int, shift: float) -> None:
+        """Axis a's counters moved by `shift` counts (a home found, LP): the switches the
+        backdoor placed and the index pulses stay where they are on the axis."""
+        self.home_edge[a] += shift
+        self.home_top[a] += shift
+        self.encoders.renumbered(a, shift)
 
     def tick(self) -> int:
         events = self.core.tick()
@@ -297,8 +318,23 @@ class OmsMotion:
         on = np.isfinite(edge)
         pos = self.core.axes.pos
         active_level = self.params.home_high
-        at = (pos >= edge) & (pos < self.home_top)  # active from the edge, below the top
+        at = (pos >= edge) & (pos < self.home_top) | self.home_world  # from the edge, below the top
         self.home_level = np.where(on, np.where(at, active_level, ~active_level), self.home_level)
+
+    def set_world_home(self, active: np.ndarray) -> bool:
+        """The axis world's home switches (True = active): the raw level of each that changed
+        takes the active or inactive level HH/HL give now, as a switch wired for them does.
+        True when one changed."""
+        changed = active != self.home_world
+        if not changed.any():
+            return False
+        self.home_world[:] = active
+        high = self.params.home_high
+        level = np.where(active, high, ~high)
+        self.home_level = np.where(changed, level, self.home_level)
+        if self.home_edge_set:
+            self.update_home_edges()
+        return True
 
     def set_home_edge(self, a: int, position: float | None, width: float | None = None) -> None:
         """A home switch active from `position` up (for `width` counts if given); None: none."""
