@@ -189,6 +189,25 @@ def test_s4_3_a_home_search_that_meets_the_configured_limit_stops_without_done()
         assert qa(m) == "PNLN"
 
 
+def test_configured_switches_follow_the_polarity_the_application_sets() -> None:
+    """An installation with active-high switches sends LTH and HH first [S §2.14, §4.2]: the
+    configured switches are wired for it, so they are inactive where the stage is not on them
+    and still act at their positions."""
+    with board([{"limits": [-8000, 8000], "home": [5000, 6000]}]) as (m, rack):
+        m.send_string("AX LTH HH")
+        rack.sim.step(seconds=0.01)  # the words are published every update cycle
+        assert qa(m) == "PNNN"
+        assert m.read_limits() & 0x0101 == 0  # idle inputs of an active-high switch: low
+        m.send_string("AX HM0 ID")
+        assert m.wait_done(X, WAIT_MS) == maxk.StatusFlags(done=X)
+        assert rp(m) == pytest.approx(STOP, abs=CYCLE)
+        assert m.read_home() & 1  # on the switch: high
+        m.send_string("AX JG5000")
+        assert m.wait_done(X, WAIT_MS) == maxk.StatusFlags(overtravel=X)
+        assert 3000 <= rests(m, rack) <= 3000 + 5000 * DT + 1  # physical 8000
+        assert qa(m)[2] == "L"
+
+
 # -- faults, jam and probes from the world -------------------------------------------------------------
 def test_a_configured_amp_fault_holds_the_servo_open_at_power_up() -> None:
     """`amp_fault = true` on Z (a servo): at power-up its loop is open (CL? off) and it is

@@ -76,11 +76,9 @@ def pci_identity(board: int) -> PciIdentity:
 
 
 class _Applied:
-    """What apply_world last put on the card's signals, per axis."""
+    """The index pulses apply_world last gave the encoders, per axis."""
 
     def __init__(self, n: int) -> None:
-        self.limit_pos = np.zeros(n, dtype=bool)
-        self.limit_neg = np.zeros(n, dtype=bool)
         self.index_period = np.full(n, np.nan)  # none yet: every axis's pulses get placed
         self.index_phase = np.full(n, np.nan)
 
@@ -471,28 +469,21 @@ class MaxkCard(Card):
             self._probe_from = here
 
     def apply_world(self) -> None:
-        """The world's levels and faults on the card's signals (README.md "Backdoor"): a limit
-        or home switch that changed takes the active or inactive level LTH/LTL or HH/HL give
-        now (the raw level stays when they change later, as a wired switch does); set_estop
-        holds every limit input active; index pulses to the encoders; amplifier fault (servo
-        axes), encoder loss (axes with an encoder) and jam to the motion core."""
+        """The world's levels and faults on the card's signals (README.md "Axis world",
+        "Backdoor"): the limit and home inputs through their polarity (OmsMotion.set_world),
+        set_estop holding every limit input active; index pulses to the encoders; amplifier
+        fault (servo axes), encoder loss (axes with an encoder) and jam to the motion core."""
         world, fw, done = self.world, self.fw, self._applied
         m = fw.motion
         core = m.core
-        high = fw.params.limit_high
-        pos, neg = world.limit_pos | world.estop, world.limit_neg | world.estop
-        for want, seen, level in ((pos, done.limit_pos, m.limit_pos_level),
-                                  (neg, done.limit_neg, m.limit_neg_level)):
-            changed = want != seen
-            level[changed] = np.where(want, high, ~high)[changed]
-            seen[:] = want
-        m.set_world_home(world.home)
         m.window_lo[:], m.window_hi[:] = world.home_lo, world.home_hi
         for a in np.flatnonzero((world.index_period != done.index_period)
                                 | (world.index_phase != done.index_phase)).tolist():
             m.encoders.place_index(a, float(world.index_period[a]), float(world.index_phase[a]))
         done.index_period[:], done.index_phase[:] = world.index_period, world.index_phase
-        m.apply_limits()
+        m.set_world(world.limit_pos | world.estop, world.limit_neg | world.estop, world.home,
+                    np.isfinite(world.neg_at) | np.isfinite(world.pos_at),
+                    world.home_lo <= world.home_hi)
         m.check_homes()
         servo = np.array([t == "M" for t in fw.params.ptype])
         encoder = np.array([t in "EM" for t in fw.params.ptype])

@@ -67,8 +67,14 @@ class OmsMotion:
         self.home_edge = np.full(n, math.inf)  # backdoor: a home switch at a position ...
         self.home_top = np.full(n, math.inf)  # ... active from home_edge up to home_top
         self.home_edge_set = False
-        #: the axis world's home switch (card.py): active, and its window in physical counts
+        #: the axis world's switches (card.py, set_world): active or not, and the axes whose
+        #: switches sit at positions, wired for whatever polarity the host sets (`wire`)
+        self.world_pos = np.zeros(n, dtype=bool)
+        self.world_neg = np.zeros(n, dtype=bool)
         self.home_world = np.zeros(n, dtype=bool)
+        self.wired_limits = np.zeros(n, dtype=bool)
+        self.wired_home = np.zeros(n, dtype=bool)
+        #: the world's home window in physical counts (empty: lo > hi)
         self.window_lo = np.full(n, math.inf)
         self.window_hi = np.full(n, -math.inf)
         self.home_index = np.zeros(n, dtype=bool)  # HI mode: home = the truth table (HT/EH)
@@ -96,6 +102,7 @@ class OmsMotion:
     def apply_limits(self) -> None:
         """Feed the switches to the core (hard mode stops at once, soft mode decelerates at AC),
         then the slip tolerances (ES, the axis types, ER: encoder.py)."""
+        self.wire()
         p, lim = self.params, self.core.limits
         soft = np.array([m == "S" for m in p.limit_mode])
         lim.limit_dec[:] = np.where(soft, p.values["AC"], HARD_STOP)
@@ -321,20 +328,36 @@ class OmsMotion:
         at = (pos >= edge) & (pos < self.home_top) | self.home_world  # from the edge, below the top
         self.home_level = np.where(on, np.where(at, active_level, ~active_level), self.home_level)
 
-    def set_world_home(self, active: np.ndarray) -> bool:
-        """The axis world's home switches (True = active): the raw level of each that changed
-        takes the active or inactive level HH/HL give now, as a switch wired for them does.
-        True when one changed."""
-        changed = active != self.home_world
-        if not changed.any():
-            return False
-        self.home_world[:] = active
-        high = self.params.home_high
-        level = np.where(active, high, ~high)
-        self.home_level = np.where(changed, level, self.home_level)
+    def set_world(self, pos: np.ndarray, neg: np.ndarray, home: np.ndarray,
+                  wired_limits: np.ndarray, wired_home: np.ndarray) -> None:
+        """The axis world's switches (True = active). On the `wired` axes, whose switches sit at
+        positions, the raw levels follow the polarity LTH/LTL and HH/HL give, now and after
+        (`wire`): the installation is wired for it. On the others (switches only held by the
+        backdoor) a switch that changes takes the level the polarity gives at that moment and
+        keeps it, as before the axis world: a later LTH/HH changes what that level means."""
+        p = self.params
+        for active, seen, level, high in (
+                (pos, self.world_pos, self.limit_pos_level, p.limit_high),
+                (neg, self.world_neg, self.limit_neg_level, p.limit_high),
+                (home, self.home_world, self.home_level, p.home_high)):
+            changed = active != seen
+            np.copyto(level, np.where(active, high, ~high), where=changed)
+            seen[:] = active
+        self.wired_limits[:], self.wired_home[:] = wired_limits, wired_home
         if self.home_edge_set:
             self.update_home_edges()
-        return True
+        self.apply_limits()
+
+    def wire(self) -> None:
+        """The raw levels of the wired switches from the present polarity (see set_world)."""
+        p = self.params
+        if self.wired_limits.any():
+            high, wired = p.limit_high, self.wired_limits
+            np.copyto(self.limit_pos_level, np.where(self.world_pos, high, ~high), where=wired)
+            np.copyto(self.limit_neg_level, np.where(self.world_neg, high, ~high), where=wired)
+        if self.wired_home.any():
+            high, wired = p.home_high, self.wired_home & ~np.isfinite(self.home_edge)
+            np.copyto(self.home_level, np.where(self.home_world, high, ~high), where=wired)
 
     def set_home_edge(self, a: int, position: float | None, width: float | None = None) -> None:
         """A home switch active from `position` up (for `width` counts if given); None: none."""
