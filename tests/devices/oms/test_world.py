@@ -130,6 +130,36 @@ def test_lp_and_a_home_search_leave_the_switches_where_the_stage_has_them() -> N
         assert 15000 <= rests(m, rack) <= 15000 + 5000 * DT + 1
 
 
+@pytest.mark.parametrize(("axis", "load"), [("X", "LP"), ("X", "LO"), ("Z", "LPE"), ("Y", "LP")])
+def test_every_load_of_the_position_leaves_the_switch_on_the_stage(axis: str, load: str) -> None:
+    """LP, LO and (on a servo, whose loop uses the encoder) LPE renumber the axis [S §2.13]:
+    the switch at physical 5000 is at 2000 after a load of -3000 at physical 0."""
+    tables = [{"home": [5000, 6000]}] * 3
+    with board(tables) as (m, rack):
+        m.send_string(f"A{axis} {load}-3000 MA1999 GO")
+        rests(m, rack, axis)
+        rack.sim.step(seconds=0.5)  # a servo settles
+        assert qa(m, axis)[3] == "N"
+        m.send_string(f"A{axis} MA2000 GO")
+        rests(m, rack, axis)
+        rack.sim.step(seconds=0.5)
+        assert qa(m, axis)[3] == "H"
+
+
+def test_set_index_period_0_removes_the_index_pulses(
+        plain: tuple[maxk.Maxk, vdevclient.Rack]) -> None:
+    """In HS mode an index capture (`CPH2`) records the index pulses [S §3.7]: the card's
+    default one every 4096 counts, none after `set_index` with period 0."""
+    m, rack = plain
+    m.send_string("AY CPH2 MR5000 GO ID")
+    m.wait_done(Y, WAIT_MS)
+    assert [(e.encoder, e.home) for e in m.get_rt_capture()] == [(4096, 2)]
+    rack.control("maxk0", "set_index", axis="Y", period=0)
+    m.send_string("AY MR5000 GO ID")
+    m.wait_done(Y, WAIT_MS)
+    assert m.get_rt_capture() == []
+
+
 def test_a_reset_zeroes_the_counters_where_the_stage_stands() -> None:
     """RS restarts the firmware with positions 0 (spec §4.3): the stage stays where it is, so
     its switches are where they were, now counted from there."""
