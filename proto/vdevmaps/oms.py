@@ -25,6 +25,15 @@ CAPTURE_SLOTS = 55  # entries of the real-time capture ring [S Table 3-5]
 CAPTURE_ENTRY_SIZE = 10  # bytes of one entry [S Table 3-6]
 CAPTURE_SIZE = 2 + CAPTURE_SLOTS * CAPTURE_ENTRY_SIZE  # from Shm.CAPTURE_INSERT [S Table 3-5]
 UPDATE_RATES = (1024, 2048, 4096, 8192)  # Hz, as #UR sets them [S §2.13]
+#: the PCI configuration header [S §3.2; spec §2.1]: Motorola's MPC8245 bridge (1057:0006), OMS
+#: subsystem vendor 160C, subsystem 0010 + the J5 board number; the shared memory is BAR2 (0x018),
+#: the message unit BAR4 (0x020)
+PCI_VENDOR_ID, PCI_DEVICE_ID = 0x1057, 0x0006
+PCI_SUBSYSTEM_VENDOR_ID, PCI_SUBSYSTEM_BASE = 0x160C, 0x0010
+SHM_BAR, MU_BAR = 2, 4
+#: neither source gives these (an assumption, the card's README): class 0B2000 (processor,
+#: PowerPC: the bridge is the card's PowerPC in agent mode), revision 00
+PCI_CLASS_CODE, PCI_REVISION_ID = 0x0B2000, 0x00
 
 
 class Shm(enum.IntEnum):

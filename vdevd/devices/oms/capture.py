@@ -13,6 +13,9 @@ true where they hold; in HS mode, whose home condition is the switch alone (bits
 the encoder's own home signal, the index pulse.
 
 Edges are of the raw input levels (a "positive edge" is TTL low to high, whatever HH/HL say).
+A probe position of the axis world (`[[card.axis]] probe`) is a probe wired to input line IOa of
+its axis a: crossing it pulses the line (both edges in one cycle), and axis a's entry holds the
+encoder count at the probe position itself (`probe`).
 The seed names no command for the triggers ("see the MAX family command reference"); the ones
 this card takes (CPH, CPR, CPF) are proposed in cmd_motion.py and the README.
 """
@@ -60,6 +63,8 @@ class Capture:
         self._inputs = 0
         self._home_level = np.ones(n, dtype=bool)
         self._index = np.zeros(n, dtype=bool)  # axes capturing encoder home events
+        self._probe_lines = 0  # GP lines a probe pulsed in this cycle
+        self._probe_past: dict[int, float] = {}  # axis -> encoder counts run past its probe
 
     def configure(self, fw: Firmware) -> None:
         """After a trigger changed: arm, watch index pulses where asked, take the levels now as
@@ -77,11 +82,24 @@ class Capture:
     def _input_levels(fw: Firmware) -> int:
         return fw.gpio_levels() & ~fw.gpio_dir & 0xFFFF
 
+    def probe(self, fw: Firmware, a: int, past: float) -> None:
+        """Axis a crossed a probe position of the axis world `past` physical counts before
+        where it stands: its probe, wired to input line IOa, pulses the line (a falling and a
+        rising edge within this cycle, too short for the I/O word). Axis a's entry holds the
+        encoder count at the probe position."""
+        if self.armed and a < 16:
+            self._probe_lines |= 1 << a
+            self._probe_past[a] = past * float(fw.motion.core.encoder_scale[a])
+
     def cycle(self, fw: Firmware) -> None:
         """One update cycle: the edges since the last one make entries."""
         m = fw.motion
         inputs = self._input_levels(fw)
         rise, fall = inputs & ~self._inputs, self._inputs & ~inputs
+        pulsed, past = self._probe_lines & ~fw.gpio_dir, self._probe_past
+        if self._probe_lines:
+            rise, fall = rise | pulsed, fall | pulsed
+            self._probe_lines, self._probe_past = 0, {}
         level = m.home_level
         changed = level != self._home_level
         index, index_at = self._encoder_home_events(fw, changed)
@@ -102,6 +120,8 @@ class Capture:
             position = float(enc[a])
             if home[a] & INDEX:  # the count of the event itself, as the host counts
                 position -= sign[a] * (float(raw[a]) - float(index_at[a]))
+            elif a in past and (rising[a] | falling[a]) & pulsed & 1 << a:  # its own probe
+                position -= sign[a] * round(past[a])
             self.pending.append(Entry(int(position), a, int(home[a]), int(rising[a]),
                                       int(falling[a])))
 

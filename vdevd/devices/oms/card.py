@@ -9,6 +9,7 @@ firmware advances its queues and the motion core and publishes positions and sta
 
 from __future__ import annotations
 
+import math
 import struct
 from collections.abc import Mapping
 from typing import Any, ClassVar
@@ -19,8 +20,16 @@ from vdevmaps.oms import (
     CAPTURE_MESSAGE,
     CARD_TYPE,
     MU,
+    MU_BAR,
     MU_SIZE,
+    PCI_CLASS_CODE,
+    PCI_DEVICE_ID,
+    PCI_REVISION_ID,
+    PCI_SUBSYSTEM_BASE,
+    PCI_SUBSYSTEM_VENDOR_ID,
+    PCI_VENDOR_ID,
     SHM,
+    SHM_BAR,
     SHM_SIZE,
     UPDATE_RATES,
     DirectCommand,
@@ -28,9 +37,10 @@ from vdevmaps.oms import (
     Shm,
 )
 
-from vdevd.devices.base import Card, CardContext, Option, axis_number, control
+from vdevd.devices.base import Card, CardContext, Option, control
 from vdevd.devices.oms import rings
 from vdevd.devices.oms.defaults import IMAGE_FORMATS
+from vdevd.devices.oms.encoder import DEFAULT_INDEX
 from vdevd.devices.oms.firmware import Firmware
 from vdevd.devices.oms.layout import (
     COHERENT_DAC_WORDS,
@@ -44,6 +54,7 @@ from vdevd.devices.oms.layout import (
 )
 from vdevd.devices.oms.mu import MessageUnit
 from vdevd.devices.oms.params import AXIS_TYPES, PROFILES, SERVO_OUTPUTS
+from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region
 from vdevd.rt import wrap_int32
 from vdevd.rt.axes import AxisFlag
@@ -53,24 +64,43 @@ _SEMAPHORE = int(Shm.MESSAGE_SEMAPHORE)
 _CMD_INSERT, _RSP_PROCESS = int(Shm.COMMAND_INSERT), int(Shm.RESPONSE_PROCESS)
 
 
+def pci_identity(board: int) -> PciIdentity:
+    """The configuration header [S §3.2; spec oms.md §2.1]: vdevmaps.oms's IDs, subsystem 0010
+    + the J5 board number, the shared memory as BAR2 and the message unit as BAR4; BAR0, 1, 3
+    and 5 not implemented (the seed names only the two)."""
+    bars: list[Bar | None] = [None] * 6
+    bars[SHM_BAR], bars[MU_BAR] = Bar(SHM_SIZE), Bar(MU_SIZE)
+    return PciIdentity(vendor=PCI_VENDOR_ID, device=PCI_DEVICE_ID, revision=PCI_REVISION_ID,
+                       class_code=PCI_CLASS_CODE, subsystem_vendor=PCI_SUBSYSTEM_VENDOR_ID,
+                       subsystem=PCI_SUBSYSTEM_BASE + board, bars=tuple(bars))
+
+
+class _Applied:
+    """The index pulses apply_world last gave the encoders, per axis."""
+
+    def __init__(self, n: int) -> None:
+        self.index_period = np.full(n, np.nan)  # none yet: every axis's pulses get placed
+        self.index_phase = np.full(n, np.nan)
+
+
 def _default_types(n: int) -> list[str]:
     """Servo on the first four axes, steppers after (the issue's default)."""
     return ["servo" if a < 4 else "stepper" for a in range(n)]
 
 
-def _per_axis(cfg: Mapping[str, Any], key: str, n: int, default: list[str]) -> list[str]:
-    """A per-axis list option: one entry per axis, or `default` when not given."""
-    values = list(cfg.get(key) or default)
-    if len(values) != n:
-        raise ValueError(f"{key}: {len(values)} entries for {n} axes")
-    return [str(v) for v in values]
+def _per_axis(key: str, values: list[Any] | None, n: int, default: list[str]) -> list[str]:
+    """A per-axis list option: one entry per axis, or `default` when not given (None)."""
+    out = default if values is None else [str(v) for v in values]
+    if len(out) != n:
+        raise ValueError(f"{key}: {len(out)} entries for {n} axes")
+    return out
 
 
-def _travel_limits(cfg: Mapping[str, Any], n: int) -> list[tuple[float, float] | None]:
+def _travel_limits(values: list[Any] | None, n: int) -> list[tuple[float, float] | None]:
     """Option `travel_limits`: per axis [low, high] in counts, or [] for none (the factory
     setting, "Software (soft) over-travel: disabled" [S §2.14])."""
     out: list[tuple[float, float] | None] = []
-    for a, pair in enumerate(cfg.get("travel_limits") or [[]] * n):
+    for a, pair in enumerate([[]] * n if values is None else values):
         if pair in ([], None):
             out.append(None)
             continue
@@ -109,23 +139,30 @@ class MaxkCard(Card):
                                                  " in counts, [] for none (the factory setting)"),
     }
 
+    #: the backdoor names axes as the manual does (X Y Z T U V R S W K, any case) or 0..n-1
+    axis_letters: ClassVar[str] = AXES
+    #: set_input's `line` was called `bit` before the shared vocabulary
+    control_params: ClassVar[Mapping[str, Mapping[str, str]]] = {"set_input": {"bit": "line"}}
+
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         super().__init__(name, config, ctx)
-        cfg = self.config
-        self.board = int(cfg.get("board") or 1)
-        self.n = int(cfg.get("axes") or 8)
-        types = _per_axis(cfg, "axis_types", self.n, _default_types(self.n))
+        opts = self.opts
+        self.board = opts.board
+        self.n = opts.axes
+        types = _per_axis("axis_types", opts.axis_types, self.n, _default_types(self.n))
         self.types = [AXIS_TYPES[t] for t in types]
-        self.update_hz = int(cfg.get("update_hz") or 1024)
-        if not cfg.get("period_ns"):
+        self.update_hz = opts.update_hz
+        if opts.period_ns is None:
             self.period_ns = round(1e9 / self.update_hz)
-        self.ideal = str(cfg.get("plant") or "model") == "ideal"
-        self.decode_on_arrival = str(cfg.get("decode") or "arrival") == "arrival"
-        self.serial = int(cfg.get("serial") or 1)
-        self.ssi_gray = cfg.get("ssi_code") == "gray"  # the encoders attached, not a setting
-        self.profiles = _per_axis(cfg, "profiles", self.n, ["linear"] * self.n)
-        self.servo_outputs = _per_axis(cfg, "servo_output", self.n, ["bipolar"] * self.n)
-        self.travel_limits = _travel_limits(cfg, self.n)
+        self.ideal = opts.plant == "ideal"
+        self.decode_on_arrival = opts.decode == "arrival"
+        self.serial = opts.serial
+        self.ssi_gray = opts.ssi_code == "gray"  # the encoders attached, not a setting
+        self.profiles = _per_axis("profiles", opts.profiles, self.n, ["linear"] * self.n)
+        self.servo_outputs = _per_axis("servo_output", opts.servo_output, self.n,
+                                       ["bipolar"] * self.n)
+        self.travel_limits = _travel_limits(opts.travel_limits, self.n)
+        self._make_world()
 
         self.shm = self.add_region(Region(
             SHM, SHM_SIZE, widths=(1, 2, 4), endian="big",
@@ -145,9 +182,11 @@ class MaxkCard(Card):
         self.mu_region.hook(0, MU_SIZE, on_read=self._mu_read, on_write=self._mu_write,
                             peek=self._mu_peek)
         self.inta = self.add_irq("inta")
+        self.pci = self.add_config_space(pci_identity(self.board), self.inta)
         self.mu = MessageUnit(on_line=self._line, on_inbound=self._inbound)
         self.saved, self.archive_error = self._load_defaults()
         self.fault: str | None = None  # backdoor firmware state (no firmware, checksum error)
+        self.powered = False  # power_up has built the firmware once
         self.power_up()
 
     # -- power-up -------------------------------------------------------------------------------------
@@ -155,6 +194,8 @@ class MaxkCard(Card):
         """Firmware start [S §2.14; spec §2.3]: positions 0, outputs off, the working parameters
         and I/O configuration from the power-up defaults `APP` stored when their archive is
         valid, else the factory set."""
+        # the stage stays where it is: the new counters read 0 there (physical_positions)
+        stage = self.physical_positions() if self.powered else np.zeros(self.n)
         self.mem[:] = bytes(SHM_SIZE)
         self.mu.reset()
         self.inta.clear()
@@ -165,7 +206,13 @@ class MaxkCard(Card):
                            profiles=self.profiles, servo_outputs=self.servo_outputs,
                            travel_limits=self.travel_limits)
         self.fw.now_ns = self.now_ns
-        self.publish()
+        core = self.fw.motion.core
+        core.zero[:] = -stage
+        self.fw.motion.encoders.enc_zero[:] = -stage * core.encoder_scale
+        self._applied = _Applied(self.n)
+        self._probe_from = stage
+        self.powered = True
+        self._world_changed()
 
     def reset(self) -> None:
         self.power_up()
@@ -389,57 +436,123 @@ class MaxkCard(Card):
         info["axes"] = self.n
         return info
 
-    # -- backdoor ------------------------------------------------------------------------------------
-    def _axis(self, axis: str | int) -> int:
-        return axis_number(axis, AXES, self.n)
+    # -- the axis world ------------------------------------------------------------------------------
+    def _make_world(self) -> None:
+        """The `[[card.axis]]` mechanics; an axis whose table gives no index keeps the card's
+        encoder default (a pulse every 4096 counts from 0, encoder.py)."""
+        world = self.make_world(self.n)
+        given = [m.index is not None for m in self.opts.axis]
+        for a in range(self.n):
+            if a >= len(given) or not given[a]:
+                world.index_period[a], world.index_phase[a] = DEFAULT_INDEX
+        #: axes with probe positions to cross (position capture, capture.py)
+        self._probe_axes = [a for a, p in enumerate(world.probes) if len(p)]
+        self._probing = bool(self._probe_axes)
 
-    @control()
+    def physical_positions(self) -> np.ndarray:
+        """The stage's positions (motor counts): the core's actual ones less every LP and
+        home search (MotionCore.physical), and less what a restart zeroed (power_up)."""
+        return self.fw.motion.core.physical()
+
+    def _sense(self) -> None:
+        """After each cycle's motion: the switches from the stage's positions, then the probe
+        positions crossed (Firmware.sense)."""
+        if self.world.mechanical:
+            self.sense_world()
+        if self._probing:
+            here = self.physical_positions()
+            world, fw = self.world, self.fw
+            for a in self._probe_axes:
+                at = world.probe_between(a, float(self._probe_from[a]), float(here[a]))
+                if at is not None:
+                    fw.capture.probe(fw, a, float(here[a]) - at)
+            self._probe_from = here
+
+    def apply_world(self) -> None:
+        """The world's levels and faults on the card's signals (README.md "Axis world",
+        "Backdoor"): the limit and home inputs through their polarity (OmsMotion.set_world),
+        set_estop holding every limit input active; index pulses to the encoders; amplifier
+        fault (servo axes), encoder loss (axes with an encoder) and jam to the motion core."""
+        world, fw, done = self.world, self.fw, self._applied
+        m = fw.motion
+        core = m.core
+        m.window_lo[:], m.window_hi[:] = world.home_lo, world.home_hi
+        for a in np.flatnonzero((world.index_period != done.index_period)
+                                | (world.index_phase != done.index_phase)).tolist():
+            m.encoders.place_index(a, float(world.index_period[a]), float(world.index_phase[a]))
+        done.index_period[:], done.index_phase[:] = world.index_period, world.index_phase
+        m.set_world(world.limit_pos | world.estop, world.limit_neg | world.estop, world.home,
+                    np.isfinite(world.neg_at) | np.isfinite(world.pos_at),
+                    world.home_lo <= world.home_hi)
+        m.check_homes()
+        servo = np.array([t == "M" for t in fw.params.ptype])
+        encoder = np.array([t in "EM" for t in fw.params.ptype])
+        fault, loss = world.amp_fault & servo, world.encoder_loss & encoder
+        if (fault != core.amp_fault).any() or (loss != core.encoder_loss).any():
+            core.set_inputs(amp_fault=fault, encoder_loss=loss)
+        for a in np.flatnonzero(core.jammed != world.jammed).tolist():
+            core.set_jammed(a, bool(world.jammed[a]))
+        fw.on_motion_events(int(AxisFlag.AMP_FAULT) if fault.any() else 0)
+        # sensed every cycle only while positions matter (switches placed, probes to cross)
+        fw.sense = self._sense if world.mechanical or self._probing else None
+        self.publish()
+
+    def drive_input(self, line: int, level: bool) -> None:
+        """General-purpose I/O line IOn (0-15) as the outside drives it (inputs only)."""
+        if not isinstance(line, int) or not 0 <= line <= 15:
+            raise ValueError("line must be 0-15")
+        fw = self.fw
+        fw.gpio_in = fw.gpio_in | 1 << line if level else fw.gpio_in & ~(1 << line)
+        self.publish()
+
+    def drive_analog(self, channel: int, volts: float) -> None:
+        """Analog input AI0-AI3 in volts (+-10 V, 16-bit) [S §4.5.1]."""
+        fw = self.fw
+        if not 0 <= channel < fw.analog_channels:
+            raise ValueError(f"channel must be 0-{fw.analog_channels - 1}")
+        counts = max(-32767, min(32767, round(float(volts) / 10 * 32767)))
+        fw.analog_in[channel] = counts * 10 / 32767
+
+    def drive_estop(self, active: bool) -> None:
+        """The MAXk has no emergency-stop input: the E-stop chain is wired into every axis's
+        limit inputs (README.md "Assumptions"), so while active all of them are."""
+        self.world.estop = bool(active)
+        self.world.version += 1
+        self._world_changed()
+
+    # -- backdoor ------------------------------------------------------------------------------------
+    @control(deprecated="set_limit")
     def set_limits(self, axis: str, positive: bool | None = None,
                    negative: bool | None = None) -> None:
-        """Limit switches of one axis, True = switch active (the input level follows LTH/LTL)."""
-        a, m = self._axis(axis), self.fw.motion
-        high = bool(self.fw.params.limit_high[a])
-        if positive is not None:
-            m.limit_pos_level[a] = high if positive else not high
-        if negative is not None:
-            m.limit_neg_level[a] = high if negative else not high
-        m.apply_limits()
-        self.fw.on_motion_events(0)
-        self.publish()
+        """Limit switches of one axis, True = held active (set_limit with side and active)."""
+        for side, level in (("positive", positive), ("negative", negative)):
+            if level is not None:
+                self.set_limit(axis, side, bool(level))
 
     @control()
-    def set_home(self, axis: str, active: bool) -> None:
-        """The home switch of one axis, True = active (the level follows HH/HL)."""
-        a, m = self._axis(axis), self.fw.motion
-        m.set_home_edge(a, None)
-        high = bool(self.fw.params.home_high[a])
-        m.home_level[a] = high if active else not high
-        m.apply_limits()
-        m.check_homes()
-        self.publish()
+    def set_home(self, axis: str | int, active: bool = True) -> None:
+        """Hold the home switch active (or release it to the mechanics); a switch set_home_edge
+        placed on the axis is removed."""
+        a, m = self.axis_index(axis), self.fw.motion
+        if math.isfinite(m.home_edge[a]):  # the edge's level gives way to the world's
+            m.set_home_edge(a, None)
+            high = bool(self.fw.params.home_high[a])
+            m.home_level[a] = high if m.home_world[a] else not high
+        super().set_home(axis, active)
 
     @control()
     def set_home_edge(self, axis: str, position: float | None = None,
                       width: float | None = None) -> None:
         """A home switch at `position` counts: active from there up, for `width` counts if given
-        (None: back to set_home). The level follows HH/HL; a home search renumbering the axis
-        moves the switch with it."""
+        (None: back to set_home). The level follows HH/HL; it stays where it is on the axis when
+        LP or a home search renumber the axis."""
         if width is not None and not width > 0:
             raise ValueError("width must be positive")
-        self.fw.motion.set_home_edge(self._axis(axis), position, width)
+        self.fw.motion.set_home_edge(self.axis_index(axis), position, width)
         self.publish()
 
-    @control()
-    def set_index(self, axis: str, period: float = 4096, phase: float = 0) -> None:
-        """Encoder index pulses at encoder counts phase + k * period (default one per 4096
-        counts), for HI-mode homing and index capture."""
-        if not period > 0:
-            raise ValueError("period must be positive")
-        a, enc = self._axis(axis), self.fw.motion.encoders
-        enc.index_period[a], enc.index_phase[a] = float(period), float(phase)
-
-    def _encoder_axis(self, axis: str, types: str = "EM") -> int:
-        a = self._axis(axis)
+    def _encoder_axis(self, axis: str | int, types: str = "EM") -> int:
+        a = self.axis_index(axis)
         if self.fw.params.ptype[a] not in types:
             raise ValueError(f"axis {AXES[a]} is PS{self.fw.params.ptype[a]}, "
                              f"this needs PS{' or PS'.join(types)}")
@@ -453,41 +566,17 @@ class MaxkCard(Card):
         self.fw.motion.core.slip_encoder(self._encoder_axis(axis), int(counts))
 
     @control()
-    def set_encoder_loss(self, axis: str, active: bool) -> None:
+    def set_encoder_loss(self, axis: str | int, active: bool = True) -> None:
         """A lost encoder (PSE, PSM): its reading freezes while active."""
-        a, core = self._encoder_axis(axis), self.fw.motion.core
-        loss = core.encoder_loss.copy()
-        loss[a] = bool(active)
-        core.set_inputs(encoder_loss=loss)
+        self._encoder_axis(axis)
+        super().set_encoder_loss(axis, active)
 
     @control()
-    def set_amp_fault(self, axis: str, active: bool) -> None:
+    def set_amp_fault(self, axis: str | int, active: bool = True) -> None:
         """The amplifier fault input of a servo axis (PSM): the axis is aborted and its loop
         opened and it is reported as a slip, all at once (faults.py)."""
-        a, core = self._encoder_axis(axis, "M"), self.fw.motion.core
-        fault = core.amp_fault.copy()
-        fault[a] = bool(active)
-        core.set_inputs(amp_fault=fault)
-        self.fw.on_motion_events(int(AxisFlag.AMP_FAULT))  # before the queue runs on
-        self.publish()
-
-    @control()
-    def set_input(self, bit: int, level: int) -> None:
-        """General-purpose I/O line IOn as the outside drives it (inputs only)."""
-        if not 0 <= bit <= 15:
-            raise ValueError("bit must be 0-15")
-        fw = self.fw
-        fw.gpio_in = fw.gpio_in | 1 << bit if level else fw.gpio_in & ~(1 << bit)
-        self.publish()
-
-    @control()
-    def set_analog(self, channel: int, volts: float) -> None:
-        """Analog input AI0-AI3 in volts (+-10 V, 16-bit) [S §4.5.1]."""
-        fw = self.fw
-        if not 0 <= channel < fw.analog_channels:
-            raise ValueError(f"channel must be 0-{fw.analog_channels - 1}")
-        counts = max(-32767, min(32767, round(float(volts) / 10 * 32767)))
-        fw.analog_in[channel] = counts * 10 / 32767
+        self._encoder_axis(axis, "M")
+        super().set_amp_fault(axis, active)
 
     @control()
     def get_outputs(self) -> dict[str, Any]:

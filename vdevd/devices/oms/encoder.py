@@ -2,8 +2,10 @@
 spec oms.md §5.3-5.5]: index pulses, slip and stall detection, servo runaway, and position
 maintenance of steppers with encoder.
 
-- Index pulses are at encoder counts phase + k·period (backdoor `set_index`); they are looked for
-  only on axes that need them (HI home mode, an index capture), a few numpy calls per tick.
+- Index pulses are at encoder counts phase + k·period of the stage (the axis world's `index`,
+  backdoor `set_index`; one per 4096 counts from 0 when it gives none): physical counts, which
+  LP and home searches do not move (`place_index`, `renumbered`). They are looked for only on
+  axes that need them (HI home mode, an index capture), a few numpy calls per tick.
 - Encoder home logic [S §4.3, §4.8]: the phase A/B levels follow from the count, x4 quadrature
   [S §4.7], counted from the index: the index pulse is one quadrature cycle wide (4 counts, an
   ungated index) and its first count is A high, B low, the manual's default home quadrant, then
@@ -44,6 +46,11 @@ INDEX_WIDTH = 4  # counts: the index pulse spans one quadrature cycle
 PHASE_A = np.array([1, 1, 0, 0])
 PHASE_B = np.array([0, 1, 1, 0])
 _STATES = np.arange(4)
+#: the card's index pulses when the axis world gives none: one every 4096 counts from 0
+DEFAULT_INDEX = (4096.0, 0.0)
+#: the period of "no index pulse" (set_index period 0): the nearest pulse is 2**43 counts away,
+#: beyond any position the 32-bit counters reach
+NO_INDEX = float(2**44)
 
 
 def first_home_count(place: np.ndarray, down: np.ndarray, period: np.ndarray,
@@ -132,8 +139,11 @@ class Encoders:
         self.core = core
         self.params = params
         # index pulses [S §4.8]
-        self.index_period = np.full(n, 4096.0)
-        self.index_phase = np.zeros(n)
+        self.index_period = np.full(n, DEFAULT_INDEX[0])
+        self.index_phase = np.full(n, DEFAULT_INDEX[1])
+        #: the raw encoder count less the stage's physical one: what LP and home searches
+        #: shifted (the pulses stay on the stage, `place_index`)
+        self.enc_zero = np.zeros(n)
         self.index_watch = np.zeros(n, dtype=bool)
         self.watching = False
         self.index_hit = np.zeros(n, dtype=bool)  # an index pulse passed in the last tick
@@ -159,6 +169,14 @@ class Encoders:
         self.maintaining = False
 
     # -- index pulses ----------------------------------------------------------------------------
+    def place_index(self, a: int, period: float, phase: float) -> None:
+        """Axis a's index pulses at the stage's physical encoder counts phase + k·period (the
+        axis world, backdoor `set_index`); period 0: none."""
+        if period > 0:
+            self.index_period[a], self.index_phase[a] = period, phase + self.enc_zero[a]
+        else:
+            self.index_period[a], self.index_phase[a] = NO_INDEX, NO_INDEX / 2 + self.enc_zero[a]
+
     def watch_index(self, mask: np.ndarray) -> None:
         """Look for index pulses on the axes of `mask` from now on."""
         new = mask & ~self.index_watch
@@ -254,6 +272,7 @@ class Encoders:
         are on the axis."""
         counts = shift * float(self.core.encoder_scale[a])
         self.index_phase[a] += counts
+        self.enc_zero[a] += counts
         self.tick_start[a] += counts
         self._enc_prev[a] = self.core.axes.encoder[a]
 

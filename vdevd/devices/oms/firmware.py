@@ -44,11 +44,11 @@ class Firmware:
                  travel_limits: list[tuple[float, float] | None] | None = None) -> None:
         self.n = n
         #: per axis: the velocity profile of moves from rest (card option `profiles`, spec §5.2)
-        self.profiles = list(profiles or ["linear"] * n)
+        self.profiles = ["linear"] * n if profiles is None else list(profiles)
         #: per axis: bipolar or unipolar servo output (card option `servo_output`, spec §5.3)
-        self.servo_outputs = list(servo_outputs or ["bipolar"] * n)
+        self.servo_outputs = ["bipolar"] * n if servo_outputs is None else list(servo_outputs)
         #: per axis: software travel limits (low, high) or None (card option `travel_limits`)
-        self.travel_limits = list(travel_limits or [None] * n)
+        self.travel_limits = [None] * n if travel_limits is None else list(travel_limits)
         self.period_ns = period_ns
         self.ideal = ideal
         self.ring_doorbell = ring
@@ -69,6 +69,8 @@ class Firmware:
         self.analog_in = np.zeros(4)
         self.now_ns = 0
         self.save = save
+        #: run after each cycle's motion (card.py: the axis world's switches and probes)
+        self.sense: Callable[[], None] | None = None
         self.saved = saved  # the power-up defaults APP stored, if any
         self.loaded = "factory"  # which parameter set is in working memory [S Table 3-4]
         if saved is not None:
@@ -148,6 +150,8 @@ class Firmware:
         if self.running_contours:
             self.advance_contours()
         events = self.motion.tick()
+        if self.sense is not None:
+            self.sense()
         if events:
             self.motion.core.update_in_position()
             self.on_motion_events(events)
@@ -448,7 +452,10 @@ class Firmware:
         if which == "encoder" and not servo:  # the slip detection starts again from here
             self.enc_offset[a] += value - enc - self.motion.forget_slip(a)
             return
-        self.motion.core.set_position(a, value)
+        core = self.motion.core
+        before = float(core.axes.pos[a])
+        core.set_position(a, value)
+        self.motion.renumbered(a, float(core.axes.pos[a]) - before)
         self.enc_offset[a] = 0.0 if which == "both" or servo else enc - value
 
     def motor_position(self) -> np.ndarray:

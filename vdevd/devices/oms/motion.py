@@ -48,7 +48,8 @@ class OmsMotion:
         self.params = params
         self.ideal = ideal
         #: per axis: the planner of a move from rest (spec §5.2; ValueError on an unknown name)
-        self.planners = [profile.planner(name) for name in profiles or ["linear"] * n]
+        self.planners = [profile.planner(name) for name in
+                         (["linear"] * n if profiles is None else profiles)]
         kinds = [PlantKind.IDEAL if ideal else _KIND[t] for t in params.ptype]
         self.core = MotionCore(n, period_ns, kinds)
         # raw input levels (1 = TTL high); open inputs are pulled high [spec §2.3]
@@ -66,6 +67,16 @@ class OmsMotion:
         self.home_edge = np.full(n, math.inf)  # backdoor: a home switch at a position ...
         self.home_top = np.full(n, math.inf)  # ... active from home_edge up to home_top
         self.home_edge_set = False
+        #: the axis world's switches (card.py, set_world): active or not, and the axes whose
+        #: switches sit at positions, wired for whatever polarity the host sets (`wire`)
+        self.world_pos = np.zeros(n, dtype=bool)
+        self.world_neg = np.zeros(n, dtype=bool)
+        self.home_world = np.zeros(n, dtype=bool)
+        self.wired_limits = np.zeros(n, dtype=bool)
+        self.wired_home = np.zeros(n, dtype=bool)
+        #: the world's home window in physical counts (empty: lo > hi)
+        self.window_lo = np.full(n, math.inf)
+        self.window_hi = np.full(n, -math.inf)
         self.home_index = np.zeros(n, dtype=bool)  # HI mode: home = the truth table (HT/EH)
         self.index_capture = np.zeros(n, dtype=bool)  # index pulses make capture entries
         self.encoders = Encoders(self.core, params)
@@ -91,6 +102,7 @@ class OmsMotion:
     def apply_limits(self) -> None:
         """Feed the switches to the core (hard mode stops at once, soft mode decelerates at AC),
         then the slip tolerances (ES, the axis types, ER: encoder.py)."""
+        self.wire()
         p, lim = self.params, self.core.limits
         soft = np.array([m == "S" for m in p.limit_mode])
         lim.limit_dec[:] = np.where(soft, p.values["AC"], HARD_STOP)
@@ -239,12 +251,28 @@ class OmsMotion:
             elif not started and math.isfinite(self.home_edge[a]):
                 edge = self.home_edge[a] if ax.cmd_vel[a] >= 0 else self.home_top[a]
                 past = float(ax.pos[a]) - float(edge) if math.isfinite(edge) else 0.0
+            elif not started and self.window_lo[a] <= self.window_hi[a]:
+                past = self._past_window(a)
             before = float(ax.pos[a])
             self.core.redefine_and_stop(a, float(self.home_value[a]) + past, dec)
-            shift = float(ax.pos[a]) - before  # the switch and the index stay on the axis
-            self.home_edge[a] += shift
-            self.home_top[a] += shift
-            self.encoders.renumbered(a, shift)
+            self.renumbered(a, float(ax.pos[a]) - before)
+
+    def _past_window(self, a: int) -> float:
+        """How far the axis ran past the edge of its world home window (physical counts) that
+        it crossed in the last cycle; 0 when it met none (the switch held by the backdoor)."""
+        ax = self.core.axes
+        up = ax.cmd_vel[a] >= 0
+        edge = float(self.window_lo[a] if up else self.window_hi[a])
+        past = float(self.core.physical()[a]) - edge
+        travel = abs(float(ax.vel[a])) * self.core.dt + 1.0
+        return past if 0.0 <= (past if up else -past) <= travel else 0.0
+
+    def renumbered(self, a: int, shift: float) -> None:
+        """Axis a's counters moved by `shift` counts (a home found, LP): the switches the
+        backdoor placed and the index pulses stay where they are on the axis."""
+        self.home_edge[a] += shift
+        self.home_top[a] += shift
+        self.encoders.renumbered(a, shift)
 
     def tick(self) -> int:
         events = self.core.tick()
@@ -297,8 +325,39 @@ class OmsMotion:
         on = np.isfinite(edge)
         pos = self.core.axes.pos
         active_level = self.params.home_high
-        at = (pos >= edge) & (pos < self.home_top)  # active from the edge, below the top
+        at = (pos >= edge) & (pos < self.home_top) | self.home_world  # from the edge, below the top
         self.home_level = np.where(on, np.where(at, active_level, ~active_level), self.home_level)
+
+    def set_world(self, pos: np.ndarray, neg: np.ndarray, home: np.ndarray,
+                  wired_limits: np.ndarray, wired_home: np.ndarray) -> None:
+        """The axis world's switches (True = active). On the `wired` axes, whose switches sit at
+        positions, the raw levels follow the polarity LTH/LTL and HH/HL give, now and after
+        (`wire`): the installation is wired for it. On the others (switches only held by the
+        backdoor) a switch that changes takes the level the polarity gives at that moment and
+        keeps it, as before the axis world: a later LTH/HH changes what that level means."""
+        p = self.params
+        for active, seen, level, high in (
+                (pos, self.world_pos, self.limit_pos_level, p.limit_high),
+                (neg, self.world_neg, self.limit_neg_level, p.limit_high),
+                (home, self.home_world, self.home_level, p.home_high)):
+            changed = active != seen
+            np.copyto(level, np.where(active, high, ~high), where=changed)
+            seen[:] = active
+        self.wired_limits[:], self.wired_home[:] = wired_limits, wired_home
+        if self.home_edge_set:
+            self.update_home_edges()
+        self.apply_limits()
+
+    def wire(self) -> None:
+        """The raw levels of the wired switches from the present polarity (see set_world)."""
+        p = self.params
+        if self.wired_limits.any():
+            high, wired = p.limit_high, self.wired_limits
+            np.copyto(self.limit_pos_level, np.where(self.world_pos, high, ~high), where=wired)
+            np.copyto(self.limit_neg_level, np.where(self.world_neg, high, ~high), where=wired)
+        if self.wired_home.any():
+            high, wired = p.home_high, self.wired_home & ~np.isfinite(self.home_edge)
+            np.copyto(self.home_level, np.where(self.home_world, high, ~high), where=wired)
 
     def set_home_edge(self, a: int, position: float | None, width: float | None = None) -> None:
         """A home switch active from `position` up (for `width` counts if given); None: none."""
