@@ -141,14 +141,15 @@ def test_app_stores_the_ssi_encoder(tmp_path: Path) -> None:
         assert maxk.shm.read32(Shm.SSI_POSITION) == 0xFFF
 
 
-def test_app_stores_the_reported_update_rate(tmp_path: Path) -> None:
-    """#UR is stored as reported; the card keeps its configured cycle (README "#UR")."""
+def test_app_stores_the_update_rate_and_the_card_powers_up_at_it(tmp_path: Path) -> None:
+    """#UR is stored by APP [S §2.13-2.14]: after a power cycle the card reports it and runs
+    4096 update cycles a second."""
     with maxk_card(tmp_path, axis_types=TYPES) as maxk:
         maxk.send("#UR4096; APP;")
     with maxk_card(tmp_path, axis_types=TYPES) as maxk:
         assert maxk.query("#UR?;") == "4096"
         t0 = maxk.rack.sim.now_ns()
-        assert maxk.step(HZ) - t0 == pytest.approx(1e9, abs=HZ)
+        assert maxk.step(4096) - t0 == 1_000_000_000
 
 
 def test_changes_to_the_io_configuration_without_app_are_lost(tmp_path: Path) -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import struct
 from collections.abc import Mapping
+from fractions import Fraction
 from typing import Any, ClassVar
 
 import numpy as np
@@ -152,8 +153,8 @@ class MaxkCard(Card):
         types = _per_axis("axis_types", opts.axis_types, self.n, _default_types(self.n))
         self.types = [AXIS_TYPES[t] for t in types]
         self.update_hz = opts.update_hz
-        if opts.period_ns is None:
-            self.period_ns = round(1e9 / self.update_hz)
+        #: the update period at power-up: the configured rate's, exact (1024 Hz: 976562.5 ns)
+        self.start_period = Fraction(opts.period_ns or Fraction(10**9, self.update_hz))
         self.ideal = opts.plant == "ideal"
         self.decode_on_arrival = opts.decode == "arrival"
         self.serial = opts.serial
@@ -200,11 +201,12 @@ class MaxkCard(Card):
         self.mu.reset()
         self.inta.clear()
         image = None if self.defaults_bad() else self.saved
-        self.fw = Firmware(self.n, self.types, self.period_ns, update_hz=self.update_hz,
+        self.set_period(self.start_period)  # a #UR not stored is gone at a restart
+        self.fw = Firmware(self.n, self.types, float(self.period), update_hz=self.update_hz,
                            ideal=self.ideal, ring=self.mu.ring, version=VERSION,
                            serial=self.serial, save=self._save_defaults, saved=image,
                            profiles=self.profiles, servo_outputs=self.servo_outputs,
-                           travel_limits=self.travel_limits)
+                           travel_limits=self.travel_limits, retime=self.set_period)
         self.fw.now_ns = self.now_ns
         core = self.fw.motion.core
         core.zero[:] = -stage

@@ -68,7 +68,7 @@ def load_io(fw: Firmware, image: dict[str, Any] | None) -> None:
     gpio_dir = _word(image.get("gpio_dir"), 0xFFFF)
     fw.gpio_dir = GPIO_OUTPUTS if gpio_dir is None else gpio_dir
     hz = image.get("update_hz")
-    fw.update_hz = hz if hz in UPDATE_RATES else fw.factory_hz
+    fw.set_update_rate(hz if hz in UPDATE_RATES else fw.factory_hz)
     for a, index in enumerate(_per_axis(image, "home_index", n, 1)):
         m.set_home_mode(a, bool(index))
     cap.home[:] = _per_axis(image, "capture_home", n, HOME_EVENTS)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -37,12 +38,16 @@ _HANDLERS = COMMANDS.bind(cmd_system, cmd_motion, cmd_servo, cmd_io, cmd_vector)
 class Firmware:
     """One card's firmware state; `ring(bits)` rings the outbound doorbell."""
 
-    def __init__(self, n: int, types: list[str], period_ns: int, *, update_hz: int, ideal: bool,
+    def __init__(self, n: int, types: list[str], period_ns: float, *, update_hz: int, ideal: bool,
                  ring: Callable[[int], None], version: str, serial: int,
                  save: Callable[[dict[str, Any]], None], saved: dict[str, Any] | None,
                  profiles: list[str] | None = None, servo_outputs: list[str] | None = None,
-                 travel_limits: list[tuple[float, float] | None] | None = None) -> None:
+                 travel_limits: list[tuple[float, float] | None] | None = None,
+                 retime: Callable[[Fraction], None] | None = None) -> None:
+        """`period_ns`: the update period the card starts at; `retime(period)`: the card's
+        clock takes a new update period (`#UR`), exact in ns, from its next cycle."""
         self.n = n
+        self.retime = retime
         #: per axis: the velocity profile of moves from rest (card option `profiles`, spec §5.2)
         self.profiles = ["linear"] * n if profiles is None else list(profiles)
         #: per axis: bipolar or unipolar servo output (card option `servo_output`, spec §5.3)
@@ -474,9 +479,16 @@ class Firmware:
         return pack_limit_word(m.limit_neg_level, m.limit_pos_level)
 
     def set_update_rate(self, hz: int) -> None:
-        """#UR: kept and reported; the card's cycle keeps the configured `update_hz` (the rack's
-        scheduler fixes every card's period at start, README)."""
+        """#UR: the update cycle runs `hz` times a second from the next cycle on [S §2.13];
+        speeds stay in counts per second, the servo gains act per cycle."""
+        if hz == self.update_hz:
+            return
         self.update_hz = hz
+        period = Fraction(10**9, hz)
+        self.period_ns = float(period)
+        self.motion.core.set_period(self.period_ns)
+        if self.retime is not None:
+            self.retime(period)
 
     def set_axis_type(self, a: int, ptype: str) -> None:
         self.params.ptype[a] = ptype

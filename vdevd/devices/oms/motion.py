@@ -41,7 +41,7 @@ _LIMIT_STOP = _TRAVEL_POS | _TRAVEL_NEG | int(AxisFlag.STOPPED_BY_LIMIT)
 class OmsMotion:
     """Motion of one card: the core, the raw limit/home input levels and the home searches."""
 
-    def __init__(self, params: Params, period_ns: int, ideal: bool = False,
+    def __init__(self, params: Params, period_ns: float, ideal: bool = False,
                  profiles: Sequence[str] | None = None) -> None:
         n = params.n
         self.n = n
