@@ -11,6 +11,7 @@ named as the card names them: a letter of `axis_letters` (any case) or a number 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any, ClassVar
 
@@ -126,7 +127,10 @@ class WorldBackdoor:
     @control()
     def set_analog(self, channel: int, volts: float) -> None:
         """Drive an analog input channel, in volts."""
-        self.drive_analog(channel, float(volts))
+        value = float(volts)
+        if not math.isfinite(value):
+            raise ValueError(f"volts {volts!r} is not a finite number")
+        self.drive_analog(channel, value)
 
     @control()
     def set_amp_fault(self, axis: str | int, active: bool = True) -> None:

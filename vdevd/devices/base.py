@@ -225,6 +225,10 @@ class Card(WorldBackdoor):
         names = self.control_params.get(action)
         if not names or not any(k in names for k in params):
             return params
+        both = [k for k in params if k in names and names[k] in params]
+        if both:
+            raise VdevError(ErrorCode.BAD_PARAM, f"{action}: {both[0]!r} is the old name of "
+                            f"{names[both[0]]!r}: give one of them")
         return {names.get(k, k): v for k, v in params.items()}
 
     def control(self, action: str, params: Mapping[str, Any]) -> Any:
@@ -233,7 +237,7 @@ class Card(WorldBackdoor):
         params = self._renamed(action, params)
         try:
             return fn(**params)
-        except (ValueError, TypeError, KeyError, IndexError) as exc:
+        except (ValueError, TypeError, KeyError, IndexError, ArithmeticError) as exc:
             raise VdevError(ErrorCode.BAD_PARAM, f"{action}: {exc}") from None
 
 

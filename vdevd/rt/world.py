@@ -95,8 +95,8 @@ class AxisWorld:
 
     `limit_pos`, `limit_neg`, `home` are the levels last sensed (True = switch active); the
     `force_*` arrays hold inputs active from the backdoor; `amp_fault`, `encoder_loss`, `jammed`
-    are the fault flags (config, then backdoor). `version` counts changes a card must apply at
-    once (a force, a fault, a new window); `mechanical` says whether positions matter at all.
+    are the fault flags (config, then backdoor); `mechanical` says whether positions matter at
+    all.
     """
 
     def __init__(self, n: int, mechanics: Sequence[AxisMechanics] = ()) -> None:
@@ -120,7 +120,6 @@ class AxisWorld:
         self.limit_pos = np.zeros(n, dtype=bool)
         self.limit_neg = np.zeros(n, dtype=bool)
         self.home = np.zeros(n, dtype=bool)
-        self.version = 0
         for a, m in enumerate(mechanics):
             if m.limits is not None:
                 self.neg_at[a], self.pos_at[a] = m.limits
@@ -135,7 +134,6 @@ class AxisWorld:
     def _mechanics_changed(self) -> None:
         self.mechanical = bool(np.isfinite(self.neg_at).any() or np.isfinite(self.pos_at).any()
                                or (self.home_lo <= self.home_hi).any())
-        self.version += 1
 
     # -- sensing (every tick of a card whose world is mechanical) --------------------------------
     def sense(self, physical: np.ndarray) -> bool:
@@ -184,11 +182,9 @@ class AxisWorld:
     # -- the backdoor -----------------------------------------------------------------------------
     def force_limit(self, axis: int, positive: bool, active: bool) -> None:
         (self.force_pos if positive else self.force_neg)[axis] = active
-        self.version += 1
 
     def force_home_switch(self, axis: int, active: bool) -> None:
         self.force_home[axis] = active
-        self.version += 1
 
     def set_home_window(self, axis: int, low: float, high: float) -> None:
         if not (math.isfinite(low) and math.isfinite(high)) or low > high:
@@ -211,9 +207,7 @@ class AxisWorld:
         if not (math.isfinite(period) and math.isfinite(phase)) or period < 0:
             raise ValueError(f"index period {period}: need a finite count >= 0 (0: none)")
         self.index_period[axis], self.index_phase[axis] = period, phase
-        self.version += 1
 
     def set_fault(self, which: str, axis: int, active: bool) -> None:
         """`which`: amp_fault, encoder_loss or jammed."""
         getattr(self, which)[axis] = active
-        self.version += 1

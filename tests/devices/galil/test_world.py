@@ -307,6 +307,9 @@ def test_the_deprecated_names_still_drive_the_same_inputs(dmc: Dmc, rack: vdevcl
     ("set_input", {"input": 0, "level": True}, "line 0 outside 1..8"),
     ("set_analog", {"channel": 0, "volts": 1.0}, "channel 0 outside 1..8"),
     ("set_switches", {"axis": "X", "limit": True}, "set_switches(axis"),
+    ("set_analog", {"channel": 1, "volts": float("inf")}, "volts inf is not a finite number"),
+    ("set_input", {"input": 1, "line": 2, "level": True},
+     "'input' is the old name of 'line': give one of them"),
 ])
 def test_a_wrong_action_or_parameter_is_an_error_naming_it(
         dmc: Dmc, action: str, params: dict[str, Any], message: str) -> None:
@@ -324,3 +327,14 @@ def test_options_are_read_as_declared_base_0_and_an_explicit_period_are_kept() -
     assert (card.base, card.configured_tm_us, card.period_ns) == (0, 500, 250_000)
     card = GalilCard(CARD, {"tm_us": 500}, CardContext(emit=lambda event: None))
     assert card.period_ns == 500_000
+
+
+def test_set_switches_home_level_replaces_a_home_edge_as_before(dmc: Dmc) -> None:
+    """The deprecated `set_switches(home=...)` set the HOME level over a `set_home_edge` switch
+    (issue 16: old names keep working)."""
+    dmc.control("set_home_edge", axis="Y", position=-100)  # the stage at 0 is on the switch
+    assert dmc.value("MG _HMY") == 0
+    dmc.control("set_switches", axis="Y", home=1)
+    assert dmc.value("MG _HMY") == 1
+    dmc.control("set_switches", axis="Y", home=0)
+    assert dmc.value("MG _HMY") == 0

@@ -229,13 +229,15 @@ class GalilCard(Card):
     def set_switches(self, axis: str | int, forward_limit: bool | None = None,
                      reverse_limit: bool | None = None, home: int | None = None) -> None:
         """Limit switches (True = tripped: set_limit positive/negative) and the home input's
-        logic level (0 = switch active: set_home)."""
-        self.axis_index(axis)
+        logic level (0 = switch active: set_home); a level given replaces a home switch edge
+        (set_home_edge) or window, as it did before the shared vocabulary."""
+        a = self.axis_index(axis)
         if forward_limit is not None:
             self.set_limit(axis, "positive", bool(forward_limit))
         if reverse_limit is not None:
             self.set_limit(axis, "negative", bool(reverse_limit))
         if home is not None:
+            self.world.remove_home_window(a)
             self.set_home(axis, not home)
 
     @control(deprecated="set_estop")

@@ -519,7 +519,6 @@ class MaxkCard(Card):
         """The MAXk has no emergency-stop input: the E-stop chain is wired into every axis's
         limit inputs (README.md "Assumptions"), so while active all of them are."""
         self.world.estop = bool(active)
-        self.world.version += 1
         self._world_changed()
 
     # -- backdoor ------------------------------------------------------------------------------------

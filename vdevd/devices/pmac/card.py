@@ -193,7 +193,7 @@ class PmacCard(Card):
         self.pci = self.add_config_space(PCI_IDENTITY, self.inta)
         self.irq = InterruptController(self.inta.trigger, self.inta.clear)
         store = ctx.nvram
-        self.fw = Firmware(self.motors, self.period_ns, opts.plant, Identity(cid=opts.cid),
+        self.fw = Firmware(self.motors, float(self.period), opts.plant, Identity(cid=opts.cid),
                            store=self._store)
         self.make_world(self.motors)
         self._world_setup()
@@ -234,8 +234,8 @@ class PmacCard(Card):
         self.dpram_port.motor, self.dpram_port.cs = 1, 1
         self.host_port_state.state = PortState()
         self.fw.ivars.values[58] = 1
-        if hasattr(self, "_prev_phys"):  # the inputs stay as the world has them
-            self.apply_world()
+        if hasattr(self, "_prev_phys"):  # the inputs as the world has them, sensed now
+            self._world_changed()
 
     def reset(self) -> None:
         """The rack's reset: power cycle, DPRAM cleared."""
@@ -491,7 +491,6 @@ class PmacCard(Card):
         installation's stop chain cuts the amplifiers, so every motor's amplifier-fault input
         (FAULTn) reads a fault while active: the motors are killed as Ixx24 says."""
         self.world.estop = bool(active)
-        self.world.version += 1
         self.apply_world()
 
     # -- the card's own and the deprecated backdoor actions ---------------------------------------

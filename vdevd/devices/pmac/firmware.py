@@ -64,7 +64,7 @@ class Identity:
 class Firmware:
     """One card's firmware: everything the on-line commands read and write."""
 
-    def __init__(self, motors: int, period_ns: int, plant: str = "servo",
+    def __init__(self, motors: int, period_ns: float, plant: str = "servo",
                  identity: Identity | None = None,
                  store: Callable[[dict[str, Any]], None] | None = None) -> None:
         self.identity_ = identity or Identity()

@@ -76,7 +76,7 @@ class Motors:
     (per-motor Python only at the servo cycle a trigger or fault happens).
     """
 
-    def __init__(self, ivars: IVars, period_ns: int, plant: str = "servo") -> None:
+    def __init__(self, ivars: IVars, period_ns: float, plant: str = "servo") -> None:
         if plant not in ("servo", "ideal"):
             raise ValueError(f"plant must be 'servo' or 'ideal', not {plant!r}")
         self.ivars = ivars
