@@ -8,6 +8,8 @@ import random
 from fractions import Fraction
 from typing import Any
 
+import pytest
+
 from tests.conftest import rack_config
 from tests.test_scheduler import Counter, FakeLoop, WallClock, run, wake
 from vdevd.daemon import build_rack
@@ -97,27 +99,47 @@ def tick_time(rack: Rack, k: int) -> int:
 
 
 def test_set_period_on_the_generic_card_in_lockstep() -> None:
+    """Set between two ticks, a new period lets the cycle under way end when it was due and
+    counts from that tick on (the motion of each tick integrates one whole period)."""
     card = generic()
     rack = Rack([card], "lockstep")
     assert run(rack, "sim", action="step", ticks=3, card="servo0")["now_ns"] == 3_000_000
     run(rack, "sim", action="step", ns=400_000)  # between two ticks: 3.4 ms
-    card.set_period(Fraction(4_000_000, 3))  # longer: from tick 3 (at 3 ms) on
+    card.set_period(Fraction(4_000_000, 3))  # longer: tick 4 at 4 ms still, then 4/3 ms apart
     assert rack.sched.tick_ns == 1_333_333 and rack.hello()["clock"]["tick_ns"] == 1_333_333
     assert rack.hello()["cards"][0]["period_ns"] == 1_333_333
     assert rack.stats()["scheduler"]["lost_ticks"] == 0
-    assert [tick_time(rack, k) for k in (4, 5, 6)] == [4_333_333, 5_666_666, 7_000_000]
+    assert [tick_time(rack, k) for k in (4, 5, 6)] == [4_000_000, 5_333_333, 6_666_666]
     run(rack, "sim", action="step", ns=100_000)
-    card.set_period(Fraction(1_000_000, 3))  # shorter, next tick still ahead: from 7 ms
-    assert tick_time(rack, 7) == 7_333_333
-    run(rack, "sim", action="step", ns=300_000)  # 7.633 ms
-    card.set_period(Fraction(1_000_000, 7))  # 7.476 ms would be past: from now on
+    card.set_period(Fraction(1_000_000, 3))  # shorter: tick 7 at 8 ms as due, then 1/3 ms
+    assert tick_time(rack, 7) == 8_000_000
+    assert tick_time(rack, 8) == 8_333_333
+    run(rack, "sim", action="step", ns=100_000)  # 8.433 ms
+    card.set_period(Fraction(1_000_000, 7))  # tick 9 at 8.667 ms as due, then 1/7 ms
     assert rack.stats()["scheduler"]["lost_ticks"] == 0
-    assert tick_time(rack, 8) == 7_776_190
-    assert run(rack, "sim", action="step", ticks=1, card="servo0")["now_ns"] == 7_919_047
-    run(rack, "sim", action="step", ns=857_143)  # to 8,776,190: 7.633 ms + 8 x 142,857.14
+    assert tick_time(rack, 9) == 8_666_666
+    assert run(rack, "sim", action="step", ticks=1, card="servo0")["now_ns"] == 8_809_523
+    run(rack, "sim", action="step", ns=857_143)  # to 9,666,666: 8.667 ms + 7 x 142,857.14
     stats = rack.stats()
-    assert stats["scheduler"]["lost_ticks"] == 0 and stats["cards"]["servo0"]["ticks"] == 15
-    assert read_ticks(rack) == 15 and card.now_ns == 8_776_190
+    assert stats["scheduler"]["lost_ticks"] == 0 and stats["cards"]["servo0"]["ticks"] == 16
+    assert read_ticks(rack) == 16 and card.now_ns == 9_666_666
+
+
+def test_a_new_period_reaches_the_cards_motion_and_registers() -> None:
+    """The generic card's PERIOD_NS and its motion core follow set_period: a jog at 10000
+    counts/s covers 10000 counts a second at either period."""
+    from vdevd.devices.generic import regions as R
+
+    card = generic()
+    rack = Rack([card], "lockstep")
+    card.core.servo_on(0)
+    card.core.jog(0, 10_000.0, 1e9, 1e9)
+    run(rack, "sim", action="step", seconds=1.0)
+    card.set_period(500_000)
+    run(rack, "sim", action="step", seconds=1.0)
+    assert card.core.axes.cmd_pos[0] == pytest.approx(20_000, abs=1)
+    data: Any = run(rack, "read", card="servo0", region="bar0", offset=R.PERIOD_NS, size=4)
+    assert int.from_bytes(data, "little") == 500_000
 
 
 def read_ticks(rack: Rack) -> int:

@@ -355,13 +355,17 @@ class Rack:
         given = [k for k in ("ns", "ticks", "seconds") if k in args]
         if len(given) != 1:
             raise VdevError(ErrorCode.BAD_PARAM, "sim step takes exactly one of ns, ticks, seconds")
+        if "card" in args and "ticks" not in args:
+            raise VdevError(ErrorCode.BAD_PARAM, "sim step: card goes with ticks (the card's "
+                            "next ticks), not with ns or seconds")
         if "ns" in args:
             ns = args["ns"]
-        elif "card" in args:  # the span of the card's next `ticks` ticks, exact
+        elif "card" in args:  # to the card's `ticks`-th next tick, exact
             card, n = self.card(args["card"]), args["ticks"]
-            ns = card.time_of_tick(card.ticks + n) - card.time_of_tick(card.ticks)
-        elif "ticks" in args:
-            ns = args["ticks"] * self.sched.tick_ns
+            ns = max(0, card.time_of_tick(card.ticks + n) - self.now_ns) if n > 0 else 0
+        elif "ticks" in args:  # base ticks of the exact shortest period
+            base = self.sched.base_period
+            ns = args["ticks"] * base.numerator // base.denominator
         else:
             seconds = float(args["seconds"])
             if not 0 <= seconds <= MAX_WAIT_NS / 1e9:  # also NaN and infinities

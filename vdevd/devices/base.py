@@ -115,21 +115,38 @@ class Card(WorldBackdoor):
         self.set_period(value)
 
     def set_period(self, period: int | Fraction) -> None:
-        """Change the servo period (ns, exact), effective from the next tick: tick k after the
-        change is at t + floor((k - n) x period), n being the ticks run and t the last one's
-        time, or now if that would put the next tick in the past (a shorter period set between
-        ticks): no tick is ever due unrun."""
+        """Change the servo period (ns, exact). Set at a tick (by its firmware, or right after
+        it), the next tick comes one new period later; set between ticks, the cycle under way
+        ends when it was due and the new period counts from there. Tick k is then at
+        t + floor((k - n) x period) from that tick n at t, and `period_changed` runs at the start
+        of the first tick of the new length (`retime_tick`)."""
         exact = Fraction(period)
         if exact <= 0:
             raise ValueError(f"servo period {period} ns is not positive")
-        last = self.time_of_tick(self.ticks) if self.ticks else 0
-        if last + exact.numerator // exact.denominator <= self.now_ns:
-            last = self.now_ns
-        self._base_ns = last
-        self._base_ticks = self.ticks
+        if not hasattr(self, "_period_num"):  # being built: the clock starts at 0
+            self._base_ns = self._base_ticks = 0
+            base, base_ticks = 0, -1  # no period_changed: the card is built with this one
+        elif self.now_ns == self.time_of_tick(self.ticks):
+            base, base_ticks = self.now_ns, self.ticks
+        else:
+            base, base_ticks = self.time_of_tick(self.ticks + 1), self.ticks + 1
+        self._base_ns, self._base_ticks = base, max(base_ticks, 0)
         self._period_num, self._period_den = exact.numerator, exact.denominator
         self._period_ns = round(exact)
+        self.retime_tick = base_ticks + 1
         self.pause = True  # a batch of ticks under way stops here: the scheduler recounts
+
+    def period_changed(self) -> None:
+        """The first tick of a new period begins: firmware and motion take the new period
+        (`self.period`) from here (override)."""
+
+    def begin_tick(self) -> None:
+        """Count the tick about to run and set its time; a new period takes effect here."""
+        self.ticks += 1
+        self.now_ns = self.time_of_tick(self.ticks)
+        if self.ticks == self.retime_tick:
+            self.retime_tick = 0
+            self.period_changed()
 
     def time_of_tick(self, k: int) -> int:
         """The simulated time of tick k (k >= the ticks run when the period was last set):
@@ -138,7 +155,10 @@ class Card(WorldBackdoor):
                 + (k - self._base_ticks) * self._period_num // self._period_den)
 
     def ticks_due(self, t: int) -> int:
-        """The count of ticks whose time is at most `t`."""
+        """The count of ticks whose time is at most `t` (before the tick a new period counts
+        from, the ticks before it: they ran on the old period)."""
+        if t < self._base_ns:
+            return self._base_ticks - 1
         return (self._base_ticks
                 + ((t - self._base_ns + 1) * self._period_den - 1) // self._period_num)
 
@@ -152,11 +172,10 @@ class Card(WorldBackdoor):
         Returns the number of ticks run. Cards may override for speed but must count `ticks` and keep
         `now_ns` (= `time_of_tick(ticks)`) the time of the tick being run.
         """
-        time_of = self.time_of_tick
+        begin, step = self.begin_tick, self.step
         for i in range(n):
-            self.ticks += 1
-            self.now_ns = time_of(self.ticks)
-            self.step()
+            begin()
+            step()
             if self.pause:
                 self.pause = False
                 return i + 1

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import heapq
 from collections.abc import Callable, Sequence
+from fractions import Fraction
 from typing import Protocol
 
 
@@ -23,6 +24,9 @@ class Tickable(Protocol):
 
     @property
     def period_ns(self) -> int: ...
+
+    @property
+    def period(self) -> Fraction: ...
 
     def tick(self, n: int) -> int: ...
 
@@ -45,6 +49,11 @@ class Scheduler:
     def tick_ns(self) -> int:
         """The rack's base tick: the shortest card period now, in whole ns (`sim step ticks=`)."""
         return min((c.period_ns for c in self.cards), default=1_000_000)
+
+    @property
+    def base_period(self) -> Fraction:
+        """The shortest card period now, exact (`sim step ticks=` counts these)."""
+        return min((c.period for c in self.cards), default=Fraction(1_000_000))
 
     def next_tick_ns(self) -> int:
         """When the next tick of any card is due."""

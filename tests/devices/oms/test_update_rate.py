@@ -4,6 +4,10 @@ configured rate. Periods are exact (1024 Hz: 976562.5 ns, DESIGN.md "Second step
 
 from __future__ import annotations
 
+import pytest
+import vdevclient
+from vdevmaps.oms import Shm
+
 from tests.devices.oms.conftest import Maxk, maxk_card
 
 S = 1_000_000_000
@@ -66,3 +70,56 @@ def test_rdf_restores_the_factory_rate_with_the_io_configuration(maxk: Maxk) -> 
     before = cycles(maxk)
     maxk.rack.sim.step(seconds=1.0)
     assert cycles(maxk) - before == 1024
+
+
+def feed_forward_dac(*commands: str) -> int:
+    """X's DAC word after the commands and a jog at 1000 counts/s with only KV acting."""
+    with maxk_card(axis_types=["servo"] * 4, axes=4) as maxk:
+        for text in commands:
+            maxk.send(text)
+        maxk.send("AX JG1000;")
+        maxk.rack.sim.step(seconds=1.0)
+        return maxk.word(Shm.DAC)
+
+
+def test_kv_acts_per_cycle_of_the_rate_running_whatever_the_order_of_kv_and_ur() -> None:
+    """KV's feed-forward is per update cycle [S §2.9]: at 2048 Hz it gives half the 1024 Hz DAC
+    output, set before or after #UR."""
+    gains = "AX KP0 KI0 KD0 KV100;"
+    at_1024 = feed_forward_dac(gains)
+    assert at_1024 > 0
+    assert feed_forward_dac(gains, "#UR2048;") == feed_forward_dac("#UR2048;", gains)
+    assert abs(feed_forward_dac(gains, "#UR2048;") - at_1024 / 2) <= 1
+
+
+def test_a_jog_across_ur_sent_mid_cycle_keeps_its_speed_to_the_count(maxk: Maxk) -> None:
+    """The cycle under way when #UR arrives ends on the old schedule, and motion integrates
+    each cycle's own length: no counts are lost or gained at the change."""
+    maxk.send("AX VL4000 AC1000000 JG4000;")
+    maxk.rack.sim.step(seconds=1.0)
+    start_ns, start = maxk.rack.sim.now_ns(), int(maxk.query("AX RP;"))
+    maxk.rack.sim.step(ns=900_000)  # 0.9 ms into a 976.5625 us cycle
+    maxk.send("#UR8192;")
+    end_ns = 2_000_976_562  # the cycle under way ends at 1000976562 ns, then 8192 cycles
+    maxk.rack.sim.step(ns=end_ns - maxk.rack.sim.now_ns())
+    travel = int(maxk.query("AX RP;")) - start
+    elapsed = end_ns - start_ns
+    assert abs(travel - 4000 * elapsed / 1e9) <= 1
+
+
+def test_sim_step_counts_base_ticks_of_the_exact_period(maxk: Maxk) -> None:
+    """`sim step ticks=N` on a rack of one MAXk runs N update cycles (976562.5 ns each)."""
+    assert maxk.rack.sim.step(ticks=1024) == 1_000_000_000
+    assert cycles(maxk) == 1024
+
+
+def test_sim_step_ticks_of_a_card_from_between_its_ticks_runs_that_many(maxk: Maxk) -> None:
+    maxk.rack.sim.step(ns=500_000)  # half-way through the first cycle
+    assert maxk.rack.sim.step(ticks=1, card="maxk0") == 976_562
+    assert cycles(maxk) == 1
+
+
+def test_sim_step_with_a_card_takes_ticks_only(maxk: Maxk) -> None:
+    with pytest.raises(vdevclient.VdevClientError, match="card goes with ticks"):
+        maxk.rack.request("sim", action="step", seconds=1.0, card="maxk0")
+    assert maxk.rack.sim.now_ns() == 0  # still serving, nothing stepped

@@ -100,7 +100,14 @@ class GenericServoCard(Card):
         done = 0
         sensing = self.world.mechanical  # the switches follow the stage: sense every tick
         while done < n:
-            k, events = self.core.run(1 if sensing else n - done)
+            run = 1 if sensing else n - done
+            if self.retime_tick:  # a new period from that tick: no batch runs across it
+                if self.retime_tick == self.ticks + 1:
+                    self.retime_tick = 0
+                    self.period_changed()
+                else:
+                    run = min(run, self.retime_tick - self.ticks - 1)
+            k, events = self.core.run(run)
             done += k
             self.ticks += k
             self.now_ns = self.time_of_tick(self.ticks)
@@ -113,6 +120,11 @@ class GenericServoCard(Card):
                     break
         self._store_status()
         return done
+
+    def period_changed(self) -> None:
+        """A new servo period (`set_period`): the motion core's step and PERIOD_NS follow."""
+        self.core.set_period(float(self.period))
+        self.bar.set(R.PERIOD_NS, self.period_ns)
 
     def _store_status(self) -> None:
         """Refresh every axis's read-only registers from the core in one vectorised store."""

@@ -190,6 +190,10 @@ class MaxkCard(Card):
         self.powered = False  # power_up has built the firmware once
         self.power_up()
 
+    def period_changed(self) -> None:
+        """The first cycle at a new update rate (`#UR`) begins: the firmware runs at it."""
+        self.fw.set_period(float(self.period))
+
     # -- power-up -------------------------------------------------------------------------------------
     def power_up(self) -> None:
         """Firmware start [S §2.14; spec §2.3]: positions 0, outputs off, the working parameters

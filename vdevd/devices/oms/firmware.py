@@ -479,16 +479,23 @@ class Firmware:
         return pack_limit_word(m.limit_neg_level, m.limit_pos_level)
 
     def set_update_rate(self, hz: int) -> None:
-        """#UR: the update cycle runs `hz` times a second from the next cycle on [S §2.13];
-        speeds stay in counts per second, the servo gains act per cycle."""
+        """#UR: the update cycle runs `hz` times a second from the next cycle on [S §2.13]: the
+        card's clock takes the new period (`retime`) and calls `set_period` when that cycle
+        begins (without a card, at once)."""
         if hz == self.update_hz:
             return
         self.update_hz = hz
-        period = Fraction(10**9, hz)
-        self.period_ns = float(period)
-        self.motion.core.set_period(self.period_ns)
         if self.retime is not None:
-            self.retime(period)
+            self.retime(Fraction(10**9, hz))
+        else:
+            self.set_period(10**9 / hz)
+
+    def set_period(self, period_ns: float) -> None:
+        """A cycle of the new length begins: motion integrates over it, and the KV/KA
+        feed-forward, scaled by the cycle time, is recomputed; the gains act per cycle."""
+        self.period_ns = period_ns
+        self.motion.core.set_period(period_ns)
+        self.apply_gains()
 
     def set_axis_type(self, a: int, ptype: str) -> None:
         self.params.ptype[a] = ptype
