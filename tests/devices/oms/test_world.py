@@ -250,6 +250,29 @@ def test_a_configured_amp_fault_holds_the_servo_open_at_power_up() -> None:
         assert m.wait_done(Z, WAIT_MS) == maxk.StatusFlags(done=Z)
 
 
+def test_a_configured_amp_fault_acts_once_ps_makes_the_axis_a_servo() -> None:
+    """The amplifier fault acts on servo axes (README "Axis world"): configured on stepper X,
+    it acts as soon as the host makes X a servo (PSM): X is reported as a slip and a jog does
+    not move it."""
+    with board([{"amp_fault": True}]) as (m, rack):
+        m.send_string("AX PSM CL1")
+        rack.sim.step(seconds=0.01)
+        assert m.get_status_flags().slip & X
+        m.send_string("AX JG1000")
+        rack.sim.step(seconds=1.0)
+        assert abs(rp(m)) <= 1
+
+
+def test_a_fault_of_a_servo_made_a_stepper_leaves_the_stepper_free() -> None:
+    """A servo axis with an amplifier fault made a stepper (PSO) moves as a stepper: the fault
+    no longer acts, and clearing it by the backdoor is accepted on any type."""
+    with board([{}, {}, {"amp_fault": True}]) as (m, rack):
+        m.send_string("AZ PSO MR1000 GO")
+        rack.sim.step(seconds=1.0)
+        assert rp(m, "Z") == 1000
+        rack.control("maxk0", "set_amp_fault", axis="Z", active=False)
+
+
 def test_a_configured_encoder_loss_freezes_the_encoder_from_power_up() -> None:
     with board([{}, {"encoder_loss": True}]) as (m, _):
         m.send_string("AY MR1000 GO ID")

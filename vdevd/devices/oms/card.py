@@ -212,6 +212,7 @@ class MaxkCard(Card):
                            profiles=self.profiles, servo_outputs=self.servo_outputs,
                            travel_limits=self.travel_limits, retime=self.set_period)
         self.fw.now_ns = self.now_ns
+        self.fw.on_type_change = self.apply_world
         core = self.fw.motion.core
         core.zero[:] = -stage
         self.fw.motion.encoders.enc_zero[:] = -stage * core.encoder_scale
@@ -568,19 +569,23 @@ class MaxkCard(Card):
         """The encoder of a PSE or PSM axis loses `counts` counts (gains them if negative): it
         reads that much less than the motor moved, until LP/LPE or a home search load it. A
         servo's loop makes up for it (the motor runs on), a stepper's encoder stays behind."""
+        if not -2**31 < counts < 2**31:
+            raise ValueError(f"counts {counts!r} outside the encoder's 32-bit range")
         self.fw.motion.core.slip_encoder(self._encoder_axis(axis), int(counts))
 
     @control()
     def set_encoder_loss(self, axis: str | int, active: bool = True) -> None:
         """A lost encoder (PSE, PSM): its reading freezes while active."""
-        self._encoder_axis(axis)
+        if active:
+            self._encoder_axis(axis)
         super().set_encoder_loss(axis, active)
 
     @control()
     def set_amp_fault(self, axis: str | int, active: bool = True) -> None:
         """The amplifier fault input of a servo axis (PSM): the axis is aborted and its loop
         opened and it is reported as a slip, all at once (faults.py)."""
-        self._encoder_axis(axis, "M")
+        if active:
+            self._encoder_axis(axis, "M")
         super().set_amp_fault(axis, active)
 
     @control()

@@ -76,6 +76,8 @@ class Firmware:
         self.save = save
         #: run after each cycle's motion (card.py: the axis world's switches and probes)
         self.sense: Callable[[], None] | None = None
+        #: run when PS changes an axis's type (card.py: faults that act on some types only)
+        self.on_type_change: Callable[[], None] | None = None
         self.saved = saved  # the power-up defaults APP stored, if any
         self.loaded = "factory"  # which parameter set is in working memory [S Table 3-4]
         if saved is not None:
@@ -499,6 +501,8 @@ class Firmware:
 
     def set_axis_type(self, a: int, ptype: str) -> None:
         self.params.ptype[a] = ptype
+        if self.on_type_change is not None:  # the faults the new type has, before it starts
+            self.on_type_change()
         self.motion.set_kind(a, ptype)
 
     def set_closed_loop(self, a: int, on: bool) -> None:
