@@ -79,7 +79,7 @@ def _types() -> int:
           f" [[card.axis]] tables, one per axis: {', '.join(AXIS_KEYS)}")
     for name in CARD_TYPES:
         cls = card_class(name)
-        print(f"{name} (period {cls.default_period_ns} ns)")
+        print(f"{name} (period {float(cls.default_period_ns):.10g} ns)")
         for key, opt in cls.options.items():
             print(f"  {key} = {opt.default!r}  {opt.describe()}")
     return 0

@@ -150,6 +150,8 @@ def test_deprecated_names_keep_working(rack: vdevclient.Rack) -> None:
     ("set_limit", {"axis": 0, "side": "up"}, "side 'up' is not one of positive, negative"),
     ("set_home", {"axis": 9}, "no axis 9 (axes: 0..3)"),
     ("set_analog", {"channel": 0, "volts": 1.0}, "this card has no analog inputs"),
+    ("set_limit", {"axis": 0, "side": "negative", "positive": True},
+     "give side/active, or the deprecated positive/negative, not both"),
 ])
 def test_a_wrong_action_or_parameter_is_an_error_naming_it(
         rack: vdevclient.Rack, action: str, params: dict[str, object], message: str) -> None:

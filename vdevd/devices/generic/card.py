@@ -269,14 +269,16 @@ class GenericServoCard(Card):
         self._store_status()
 
     @control()
-    def set_limit(self, axis: str | int, side: str = "positive", active: bool = True,
+    def set_limit(self, axis: str | int, side: str | None = None, active: bool | None = None,
                   positive: bool | None = None, negative: bool | None = None) -> None:
         """Hold a hard-limit switch active (or release it to the mechanics): side is positive
-        or negative. (`positive=`/`negative=` levels: deprecated, the form before the shared
-        vocabulary.)"""
+        (default) or negative. (`positive=`/`negative=` levels: deprecated, the form before the
+        shared vocabulary; not together with side/active.)"""
         if positive is None and negative is None:
-            super().set_limit(axis, side, active)
+            super().set_limit(axis, side or "positive", True if active is None else active)
             return
+        if side is not None or active is not None:
+            raise ValueError("give side/active, or the deprecated positive/negative, not both")
         for flag, level in (("positive", positive), ("negative", negative)):
             if level is not None:
                 super().set_limit(axis, flag, bool(level))
