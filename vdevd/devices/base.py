@@ -167,7 +167,9 @@ class Card(WorldBackdoor):
 
     async def open_services(self) -> None:
         """Start what the card serves beside its regions, on the daemon's loop (override: the
-        PMAC's Ethernet protocol port). A failure is the card's to log; the daemon runs on."""
+        PMAC's Ethernet protocol port). A listener that cannot start raises `StartError` naming
+        the card and the endpoint: the daemon does not start (issue 16: ready only when every
+        listener accepts)."""
 
     async def close_services(self) -> None:
         """Stop what `open_services` started (override)."""
