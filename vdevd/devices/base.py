@@ -44,6 +44,9 @@ class Card(WorldBackdoor):
     type_name: ClassVar[str] = ""
     endian: ClassVar[str] = "little"
     options: ClassVar[Mapping[str, Option]] = {}
+    #: the option that counts the card's axes: it bounds the `[[card.axis]]` tables and sets the
+    #: length of the `per_axis` options
+    axes_option: ClassVar[str] = "axes"
     #: the servo period in ns when the configuration gives none (exact: a Fraction may say it)
     default_period_ns: ClassVar[int | Fraction] = 1_000_000
 
@@ -54,7 +57,7 @@ class Card(WorldBackdoor):
         """`config`: the card's options, as config loading checked them, or a plain mapping
         (checked here, ValueError naming the key)."""
         self.name = name
-        self.opts: CardOptions = parse_options(self.options, config, name)
+        self.opts: CardOptions = parse_options(self.options, config, name, self.axes_option)
         self.config = dict(self.opts)
         self.ctx = ctx
         self.world = AxisWorld(0)

@@ -149,6 +149,7 @@ class DpramMemory:
 
 class PmacCard(Card):
     type_name: ClassVar[str] = CARD_TYPE
+    axes_option: ClassVar[str] = "motors"
     endian: ClassVar[str] = "little"
     default_period_ns: ClassVar[int | Fraction] = SERVO_PERIOD_NS
     options: ClassVar[Mapping[str, Option]] = {
