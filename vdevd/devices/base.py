@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any, ClassVar
 
-from vdevd.devices.backdoor import WorldBackdoor, control
+from vdevd.devices.backdoor import WorldBackdoor, control, flag, flag_params
 from vdevd.devices.options import CardOptions, Option, parse_options
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.irq import IrqEvent, IrqLine
@@ -237,10 +237,14 @@ class Card(WorldBackdoor):
         return {names.get(k, k): v for k, v in params.items()}
 
     def control(self, action: str, params: Mapping[str, Any]) -> Any:
-        """Run a backdoor action; bad params become BAD_PARAM errors."""
+        """Run a backdoor action; bad params (a flag that is not true or false among them)
+        become BAD_PARAM errors."""
         fn = self.check_control(action, params)
-        params = self._renamed(action, params)
+        params = dict(self._renamed(action, params))
         try:
+            for key, optional in flag_params(fn).items():
+                if key in params:
+                    params[key] = flag(key, params[key], optional)
             return fn(**params)
         except (ValueError, TypeError, KeyError, IndexError, ArithmeticError) as exc:
             raise VdevError(ErrorCode.BAD_PARAM, f"{action}: {exc}") from None
