@@ -126,3 +126,16 @@ def test_flags_take_booleans_and_the_integers_0_and_1(rack: vdevclient.Rack) -> 
     assert bar.read32(axis_reg(2, AxisReg.STATUS)) & AxisFlag.HARD_LIMIT_POS
     rack.control("servo0", "set_limit", axis=2, side="positive", active=False)
     assert not bar.read32(axis_reg(2, AxisReg.STATUS)) & AxisFlag.HARD_LIMIT_POS
+
+
+def test_a_scheduled_action_refused_when_it_runs_counts_as_a_request_error(
+        rack: vdevclient.Rack) -> None:
+    """PROTOCOL.md control: the values of a scheduled action are checked when it runs, and an
+    error then is counted in stats requests.errors (there is no one left to reply to)."""
+    assert rack.request("control", card="servo0", action="jam", params={"axis": 9},
+                        after_ns=MS) == {"scheduled_ns": MS}
+    before = rack.stats()["requests"]["errors"]
+    rack.sim.step(ns=2 * MS)
+    stats = rack.stats()
+    assert stats["requests"]["errors"] == before + 1
+    assert stats["scheduler"]["card_faults"] == 0  # a refused value, not a bug in the card
