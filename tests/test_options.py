@@ -4,10 +4,12 @@ the card one frozen object; a legal 0 stays 0; `[[card.axis]]` tables become the
 from __future__ import annotations
 
 import tomllib
+from pathlib import Path
 
 import pytest
 
 from vdevd import config as configmod
+from vdevd.cli import main as vdevd_main
 from vdevd.config import ConfigError
 from vdevd.devices import CARD_TYPES, card_class
 from vdevd.devices.base import CardContext
@@ -71,14 +73,49 @@ amp_fault = true
 @pytest.mark.parametrize(("card", "message"), [
     ({"axis": {"limits": [0, 1]}}, "card[0].axis: use [[card.axis]] tables"),
     ({"axis": [{"limits": [3, 1]}]}, "card[0].axis[0].limits: 3 must be below 1"),
-    ({"axes": 1, "axis": [{}, {}]}, "axis: 2 [[card.axis]] tables for 1 axes"),
+    ({"axes": 1, "axis": [{}, {}]}, "card[0].axis: 2 [[card.axis]] tables for 1 axes"),
     ({"period_ns": 1000}, "card[0].period_ns: 1000 is not an integer in 10000..1e9"),
 ])
 def test_bad_axis_tables_and_periods_name_the_key(card: dict[str, object], message: str) -> None:
-    with pytest.raises((ConfigError, ValueError)) as info:
-        cfg = configmod.parse({"card": [{"type": "generic-servo", "name": "s", **card}]})
-        card_class("generic-servo")("s", cfg.cards[0].options, CardContext(emit=lambda e: None))
+    with pytest.raises(ConfigError) as info:
+        configmod.parse({"card": [{"type": "generic-servo", "name": "s", **card}]})
     assert message in str(info.value)
+
+
+@pytest.mark.parametrize(("card", "message"), [
+    ({"type": "galil-dmc13x8", "axes": 2, "axis": [{}] * 3},
+     "card[0].axis: 3 [[card.axis]] tables for 2 axes"),
+    ({"type": "pmac-turbo", "motors": 2, "ethernet": "", "axis": [{}] * 3},
+     "card[0].axis: 3 [[card.axis]] tables for 2 axes"),  # the PMAC counts its motors
+    ({"type": "oms-maxk", "profiles": ["linear"] * 3}, "card[0].profiles: 3 entries for 8 axes"),
+    ({"type": "oms-maxk", "axes": 2, "axis_types": ["servo"] * 3},
+     "card[0].axis_types: 3 entries for 2 axes"),
+    ({"type": "oms-maxk", "axes": 4, "servo_output": ["bipolar"] * 5},
+     "card[0].servo_output: 5 entries for 4 axes"),
+    ({"type": "oms-maxk", "travel_limits": [[0, 100]]}, "card[0].travel_limits: 1 entries for 8 axes"),
+])
+def test_axis_counts_are_checked_at_load_against_the_option_that_counts_axes(
+        card: dict[str, object], message: str) -> None:
+    with pytest.raises(ConfigError) as info:
+        configmod.parse({"card": [{"name": "c", **card}]})
+    assert str(info.value) == message
+
+
+def test_too_many_axis_tables_stop_vdevd_serve_as_a_configuration_error(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "rack.toml").write_text(
+        '[[card]]\ntype = "generic-servo"\nname = "servo0"\naxes = 2\n' + "[[card.axis]]\n" * 3)
+    assert vdevd_main(["serve", "--config", str(tmp_path / "rack.toml")]) == 2
+    assert capsys.readouterr().err == (
+        "vdevd: configuration error: card[0].axis: 3 [[card.axis]] tables for 2 axes\n")
+
+
+def test_a_list_option_takes_no_range_and_per_axis_is_a_list() -> None:
+    with pytest.raises(TypeError, match="no min or max"):
+        Option(list, None, min=1)
+    with pytest.raises(TypeError, match="per_axis"):
+        Option(int, 4, per_axis=True)
+    assert Option(list, None, per_axis=True).check("k", ["a", "b"]) == ["a", "b"]
 
 
 @pytest.mark.parametrize("type_name", list(CARD_TYPES))

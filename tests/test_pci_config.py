@@ -70,3 +70,32 @@ def test_vdevctl_lspci_lists_every_pci_card(capsys: pytest.CaptureFixture[str]) 
     lines = capsys.readouterr().out.splitlines()
     assert lines[0] == "servo0 1180: 1234:5644 (rev 01)"
     assert not any(line.startswith("galil0") for line in lines)  # VME: no configuration space
+
+
+def test_interrupt_disable_keeps_inta_from_the_host_until_cleared(
+        rack: vdevclient.Rack, config: vdevclient.Region) -> None:
+    """PCI 2.3 §6.2.2: command bit 10 set, the card's assertion reaches no one (no event, no
+    wait woken) while status bit 3 shows it; cleared with the line still asserted, the host
+    sees one assertion."""
+    card = rack.card("servo0")
+    bar = card.region("bar0")
+    assert config.read16(pci.COMMAND) & pci.COMMAND_INTX_DISABLE == 0  # 0 after RST#
+    config.write16(pci.COMMAND, pci.COMMAND_MEMORY | pci.COMMAND_INTX_DISABLE)
+    bar.write32(R.IRQ_ENABLE, 1)
+    assert command(bar, 0, Command.MOVE_REL, target=100) == 0
+    assert card.irq.wait(timeout_s=0.5) is None  # the move ends inside these 0.5 s
+    assert config.read16(pci.STATUS) & pci.STATUS_INTERRUPT
+    stats = rack.stats()
+    assert stats["events_published"] == 0 and stats["cards"]["servo0"]["irq_seq"] == 0
+    now = rack.sim.now_ns()
+    config.write16(pci.COMMAND, pci.COMMAND_MEMORY)
+    fired = rack.request("wait", card="servo0", on="irq", after_seq=0, timeout_ns=0)
+    assert fired["fired"] and fired["event"]["sim_time_ns"] == now
+    assert fired["event"]["status"] == 1 and rack.stats()["events_published"] == 1
+    config.write16(pci.COMMAND, pci.COMMAND_MEMORY | pci.COMMAND_INTX_DISABLE)
+    config.write16(pci.COMMAND, pci.COMMAND_MEMORY)
+    assert rack.stats()["events_published"] == 2  # each unmasking of an asserted line
+    bar.write32(R.IRQ_STATUS, 1)  # acknowledged: nothing left to deliver
+    config.write16(pci.COMMAND, pci.COMMAND_MEMORY | pci.COMMAND_INTX_DISABLE)
+    config.write16(pci.COMMAND, pci.COMMAND_MEMORY)
+    assert rack.stats()["events_published"] == 2

@@ -84,6 +84,52 @@ def test_the_ready_file_lists_every_listener_and_each_accepts_at_once(tmp_path: 
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(timeout=30) == 0
         log.close()
+    assert not ready.exists(), "the ready file outlived the listeners it lists"
+
+
+def serve_until_exit(tmp_path: Path, rack: str, ready: Path) -> tuple[int, str, list[bytes]]:
+    """Run `vdevd serve` under a NOTIFY_SOCKET of the test's until it exits: its status, its
+    stderr and the systemd notifications it sent."""
+    (tmp_path / "rack.toml").write_text(rack)
+    with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as notify:
+        notify.bind(str(tmp_path / "notify"))
+        proc = subprocess.run(
+            [sys.executable, "-m", "vdevd", "serve", "--config", str(tmp_path / "rack.toml"),
+             "--endpoint", "tcp://127.0.0.1:*", "--events", "tcp://127.0.0.1:*",
+             "--ready-file", str(ready)], capture_output=True, text=True, timeout=60,
+            env={**os.environ, "NOTIFY_SOCKET": str(tmp_path / "notify")})
+        notify.setblocking(False)
+        sent = []
+        while True:
+            try:
+                sent.append(notify.recv(4096))
+            except BlockingIOError:
+                break
+    return proc.returncode, proc.stderr, sent
+
+
+def test_a_card_port_in_use_is_a_start_failure_and_nothing_says_ready(tmp_path: Path) -> None:
+    """Issue 16 §5: ready only once every listener accepts; the PMAC's Ethernet port taken by
+    another process stops `vdevd serve` with one line naming the card and the endpoint."""
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        endpoint = f"tcp://127.0.0.1:{taken.getsockname()[1]}"
+        code, err, sent = serve_until_exit(
+            tmp_path, RACK.replace("tcp://127.0.0.1:0", endpoint), tmp_path / "ready.json")
+    assert code == 1
+    assert f"vdevd: cannot start: pmac0 ethernet {endpoint}: address already in use" in (
+        err.splitlines())
+    assert not (tmp_path / "ready.json").exists()
+    assert b"READY=1" not in sent
+
+
+def test_a_ready_file_that_cannot_be_written_is_named_as_given(tmp_path: Path) -> None:
+    ready = tmp_path / "missing" / "ready.json"
+    code, err, sent = serve_until_exit(tmp_path, RACK, ready)
+    assert code == 1
+    assert err.splitlines()[-1] == f"vdevd: cannot start: ready file {ready}: No such file or directory"
+    assert b"READY=1" not in sent
 
 
 def test_write_ready_file_replaces_the_file_whole(tmp_path: Path) -> None:

@@ -62,7 +62,9 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # bind failures and the like: one line, not a traceback
         import zmq
 
-        if isinstance(exc, (zmq.ZMQError, OSError, ValueError)):
+        from vdevd.errors import StartError
+
+        if isinstance(exc, (StartError, zmq.ZMQError, OSError, ValueError)):
             print(f"vdevd: cannot start: {exc}", file=sys.stderr)
             return 1
         raise

@@ -151,7 +151,8 @@ def _card_defaults(ctype: str, table: dict[str, Any], where: str) -> CardOptions
     """The card's options: its declared keys checked and defaulted, unknown keys rejected, one
     frozen object the card reads (vdevd/devices/options.py)."""
     try:
-        options = parse_options(card_class(ctype).options, table, where)
+        cls = card_class(ctype)
+        options = parse_options(cls.options, table, where, cls.axes_option)
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     period = options.period_ns

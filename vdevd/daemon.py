@@ -18,6 +18,7 @@ import zmq
 from vdevd.config import Config
 from vdevd.devices import card_class
 from vdevd.devices.base import CardContext
+from vdevd.errors import StartError
 from vdevd.nvram import NvramStore
 from vdevd.rack import Rack
 from vdevd.server import Publisher, Server
@@ -53,9 +54,13 @@ def sd_notify(message: str) -> None:
 
 def write_ready_file(path: str | os.PathLike[str], info: dict[str, Any]) -> None:
     """Write `info` as JSON to `path` atomically (temporary file in the same directory, fsync,
-    rename): a reader sees no file or the whole file, never part of it."""
+    rename): a reader sees no file or the whole file, never part of it. A `StartError` naming
+    `path` (not the temporary file) when it cannot be written."""
     target = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent or Path("."))
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent or Path("."))
+    except OSError as exc:
+        raise StartError(f"ready file {path}: {exc.strerror or exc}") from None
     try:
         with os.fdopen(fd, "w") as f:
             json.dump(info, f, indent=1)
@@ -63,6 +68,10 @@ def write_ready_file(path: str | os.PathLike[str], info: dict[str, Any]) -> None
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, target)
+    except OSError as exc:
+        with suppress(OSError):
+            os.unlink(tmp)
+        raise StartError(f"ready file {path}: {exc.strerror or exc}") from None
     except BaseException:
         with suppress(OSError):
             os.unlink(tmp)
@@ -72,7 +81,9 @@ def write_ready_file(path: str | os.PathLike[str], info: dict[str, Any]) -> None
 async def serve(cfg: Config, stop: asyncio.Event | None = None,
                 ready_file: str | os.PathLike[str] | None = None) -> None:
     """Run until `stop` is set or SIGINT/SIGTERM arrives. Readiness (`ready_file`, then systemd's
-    READY=1) is announced once every listener is bound: the cards' ports, PUB, the endpoint."""
+    READY=1) is announced once every listener is bound: the cards' ports, PUB, the endpoint; a
+    listener that cannot be bound raises (`StartError`, `zmq.ZMQError`) and nothing is announced.
+    The ready file is removed when the daemon stops, before its listeners close."""
     loop = asyncio.get_running_loop()
     stop = stop or asyncio.Event()
     server = build_server(cfg)
@@ -80,6 +91,7 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
         with suppress(NotImplementedError, RuntimeError, ValueError):
             loop.add_signal_handler(sig, stop.set)
     watchdog = None
+    written = False
     try:
         await server.start(loop)
         cards = ", ".join(f"{c.name} ({c.type_name})" for c in server.rack.cards.values())
@@ -90,6 +102,7 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
                  server.endpoint, server.events, cfg.clock, cards)
         if ready_file is not None:
             write_ready_file(ready_file, server.listeners())
+            written = True
         sd_notify("READY=1")
         if os.environ.get("WATCHDOG_USEC"):
             watchdog = asyncio.create_task(_watchdog())
@@ -97,6 +110,9 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
     finally:
         if watchdog is not None:
             watchdog.cancel()
+        if written and ready_file is not None:
+            with suppress(OSError):
+                os.unlink(ready_file)
         sd_notify("STOPPING=1")
         await server.stop()
         log.info("stopped")

@@ -31,3 +31,8 @@ class VdevError(Exception):
         super().__init__(message)
         self.code = code
         self.message = message
+
+
+class StartError(Exception):
+    """A listener the configuration asks for cannot be opened (a card's port in use, a ready
+    file that cannot be written): the daemon does not start. The message names what failed."""

@@ -5,7 +5,9 @@ The region `config` is little-endian, read and written in 1, 2 or 4 bytes as con
 cycles are. Reads have no side effects; writes land only where PCI allows: the command register's
 writable bits, the cache line size and latency timer, the BARs (the bits above the BAR's size, so
 that writing all-ones and reading back gives the size, as a BIOS sizes a BAR) and the interrupt
-line. Status bit 3 (Interrupt Status, PCI 2.3) follows the card's interrupt line level.
+line. Status bit 3 (Interrupt Status, PCI 2.3) follows the card's interrupt line level; command
+bit 10 (Interrupt Disable, PCI 2.3 §6.2.2: "a value of 1 disables the assertion of its INTx#
+signal") keeps that level from the host (`IrqLine.mask`).
 """
 
 from __future__ import annotations
@@ -123,6 +125,8 @@ class ConfigSpace:
                 struct.pack_into("<I", buf, BAR0 + 4 * n, address | bar.flags())
         struct.pack_into("<HH", buf, SUBSYSTEM_VENDOR_ID, i.subsystem_vendor, i.subsystem)
         buf[INTERRUPT_LINE], buf[INTERRUPT_PIN] = i.interrupt_line, i.interrupt_pin
+        if self.irq is not None:
+            self.irq.mask(False)  # Interrupt Disable is 0 after RST#
 
     def _read(self, offset: int, size: int) -> bytes:
         data = bytearray(self.region.buf[offset:offset + size])
@@ -136,6 +140,9 @@ class ConfigSpace:
             at = offset + k
             mask = self._writable(at)
             buf[at] = (buf[at] & ~mask) | (byte & mask)
+        if self.irq is not None and offset <= COMMAND + 1 and offset + len(data) > COMMAND:
+            command = struct.unpack_from("<H", buf, COMMAND)[0]
+            self.irq.mask(bool(command & COMMAND_INTX_DISABLE))
 
     def _writable(self, at: int) -> int:
         """The bits of byte `at` a configuration write may change."""

@@ -443,7 +443,7 @@ class Rack:
             "requests": {
                 "by_op": {**self.requests,
                           "read": self.requests.get("read", 0) + self.reads},
-                "errors": self.errors,
+                "errors": self.errors + self.waits.control_errors,
                 "latency_ns": self.latency.summary(),
                 "pending_waits": len(self.waits.pending),
             },

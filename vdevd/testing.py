@@ -59,9 +59,13 @@ class DaemonThread:
         self._thread = threading.Thread(target=self._main, name="vdevd-test", daemon=True)
 
     def start(self) -> DaemonThread:
+        """Start serving; what keeps `vdevd serve` from starting (a card's port in use:
+        `StartError`, an endpoint in use: `zmq.ZMQError`) is raised here."""
         self._thread.start()
         self._ready.wait(10)
         if self._error is not None:
+            self._thread.join(10)
+            self._ctx.term()
             raise self._error
         return self
 

@@ -122,6 +122,9 @@ class Waits:
         self._seq = itertools.count()
         #: scheduled `control` actions that raised (a bug in a card's backdoor)
         self.control_faults = 0
+        #: scheduled `control` actions whose values the card refused when they ran (counted in
+        #: `stats` `requests.errors`: no one is left to reply to)
+        self.control_errors = 0
 
     def add(self, w: Waiter, now_ns: int) -> bool:
         """Answer `w` at once if it holds already (or is a step whose time has come), else keep
@@ -140,12 +143,14 @@ class Waits:
 
     def schedule_control(self, when_ns: int, card: Card, action: str,
                          params: Mapping[str, Any]) -> None:
-        """Run the backdoor action at `when_ns`; its failure is logged, never a stop of the clock."""
+        """Run the backdoor action at `when_ns`; its failure is logged and counted, never a stop
+        of the clock."""
 
         def later() -> None:
             try:
                 card.control(action, params)
             except VdevError as exc:
+                self.control_errors += 1
                 log.warning("scheduled control %s.%s failed: %s", card.name, action, exc.message)
             except Exception:  # a bug in the card's backdoor must not stop the clock
                 self.control_faults += 1

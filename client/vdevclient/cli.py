@@ -73,7 +73,15 @@ def _hexbytes(text: str) -> bytes:
         raise argparse.ArgumentTypeError(f"{text!r} is not hex bytes") from None
 
 
+#: Python's spellings of the booleans, which users type as readily as JSON's
+_PYTHON_BOOLS = {"True": True, "False": False}
+
+
 def _value(text: str) -> Any:
+    """A `control` value: JSON when it parses (`true`, `3`, `0.5`), `True`/`False` as
+    booleans, else the string."""
+    if text in _PYTHON_BOOLS:
+        return _PYTHON_BOOLS[text]
     try:
         return json.loads(text)
     except json.JSONDecodeError:

@@ -17,6 +17,8 @@ from vdevclient.cli import main as vdevctl
 from tests.client.pulser import serve_pulsers
 from tests.conftest import free_endpoint
 from vdevd.devices.generic import regions as R
+from vdevd.devices.generic.regions import AxisReg
+from vdevd.rt import AxisFlag
 from vdevd.testing import DaemonThread
 
 
@@ -46,6 +48,23 @@ def test_step_control_now_and_stats(daemon: DaemonThread, capsys: pytest.Capture
     state = json.loads(ctl(daemon, capsys, "control", "servo0", "axis_state", "axis=1"))
     assert state["encoder"] == 0
     assert json.loads(ctl(daemon, capsys, "stats"))["cards"]["servo0"]["ticks"] == 250
+
+
+def test_control_takes_pythons_true_and_false_as_booleans(
+        daemon: DaemonThread, capsys: pytest.CaptureFixture[str]) -> None:
+    """Users type True/False as readily as true/false; sent as strings, "False" would be a
+    bad_param (or, before flags were checked, an active switch)."""
+    status = hex(R.AXIS_BASE + R.AXIS_STRIDE * 1 + AxisReg.STATUS)
+
+    def limit() -> bool:
+        out = ctl(daemon, capsys, "peek", "servo0", "bar0", status)
+        return bool(int.from_bytes(bytes.fromhex("".join(out.split()[1:])), "little")
+                    & AxisFlag.HARD_LIMIT_POS)
+
+    ctl(daemon, capsys, "control", "servo0", "set_limit", "axis=1", "side=positive", "active=True")
+    assert limit()
+    ctl(daemon, capsys, "control", "servo0", "set_limit", "axis=1", "side=positive", "active=False")
+    assert not limit()
 
 
 @pytest.mark.parametrize(("argv", "message"), [

@@ -93,3 +93,49 @@ def test_a_schedule_not_after_now_runs_the_action_at_once(raw: RawClient) -> Non
                      at_ns=MS)
     assert reply == {"id": 1, "ok": None}  # the action's own result, not {scheduled_ns}
     assert raw.call(op="read", offset=R.INPUTS, size=4, **BAR)["ok"] == b"\6\0\0\0"
+
+
+@pytest.mark.parametrize(("action", "params", "message"), [
+    ("set_limit", {"axis": 2, "side": "positive", "active": "false"},
+     "set_limit: active: expected true or false, got 'false'"),
+    ("set_input", {"line": 3, "level": "0"}, "set_input: level: expected true or false, got '0'"),
+    ("set_home", {"axis": 2, "active": None}, "set_home: active: expected true or false, got None"),
+    ("set_estop", {"active": "False"}, "set_estop: active: expected true or false, got 'False'"),
+    ("jam", {"axis": 2, "active": 2}, "jam: active: expected true or false, got 2"),
+    ("set_limit", {"axis": 2, "positive": "no"}, "set_limit: positive: expected true or false"),
+])
+def test_a_flag_that_is_not_true_or_false_is_bad_param_naming_it(
+        rack: vdevclient.Rack, action: str, params: dict[str, object], message: str) -> None:
+    """bool("false") is True: a flag is a boolean (or 0 or 1), else the action does not run."""
+    bar = rack.card("servo0").region("bar0")
+    with pytest.raises(vdevclient.RemoteError, match="bad_param") as info:
+        rack.control("servo0", action, **params)
+    assert message in str(info.value)
+    assert not bar.read32(axis_reg(2, AxisReg.STATUS)) & (AxisFlag.HARD_LIMIT_POS
+                                                          | AxisFlag.HOME_SWITCH)
+    assert bar.read32(R.INPUTS) == 0
+
+
+def test_flags_take_booleans_and_the_integers_0_and_1(rack: vdevclient.Rack) -> None:
+    bar = rack.card("servo0").region("bar0")
+    rack.control("servo0", "set_input", line=3, level=1)
+    assert bar.read32(R.INPUTS) == 1 << 3
+    rack.control("servo0", "set_input", line=3, level=0)
+    assert bar.read32(R.INPUTS) == 0
+    rack.control("servo0", "set_limit", axis=2, side="positive", active=True)
+    assert bar.read32(axis_reg(2, AxisReg.STATUS)) & AxisFlag.HARD_LIMIT_POS
+    rack.control("servo0", "set_limit", axis=2, side="positive", active=False)
+    assert not bar.read32(axis_reg(2, AxisReg.STATUS)) & AxisFlag.HARD_LIMIT_POS
+
+
+def test_a_scheduled_action_refused_when_it_runs_counts_as_a_request_error(
+        rack: vdevclient.Rack) -> None:
+    """PROTOCOL.md control: the values of a scheduled action are checked when it runs, and an
+    error then is counted in stats requests.errors (there is no one left to reply to)."""
+    assert rack.request("control", card="servo0", action="jam", params={"axis": 9},
+                        after_ns=MS) == {"scheduled_ns": MS}
+    before = rack.stats()["requests"]["errors"]
+    rack.sim.step(ns=2 * MS)
+    stats = rack.stats()
+    assert stats["requests"]["errors"] == before + 1
+    assert stats["scheduler"]["card_faults"] == 0  # a refused value, not a bug in the card

@@ -7,17 +7,52 @@ change the card's `AxisWorld` and ask the card to apply it (`apply_world`); the 
 emergency-stop actions go to the card's `drive_input`, `drive_analog` and `drive_estop`. Axes are
 named as the card names them: a letter of `axis_letters` (any case) or a number counted from
 `axis_base`.
+
+A parameter declared `bool` (`active`, `level`) or `bool | None` takes only true or false (or 0
+and 1, as JSON and msgpack clients send them); `Card.control` checks them (`flag_params`,
+`flag`) before the action runs, so the string "False" never engages an input.
 """
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any, ClassVar
 
 from vdevd.rt.world import AxisWorld
 
 SIDES = ("positive", "negative")
+
+
+def flag(name: str, value: Any, optional: bool = False) -> bool | None:
+    """A backdoor flag: a boolean, or 0 or 1; None only when `optional`. ValueError naming
+    `name` otherwise (`bool("false")` would be True)."""
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, int) and value in (0, 1):
+        return bool(value)
+    if value is None and optional:
+        return None
+    raise ValueError(f"{name}: expected true or false, got {value!r}")
+
+
+@functools.cache
+def _flags_of(fn: Callable[..., Any]) -> Mapping[str, bool]:
+    found = {}
+    for p in inspect.signature(fn).parameters.values():
+        ann = p.annotation if isinstance(p.annotation, str) else inspect.formatannotation(
+            p.annotation)
+        if ann in ("bool", "bool | None"):
+            found[p.name] = ann != "bool"
+    return found
+
+
+def flag_params(action: Callable[..., Any]) -> Mapping[str, bool]:
+    """The parameters of a backdoor action declared `bool` or `bool | None`, each with whether
+    None is allowed."""
+    return _flags_of(getattr(action, "__func__", action))
 
 
 def control(name: str | None = None, *, deprecated: str | None = None

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any, ClassVar
 
-from vdevd.devices.backdoor import WorldBackdoor, control
+from vdevd.devices.backdoor import WorldBackdoor, control, flag, flag_params
 from vdevd.devices.options import CardOptions, Option, parse_options
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.irq import IrqEvent, IrqLine
@@ -44,6 +44,9 @@ class Card(WorldBackdoor):
     type_name: ClassVar[str] = ""
     endian: ClassVar[str] = "little"
     options: ClassVar[Mapping[str, Option]] = {}
+    #: the option that counts the card's axes: it bounds the `[[card.axis]]` tables and sets the
+    #: length of the `per_axis` options
+    axes_option: ClassVar[str] = "axes"
     #: the servo period in ns when the configuration gives none (exact: a Fraction may say it)
     default_period_ns: ClassVar[int | Fraction] = 1_000_000
 
@@ -54,7 +57,7 @@ class Card(WorldBackdoor):
         """`config`: the card's options, as config loading checked them, or a plain mapping
         (checked here, ValueError naming the key)."""
         self.name = name
-        self.opts: CardOptions = parse_options(self.options, config, name)
+        self.opts: CardOptions = parse_options(self.options, config, name, self.axes_option)
         self.config = dict(self.opts)
         self.ctx = ctx
         self.world = AxisWorld(0)
@@ -186,7 +189,9 @@ class Card(WorldBackdoor):
 
     async def open_services(self) -> None:
         """Start what the card serves beside its regions, on the daemon's loop (override: the
-        PMAC's Ethernet protocol port). A failure is the card's to log; the daemon runs on."""
+        PMAC's Ethernet protocol port). A listener that cannot start raises `StartError` naming
+        the card and the endpoint: the daemon does not start (issue 16: ready only when every
+        listener accepts)."""
 
     async def close_services(self) -> None:
         """Stop what `open_services` started (override)."""
@@ -251,10 +256,14 @@ class Card(WorldBackdoor):
         return {names.get(k, k): v for k, v in params.items()}
 
     def control(self, action: str, params: Mapping[str, Any]) -> Any:
-        """Run a backdoor action; bad params become BAD_PARAM errors."""
+        """Run a backdoor action; bad params (a flag that is not true or false among them)
+        become BAD_PARAM errors."""
         fn = self.check_control(action, params)
-        params = self._renamed(action, params)
+        params = dict(self._renamed(action, params))
         try:
+            for key, optional in flag_params(fn).items():
+                if key in params:
+                    params[key] = flag(key, params[key], optional)
             return fn(**params)
         except (ValueError, TypeError, KeyError, IndexError, ArithmeticError) as exc:
             raise VdevError(ErrorCode.BAD_PARAM, f"{action}: {exc}") from None

@@ -4,8 +4,9 @@ A card class declares its configuration keys as `Option`s (type, default, range 
 help). `parse_options` checks a `[[card]]` table against that declaration, fills the defaults and
 returns one frozen `CardOptions` the card reads by attribute (`opts.axes`), so a legal 0 stays 0 and
 nothing is parsed twice. The keys every card has beside its own: `period_ns` (None: the card's
-own default) and `axis` (the `[[card.axis]]` tables of the axis world, vdevd/rt/world.py).
-`vdevd types` prints the same declarations.
+own default) and `axis` (the `[[card.axis]]` tables of the axis world, vdevd/rt/world.py), at
+most one per axis of the option that counts the card's axes (`Card.axes_option`), which also
+sets the length of a `per_axis` list option. `vdevd types` prints the same declarations.
 """
 
 from __future__ import annotations
@@ -24,7 +25,8 @@ MAX_AXIS_TABLES = 32
 
 @dataclass(frozen=True)
 class Option:
-    """A card configuration key: its type, default and allowed range or choices."""
+    """A card configuration key: its type, default and allowed range or choices. A list option
+    has choices for its entries, no range; `per_axis`: one entry per axis of the card."""
 
     type: type | tuple[type, ...]
     default: Any = None
@@ -32,6 +34,14 @@ class Option:
     max: float | None = None
     choices: tuple[Any, ...] | None = None
     help: str = ""
+    per_axis: bool = False
+
+    def __post_init__(self) -> None:
+        types = self.type if isinstance(self.type, tuple) else (self.type,)
+        if list in types and (self.min is not None or self.max is not None):
+            raise TypeError("a list option has no min or max (choices apply to its entries)")
+        if self.per_axis and types != (list,):
+            raise TypeError("a per_axis option is a list")
 
     def check(self, key: str, value: Any) -> Any:
         """Return the value if valid, else raise ValueError naming `key`."""
@@ -112,10 +122,12 @@ class CardOptions(Mapping[str, Any]):
         return self._values["axis"]
 
 
-def parse_options(declared: Mapping[str, Option], table: Mapping[str, Any], where: str = "card"
-                  ) -> CardOptions:
+def parse_options(declared: Mapping[str, Option], table: Mapping[str, Any], where: str = "card",
+                  axes_option: str = "axes") -> CardOptions:
     """`table`'s keys checked against `declared` (and the common keys), defaults filled in.
-    ValueError names the key (`card[1].axes: ...`); `type` and `name` are ignored here."""
+    ValueError names the key (`card[1].axes: ...`); `type` and `name` are ignored here.
+    `axes_option`: the declared key that counts the card's axes, which bounds the `axis`
+    tables and sets the length of the `per_axis` options."""
     if isinstance(table, CardOptions):
         return table
     values: dict[str, Any] = {}
@@ -134,7 +146,21 @@ def parse_options(declared: Mapping[str, Option], table: Mapping[str, Any], wher
     for key, opt in (*COMMON_OPTIONS.items(), *declared.items()):
         values.setdefault(key, opt.default)
     values.setdefault("axis", ())
+    if axes_option in declared:
+        _check_axis_counts(declared, values, where, axes_option)
     return CardOptions(values)
+
+
+def _check_axis_counts(declared: Mapping[str, Option], values: Mapping[str, Any], where: str,
+                       axes_option: str) -> None:
+    """At most one `[[card.axis]]` table per axis, one entry per axis in a `per_axis` list."""
+    n = values[axes_option]
+    if len(values["axis"]) > n:
+        raise ValueError(f"{where}.axis: {len(values['axis'])} [[card.axis]] tables for {n} axes")
+    for key, opt in declared.items():
+        value = values[key]
+        if opt.per_axis and value is not None and len(value) != n:
+            raise ValueError(f"{where}.{key}: {len(value)} entries for {n} axes")
 
 
 def _axis_tables(value: Any, where: str) -> tuple[AxisMechanics, ...]:

@@ -259,13 +259,16 @@ def test_a_non_loopback_ethernet_endpoint_needs_an_allow_list() -> None:
     assert card.allow == ["10.0.0.0/8"]
 
 
-def test_ethernet_port_in_use_is_reported_and_the_card_runs_on() -> None:
-    """A taken port does not stop the daemon: hello reports `ethernet_error`, DPRAM still works."""
+def test_ethernet_port_in_use_stops_the_daemon_from_starting() -> None:
+    """Issue 16 §5: a listener that cannot bind is a start failure naming the card and the
+    endpoint; DaemonThread raises it from start() as `vdevd serve` exits with it."""
+    from vdevd.errors import StartError
+
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
-        with pmac_card(ethernet=f"tcp://127.0.0.1:{port}") as pmac:
-            info = next(c for c in pmac.rack.info["cards"] if c["name"] == "pmac0")
-            assert info["ethernet"] == "" and str(port) in info["ethernet_error"]
-            assert pmac.dpram_lines("VER") == [(0x0D, "1.940"), (0x06, "")]
+        with pytest.raises(StartError, match=f"^pmac0 ethernet tcp://127.0.0.1:{port}: "
+                                              "address already in use$"), \
+                pmac_card(ethernet=f"tcp://127.0.0.1:{port}"):
+            pass

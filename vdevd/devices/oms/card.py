@@ -122,7 +122,7 @@ class MaxkCard(Card):
     options: ClassVar[Mapping[str, Option]] = {
         "board": Option(int, 1, min=1, max=8, help="board number (J5 jumpers, 1-8)"),
         "axes": Option(int, 8, min=1, max=10, help="1-10: MAXk-1000 ... MAXk-A000"),
-        "axis_types": Option(list, None, choices=tuple(AXIS_TYPES),
+        "axis_types": Option(list, None, choices=tuple(AXIS_TYPES), per_axis=True,
                              help="per axis stepper | stepper_encoder | servo"),
         "update_hz": Option(int, 1024, choices=UPDATE_RATES, help="update rate, as #UR sets it"),
         "plant": Option(str, "model", choices=("model", "ideal"),
@@ -132,11 +132,11 @@ class MaxkCard(Card):
         "serial": Option(int, 1, min=0, max=999999, help="serial number WY reports"),
         "ssi_code": Option(str, "binary", choices=("binary", "gray"),
                            help="the code the SSI encoders (ECA) send: binary or Gray"),
-        "profiles": Option(list, None, choices=PROFILES,
+        "profiles": Option(list, None, choices=PROFILES, per_axis=True,
                            help="per axis velocity profile: linear | parabolic | scurve"),
-        "servo_output": Option(list, None, choices=SERVO_OUTPUTS,
+        "servo_output": Option(list, None, choices=SERVO_OUTPUTS, per_axis=True,
                                help="per axis servo DAC output: bipolar | unipolar"),
-        "travel_limits": Option(list, None, help="per axis software travel limits [low, high]"
+        "travel_limits": Option(list, None, per_axis=True, help="per axis software travel limits [low, high]"
                                                  " in counts, [] for none (the factory setting)"),
     }
 

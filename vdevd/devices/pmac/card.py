@@ -10,6 +10,7 @@ each Ethernet connection have their own `#n`/`&n` addressing (online.PortState).
 from __future__ import annotations
 
 import logging
+import os
 import re
 from collections.abc import Mapping
 from fractions import Fraction
@@ -46,6 +47,7 @@ from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.reply import Reply, frame
 from vdevd.devices.pmac.servo_ic import ChannelFlag
 from vdevd.devices.pmac.status import MotorStatus2
+from vdevd.errors import StartError
 from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region
 from vdevd.security import is_local
@@ -147,6 +149,7 @@ class DpramMemory:
 
 class PmacCard(Card):
     type_name: ClassVar[str] = CARD_TYPE
+    axes_option: ClassVar[str] = "motors"
     endian: ClassVar[str] = "little"
     default_period_ns: ClassVar[int | Fraction] = SERVO_PERIOD_NS
     options: ClassVar[Mapping[str, Option]] = {
@@ -178,7 +181,6 @@ class PmacCard(Card):
             raise ValueError("ethernet: a non-loopback endpoint needs ethernet_allow "
                              "(the PMAC protocol has no authentication)")
         self.ethernet_endpoint = ""
-        self.ethernet_error = ""
         self._server: EthernetServer | None = None
         self.dpram = self.add_region(Region(
             DPRAM, DPRAM_SIZE, widths=(1, 2, 4), endian="little",
@@ -344,16 +346,16 @@ class PmacCard(Card):
 
     # -- Ethernet ---------------------------------------------------------------------------------
     async def open_services(self) -> None:
-        """Listen for the Ethernet protocol; a port in use is logged and the card runs on."""
+        """Listen for the Ethernet protocol; a port that cannot be bound is a `StartError`."""
         if not self.ethernet:
             return
         try:
             self._server = await EthernetServer.start(self.ethernet, lambda: CommandPort(self),
                                                       allow=self.allow)
         except OSError as exc:
-            self.ethernet_error = f"{self.ethernet}: {exc.strerror or exc}"
-            log.error("%s: Ethernet protocol not served: %s", self.name, self.ethernet_error)
-            return
+            reason = os.strerror(exc.errno) if exc.errno else str(exc)
+            raise StartError(f"{self.name} ethernet {self.ethernet}: "
+                             f"{reason[:1].lower()}{reason[1:]}") from None
         self.ethernet_endpoint = self._server.endpoint
         log.info("%s: PMAC Ethernet protocol on %s", self.name, self.ethernet_endpoint)
 
@@ -369,8 +371,6 @@ class PmacCard(Card):
     def describe(self) -> dict[str, Any]:
         info = super().describe()
         info.update(device=self.device, motors=self.motors, ethernet=self.ethernet_endpoint)
-        if self.ethernet_error:
-            info["ethernet_error"] = self.ethernet_error
         return info
 
 
