@@ -153,6 +153,7 @@ def _card_defaults(ctype: str, table: dict[str, Any], where: str) -> CardOptions
     try:
         cls = card_class(ctype)
         options = parse_options(cls.options, table, where, cls.axes_option)
+        cls.check_options(options, where)
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     period = options.period_ns

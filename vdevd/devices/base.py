@@ -24,7 +24,7 @@ from vdevd.pci import ConfigSpace, PciIdentity
 from vdevd.region import Region
 from vdevd.rt.world import AxisWorld
 
-__all__ = ["Card", "CardContext", "CardOptions", "Option", "axis_number", "control"]
+__all__ = ["Card", "CardContext", "CardOptions", "Option", "control"]
 
 EventSink = Callable[[IrqEvent], None]
 
@@ -58,6 +58,7 @@ class Card(WorldBackdoor):
         (checked here, ValueError naming the key)."""
         self.name = name
         self.opts: CardOptions = parse_options(self.options, config, name, self.axes_option)
+        self.check_options(self.opts, name)
         self.config = dict(self.opts)
         self.ctx = ctx
         self.world = AxisWorld(0)
@@ -72,6 +73,11 @@ class Card(WorldBackdoor):
         #: set by an assertion so a batch of ticks stops at the tick that interrupted
         self.pause = False
         self._controls = self._collect_controls()
+
+    @classmethod
+    def check_options(cls, opts: CardOptions, where: str) -> None:
+        """What one option cannot check alone: options that must agree (override; ValueError
+        naming the key under `where`)."""
 
     # -- building ------------------------------------------------------------------------------
     def make_world(self, n: int) -> AxisWorld:
@@ -267,15 +273,6 @@ class Card(WorldBackdoor):
             return fn(**params)
         except (ValueError, TypeError, KeyError, IndexError, ArithmeticError) as exc:
             raise VdevError(ErrorCode.BAD_PARAM, f"{action}: {exc}") from None
-
-
-def axis_number(axis: str | int, letters: str, n: int) -> int:
-    """A backdoor's axis argument, a letter of `letters` (any case) or a number, as an index of
-    one of the card's `n` axes; ValueError otherwise."""
-    a = letters.index(axis.upper()) if isinstance(axis, str) else int(axis)
-    if not 0 <= a < n:
-        raise ValueError(f"no axis {axis!r} on this {n}-axis card")
-    return a
 
 
 def _signature(fn: Callable[..., Any]) -> dict[str, str]:

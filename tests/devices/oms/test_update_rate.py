@@ -9,6 +9,8 @@ import vdevclient
 from vdevmaps.oms import Shm
 
 from tests.devices.oms.conftest import Maxk, maxk_card
+from vdevd import config as configmod
+from vdevd.config import ConfigError
 
 S = 1_000_000_000
 
@@ -123,3 +125,11 @@ def test_sim_step_with_a_card_takes_ticks_only(maxk: Maxk) -> None:
     with pytest.raises(vdevclient.VdevClientError, match="card goes with ticks"):
         maxk.rack.request("sim", action="step", seconds=1.0, card="maxk0")
     assert maxk.rack.sim.now_ns() == 0  # still serving, nothing stepped
+
+
+def test_a_period_of_its_own_is_a_configuration_error_naming_update_hz() -> None:
+    """The MAXk's period is 1/update_hz, the rate #UR? reports: a `period_ns` would run it at a
+    rate it does not report."""
+    with pytest.raises(ConfigError, match=r"card\[0\].period_ns: an oms-maxk runs at "
+                                          r"1/update_hz; set update_hz"):
+        configmod.parse({"card": [{"type": "oms-maxk", "name": "m", "period_ns": 500_000}]})

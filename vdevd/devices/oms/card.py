@@ -38,7 +38,7 @@ from vdevmaps.oms import (
     Shm,
 )
 
-from vdevd.devices.base import Card, CardContext, Option, control
+from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.oms import rings
 from vdevd.devices.oms.defaults import IMAGE_FORMATS
 from vdevd.devices.oms.encoder import DEFAULT_INDEX
@@ -147,6 +147,14 @@ class MaxkCard(Card):
     #: set_input's `line` was called `bit` before the shared vocabulary
     control_params: ClassVar[Mapping[str, Mapping[str, str]]] = {"set_input": {"bit": "line"}}
 
+    @classmethod
+    def check_options(cls, opts: CardOptions, where: str) -> None:
+        """The update period is 1/update_hz, the rate `#UR` reports and sets [S §2.13]: a
+        `period_ns` of its own would run the card at a rate it does not report."""
+        if opts.period_ns is not None:
+            raise ValueError(f"{where}.period_ns: an oms-maxk runs at 1/update_hz; set update_hz "
+                             f"({', '.join(map(str, UPDATE_RATES))}) instead")
+
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         super().__init__(name, config, ctx)
         opts = self.opts
@@ -156,7 +164,7 @@ class MaxkCard(Card):
         self.types = [AXIS_TYPES[t] for t in types]
         self.update_hz = opts.update_hz
         #: the update period at power-up: the configured rate's, exact (1024 Hz: 976562.5 ns)
-        self.start_period = Fraction(opts.period_ns or Fraction(10**9, self.update_hz))
+        self.start_period = Fraction(10**9, self.update_hz)
         self.ideal = opts.plant == "ideal"
         self.decode_on_arrival = opts.decode == "arrival"
         self.serial = opts.serial
