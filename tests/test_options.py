@@ -124,3 +124,15 @@ def test_every_card_declares_its_options_with_help(type_name: str) -> None:
         assert opt.help, f"{type_name}.{key} has no help"
         if opt.default is not None:
             assert opt.check(key, opt.default) == opt.default
+
+
+@pytest.mark.parametrize(("type_name", "named"), [
+    ("galil-dmc13x8", "set tm_us instead"), ("oms-maxk", "set update_hz"),
+    ("pmac-turbo", r"I10/2\^23 ms")])
+def test_a_card_whose_period_follows_its_own_setting_refuses_period_ns(type_name: str,
+                                                                      named: str) -> None:
+    """The period is what the card reports (TM, #UR, I10): a `period_ns` beside it would run
+    the card at a rate it does not report."""
+    with pytest.raises(ConfigError, match=rf"card\[0\].period_ns: .*{named}"):
+        configmod.parse({"card": [{"type": type_name, "name": "c", "period_ns": 500_000}]})
+    assert card_class(type_name).period_from

@@ -164,3 +164,34 @@ def test_set_period_on_the_generic_card_in_realtime() -> None:
     assert rack.sched.lost_ticks() == {"servo0": 0}
     assert rack.stats()["scheduler"]["lost_ticks"] == 0
     assert rack.sched.tick_ns == 666_667
+
+
+def test_two_changes_before_one_tick_each_reach_the_tick_whose_length_they_set() -> None:
+    """A change at a tick (tick 4 lasts 2 ms), then one between ticks (after tick 4, 0.5 ms):
+    the motion of tick 4 integrates 2 ms and that of tick 5 0.5 ms."""
+    card = generic()
+    rack = Rack([card], "lockstep")
+    card.core.servo_on(0)
+    card.core.jog(0, 1_000_000.0, 1e12, 1e12)  # a count per microsecond, at once
+    run(rack, "sim", action="step", ticks=3, card="servo0")
+    card.set_period(2_000_000)  # at tick 3
+    run(rack, "sim", action="step", ns=100_000)
+    card.set_period(500_000)  # between ticks 3 and 4
+    before = float(card.core.axes.cmd_pos[0])
+    assert tick_time(rack, 4) == 5_000_000
+    assert float(card.core.axes.cmd_pos[0]) - before == pytest.approx(2000)
+    before = float(card.core.axes.cmd_pos[0])
+    assert tick_time(rack, 5) == 5_500_000
+    assert float(card.core.axes.cmd_pos[0]) - before == pytest.approx(500)
+    assert rack.stats()["scheduler"]["lost_ticks"] == 0
+
+
+def test_two_changes_between_the_same_two_ticks_leave_the_tick_under_way_as_due() -> None:
+    card = generic()
+    rack = Rack([card], "lockstep")
+    run(rack, "sim", action="step", ticks=1, card="servo0")
+    run(rack, "sim", action="step", ns=300_000)  # 1.3 ms, between ticks 1 and 2
+    card.set_period(700_000)
+    card.set_period(500_000)
+    assert tick_time(rack, 2) == 2_000_000  # as due on the 1 ms schedule
+    assert tick_time(rack, 3) == 2_500_000  # then the last period set

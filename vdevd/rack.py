@@ -362,6 +362,8 @@ class Rack:
             ns = args["ns"]
         elif "card" in args:  # to the card's `ticks`-th next tick, exact
             card, n = self.card(args["card"]), args["ticks"]
+            if n < 0:
+                raise VdevError(ErrorCode.BAD_PARAM, f"sim step of {n} ticks")
             ns = max(0, card.time_of_tick(card.ticks + n) - self.now_ns) if n > 0 else 0
         elif "ticks" in args:  # base ticks of the exact shortest period
             base = self.sched.base_period

@@ -95,3 +95,19 @@ def test_step_by_a_non_finite_or_huge_number_of_seconds_is_a_bad_param(
     reply = raw.call(op="sim", action="step", seconds=seconds)
     assert reply["error"]["code"] == "bad_param"
     assert raw.call(op="sim", action="now")["ok"]["now_ns"] == 0
+
+
+@pytest.mark.parametrize("fields", [{"ticks": -3, "card": "servo0"}, {"ticks": -3},
+                                    {"ns": 1000, "card": "servo0"}])
+def test_a_negative_step_or_a_card_without_ticks_is_a_bad_param(
+        raw: RawClient, fields: dict[str, object]) -> None:
+    reply = raw.call(op="sim", action="step", **fields)
+    assert reply["error"]["code"] == "bad_param"
+    assert raw.call(op="sim", action="now")["ok"]["now_ns"] == 0
+
+
+def test_set_limit_with_a_nil_active_is_a_bad_param(raw: RawClient) -> None:
+    reply = raw.call(op="control", card="servo0", action="set_limit",
+                     params={"axis": 0, "active": None})
+    assert reply["error"]["code"] == "bad_param"
+    assert "active: expected true or false" in reply["error"]["message"]

@@ -17,13 +17,14 @@ from __future__ import annotations
 
 import functools
 import inspect
-import math
 from collections.abc import Callable, Mapping
 from typing import Any, ClassVar
 
 from vdevd.rt.world import AxisWorld
 
 SIDES = ("positive", "negative")
+#: the largest voltage `set_analog` drives onto an input (the cards' ranges are +-10 V or less)
+MAX_VOLTS = 100.0
 
 
 def flag(name: str, value: Any, optional: bool = False) -> bool | None:
@@ -163,8 +164,8 @@ class WorldBackdoor:
     def set_analog(self, channel: int, volts: float) -> None:
         """Drive an analog input channel, in volts."""
         value = float(volts)
-        if not math.isfinite(value):
-            raise ValueError(f"volts {volts!r} is not a finite number")
+        if not -MAX_VOLTS <= value <= MAX_VOLTS:  # also NaN; a card saturates at its own range
+            raise ValueError(f"volts {volts!r} outside -{MAX_VOLTS:g}..{MAX_VOLTS:g}")
         self.drive_analog(channel, value)
 
     @control()

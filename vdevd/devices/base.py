@@ -50,6 +50,8 @@ class Card(WorldBackdoor):
     #: the servo period in ns when the configuration gives none (exact: a Fraction may say it)
     default_period_ns: ClassVar[int | Fraction] = 1_000_000
 
+    #: the option the card's period follows instead of `period_ns` (which it then refuses)
+    period_from: ClassVar[str | None] = None
     #: deprecated parameter names of actions: {action: {old name: name}} (kept for old scripts)
     control_params: ClassVar[Mapping[str, Mapping[str, str]]] = {}
 
@@ -127,35 +129,47 @@ class Card(WorldBackdoor):
         """Change the servo period (ns, exact). Set at a tick (by its firmware, or right after
         it), the next tick comes one new period later; set between ticks, the cycle under way
         ends when it was due and the new period counts from there. Tick k is then at
-        t + floor((k - n) x period) from that tick n at t, and `period_changed` runs at the start
-        of the first tick of the new length (`retime_tick`)."""
+        t + floor((k - n) x period) from that tick n at t, and `period_changed(period)` runs at
+        the start of the first tick of the new length (`retimes`: each change still to come,
+        so two changes before one tick each reach the tick whose length they set)."""
         exact = Fraction(period)
         if exact <= 0:
             raise ValueError(f"servo period {period} ns is not positive")
         if not hasattr(self, "_period_num"):  # being built: the clock starts at 0
-            self._base_ns = self._base_ticks = 0
-            base, base_ticks = 0, -1  # no period_changed: the card is built with this one
-        elif self.now_ns == self.time_of_tick(self.ticks):
+            self._base_ns = self._base_ticks = self._last_tick_ns = 0
+            self.retimes: list[tuple[int, Fraction]] = []  # no period_changed: built with it
+            self._set_base(0, 0, exact)
+            return
+        if self.now_ns == self._last_tick_ns:
             base, base_ticks = self.now_ns, self.ticks
         else:
             base, base_ticks = self.time_of_tick(self.ticks + 1), self.ticks + 1
-        self._base_ns, self._base_ticks = base, max(base_ticks, 0)
-        self._period_num, self._period_den = exact.numerator, exact.denominator
-        self._period_ns = round(exact)
-        self.retime_tick = base_ticks + 1
+        self.retimes = [r for r in self.retimes if r[0] <= base_ticks]  # later ones superseded
+        self.retimes.append((base_ticks + 1, exact))
+        self._set_base(base, base_ticks, exact)
         self.pause = True  # a batch of ticks under way stops here: the scheduler recounts
 
-    def period_changed(self) -> None:
-        """The first tick of a new period begins: firmware and motion take the new period
-        (`self.period`) from here (override)."""
+    def _set_base(self, base_ns: int, base_ticks: int, exact: Fraction) -> None:
+        self._base_ns, self._base_ticks = base_ns, base_ticks
+        self._period_num, self._period_den = exact.numerator, exact.denominator
+        self._period_ns = round(exact)
+
+    def period_changed(self, period: Fraction) -> None:
+        """A tick of a new length `period` (ns, exact) begins: firmware and motion take it from
+        here (override)."""
 
     def begin_tick(self) -> None:
         """Count the tick about to run and set its time; a new period takes effect here."""
         self.ticks += 1
-        self.now_ns = self.time_of_tick(self.ticks)
-        if self.ticks == self.retime_tick:
-            self.retime_tick = 0
-            self.period_changed()
+        self.now_ns = self._last_tick_ns = self.time_of_tick(self.ticks)
+        if self.retimes and self.retimes[0][0] == self.ticks:
+            self.period_changed(self.retimes.pop(0)[1])
+
+    def ticks_run(self, k: int) -> None:
+        """A card that runs its ticks in batches (overriding `tick`) ran `k` more: count them
+        and set the time of the last (the batch must stop before a tick in `retimes`)."""
+        self.ticks += k
+        self.now_ns = self._last_tick_ns = self.time_of_tick(self.ticks)
 
     def time_of_tick(self, k: int) -> int:
         """The simulated time of tick k (k >= the ticks run when the period was last set):

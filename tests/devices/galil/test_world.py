@@ -307,7 +307,8 @@ def test_the_deprecated_names_still_drive_the_same_inputs(dmc: Dmc, rack: vdevcl
     ("set_input", {"input": 0, "level": True}, "line 0 outside 1..8"),
     ("set_analog", {"channel": 0, "volts": 1.0}, "channel 0 outside 1..8"),
     ("set_switches", {"axis": "X", "limit": True}, "set_switches(axis"),
-    ("set_analog", {"channel": 1, "volts": float("inf")}, "volts inf is not a finite number"),
+    ("set_analog", {"channel": 1, "volts": float("inf")}, "volts inf outside -100..100"),
+    ("set_analog", {"channel": 1, "volts": 1e308}, "volts 1e+308 outside -100..100"),
     ("set_input", {"input": 1, "line": 2, "level": True},
      "'input' is the old name of 'line': give one of them"),
 ])
@@ -320,13 +321,13 @@ def test_a_wrong_action_or_parameter_is_an_error_naming_it(
 
 
 # -- options --------------------------------------------------------------------------------------
-def test_options_are_read_as_declared_base_0_and_an_explicit_period_are_kept() -> None:
-    """`base` 0 (JP10 all jumpers in) is legal and kept; `period_ns` given overrides tm_us."""
-    card = GalilCard(CARD, {"base": 0, "tm_us": 500, "period_ns": 250_000},
-                     CardContext(emit=lambda event: None))
-    assert (card.base, card.configured_tm_us, card.period_ns) == (0, 500, 250_000)
-    card = GalilCard(CARD, {"tm_us": 500}, CardContext(emit=lambda event: None))
-    assert card.period_ns == 500_000
+def test_options_are_read_as_declared_base_0_kept_the_period_from_tm_us() -> None:
+    """`base` 0 (JP10 all jumpers in) is legal and kept; the servo period is the sample time
+    `tm_us` (what TM reports), and a `period_ns` of its own is refused."""
+    card = GalilCard(CARD, {"base": 0, "tm_us": 500}, CardContext(emit=lambda event: None))
+    assert (card.base, card.configured_tm_us, card.period_ns) == (0, 500, 500_000)
+    with pytest.raises(ValueError, match=r"period_ns: a galil-dmc13x8 runs at its sample time"):
+        GalilCard(CARD, {"tm_us": 500, "period_ns": 250_000}, CardContext(emit=lambda e: None))
 
 
 def test_set_switches_home_level_replaces_a_home_edge_as_before(dmc: Dmc) -> None:

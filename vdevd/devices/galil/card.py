@@ -17,7 +17,7 @@ from typing import Any, ClassVar
 import numpy as np
 from vdevmaps.galil import WINDOW_SIZE, A16Reg
 
-from vdevd.devices.base import Card, CardContext, Option, control
+from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.galil.bus import FREEZE_MODES, A16Window
 from vdevd.devices.galil.firmware import Firmware
 from vdevd.devices.galil.params import COUNTS_PER_VOLT
@@ -54,13 +54,23 @@ class GalilCard(Card):
     control_params: ClassVar[Mapping[str, Mapping[str, str]]] = {
         "set_input": {"input": "line"}, "set_analog": {"input": "channel"}}
 
+    #: the period comes from an option of the card's own (types, README)
+    period_from: ClassVar[str | None] = "tm_us"
+
+    @classmethod
+    def check_options(cls, opts: CardOptions, where: str) -> None:
+        """The servo period is the sample time `tm_us`, what TM reports [M Ch6 TM]: a
+        `period_ns` of its own would run the card at a rate it does not report."""
+        if opts.period_ns is not None:
+            raise ValueError(f"{where}.period_ns: a galil-dmc13x8 runs at its sample time; "
+                             "set tm_us instead")
+
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         super().__init__(name, config, ctx)
         opts = self.opts
         self.n = opts.axes
         self.configured_tm_us = opts.tm_us
-        if opts.period_ns is None:
-            self.period_ns = self.configured_tm_us * 1000
+        self.period_ns = self.configured_tm_us * 1000
         if opts.base % WINDOW_SIZE:
             raise ValueError(f"base: {opts.base:#x} is not a multiple of 16 (A4..A15 jumpers)")
         self.base = opts.base

@@ -7,6 +7,7 @@ motion core, used to exercise regions, hooks, interrupts, the clock and the back
 from __future__ import annotations
 
 from collections.abc import Mapping
+from fractions import Fraction
 from typing import Any, ClassVar
 
 import numpy as np
@@ -101,16 +102,15 @@ class GenericServoCard(Card):
         sensing = self.world.mechanical  # the switches follow the stage: sense every tick
         while done < n:
             run = 1 if sensing else n - done
-            if self.retime_tick:  # a new period from that tick: no batch runs across it
-                if self.retime_tick == self.ticks + 1:
-                    self.retime_tick = 0
-                    self.period_changed()
-                else:
-                    run = min(run, self.retime_tick - self.ticks - 1)
+            retimes = self.retimes
+            if retimes:  # a new period from that tick: no batch runs across it
+                if retimes[0][0] == self.ticks + 1:
+                    self.period_changed(retimes.pop(0)[1])
+                if retimes:
+                    run = min(run, retimes[0][0] - self.ticks - 1)
             k, events = self.core.run(run)
             done += k
-            self.ticks += k
-            self.now_ns = self.time_of_tick(self.ticks)
+            self.ticks_run(k)
             if sensing:
                 self.sense_world()
             if events:
@@ -121,10 +121,11 @@ class GenericServoCard(Card):
         self._store_status()
         return done
 
-    def period_changed(self) -> None:
-        """A new servo period (`set_period`): the motion core's step and PERIOD_NS follow."""
-        self.core.set_period(float(self.period))
-        self.bar.set(R.PERIOD_NS, self.period_ns)
+    def period_changed(self, period: Fraction) -> None:
+        """A tick of a new servo period (`set_period`): the motion core's step and PERIOD_NS
+        follow."""
+        self.core.set_period(float(period))
+        self.bar.set(R.PERIOD_NS, round(period))
 
     def _store_status(self) -> None:
         """Refresh every axis's read-only registers from the core in one vectorised store."""
@@ -269,15 +270,15 @@ class GenericServoCard(Card):
         self._store_status()
 
     @control()
-    def set_limit(self, axis: str | int, side: str | None = None, active: bool | None = None,
+    def set_limit(self, axis: str | int, side: str = "positive", active: bool = True,
                   positive: bool | None = None, negative: bool | None = None) -> None:
         """Hold a hard-limit switch active (or release it to the mechanics): side is positive
-        (default) or negative. (`positive=`/`negative=` levels: deprecated, the form before the
-        shared vocabulary; not together with side/active.)"""
+        or negative. (`positive=`/`negative=` levels: deprecated, the form before the shared
+        vocabulary; not together with side/active.)"""
         if positive is None and negative is None:
-            super().set_limit(axis, side or "positive", True if active is None else active)
+            super().set_limit(axis, side, active)
             return
-        if side is not None or active is not None:
+        if side != "positive" or active is not True:
             raise ValueError("give side/active, or the deprecated positive/negative, not both")
         for flag, level in (("positive", positive), ("negative", negative)):
             if level is not None:

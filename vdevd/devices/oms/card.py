@@ -142,6 +142,7 @@ class MaxkCard(Card):
 
     #: the period at the factory update rate, 1024 Hz (the card runs at 1/update_hz)
     default_period_ns: ClassVar[int | Fraction] = Fraction(10**9, 1024)
+    period_from: ClassVar[str | None] = "update_hz"
     #: the backdoor names axes as the manual does (X Y Z T U V R S W K, any case) or 0..n-1
     axis_letters: ClassVar[str] = AXES
     #: set_input's `line` was called `bit` before the shared vocabulary
@@ -200,9 +201,9 @@ class MaxkCard(Card):
         self.powered = False  # power_up has built the firmware once
         self.power_up()
 
-    def period_changed(self) -> None:
+    def period_changed(self, period: Fraction) -> None:
         """The first cycle at a new update rate (`#UR`) begins: the firmware runs at it."""
-        self.fw.set_period(float(self.period))
+        self.fw.set_period(float(period))
 
     # -- power-up -------------------------------------------------------------------------------------
     def power_up(self) -> None:

@@ -544,6 +544,8 @@ class Firmware:
         """Make the axes what the working parameters say: type, loop, encoder ratio, gains,
         limits."""
         m, p = self.motion, self.params
+        if self.on_type_change is not None:  # the faults the types have, before they start
+            self.on_type_change()
         for a, t in enumerate(p.ptype):
             m.set_kind(a, t)
             m.set_closed_loop(a, bool(p.closed_loop[a]))

@@ -38,7 +38,7 @@ from vdevmaps.pmac import (
     HostIrq,
 )
 
-from vdevd.devices.base import Card, CardContext, Option, control
+from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
 from vdevd.devices.pmac.ethernet_server import EthernetServer
 from vdevd.devices.pmac.firmware import Firmware, Identity
@@ -169,6 +169,16 @@ class PmacCard(Card):
     axis_base: ClassVar[int] = 1
     control_params: ClassVar[Mapping[str, Mapping[str, str]]] = {
         action: {"motor": "axis"} for action in _AXIS_ACTIONS}
+
+    period_from: ClassVar[str | None] = "I10"
+
+    @classmethod
+    def check_options(cls, opts: CardOptions, where: str) -> None:
+        """The servo period is I10/2^23 ms, what I10 reports [PMAC1-SRM p.46]: a `period_ns`
+        of its own would run the card at a rate it does not report."""
+        if opts.period_ns is not None:
+            raise ValueError(f"{where}.period_ns: a pmac-turbo runs at its servo period I10/2^23 "
+                             "ms (I10 default 3713707)")
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         super().__init__(name, config, ctx)
