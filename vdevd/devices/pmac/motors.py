@@ -28,6 +28,7 @@ import numpy as np
 
 from vdevd.devices.pmac.homing import Found, HomeAction, HomeSearch, Jog
 from vdevd.devices.pmac.ivars import IVars
+from vdevd.devices.pmac.jog_profile import jog_accel, jog_speed
 from vdevd.devices.pmac.motor_reports import DAC_FULL_SCALE, IXX24_LIMITS_OFF, MotorReports
 from vdevd.devices.pmac.pid import PmacPid
 from vdevd.rt import AxisFlag, MotionCore, PlantKind
@@ -252,26 +253,7 @@ class Motors:
         self._any_open = True
         self.core.axes.out[m] = self.open_out[m]
 
-    # -- jog profiles ------------------------------------------------------------------------------------
-    def _accel(self, m: int, dv: float) -> tuple[float, float]:
-        """(acceleration counts/s^2, jerk counts/s^3) for a jog-type velocity change of dv
-        counts/ms [SRM p.100-101]: accel time Ixx20, S-curve time Ixx21 (pure S-curve of 2*Ixx21
-        when Ixx21 > Ixx20/2), every time lengthened in proportion so that the peak acceleration
-        does not exceed Ixx19; Ixx20 = Ixx21 = 0 is taken as 1 ms."""
-        base = 100 * (m + 1)
-        v = self.ivars.values
-        ta, ts, amax = float(v[base + 20]), float(v[base + 21]), float(v[base + 19])
-        if ta <= 0 and ts <= 0:
-            ta = 1.0
-        total = max(ta, 2 * ts)
-        ts = min(ts, total / 2)
-        acc = abs(dv) / (total - ts) if dv else (amax if amax > 0 else 1.0)
-        if amax > 0 and acc > amax:
-            ts *= acc / amax
-            acc = amax
-        jerk = acc / ts if ts > 0 else 0.0
-        return acc * 1e6, jerk * 1e9
-
+    # -- jogs and moves (their profile: jog_profile.py) ---------------------------------------------
     def _start(self, m: int) -> bool:
         """Before a jog or home: the motor must be active; a killed motor closes its loop."""
         if not self.active[m]:
@@ -280,20 +262,12 @@ class Motors:
         self.abort_decel[m] = False
         return bool(len(self._enable(np.array([m]))))
 
-    def _jog_speed(self, m: int, to_position: bool = False) -> float:
-        """|Ixx22|, counts/ms; a jog to a position saturates at 768M/Ixx08 counts/s (V1.938,
-        was 256M/Ixx08 [A L3286])."""
-        speed = abs(float(self.ivars.values[100 * (m + 1) + 22]))
-        if to_position:
-            speed = min(speed, 768e6 / float(self.ivars.values[100 * (m + 1) + 8]) / 1000)
-        return speed
-
     def _jog_at(self, m: int, velocity: float) -> None:
         """Run at `velocity` counts/ms with the jog accelerations."""
         now = float(self.core.axes.cmd_vel[m]) / 1000
         reverse = now * velocity < 0
         dv = max(abs(now), abs(velocity)) if reverse else abs(velocity - now)
-        acc, jerk = self._accel(m, dv)
+        acc, jerk = jog_accel(self.ivars.values, m, dv)
         self.core.jog(m, velocity * 1000, acc, acc, jerk)
 
     def _note_prejog(self, m: int) -> None:
@@ -306,7 +280,7 @@ class Motors:
             return
         self._note_prejog(m)
         self.timed[m] = False
-        self._jog_at(m, math.copysign(self._jog_speed(m), direction))
+        self._jog_at(m, math.copysign(jog_speed(self.ivars.values, m), direction))
         self._after_command(m)
 
     def _halt(self, m: int) -> bool:
@@ -328,16 +302,16 @@ class Motors:
         if not self._halt(m):
             return
         if self.core.profile.moving[m]:
-            acc, jerk = self._accel(m, abs(float(self.core.axes.cmd_vel[m])) / 1000)
+            acc, jerk = jog_accel(self.ivars.values, m, abs(float(self.core.axes.cmd_vel[m])) / 1000)
             self.core.last_jerk[m] = jerk
             self.core.stop(m, acc)
 
     def _move_to(self, m: int, motor_counts: float) -> None:
         """A jog-to-position move (move timer active) to a motor position."""
-        speed = self._jog_speed(m, to_position=True)
+        speed = jog_speed(self.ivars.values, m, to_position=True)
         if speed <= 0:
             return
-        acc, jerk = self._accel(m, speed)
+        acc, jerk = jog_accel(self.ivars.values, m, speed)
         self.timed[m] = True
         self.core.move_absolute(m, float(self.origin[m]) + motor_counts, speed * 1000, acc, acc, jerk)
         self._after_command(m)
@@ -424,7 +398,7 @@ class Motors:
         for m, home in found:
             self.origin[m] = home.origin
             if home.speed is not None:
-                acc, jerk = self._accel(m, home.speed)
+                acc, jerk = jog_accel(self.ivars.values, m, home.speed)
                 self.timed[m] = True
                 self.abort_decel[m] = False
                 self.core.move_absolute(m, home.origin, home.speed * 1000, acc, acc, jerk)
