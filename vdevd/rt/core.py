@@ -518,6 +518,11 @@ class MotionCore:
         self.encoder_slip[idx] += np.rint(values)
         self._configure()
 
+    @property
+    def any_slip(self) -> bool:
+        """Whether any encoder has slipped (`encoder_slip` not all 0)."""
+        return self._any_slip
+
     def _clear_slip(self, idx: np.ndarray) -> None:
         """Forget the slip of axes `idx`: `fb` becomes their reading without it (the redefinition
         that follows shifts the position by what the encoder then reads)."""

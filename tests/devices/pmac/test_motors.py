@@ -32,6 +32,25 @@ def set_iv(mo: Motors, n: int, value: float) -> None:
     mo.on_ivar(n)
 
 
+def drive(mo: Motors, m: int, *, plus_limit: bool | None = None,
+          minus_limit: bool | None = None, home: bool | None = None,
+          amp_fault: bool | None = None) -> None:
+    """Motor m's flag inputs (None: unchanged) as the card's axis world drives them, through
+    `Motors.apply_inputs`: PLIMn, MLIMn, HMFLn read 1, the amplifier reports a fault."""
+    levels = [mo.plim.copy(), mo.mlim.copy(), mo.hmfl.copy(), mo.amp_fault_in.copy()]
+    for row, level in zip(levels, (plus_limit, minus_limit, home, amp_fault), strict=True):
+        if level is not None:
+            row[m] = level
+    mo.apply_inputs(*levels)
+
+
+def lose_encoder(mo: Motors, m: int, lost: bool) -> None:
+    """Motor m's encoder stops counting while `lost`, through `Motors.set_encoder_losses`."""
+    losses = mo.core.encoder_loss.copy()
+    losses[m] = lost
+    mo.set_encoder_losses(losses)
+
+
 def run(mo: Motors, count: int) -> int:
     events = 0
     for _ in range(count):
@@ -43,34 +62,34 @@ def settle(mo: Motors, m: int = 0, limit: int = 20_000) -> None:
     """Tick until motor m's move has ended and it is in position."""
     for _ in range(limit):
         mo.tick()
-        if mo.status_words()[1][m] & S2.IN_POSITION:
+        if mo.reports.status_words()[1][m] & S2.IN_POSITION:
             return
     raise AssertionError("motor did not settle")
 
 
 def w1(mo: Motors, m: int = 0) -> int:
-    return int(mo.status_words()[0][m])
+    return int(mo.reports.status_words()[0][m])
 
 
 def w2(mo: Motors, m: int = 0) -> int:
-    return int(mo.status_words()[1][m])
+    return int(mo.reports.status_words()[1][m])
 
 
 def cmd_velocity(mo: Motors, m: int = 0) -> float:
     """Commanded velocity over the next tick, counts/ms."""
-    before = mo.commanded()[m]
+    before = mo.reports.commanded()[m]
     mo.tick()
-    return float(mo.commanded()[m] - before) / PERIOD_MS
+    return float(mo.reports.commanded()[m] - before) / PERIOD_MS
 
 
 # -- power-up ---------------------------------------------------------------------------------------------
 def test_factory_power_up_every_motor_activated_and_killed(mo: Motors) -> None:
-    word1, word2 = mo.status_words()
+    word1, word2 = mo.reports.status_words()
     # activated, open loop (amp disabled), integration mode (Ixx34 = 1) [§2.6]
     assert word1.tolist() == [0x850000] * 8
     assert word2.tolist() == [0] * 8
-    assert mo.position().tolist() == [0.0] * 8
-    assert mo.dac().tolist() == [0.0] * 8
+    assert mo.reports.position().tolist() == [0.0] * 8
+    assert mo.reports.dac().tolist() == [0.0] * 8
 
 
 def test_ixx80_bit0_closes_the_loop_at_power_up() -> None:
@@ -84,7 +103,7 @@ def test_ixx80_bit0_closes_the_loop_at_power_up() -> None:
 
 def test_deactivated_motor_reports_zero_words(mo: Motors) -> None:
     set_iv(mo, 800, 0)
-    assert mo.status_words()[0][7] == 0
+    assert mo.reports.status_words()[0][7] == 0
 
 
 # -- jogging ----------------------------------------------------------------------------------------------
@@ -97,24 +116,24 @@ def test_jog_plus_reaches_ixx22_then_jog_stop_holds_in_position(mo: Motors) -> N
     max_fe = 0.0
     for _ in range(ticks(800)):  # factory S-curve limited by Ixx19: 410 ms to speed
         mo.tick()
-        max_fe = max(max_fe, abs(float(mo.following_error()[0])))
-    assert mo.velocity()[0] == pytest.approx(32 * PERIOD_MS, abs=0.05)  # counts/servo cycle
+        max_fe = max(max_fe, abs(float(mo.reports.following_error()[0])))
+    assert mo.reports.velocity()[0] == pytest.approx(32 * PERIOD_MS, abs=0.05)  # counts/servo cycle
     assert cmd_velocity(mo) == pytest.approx(32.0)
     assert max_fe < 1000 / 10  # well below Ixx12 = 16000/16 counts
     assert not w2(mo) & S2.IN_POSITION
     mo.jog_stop(0)
     settle(mo)
     assert w1(mo) & S1.DESIRED_VELOCITY_ZERO
-    assert abs(mo.following_error()[0]) < 160 / 16
-    assert mo.position()[0] > 0
+    assert abs(mo.reports.following_error()[0]) < 160 / 16
+    assert mo.reports.position()[0] > 0
 
 
 def test_jog_minus_runs_negative(mo: Motors) -> None:
     mo.jog(0, -1)
     run(mo, ticks(600))
     assert cmd_velocity(mo) == pytest.approx(-32.0)
-    assert mo.position()[0] < 0
-    assert mo.dac()[0] < 0
+    assert mo.reports.position()[0] < 0
+    assert mo.reports.dac()[0] < 0
 
 
 def test_jog_to_position_ends_there_with_move_timer(mo: Motors) -> None:
@@ -123,8 +142,8 @@ def test_jog_to_position_ends_there_with_move_timer(mo: Motors) -> None:
     assert w1(mo) & S1.MOVE_TIMER_ACTIVE
     settle(mo)
     assert not w1(mo) & S1.MOVE_TIMER_ACTIVE
-    assert mo.commanded()[0] == 5000
-    assert abs(mo.position()[0] - 5000) < 160 / 16
+    assert mo.reports.commanded()[0] == 5000
+    assert abs(mo.reports.position()[0] - 5000) < 160 / 16
 
 
 def test_jog_to_without_position_returns_to_pre_jog_position(mo: Motors) -> None:
@@ -134,31 +153,31 @@ def test_jog_to_without_position_returns_to_pre_jog_position(mo: Motors) -> None
     run(mo, ticks(300))
     mo.jog_to(0, None)
     settle(mo)
-    assert mo.commanded()[0] == 3000
+    assert mo.reports.commanded()[0] == 3000
 
 
 def test_jog_relative_from_actual_and_from_commanded(mo: Motors) -> None:
     mo.jog(0, 1)
     run(mo, ticks(600))  # at speed: actual lags commanded by the following error
-    fe = float(mo.following_error()[0])
+    fe = float(mo.reports.following_error()[0])
     assert fe > 1
     mo.jog_relative(0, 1000, from_actual=True)
-    assert mo.target()[0] == np.rint(mo.position()[0] + 1000)
+    assert mo.reports.target()[0] == np.rint(mo.reports.position()[0] + 1000)
     mo.jog_relative(0, 1000, from_actual=False)
-    assert mo.target()[0] == np.rint(mo.commanded()[0] + 1000)
-    actual_target = float(mo.target()[0])
+    assert mo.reports.target()[0] == np.rint(mo.reports.commanded()[0] + 1000)
+    actual_target = float(mo.reports.target()[0])
     settle(mo)
-    assert abs(mo.position()[0] - actual_target) < 10
+    assert abs(mo.reports.position()[0] - actual_target) < 10
 
 
 def test_jog_variable_uses_the_jog_register(mo: Motors) -> None:
     mo.jog_register[0] = 2500
     mo.jog_variable(0, "=")
     settle(mo)
-    assert mo.commanded()[0] == 2500
+    assert mo.reports.commanded()[0] == 2500
     mo.jog_variable(0, ":")
     settle(mo)
-    assert mo.commanded()[0] == 5000
+    assert mo.reports.commanded()[0] == 5000
     with pytest.raises(ValueError):
         mo.jog_variable(0, "?")
 
@@ -187,46 +206,47 @@ def test_home_on_the_home_flag_with_offset_ends_at_position_zero(mo: Motors) -> 
     assert w1(mo) & S1.HOME_SEARCH_IN_PROGRESS
     assert not w2(mo) & S2.HOME_COMPLETE
     run(mo, ticks(500))
-    assert mo.position()[0] > 0
-    mo.set_flags(0, home=True)
+    assert mo.reports.position()[0] > 0
+    drive(mo, 0, home=True)
     mo.tick()
     assert w2(mo) & S2.HOME_COMPLETE
     assert not w1(mo) & S1.HOME_SEARCH_IN_PROGRESS
     assert w1(mo) & S1.MOVE_TIMER_ACTIVE  # post-trigger move
-    trigger = int(mo.capture()[0])
-    assert mo.flags()[0] & (1 << 16) and mo.flags()[0] & (1 << 11)
-    mo.set_flags(0, home=False)
+    trigger = int(mo.reports.capture()[0])
+    assert mo.hmfl[0] and mo.homing.captured[0]  # HMFL reads 1, position captured
+    drive(mo, 0, home=False)
     settle(mo)
-    assert mo.commanded()[0] == 0
-    assert abs(mo.position()[0]) < 10
-    assert abs(int(mo.encoder()[0]) - (trigger + 500)) < 10  # EncoderPos = MotorPos + capture + Ixx26/16
+    assert mo.reports.commanded()[0] == 0
+    assert abs(mo.reports.position()[0]) < 10
+    # EncoderPos = MotorPos + capture + Ixx26/16
+    assert abs(int(mo.reports.encoder()[0]) - (trigger + 500)) < 10
 
 
 def test_home_on_the_index_pulse_by_default(mo: Motors) -> None:
-    mo.set_index(0, 4000)
+    mo.homing.index_period[0] = 4000  # as the card's axis world sets it
     set_iv(mo, 123, -32)  # Ixx23 < 0: search in the negative direction
     mo.home(0)
     mo.tick()  # the index at count 0 is where the motor stands: triggers at once
     assert w2(mo) & S2.HOME_COMPLETE
-    assert mo.capture()[0] == 0
+    assert mo.reports.capture()[0] == 0
     mo.jog_to(0, 10_000)
     settle(mo)
     mo.home(0)
     events = run(mo, ticks(1000))
     assert events & 1 << 14  # AxisFlag.HOMED
-    assert mo.capture()[0] == 8000  # the first index below 10000
+    assert mo.reports.capture()[0] == 8000  # the first index below 10000
     settle(mo)
-    assert mo.commanded()[0] == 0
+    assert mo.reports.commanded()[0] == 0
 
 
 def test_hmz_makes_the_commanded_position_zero(mo: Motors) -> None:
     mo.jog_to(0, 1234)
     settle(mo)
     mo.home_zero(0)
-    assert mo.commanded()[0] == 0
+    assert mo.reports.commanded()[0] == 0
     assert w2(mo) & S2.HOME_COMPLETE
     run(mo, 10)
-    assert abs(mo.position()[0]) < 10
+    assert abs(mo.reports.position()[0]) < 10
 
 
 def test_ixx23_zero_homes_without_moving(mo: Motors) -> None:
@@ -234,14 +254,14 @@ def test_ixx23_zero_homes_without_moving(mo: Motors) -> None:
     mo.home(0)
     assert w2(mo) & S2.HOME_COMPLETE
     assert not w1(mo) & S1.HOME_SEARCH_IN_PROGRESS
-    assert mo.commanded()[0] == 0
+    assert mo.reports.commanded()[0] == 0
 
 
 # -- limits -----------------------------------------------------------------------------------------------
 def test_hardware_limit_stops_motion_toward_it_but_not_away(mo: Motors) -> None:
     mo.jog(0, 1)
     run(mo, ticks(500))
-    mo.set_flags(0, plus_limit=True)
+    drive(mo, 0, plus_limit=True)
     mo.tick()
     assert w1(mo) & S1.ABORT_DECELERATION  # decelerating at Ixx15 = 0.25 counts/ms^2
     assert w1(mo) & S1.POS_END_LIMIT
@@ -249,30 +269,30 @@ def test_hardware_limit_stops_motion_toward_it_but_not_away(mo: Motors) -> None:
     settle(mo)
     assert w2(mo) & S2.STOPPED_ON_POSITION_LIMIT
     assert not w1(mo) & S1.ABORT_DECELERATION
-    here = float(mo.commanded()[0])
+    here = float(mo.reports.commanded()[0])
     mo.jog(0, 1)
     run(mo, 100)
-    assert mo.commanded()[0] == here  # refused toward the limit
+    assert mo.reports.commanded()[0] == here  # refused toward the limit
     mo.jog(0, -1)
     run(mo, 100)
-    assert mo.commanded()[0] < here  # away from it is allowed
+    assert mo.reports.commanded()[0] < here  # away from it is allowed
     assert not w2(mo) & S2.STOPPED_ON_POSITION_LIMIT
 
 
 def test_minus_limit_refuses_negative_jog(mo: Motors) -> None:
-    mo.set_flags(0, minus_limit=True)
+    drive(mo, 0, minus_limit=True)
     mo.jog(0, -1)
     run(mo, 100)
-    assert mo.commanded()[0] == 0
+    assert mo.reports.commanded()[0] == 0
     assert w1(mo) & S1.NEG_END_LIMIT
 
 
 def test_ixx24_bit17_disables_the_hardware_limits(mo: Motors) -> None:
     set_iv(mo, 124, 0x020001)
-    mo.set_flags(0, plus_limit=True)
+    drive(mo, 0, plus_limit=True)
     mo.jog(0, 1)
     run(mo, 200)
-    assert mo.commanded()[0] > 0
+    assert mo.reports.commanded()[0] > 0
     assert not w1(mo) & S1.POS_END_LIMIT
 
 
@@ -281,13 +301,13 @@ def test_software_limit_stops_a_jog_beyond_it(mo: Motors) -> None:
     mo.jog(0, 1)
     run(mo, ticks(2000))
     settle(mo)
-    assert mo.position()[0] > 5000  # the actual position passed it, then Ixx15 stopped it
+    assert mo.reports.position()[0] > 5000  # the actual position passed it, then Ixx15 stopped it
     assert w1(mo) & S1.POS_END_LIMIT
     assert w2(mo) & S2.STOPPED_ON_POSITION_LIMIT
-    here = float(mo.commanded()[0])
+    here = float(mo.reports.commanded()[0])
     mo.jog(0, 1)
     run(mo, 100)
-    assert mo.commanded()[0] == here
+    assert mo.reports.commanded()[0] == here
     mo.jog_to(0, 0)
     settle(mo)
     assert not w1(mo) & S1.POS_END_LIMIT
@@ -295,10 +315,10 @@ def test_software_limit_stops_a_jog_beyond_it(mo: Motors) -> None:
 
 def test_limit_bits_freeze_while_killed(mo: Motors) -> None:
     mo.jog_stop(0)
-    mo.set_flags(0, plus_limit=True)
+    drive(mo, 0, plus_limit=True)
     assert w1(mo) & S1.POS_END_LIMIT
     mo.kill(0)
-    mo.set_flags(0, plus_limit=False)
+    drive(mo, 0, plus_limit=False)
     assert w1(mo) & S1.POS_END_LIMIT
 
 
@@ -307,7 +327,7 @@ def test_following_error_warning_then_fatal_kills_every_motor(mo: Motors) -> Non
     mo.jog_stop(1)
     mo.jog(0, 1)
     run(mo, ticks(600))
-    mo.set_encoder_loss(0, True)  # the loop loses its feedback: the error grows
+    lose_encoder(mo, 0, True)  # the loop loses its feedback: the error grows
     warned = False
     events = 0
     for _ in range(ticks(200)):
@@ -318,10 +338,10 @@ def test_following_error_warning_then_fatal_kills_every_motor(mo: Motors) -> Non
             break
     assert warned
     assert w2(mo) & S2.FATAL_FOLLOWING_ERROR and w2(mo) & S2.WARNING_FOLLOWING_ERROR
-    words = mo.status_words()[0]
+    words = mo.reports.status_words()[0]
     assert not (words & S1.AMP_ENABLED).any()  # Ixx24 bits 21-22 = 00: kill all motors
     assert not w2(mo, 1) & S2.FATAL_FOLLOWING_ERROR
-    mo.set_encoder_loss(0, False)
+    lose_encoder(mo, 0, False)
     mo.tick()
     mo.jog_stop(0)
     assert w1(mo) & S1.AMP_ENABLED
@@ -333,7 +353,7 @@ def test_fatal_following_error_kills_only_this_motor_with_ixx24_bit22(mo: Motors
     mo.jog_stop(1)
     mo.jog(0, 1)
     run(mo, ticks(600))
-    mo.set_encoder_loss(0, True)
+    lose_encoder(mo, 0, True)
     run(mo, ticks(200))
     assert not w1(mo) & S1.AMP_ENABLED
     assert w1(mo, 1) & S1.AMP_ENABLED
@@ -342,14 +362,13 @@ def test_fatal_following_error_kills_only_this_motor_with_ixx24_bit22(mo: Motors
 def test_amplifier_fault_kills_all_and_blocks_enable_until_cleared(mo: Motors) -> None:
     mo.jog_stop(0)
     mo.jog_stop(1)
-    mo.set_flags(0, amp_fault=True)
-    assert not mo.flags()[0] & (1 << 15)  # low-true FAULT input (Ixx24 bit 23 = 0) reads 0
+    drive(mo, 0, amp_fault=True)
     assert w2(mo) & S2.AMP_FAULT_ERROR
     assert not w1(mo) & S1.AMP_ENABLED and not w1(mo, 1) & S1.AMP_ENABLED
     assert not w2(mo, 1) & S2.AMP_FAULT_ERROR
     mo.jog_stop(0)
     assert not w1(mo) & S1.AMP_ENABLED
-    mo.set_flags(0, amp_fault=False)
+    drive(mo, 0, amp_fault=False)
     mo.jog_stop(0)
     assert w1(mo) & S1.AMP_ENABLED
     assert not w2(mo) & S2.AMP_FAULT_ERROR
@@ -358,7 +377,7 @@ def test_amplifier_fault_kills_all_and_blocks_enable_until_cleared(mo: Motors) -
 def test_ixx24_bit20_ignores_the_amplifier_fault(mo: Motors) -> None:
     set_iv(mo, 124, 0x100001)
     mo.jog_stop(0)
-    mo.set_flags(0, amp_fault=True)
+    drive(mo, 0, amp_fault=True)
     assert w1(mo) & S1.AMP_ENABLED
 
 
@@ -369,12 +388,12 @@ def test_kill_opens_the_loop_and_jog_stop_reenables_in_place(mo: Motors) -> None
     mo.kill(0)
     assert w1(mo) & S1.OPEN_LOOP and not w1(mo) & S1.AMP_ENABLED
     assert not w1(mo) & S1.DESIRED_VELOCITY_ZERO
-    assert mo.dac()[0] == 0
+    assert mo.reports.dac()[0] == 0
     run(mo, 20)
-    here = float(mo.position()[0])
+    here = float(mo.reports.position()[0])
     mo.jog_stop(0)
     assert w1(mo) & S1.AMP_ENABLED and not w1(mo) & S1.OPEN_LOOP
-    assert mo.commanded()[0] == here
+    assert mo.reports.commanded()[0] == here
     settle(mo)
 
 
@@ -407,11 +426,11 @@ def test_enable_refused_with_phase_clock_error(mo: Motors) -> None:
 def test_open_loop_output_is_a_percentage_of_ixx69(mo: Motors) -> None:
     mo.open_loop(0, 50)
     mo.tick()
-    assert mo.dac()[0] == 10240
+    assert mo.reports.dac()[0] == 10240
     assert w1(mo) & S1.OPEN_LOOP and w1(mo) & S1.AMP_ENABLED
     run(mo, 50)
-    assert mo.position()[0] > 0
-    assert mo.following_error()[0] == 0
+    assert mo.reports.position()[0] > 0
+    assert mo.reports.following_error()[0] == 0
 
 
 def test_round_commanded_position(mo: Motors) -> None:
@@ -419,7 +438,7 @@ def test_round_commanded_position(mo: Motors) -> None:
     mo.core.axes.cmd_pos[0] = 10.4
     mo.core.profile.hold(0, 10.4)
     mo.round_commanded(0)
-    assert mo.commanded()[0] == 10
+    assert mo.reports.commanded()[0] == 10
 
 
 def test_ideal_plant_follows_exactly() -> None:
@@ -427,10 +446,10 @@ def test_ideal_plant_follows_exactly() -> None:
     mo.jog_to(0, 1000)
     for _ in range(ticks(500)):
         mo.tick()
-        assert abs(mo.following_error()[0]) < 1
+        assert abs(mo.reports.following_error()[0]) < 1
     settle(mo)
-    assert mo.position()[0] == 1000
-    assert mo.following_error()[0] == 0
+    assert mo.reports.position()[0] == 1000
+    assert mo.reports.following_error()[0] == 0
 
 
 def test_reset_kills_and_zeroes_everything(mo: Motors) -> None:
@@ -438,7 +457,7 @@ def test_reset_kills_and_zeroes_everything(mo: Motors) -> None:
     settle(mo)
     mo.home_zero(0)
     mo.reset()
-    assert mo.position()[0] == 0
+    assert mo.reports.position()[0] == 0
     assert w1(mo) == 0x850000
     assert not w2(mo) & S2.HOME_COMPLETE
 
@@ -447,15 +466,14 @@ def test_encoder_counter_wraps_at_24_bits() -> None:
     mo = make("ideal")
     mo.jog_to(0, -5)
     settle(mo)
-    assert mo.encoder()[0] == 0xFFFFFB
+    assert mo.reports.encoder()[0] == 0xFFFFFB
 
 
-def test_high_true_fault_polarity_reads_1_on_the_fault_bit(mo: Motors) -> None:
+def test_high_true_fault_polarity_still_faults_the_motor(mo: Motors) -> None:
+    """The FAULT bit itself is the Servo IC's X:b+0 bit 15 (test_world.py)."""
     set_iv(mo, 124, 0x800001)  # Ixx24 bit 23: a 1 in the fault bit is a fault [A L1873]
-    assert not mo.flags()[0] & (1 << 15)
     mo.jog_stop(0)
-    mo.set_flags(0, amp_fault=True)
-    assert mo.flags()[0] & (1 << 15)
+    drive(mo, 0, amp_fault=True)
     assert w2(mo) & S2.AMP_FAULT_ERROR
 
 

@@ -207,6 +207,18 @@ def test_configured_faults_are_there_at_power_up(world: Pmac) -> None:
     assert motor_words(3)[1] & FATAL_FE
 
 
+def test_high_true_fault_polarity_reads_1_on_the_fault_bit(world: Pmac) -> None:
+    """Ixx24 bit 23 set (a 1 in the fault bit is a fault [A L1873]): FAULT (X:b+0 bit 15) reads 0
+    until the amplifier faults, then 1, and the enabled motor gets word 2 bit 3."""
+    pc("I124=$800001 #1J/")
+    world.step(2)
+    assert flag(1, 15) == 0
+    world.control("set_amp_fault", axis=1)
+    world.step(2)
+    assert flag(1, 15) == 1
+    assert motor_words(1)[1] & AMP_FAULT
+
+
 def test_a_jammed_motor_stays_put_while_its_error_grows(world: Pmac) -> None:
     world.control("jam", axis=1)
     pc("#1J+")

@@ -282,14 +282,14 @@ class PmacCard(Card):
         """The motors selected at L:$06001C, copied from their registers (README "Reporting
         buffers"): the position bias is 0, the home origin being already out of the actual
         position as in D:$00008B."""
-        fw, mot = self.fw, self.fw.motors
+        fw, rep = self.fw, self.fw.motors.reports
         sel = self.reporting.motor_mask(self.motors)
         scale = (fw.ivars.motor(8) * 32)[sel]
-        w1, w2 = mot.status_words()
+        w1, w2 = rep.status_words()
         self.reporting.realtime(
-            cycle, sel, (w1[sel], w2[sel]), mot.following_error()[sel] * scale, mot.dac()[sel],
-            np.zeros(len(sel)), mot.velocity()[sel] * (fw.ivars.motor(9) * 32)[sel],
-            mot.position()[sel] * scale)
+            cycle, sel, (w1[sel], w2[sel]), rep.following_error()[sel] * scale, rep.dac()[sel],
+            np.zeros(len(sel)), rep.velocity()[sel] * (fw.ivars.motor(9) * 32)[sel],
+            rep.position()[sel] * scale)
 
     def _report_background(self, cycle: int) -> None:
         """Global status and the first Y:$06019D coordinate systems; the time base in I10 units
@@ -302,7 +302,7 @@ class PmacCard(Card):
 
     def _irq_sources(self) -> None:
         """Rising edges of in-position and following-error bits of any motor, compare outputs."""
-        w2 = self.fw.motors.status_words()[1].astype(np.int64)
+        w2 = self.fw.motors.reports.status_words()[1].astype(np.int64)
         rising = w2 & ~self._last_status2
         self._last_status2 = w2
         bits = 0
@@ -349,7 +349,7 @@ class PmacCard(Card):
         elif offset == IR_MASK:
             if value & _MOTOR_SOURCES and not self.irq.mask & _MOTOR_SOURCES:
                 # the edges are counted from now: what is already in position is no edge
-                self._last_status2 = self.fw.motors.status_words()[1].astype(np.int64)
+                self._last_status2 = self.fw.motors.reports.status_words()[1].astype(np.int64)
             self.irq.write_mask(value)
         elif offset < 8:
             self.hostport.write(offset, value)

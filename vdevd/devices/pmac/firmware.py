@@ -22,6 +22,7 @@ from vdevd.devices.pmac.feedback import FeedbackSelect
 from vdevd.devices.pmac.gpio import GeneralIO
 from vdevd.devices.pmac.ivars import IVars
 from vdevd.devices.pmac.memory import TOP, Memory
+from vdevd.devices.pmac.motor_reports import MotorReports
 from vdevd.devices.pmac.motors import MotorError, Motors
 from vdevd.devices.pmac.mvars import MVars
 from vdevd.devices.pmac.numbers import format_hex, format_value, quantize_float
@@ -85,13 +86,14 @@ class Firmware:
         self.q = np.zeros((CS_COUNT, VARIABLES))
         self.feed = np.full(CS_COUNT, 100.0)
         self.motors = Motors(self.ivars, period_ns, plant)
+        self.reports = self.motors.reports
         mem = self.memory
         mem.mount(0x000000, MOTOR_BASE - 1, GlobalRegisters(self))
         mem.mount(MOTOR_BASE, MOTOR_BASE + 32 * MOTOR_STRIDE - 1, MotorBlocks(self))
         mem.mount(CS_BASE, CS_BASE + CS_COUNT * CS_STRIDE - 1, CsBlocks(self))
         mem.mount(P_BASE, P_BASE + VARIABLES - 1, FloatVariables(P_BASE, self.p))
         mem.mount(Q_BASE, Q_BASE + VARIABLES - 1, FloatVariables(Q_BASE, self.q[0]))
-        self.servo_ic = ServoIC(mem, self.ivars, _FineEncoders(self.motors))
+        self.servo_ic = ServoIC(mem, self.ivars, _FineEncoders(self.reports))
         self.ect = ConversionTable(mem, self.ivars, self.servo_ic)
         self.gpio = GeneralIO(mem, self.ivars)
         self.comp = CompTables(self.ivars, self.ivars.motors)
@@ -121,7 +123,7 @@ class Firmware:
         - Ixx03 pointed at another conversion-table result: the loop reads that result
           (feedback.py)."""
         core = self.motors.core
-        want = np.rint(self.comp.correction(self.motors.position(), self.motors.commanded()))
+        want = np.rint(self.comp.correction(self.reports.position(), self.reports.commanded()))
         want[core.kinds != int(PlantKind.SERVO)] = 0
         self._comp_applied = bool(want.any())
         if self.feedback.active:
@@ -137,7 +139,7 @@ class Firmware:
         """Mxx69: the compensation tables' correction of `motor` (0-based), counts."""
         if not self.comp.tables:
             return 0.0
-        return float(self.comp.correction(self.motors.position(), self.motors.commanded())[motor])
+        return float(self.comp.correction(self.reports.position(), self.reports.commanded())[motor])
 
     # -- on-line interface --------------------------------------------------------------------------
     def execute(self, port: PortState, line: str) -> Any:
@@ -229,17 +231,17 @@ class Firmware:
         processed."""
         if motor > self.ivars.motors:
             return "0"
-        m, mot = motor - 1, self.motors
+        m, rep = motor - 1, self.reports
         if what == "P":
-            return report_counts(mot.position_of(m))
+            return report_counts(rep.position_of(m))
         if what == "F":
-            return report_counts(float(mot.following_error()[m]))
-        return report_velocity(float(mot.velocity()[m]))
+            return report_counts(float(rep.following_error()[m]))
+        return report_velocity(float(rep.velocity()[m]))
 
     def motor_status(self, motor: int) -> tuple[int, int]:
         if motor > self.ivars.motors:
             return 0, 0
-        w1, w2 = self.motors.status_words()
+        w1, w2 = self.reports.status_words()
         return int(w1[motor - 1]), int(w2[motor - 1])
 
     def abort_cs(self, cs: int) -> None:
@@ -273,13 +275,13 @@ class Firmware:
                         mot.abort(m)
                 return ""
             case 0x02:  # ^B status of the eight motors
-                w1, w2 = mot.status_words()
+                w1, w2 = self.reports.status_words()
                 return " ".join(f"{int(w1[m]):06X}{int(w2[m]):06X}" for m in group)
             case 0x03:  # ^C status of every coordinate system
                 return " ".join("".join(f"{w:06X}" for w in self.cs_status(cs))
                                 for cs in range(1, CS_COUNT + 1))
             case 0x06:  # ^F following errors
-                fe = mot.following_error()
+                fe = self.reports.following_error()
                 return " ".join(report_counts(float(fe[m])) for m in group)
             case 0x07:  # ^G global status
                 return "".join(f"{w:06X}" for w in self.global_status())
@@ -287,10 +289,10 @@ class Firmware:
                 mot.kill_all()
                 return ""
             case 0x10:  # ^P positions
-                pos = mot.position()
+                pos = self.reports.position()
                 return " ".join(report_counts(float(pos[m])) for m in group)
             case 0x16:  # ^V velocities
-                vel = mot.velocity()
+                vel = self.reports.velocity()
                 return " ".join(report_velocity(float(vel[m])) for m in group)
             case 0x18:  # ^X cancel: the port flushes; echoed when I63 = 1
                 port.table_left = 0
@@ -443,13 +445,13 @@ def report_velocity(v: float) -> str:
 class _FineEncoders:
     """The motors as the Servo ICs read them: counters with their sub-count fraction."""
 
-    __slots__ = ("motors",)
+    __slots__ = ("reports",)
 
-    def __init__(self, motors: Motors) -> None:
-        self.motors = motors
+    def __init__(self, reports: MotorReports) -> None:
+        self.reports = reports
 
     def encoder(self) -> np.ndarray:
-        return self.motors.encoder_fine()
+        return self.reports.encoder_fine()
 
 
 class _Env:

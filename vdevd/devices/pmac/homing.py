@@ -115,11 +115,6 @@ class HomeSearch:
         """A limit or a stop ended the motion of the motors not `moving`: their search ends."""
         self.searching &= moving
 
-    def index_now(self) -> np.ndarray:
-        """CHC: the encoder sits on an index pulse (phase + a multiple of the index period)."""
-        enc, period = self.motors.core.axes.encoder - self.index_phase, self.index_period
-        return (period > 0) & (enc % np.where(period > 0, period, 1) == 0)
-
     # -- HM and HMZ ------------------------------------------------------------------------------
     def start(self, m: int) -> HomeAction:
         """HM, once the motor's loop is closed: home search at |Ixx23| toward sign(Ixx23) with

@@ -26,34 +26,21 @@ import math
 
 import numpy as np
 
-from vdevd.devices.pmac import status
 from vdevd.devices.pmac.homing import Found, HomeAction, HomeSearch, Jog
 from vdevd.devices.pmac.ivars import IVars
+from vdevd.devices.pmac.jog_profile import jog_accel, jog_speed
+from vdevd.devices.pmac.motor_reports import DAC_FULL_SCALE, IXX24_LIMITS_OFF, MotorReports
 from vdevd.devices.pmac.pid import PmacPid
-from vdevd.devices.pmac.status import MotorStatus1 as S1
-from vdevd.devices.pmac.status import pack
 from vdevd.rt import AxisFlag, MotionCore, PlantKind
 from vdevd.rt.axes import MOTION_STICKY
 
-DAC_FULL_SCALE = 32767  # 16-bit DAC, +-10 V [§2.7]
 #: servo plant: counts/s^2 per DAC unit (full scale ~ 8.9e9 counts/s^2) and viscous damping 1/s
 PLANT_AMP_GAIN = 2.7e5
 PLANT_VISCOUS = 10.0
-ENCODER_MASK = 0xFFFFFF  # the Servo IC's 24-bit counter [§1.5 register table]
 
-# Ixx24 flag-mode bits [A L1811-1877]
-IXX24_LIMITS_OFF = 1 << 17
+# Ixx24 flag-mode bits [A L1811-1877] (bit 17, limits off: motor_reports.py)
 IXX24_AMP_FAULT_OFF = 1 << 20
 IXX24_ACTION_SHIFT = 21
-IXX24_FAULT_HIGH_TRUE = 1 << 23
-
-# Servo IC X:b+0 flag register bits [§1.5 register table, M-vars]
-FLAG_CAPTURED = 1 << 11
-FLAG_CHC = 1 << 14
-FLAG_FAULT = 1 << 15
-FLAG_HMFL = 1 << 16
-FLAG_PLIM = 1 << 17
-FLAG_MLIM = 1 << 18
 
 ERR_PHASE_CLOCK = 18  # ERR018: enabling refused with the phase-clock error bit set [A L3320]
 
@@ -70,7 +57,8 @@ class MotorError(Exception):
 
 
 class Motors:
-    """The motors of one card: closed/open loop, jog, home, limits, following error, status.
+    """The motors of one card: closed/open loop, jog, home, limits, following error; what they
+    report (positions, registers, status words) is the read-only view `reports` (motor_reports.py).
 
     Motor index m is 0-based. Commands plan at command time; `tick()` is vectorised over motors
     (per-motor Python only at the servo cycle a trigger or fault happens).
@@ -101,6 +89,7 @@ class Motors:
         self.user = np.zeros(n, dtype=bool)  # USERn: the registration probe (card.py)
         self.phase_clock_error = False
         self.homing = HomeSearch(self)  # HM, HMZ, the capture registers and index pulses
+        self.reports = MotorReports(self)  # P, V, F, ?, the registers: read-only
         self._alloc_state()
         self._apply()
         self.reset()
@@ -119,12 +108,11 @@ class Motors:
         self.limit_bits = np.zeros(n, dtype=np.int64)  # word-1 bits 21/22 frozen while killed
         self._soft_hi_hit = np.zeros(n, dtype=bool)
         self._soft_lo_hit = np.zeros(n, dtype=bool)
-        self._inpos_scans = np.zeros(n, dtype=np.int64)
+        self.inpos_scans = np.zeros(n, dtype=np.int64)
         self._vbuf = np.zeros((16, n))
-        self._vel = np.zeros(n)
+        self.filtered_velocity = np.zeros(n)
         self._vslot = 0
         self._vcount = 0
-        self._tmp = np.zeros(n)
         self._any_open = False
 
     # -- I-variables -------------------------------------------------------------------------------
@@ -163,7 +151,7 @@ class Motors:
         core.limits.limit_dec[:] = np.where(ix15 > 0, ix15, np.inf)
         self.flag_mode = self._iv(24).astype(np.int64)
         self.active = self._iv(0) == 1
-        self._count_inpos = bool((self._iv(88) > 0).any())
+        self.count_inpos = bool((self._iv(88) > 0).any())
         i60 = int(self.ivars.values[60])
         self._vperiod = i60 + 1 if i60 >= 0 else 1
         self.homing.map_channels()
@@ -213,7 +201,7 @@ class Motors:
 
     def _kill(self, idx: np.ndarray) -> None:
         """Open loop, output 0, amplifier disabled [§2.7]; the limit bits freeze [SRM p.189]."""
-        self.limit_bits[idx] = self._limit_bits_now()[idx]
+        self.limit_bits[idx] = self.reports.limit_bits_now()[idx]
         self._stop_open(idx)
         self.core.servo_off(idx)
         self.amp_enabled[idx] = False
@@ -265,26 +253,7 @@ class Motors:
         self._any_open = True
         self.core.axes.out[m] = self.open_out[m]
 
-    # -- jog profiles ------------------------------------------------------------------------------------
-    def _accel(self, m: int, dv: float) -> tuple[float, float]:
-        """(acceleration counts/s^2, jerk counts/s^3) for a jog-type velocity change of dv
-        counts/ms [SRM p.100-101]: accel time Ixx20, S-curve time Ixx21 (pure S-curve of 2*Ixx21
-        when Ixx21 > Ixx20/2), every time lengthened in proportion so that the peak acceleration
-        does not exceed Ixx19; Ixx20 = Ixx21 = 0 is taken as 1 ms."""
-        base = 100 * (m + 1)
-        v = self.ivars.values
-        ta, ts, amax = float(v[base + 20]), float(v[base + 21]), float(v[base + 19])
-        if ta <= 0 and ts <= 0:
-            ta = 1.0
-        total = max(ta, 2 * ts)
-        ts = min(ts, total / 2)
-        acc = abs(dv) / (total - ts) if dv else (amax if amax > 0 else 1.0)
-        if amax > 0 and acc > amax:
-            ts *= acc / amax
-            acc = amax
-        jerk = acc / ts if ts > 0 else 0.0
-        return acc * 1e6, jerk * 1e9
-
+    # -- jogs and moves (their profile: jog_profile.py) ---------------------------------------------
     def _start(self, m: int) -> bool:
         """Before a jog or home: the motor must be active; a killed motor closes its loop."""
         if not self.active[m]:
@@ -293,20 +262,12 @@ class Motors:
         self.abort_decel[m] = False
         return bool(len(self._enable(np.array([m]))))
 
-    def _jog_speed(self, m: int, to_position: bool = False) -> float:
-        """|Ixx22|, counts/ms; a jog to a position saturates at 768M/Ixx08 counts/s (V1.938,
-        was 256M/Ixx08 [A L3286])."""
-        speed = abs(float(self.ivars.values[100 * (m + 1) + 22]))
-        if to_position:
-            speed = min(speed, 768e6 / float(self.ivars.values[100 * (m + 1) + 8]) / 1000)
-        return speed
-
     def _jog_at(self, m: int, velocity: float) -> None:
         """Run at `velocity` counts/ms with the jog accelerations."""
         now = float(self.core.axes.cmd_vel[m]) / 1000
         reverse = now * velocity < 0
         dv = max(abs(now), abs(velocity)) if reverse else abs(velocity - now)
-        acc, jerk = self._accel(m, dv)
+        acc, jerk = jog_accel(self.ivars.values, m, dv)
         self.core.jog(m, velocity * 1000, acc, acc, jerk)
 
     def _note_prejog(self, m: int) -> None:
@@ -319,7 +280,7 @@ class Motors:
             return
         self._note_prejog(m)
         self.timed[m] = False
-        self._jog_at(m, math.copysign(self._jog_speed(m), direction))
+        self._jog_at(m, math.copysign(jog_speed(self.ivars.values, m), direction))
         self._after_command(m)
 
     def _halt(self, m: int) -> bool:
@@ -341,16 +302,16 @@ class Motors:
         if not self._halt(m):
             return
         if self.core.profile.moving[m]:
-            acc, jerk = self._accel(m, abs(float(self.core.axes.cmd_vel[m])) / 1000)
+            acc, jerk = jog_accel(self.ivars.values, m, abs(float(self.core.axes.cmd_vel[m])) / 1000)
             self.core.last_jerk[m] = jerk
             self.core.stop(m, acc)
 
     def _move_to(self, m: int, motor_counts: float) -> None:
         """A jog-to-position move (move timer active) to a motor position."""
-        speed = self._jog_speed(m, to_position=True)
+        speed = jog_speed(self.ivars.values, m, to_position=True)
         if speed <= 0:
             return
-        acc, jerk = self._accel(m, speed)
+        acc, jerk = jog_accel(self.ivars.values, m, speed)
         self.timed[m] = True
         self.core.move_absolute(m, float(self.origin[m]) + motor_counts, speed * 1000, acc, acc, jerk)
         self._after_command(m)
@@ -371,7 +332,7 @@ class Motors:
         if not self._start(m):
             return
         self._note_prejog(m)
-        base = self.position()[m] if from_actual else self.commanded()[m]
+        base = self.reports.position()[m] if from_actual else self.reports.commanded()[m]
         self._move_to(m, float(base) + counts)
 
     def jog_variable(self, m: int, kind: str) -> None:
@@ -437,7 +398,7 @@ class Motors:
         for m, home in found:
             self.origin[m] = home.origin
             if home.speed is not None:
-                acc, jerk = self._accel(m, home.speed)
+                acc, jerk = jog_accel(self.ivars.values, m, home.speed)
                 self.timed[m] = True
                 self.abort_decel[m] = False
                 self.core.move_absolute(m, home.origin, home.speed * 1000, acc, acc, jerk)
@@ -446,32 +407,16 @@ class Motors:
         return events
 
     # -- inputs ----------------------------------------------------------------------------------------
-    def set_flags(self, m: int, *, plus_limit: bool | None = None, minus_limit: bool | None = None,
-                  home: bool | None = None, amp_fault: bool | None = None) -> None:
-        """Backdoor: drive motor m's flag inputs. plus/minus_limit: the PMAC2 PLIMn/MLIMn inputs
-        read 1 (switch open = at the limit; PLIM stops positive motion); home: HMFLn reads 1;
-        amp_fault: the amplifier reports a fault; the emulated amplifier is wired to match Ixx24
-        bit 23, so the FAULTn bit reads 1 with that bit set and 0 with it clear."""
-        if plus_limit is not None:
-            self.plim[m] = plus_limit
-        if minus_limit is not None:
-            self.mlim[m] = minus_limit
-        if home is not None:
-            self.hmfl[m] = home
-        if amp_fault is not None:
-            self.amp_fault_in[m] = amp_fault
-        self._push_inputs()
-        if self.homing.any_searching and home is not None:
-            self._home_found(self.homing.check(initial=True))
-
     def apply_inputs(self, plim: np.ndarray, mlim: np.ndarray, hmfl: np.ndarray,
                      amp_fault: np.ndarray, user: np.ndarray | None = None,
                      edges: np.ndarray | None = None) -> None:
         """The axis world's levels on every motor's flag inputs at once (the card's
-        `apply_world`), in `set_flags`' sense. `edges` (4 x motors, encoder counts, NaN: none):
-        where the HMFL, PLIM, MLIM and USER levels changed during this servo cycle, which a
-        home search triggered by that change captures (the hardware latches the counter at the
-        edge, not at the next servo cycle)."""
+        `apply_world`): plim/mlim, the PMAC2 PLIMn/MLIMn inputs read 1 (switch open = at the
+        limit; PLIM stops positive motion); hmfl, HMFLn reads 1; amp_fault, the amplifier
+        reports a fault; user, USERn (the registration probe). `edges` (4 x motors, encoder
+        counts, NaN: none): where the HMFL, PLIM, MLIM and USER levels changed during this servo
+        cycle, which a home search triggered by that change captures (the hardware latches the
+        counter at the edge, not at the next servo cycle)."""
         flags = [(self.plim, plim), (self.mlim, mlim), (self.hmfl, hmfl),
                  (self.amp_fault_in, amp_fault)]
         if user is not None:
@@ -487,30 +432,14 @@ class Motors:
         if self.homing.any_searching:
             self._home_found(self.homing.check(initial=True, edges=edges))
 
-    def set_encoder_loss(self, m: int, lost: bool) -> None:
-        """Backdoor: the encoder of motor m stops counting while `lost`."""
-        loss = self.core.encoder_loss.copy()
-        loss[m] = lost
-        self.set_encoder_losses(loss)
-
     def set_encoder_losses(self, lost: np.ndarray) -> None:
         """The encoders of the motors where `lost` is True stop counting; the others count."""
         if not np.array_equal(self.core.encoder_loss, lost):
             self.core.set_inputs(encoder_loss=np.array(lost, dtype=bool))
 
-    def set_index(self, m: int, period_counts: float, phase: float = 0.0) -> None:
-        """Backdoor: an index pulse (CHC) at phase + k x `period_counts` encoder counts, for
-        every integer k (period 0: none)."""
-        self.homing.index_period[m] = max(float(period_counts), 0.0)
-        self.homing.index_phase[m] = float(phase)
-
     def _amp_faults(self) -> np.ndarray:
         """The amplifier faults the motors act on: not with Ixx24 bit 20 (input unused)."""
         return self.amp_fault_in & ((self.flag_mode & IXX24_AMP_FAULT_OFF) == 0) & self.active
-
-    def _fault_raw(self) -> np.ndarray:
-        """The FAULTn input bit: the fault in the polarity of Ixx24 bit 23 [A L1873-1877]."""
-        return self.amp_fault_in == ((self.flag_mode & IXX24_FAULT_HIGH_TRUE) != 0)
 
     def _push_inputs(self) -> None:
         """Feed limits (hardware unless Ixx24 bit 17, software Ixx13/Ixx14 hit by the actual
@@ -540,14 +469,14 @@ class Motors:
     def _update_soft_limits(self) -> None:
         """Software limits in core counts: origin + Ixx13 / origin + Ixx14 (0 disables)."""
         hi, lo = self._iv(13), self._iv(14)
-        self._soft_hi = np.where(hi != 0, self.origin + hi, np.inf)
-        self._soft_lo = np.where(lo != 0, self.origin + lo, -np.inf)
-        self._soft_on = bool(np.isfinite(self._soft_hi).any() or np.isfinite(self._soft_lo).any())
+        self.soft_hi = np.where(hi != 0, self.origin + hi, np.inf)
+        self.soft_lo = np.where(lo != 0, self.origin + lo, -np.inf)
+        self._soft_on = bool(np.isfinite(self.soft_hi).any() or np.isfinite(self.soft_lo).any())
 
     def _check_soft_limits(self) -> None:
         fb = self.core.axes.fb
-        hi = np.greater(fb, self._soft_hi)
-        lo = np.less(fb, self._soft_lo)
+        hi = np.greater(fb, self.soft_hi)
+        lo = np.less(fb, self.soft_lo)
         if not (np.array_equal(hi, self._soft_hi_hit) and np.array_equal(lo, self._soft_lo_hit)):
             self._soft_hi_hit, self._soft_lo_hit = hi, lo
             self._push_inputs()
@@ -582,112 +511,11 @@ class Motors:
         if self._vcount >= self._vperiod:  # I60: 16-slot velocity buffer [SRM I60]
             self._vcount = 0
             old = self._vbuf[self._vslot]
-            np.subtract(core.axes.fb, old, out=self._vel)
-            self._vel /= 16 * self._vperiod
+            np.subtract(core.axes.fb, old, out=self.filtered_velocity)
+            self.filtered_velocity /= 16 * self._vperiod
             old[:] = core.axes.fb
             self._vslot = (self._vslot + 1) % 16
-        if self._count_inpos:
-            ok = self._in_position_now()
-            self._inpos_scans = np.where(ok, self._inpos_scans + 1, 0)
+        if self.count_inpos:
+            ok = self.reports.in_position_now()
+            self.inpos_scans = np.where(ok, self.inpos_scans + 1, 0)
         return events
-
-    # -- reports ---------------------------------------------------------------------------------------------
-    def position(self) -> np.ndarray:
-        """Actual motor position, counts (encoder - home origin)."""
-        return self.core.axes.fb - self.origin
-
-    def position_of(self, m: int) -> float:
-        """`position()[m]` without computing every motor's (the on-line P report)."""
-        return float(self.core.axes.fb[m] - self.origin[m])
-
-    def velocity(self) -> np.ndarray:
-        """Filtered actual velocity, counts per servo cycle, over 16*(I60+1) cycles [SRM I60]."""
-        return self._vel.copy()
-
-    def commanded(self) -> np.ndarray:
-        """Commanded motor position, counts (the actual position while the loop is open)."""
-        ax = self.core.axes
-        return np.where(self._closed(), ax.cmd_pos, ax.fb) - self.origin
-
-    def following_error(self) -> np.ndarray:
-        """Commanded - actual, counts (0 while the loop is open)."""
-        return self.commanded() - self.position()
-
-    def target(self) -> np.ndarray:
-        """The end of the present move (Mxx63), else the commanded position, motor counts."""
-        core = self.core
-        ends = core.profile.moving & core.target_valid & self._closed()
-        return np.where(ends, core.target - self.origin, self.commanded())
-
-    def dac(self) -> np.ndarray:
-        """The servo output in 16-bit DAC units (Mxx68/Mxx79)."""
-        return np.clip(np.rint(self.core.axes.out), -DAC_FULL_SCALE - 1, DAC_FULL_SCALE)
-
-    def encoder(self) -> np.ndarray:
-        """The 24-bit encoder counter (X:b+1), unsigned, wrapping: the hardware count, without
-        the offset a compensation table puts on the loop's feedback (firmware._compensate)."""
-        core = self.core
-        if core._any_slip:
-            return (core.axes.encoder + core.encoder_slip.astype(np.int64)) & ENCODER_MASK
-        return core.axes.encoder & ENCODER_MASK
-
-    def encoder_fine(self) -> np.ndarray:
-        """The encoder counter with the sub-count position of the motor behind it (counts, float):
-        what the Servo IC's 1/T timers, extended compare and sub-count capture measure. A lost
-        encoder has no fraction."""
-        pos = self.core.axes.pos
-        frac = pos - np.floor(pos)
-        frac[self.core.encoder_loss] = 0.0
-        return self.encoder() + frac
-
-    def capture(self) -> np.ndarray:
-        """The counter value latched by the last home trigger (X:b+3 low 24 bits, Mxx73)."""
-        return self.homing.capture_counts.copy()
-
-    def flags(self) -> np.ndarray:
-        """The Servo IC flag register X:b+0: 11 position captured, 14 CHC (index now), 15 FAULT,
-        16 HMFL, 17 PLIM, 18 MLIM (raw input levels)."""
-        home = self.homing
-        return pack(self.n, ((FLAG_CAPTURED, home.captured), (FLAG_CHC, home.index_now()),
-                             (FLAG_FAULT, self._fault_raw()), (FLAG_HMFL, self.hmfl),
-                             (FLAG_PLIM, self.plim), (FLAG_MLIM, self.mlim)))
-
-    def _limit_bits_now(self) -> np.ndarray:
-        """Word-1 bits 21/22: a used hardware limit input, or the actual position beyond Ixx13 /
-        Ixx14 [§2.6]."""
-        use = (self.flag_mode & IXX24_LIMITS_OFF) == 0
-        fb = self.core.axes.fb
-        pos = (self.plim & use) | (fb > self._soft_hi)
-        neg = (self.mlim & use) | (fb < self._soft_lo)
-        return pack(self.n, ((S1.POS_END_LIMIT, pos), (S1.NEG_END_LIMIT, neg)))
-
-    def _in_position_now(self) -> np.ndarray:
-        """Loop closed, desired velocity zero, no timed move, |FE| < Ixx28 [SRM p.283]."""
-        band = self._iv(28) / 16
-        return self._closed() & ~self.core.profile.moving & (self._abs_ferr() < band)
-
-    def _abs_ferr(self) -> np.ndarray:
-        """|commanded - actual| now (the core's ferr row is refreshed only by the tick)."""
-        ax = self.core.axes
-        np.subtract(ax.cmd_pos, ax.fb, out=self._tmp)
-        return np.abs(self._tmp, out=self._tmp)
-
-    def status_words(self) -> tuple[np.ndarray, np.ndarray]:
-        """(word 1, word 2) of every motor as `#n?` reports them [§2.6]; 0 for a motor that is
-        not activated (Ixx00 = 0)."""
-        core, n = self.core, self.n
-        closed = self._closed()
-        w1 = status.word1(
-            n, iv={yy: self._iv(yy) for yy in (1, 6, 34, 90, 96, 97)}, closed=closed,
-            amp_enabled=self.amp_enabled, moving=core.profile.moving,
-            searching=self.homing.searching, abort_decel=self.abort_decel, timed=self.timed,
-            limits=np.where(self.amp_enabled, self._limit_bits_now(), self.limit_bits))
-        inpos = self._inpos_scans > self._iv(88) if self._count_inpos else self._in_position_now()
-        warn_limit = self._iv(12) / 16
-        warning = (closed & (warn_limit > 0) & (self._abs_ferr() > warn_limit)) | self.fatal_error
-        w2 = status.word2(
-            n, in_position=inpos, warning=warning, fatal=self.fatal_error, amp_fault=self.amp_error,
-            home_complete=self.homing.home_complete,
-            stopped_on_limit=(core.axes.flags & _STOPPED) != 0,
-            foreground=bool(self.ivars.values[13] == 1), cs=self.cs, axis_code=self.axis_code)
-        return np.where(self.active, w1, 0), np.where(self.active, w2, 0)

@@ -66,23 +66,23 @@ class MotorBlocks:
         fw = self.fw
         if motor >= fw.ivars.motors:
             return self.words.get((space, addr), 0)
-        mot = fw.motors
+        mot, rep = fw.motors, fw.motors.reports
         if off in _FIXED:  # 48-bit positions in 1/(Ixx08·32) count
-            counts = fw.comp_correction(motor) if off == 0x10 else getattr(mot, _FIXED[off])()[motor]
+            counts = fw.comp_correction(motor) if off == 0x10 else getattr(rep, _FIXED[off])()[motor]
             scale = fw.ivars.values[100 * (motor + 1) + 8] * 32
             v = wrap(round_to_int(counts * scale), 48, signed=False)
             return v >> 24 if space == "X" else v & WORD
         if space == "X" and off == 0x1D:
             vscale = fw.ivars.values[100 * (motor + 1) + 9] * 32
-            return wrap(round_to_int(mot.velocity()[motor] * vscale), 24, signed=False)
+            return wrap(round_to_int(rep.velocity()[motor] * vscale), 24, signed=False)
         if space == "X" and off == 0x30:
-            return int(mot.status_words()[0][motor])
+            return int(rep.status_words()[0][motor])
         if space == "Y" and off == 0x40:
-            return int(mot.status_words()[1][motor])
+            return int(rep.status_words()[1][motor])
         if space == "X" and off == 0x3F:
-            return wrap(round_to_int(mot.dac()[motor]), 16, signed=False) << 8
+            return wrap(round_to_int(rep.dac()[motor]), 16, signed=False) << 8
         if space == "Y" and off == 0x4E:
-            return wrap(round_to_int(mot.capture()[motor]), 24, signed=False)
+            return wrap(round_to_int(rep.capture()[motor]), 24, signed=False)
         if off == 0x57:
             x, y = pmac_float_words(float(mot.jog_register[motor]))
             return x if space == "X" else y
