@@ -273,6 +273,17 @@ def test_a_fault_of_a_servo_made_a_stepper_leaves_the_stepper_free() -> None:
         rack.control("maxk0", "set_amp_fault", axis="Z", active=False)
 
 
+def test_rdf_restores_the_types_with_the_faults_they_have() -> None:
+    """RDF makes X a factory stepper again [S §2.14]: the amplifier fault configured on it,
+    which acted while it was a servo, no longer holds it."""
+    with board([{"amp_fault": True}]) as (m, rack):
+        m.send_string("AX PSM CL1")
+        m.send_string("RDF")
+        m.send_string("AX MR1000 GO")
+        rack.sim.step(seconds=1.0)
+        assert rp(m) == 1000
+
+
 def test_a_configured_encoder_loss_freezes_the_encoder_from_power_up() -> None:
     with board([{}, {"encoder_loss": True}]) as (m, _):
         m.send_string("AY MR1000 GO ID")
