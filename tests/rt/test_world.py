@@ -73,17 +73,6 @@ def test_a_world_without_mechanics_takes_its_levels_from_the_forces() -> None:
     assert w.home.tolist() == [False, True]
 
 
-@pytest.mark.parametrize(("a", "b", "pulse"), [
-    (0, 300, 250), (250, 4000, None), (250, 4250, 4250), (249.5, 250, 250),
-    (300, 0, 250), (250, -3000, None), (250, -3750, -3750), (-3750.5, 5000, -3750),
-    (100, 100, None),
-])
-def test_index_pulses_sit_at_phase_plus_whole_periods(a: float, b: float, pulse: float | None
-                                                      ) -> None:
-    w = AxisWorld(1, [AxisMechanics(index=(4000, 250))])
-    assert w.index_between(0, a, b) == pulse
-
-
 def test_the_probe_fires_at_the_first_target_crossed_in_the_direction_of_travel() -> None:
     w = AxisWorld(1, [AxisMechanics(probe=(300, -20, 900))])
     assert w.probe_between(0, 0, 1000) == 300

@@ -96,7 +96,8 @@ class AxisWorld:
     `limit_pos`, `limit_neg`, `home` are the levels last sensed (True = switch active); the
     `force_*` arrays hold inputs active from the backdoor; `amp_fault`, `encoder_loss`, `jammed`
     are the fault flags (config, then backdoor); `mechanical` says whether positions matter at
-    all.
+    all. `index_period`/`index_phase` place the index pulses, which each card's own encoder
+    model reads (its index logic, capture and truth tables differ by card).
     """
 
     def __init__(self, n: int, mechanics: Sequence[AxisMechanics] = ()) -> None:
@@ -152,20 +153,6 @@ class AxisWorld:
         self.limit_pos = self.force_pos.copy()
         self.limit_neg = self.force_neg.copy()
         self.home = self.force_home.copy()
-
-    def index_between(self, axis: int, a: float, b: float) -> float | None:
-        """The first index pulse position passed going from a to b (a excluded), or None."""
-        period = float(self.index_period[axis])
-        if period <= 0 or a == b:
-            return None
-        phase = float(self.index_phase[axis])
-        if b > a:
-            k = math.floor((a - phase) / period) + 1
-            p = phase + k * period
-            return p if p <= b else None
-        k = math.ceil((a - phase) / period) - 1
-        p = phase + k * period
-        return p if p >= b else None
 
     def probe_between(self, axis: int, a: float, b: float) -> float | None:
         """The first probe position passed going from a to b (a excluded), or None."""
