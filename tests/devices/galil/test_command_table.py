@@ -8,12 +8,11 @@ from pathlib import Path
 
 import pytest
 
+from tests.devices.digest import digest_text
 from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
 from vdevd.devices.galil.errors import TC
 from vdevd.devices.galil.interpreter import Interpreter
 
-#: the digest, in the `shared` folder beside the repository checkout
-DIGEST = Path(__file__).resolve().parents[3].parent / "shared" / "spec" / "galil.md"
 #: a mnemonic: two capitals, not part of a longer word (BGS), an operand (_TPX) or a function
 #: (@IN[n]); a digit or a bracket may follow (AB1, ET[n])
 MNEMONIC = re.compile(r"(?<![@_\w])[A-Z]{2}(?![A-Za-z])")
@@ -44,9 +43,7 @@ def digest_mnemonics(text: str) -> set[str]:
 
 @pytest.fixture(scope="module")
 def mnemonics() -> set[str]:
-    if not DIGEST.is_file():
-        pytest.skip(f"the digest spec/galil.md is not beside this checkout ({DIGEST})")
-    return digest_mnemonics(DIGEST.read_text(encoding="utf-8"))
+    return digest_mnemonics(digest_text("galil"))
 
 
 def test_the_digest_tables_give_the_mnemonics() -> None:

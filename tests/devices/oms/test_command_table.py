@@ -12,17 +12,15 @@ from __future__ import annotations
 
 import inspect
 import re
-from pathlib import Path
 
 import pytest
 from vdevmaps.oms import AXES, MaxkDoorbell
 
+from tests.devices.digest import digest_text
 from vdevd.devices.oms import cmd_io, cmd_motion, cmd_servo, cmd_system, cmd_vector
 from vdevd.devices.oms.commands import COMMANDS
 from vdevd.devices.oms.firmware import Firmware
 
-#: the `shared` folder beside the repository checkout holds the digests
-DIGEST = Path(__file__).resolve().parents[3].parent / "shared" / "spec" / "oms.md"
 #: words of §4.3's first column that carry their operand in the letters: `PS` with the axis
 #: type O, E or M (the digest's next row is `PS?`)
 OPERAND_SPELLINGS = {"PSO": "PS", "PSE": "PS", "PSM": "PS"}
@@ -76,9 +74,7 @@ def digest_mnemonics(text: str) -> set[str]:
 
 @pytest.fixture(scope="module")
 def mnemonics() -> set[str]:
-    if not DIGEST.is_file():
-        pytest.skip(f"the digest spec/oms.md is not beside the checkout ({DIGEST} is absent)")
-    return digest_mnemonics(DIGEST.read_text(encoding="utf-8"))
+    return digest_mnemonics(digest_text("oms"))
 
 
 def test_the_digest_parse_finds_the_command_set(mnemonics: set[str]) -> None:

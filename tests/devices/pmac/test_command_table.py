@@ -5,16 +5,15 @@ reference documents is run by the card or listed as not emulated, with its reaso
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import pytest
 
+from tests.devices.digest import digest_text
 from tests.devices.pmac.test_online import Card
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
 from vdevd.devices.pmac.online import Interpreter
 from vdevd.devices.pmac.reply import frame
 
-DIGEST = Path(__file__).resolve().parents[3].parent / "shared" / "spec" / "pmac.md"
 #: digest words that are not commands: the variable letters with a number (`I{n}`, `M{n}`);
 #: `P{n}` and `Q{n}` are variables too, but `P` and `Q` alone are commands
 NOT_COMMANDS = {"I", "M"}
@@ -49,9 +48,7 @@ def digest_commands(text: str) -> set[str]:
 
 @pytest.fixture(scope="module")
 def words() -> set[str]:
-    if not DIGEST.is_file():
-        pytest.skip(f"the PMAC digest is not beside the checkout ({DIGEST})")
-    return digest_commands(DIGEST.read_text(encoding="utf-8"))
+    return digest_commands(digest_text("pmac"))
 
 
 def test_the_digest_documents_the_on_line_commands(words: set[str]) -> None:
