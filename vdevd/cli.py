@@ -78,13 +78,13 @@ def _types() -> int:
     from vdevd.rt.world import AXIS_KEYS
 
     print(f"every card: [[card.axis]] tables, one per axis: {', '.join(AXIS_KEYS)}; period_ns "
-          f"({PERIOD_NS[0]}..{PERIOD_NS[1]} ns, default the type's own) unless the type's period "
-          "follows an option of its own")
+          f"({PERIOD_NS[0]}..{PERIOD_NS[1]} ns, default the type's own) unless the type says "
+          "what sets its period")
     for name in CARD_TYPES:
         cls = card_class(name)
         period = f"{float(cls.default_period_ns):.10g} ns"
         if cls.period_from:
-            period += f" by default, set by {cls.period_from}; no period_ns"
+            period += f": {cls.period_from}; no period_ns"
         print(f"{name} (period {period})")
         for key, opt in cls.options.items():
             print(f"  {key} = {opt.default!r}  {opt.describe()}")

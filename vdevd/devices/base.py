@@ -50,7 +50,8 @@ class Card(WorldBackdoor):
     #: the servo period in ns when the configuration gives none (exact: a Fraction may say it)
     default_period_ns: ClassVar[int | Fraction] = 1_000_000
 
-    #: the option the card's period follows instead of `period_ns` (which it then refuses)
+    #: what sets the card's period instead of `period_ns` (which it then refuses), for
+    #: `vdevd types`: "tm_us sets it"
     period_from: ClassVar[str | None] = None
     #: deprecated parameter names of actions: {action: {old name: name}} (kept for old scripts)
     control_params: ClassVar[Mapping[str, Mapping[str, str]]] = {}

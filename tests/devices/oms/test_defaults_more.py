@@ -278,3 +278,16 @@ def test_image_of_another_format_is_a_checksum_error(tmp_path: Path) -> None:
         assert maxk.query("AY ?KP;") == "10.00"
         maxk.send("RDP;")
         assert maxk.command_error()
+
+
+def test_a_type_changed_after_app_leaves_the_stored_defaults_as_stored(tmp_path: Path) -> None:
+    """APP stores the working parameters as they are then [S §2.13]: a PS after it changes the
+    working set only, so RDP and a restart bring back the stored type."""
+    with maxk_card(tmp_path, axis_types=TYPES) as maxk:
+        maxk.send("AX PSM; APP; AX PSO;")
+        assert maxk.query("AX PS?;") == "=O"
+        maxk.send("RDP;")
+        assert maxk.query("AX PS?;") == "=M"
+        maxk.send("AX PSO; RS;")
+        maxk.step(4)
+        assert maxk.query("AX PS?;") == "=M"

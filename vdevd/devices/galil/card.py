@@ -55,7 +55,7 @@ class GalilCard(Card):
         "set_input": {"input": "line"}, "set_analog": {"input": "channel"}}
 
     #: the period comes from an option of the card's own (types, README)
-    period_from: ClassVar[str | None] = "tm_us"
+    period_from: ClassVar[str | None] = "tm_us sets it"
 
     @classmethod
     def check_options(cls, opts: CardOptions, where: str) -> None:

@@ -41,7 +41,7 @@ class GenericServoCard(Card):
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         super().__init__(name, config, ctx)
         self.n = self.opts.axes
-        self.core = MotionCore(self.n, self.period_ns, _PLANTS[self.opts.plant])
+        self.core = MotionCore(self.n, float(self.period), _PLANTS[self.opts.plant])
         self.make_world(self.n)
         self.bar = self.add_region(
             Region("bar0", R.BAR_SIZE, widths=(1, 2, 4), endian="little",

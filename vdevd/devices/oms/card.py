@@ -142,7 +142,7 @@ class MaxkCard(Card):
 
     #: the period at the factory update rate, 1024 Hz (the card runs at 1/update_hz)
     default_period_ns: ClassVar[int | Fraction] = Fraction(10**9, 1024)
-    period_from: ClassVar[str | None] = "update_hz"
+    period_from: ClassVar[str | None] = "update_hz sets it, then #UR"
     #: the backdoor names axes as the manual does (X Y Z T U V R S W K, any case) or 0..n-1
     axis_letters: ClassVar[str] = AXES
     #: set_input's `line` was called `bit` before the shared vocabulary

@@ -151,9 +151,9 @@ class Params:
         """The parameter part of what APP stores (msgpack-friendly, defaults.py)."""
         return {
             "values": {k: v.tolist() for k, v in self.values.items()},
-            "ptype": self.ptype,
+            "ptype": list(self.ptype),  # a copy: later PS commands change the working list
             "limit_high": self.limit_high.tolist(),
-            "limit_mode": self.limit_mode,
+            "limit_mode": list(self.limit_mode),
             "home_high": self.home_high.tolist(),
             "home_pattern": [format_home_pattern(row) for row in self.home_pattern],
             "encoder_inverted": self.encoder_inverted.tolist(),

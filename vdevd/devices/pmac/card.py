@@ -170,7 +170,7 @@ class PmacCard(Card):
     control_params: ClassVar[Mapping[str, Mapping[str, str]]] = {
         action: {"motor": "axis"} for action in _AXIS_ACTIONS}
 
-    period_from: ClassVar[str | None] = "I10"
+    period_from: ClassVar[str | None] = "I10's default, not configurable"
 
     @classmethod
     def check_options(cls, opts: CardOptions, where: str) -> None:
