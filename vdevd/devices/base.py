@@ -138,6 +138,8 @@ class Card(WorldBackdoor):
             raise ValueError(f"servo period {period} ns is not positive")
         if not hasattr(self, "_period_num"):  # being built: the clock starts at 0
             self._base_ns = self._base_ticks = self._last_tick_ns = 0
+            #: told of every later change (the scheduler's base tick)
+            self.on_period: Callable[[], None] | None = None
             self.retimes: list[tuple[int, Fraction]] = []  # no period_changed: built with it
             self._set_base(0, 0, exact)
             return
@@ -149,6 +151,8 @@ class Card(WorldBackdoor):
         self.retimes.append((base_ticks + 1, exact))
         self._set_base(base, base_ticks, exact)
         self.pause = True  # a batch of ticks under way stops here: the scheduler recounts
+        if self.on_period is not None:
+            self.on_period()
 
     def _set_base(self, base_ns: int, base_ticks: int, exact: Fraction) -> None:
         self._base_ns, self._base_ticks = base_ns, base_ticks

@@ -28,6 +28,8 @@ class Tickable(Protocol):
     @property
     def period(self) -> Fraction: ...
 
+    on_period: Callable[[], None] | None
+
     def tick(self, n: int) -> int: ...
 
     def time_of_tick(self, k: int) -> int: ...
@@ -39,16 +41,22 @@ class Scheduler:
     """Ticks a fixed set of cards in simulated time."""
 
     def __init__(self, cards: Sequence[Tickable]) -> None:
-        self.cards = list(cards)
+        self.cards: list[Tickable] = []
         self.now_ns = 0
+        #: the rack's base tick: the shortest card period now, in whole ns (`sim step ticks=`);
+        #: kept current by the cards (`periods_changed`), as a realtime request reads it
+        self.tick_ns = 1_000_000
+        for card in cards:
+            self.add(card)
 
     def add(self, card: Tickable) -> None:
         self.cards.append(card)
+        card.on_period = self.periods_changed
+        self.periods_changed()
 
-    @property
-    def tick_ns(self) -> int:
-        """The rack's base tick: the shortest card period now, in whole ns (`sim step ticks=`)."""
-        return min((c.period_ns for c in self.cards), default=1_000_000)
+    def periods_changed(self) -> None:
+        """A card's period changed (Card.set_period): the base tick again."""
+        self.tick_ns = min((c.period_ns for c in self.cards), default=1_000_000)
 
     @property
     def base_period(self) -> Fraction:
