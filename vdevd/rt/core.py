@@ -597,6 +597,15 @@ class MotionCore:
         self.axes.vel[idx[self.jammed[idx]]] = 0.0
         self._configure()
 
+    def follow_jams(self, jammed: np.ndarray) -> None:
+        """Make the blocked motors those of `jammed` (one bool per axis), each newly blocked
+        one where its stage is now (a card applying its axis world's `jam`)."""
+        changed = np.flatnonzero(self.jammed != jammed)
+        if len(changed):
+            on = jammed[changed].astype(bool)
+            self.set_jammed(changed[on], True)
+            self.set_jammed(changed[~on], False)
+
     def _set_bit(self, bit: AxisFlag, on: np.ndarray) -> None:
         flags = self.axes.flags
         flags &= ~int(bit)

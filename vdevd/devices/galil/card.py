@@ -184,8 +184,7 @@ class GalilCard(Card):
         for a in np.flatnonzero(servo).tolist():  # no amplifier-fault input: the motor coasts
             core.plant.set(a, peak_torque=1e-9 if w.amp_fault[a] else np.inf)
         core.set_inputs(amp_fault=w.amp_fault & ~servo, encoder_loss=w.encoder_loss)
-        for a in np.flatnonzero(core.jammed != w.jammed).tolist():
-            core.set_jammed(a, bool(w.jammed[a]))
+        core.follow_jams(w.jammed)
         fw.set_abort(w.estop)
 
     def axis_index(self, axis: str | int) -> int:

@@ -247,9 +247,7 @@ class GenericServoCard(Card):
         w, core = self.world, self.core
         core.set_inputs(hard_limit_pos=w.limit_pos, hard_limit_neg=w.limit_neg, home=w.home,
                         amp_fault=w.amp_fault, encoder_loss=w.encoder_loss)
-        changed = np.flatnonzero(core.jammed != w.jammed)
-        for a in changed.tolist():
-            core.set_jammed(a, bool(w.jammed[a]))
+        core.follow_jams(w.jammed)
         self._store_status()
 
     def drive_input(self, line: int, level: bool) -> None:

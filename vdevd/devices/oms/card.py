@@ -508,8 +508,7 @@ class MaxkCard(Card):
         fault, loss = world.amp_fault & servo, world.encoder_loss & encoder
         if (fault != core.amp_fault).any() or (loss != core.encoder_loss).any():
             core.set_inputs(amp_fault=fault, encoder_loss=loss)
-        for a in np.flatnonzero(core.jammed != world.jammed).tolist():
-            core.set_jammed(a, bool(world.jammed[a]))
+        core.follow_jams(world.jammed)
         fw.on_motion_events(int(AxisFlag.AMP_FAULT) if fault.any() else 0)
         # sensed every cycle only while positions matter (switches placed, probes to cross)
         fw.sense = self._sense if world.mechanical or self._probing else None

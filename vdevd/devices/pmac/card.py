@@ -473,8 +473,7 @@ class PmacCard(Card):
                              (ChannelFlag.USER, self._user), (ChannelFlag.CHC, self._chc)):
             ic.set_flag_levels(flag, levels)
         mo.set_encoder_losses(w.encoder_loss)
-        for a in np.flatnonzero(core.jammed != w.jammed).tolist():
-            core.set_jammed(a, bool(w.jammed[a]))
+        core.follow_jams(w.jammed)
         # index pulses in physical counts: the home search sees them on the encoder's count
         mo.homing.index_period[:] = w.index_period
         mo.homing.index_phase[:] = w.index_phase + core.zero
