@@ -37,7 +37,6 @@ from vdevmaps.pci import (
     STATUS_INTERRUPT,
     SUBSYSTEM_VENDOR_ID,
     VENDOR_ID,
-    lspci_line,
 )
 
 from vdevd.irq import IrqLine
@@ -159,7 +158,3 @@ class ConfigSpace:
             mask = (~(bar.size - 1)) & 0xFFFF_FFFF & ~(0x3 if bar.io else 0xF)
             return (mask >> (8 * k)) & 0xFF
         return 0
-
-    def lspci(self) -> str:
-        """This header's `lspci -n` line (vdevmaps.pci.lspci_line)."""
-        return lspci_line(bytes(self.region.buf))

@@ -184,12 +184,6 @@ class AxisWorld:
         self.home_lo[axis], self.home_hi[axis] = np.inf, -np.inf
         self._mechanics_changed()
 
-    def set_limits(self, axis: int, negative: float, positive: float) -> None:
-        if negative >= positive:
-            raise ValueError(f"limits [{negative}, {positive}]: need negative < positive")
-        self.neg_at[axis], self.pos_at[axis] = negative, positive
-        self._mechanics_changed()
-
     def set_index(self, axis: int, period: float, phase: float) -> None:
         if not (math.isfinite(period) and math.isfinite(phase)) or period < 0:
             raise ValueError(f"index period {period}: need a finite count >= 0 (0: none)")
