@@ -30,7 +30,8 @@ def build_rack(cfg: Config) -> Rack:
     """The cards of `cfg` on one rack (not yet attached to a loop or sockets), publishing
     through a `Publisher` that `Server.start` binds."""
     nvram = NvramStore(cfg.state_dir) if cfg.state_dir else None
-    rack = Rack([], cfg.clock, sink=Publisher(), wake_ns=cfg.wake_us * 1000, waker=cfg.waker)
+    rack = Rack([], cfg.clock, sink=Publisher(), wake_ns=cfg.wake_us * 1000, waker=cfg.waker,
+                skip_quiet=cfg.skip_quiet)
     for spec in cfg.cards:
         ctx = CardContext(emit=rack.emit, nvram=nvram)
         rack.add_card(card_class(spec.type)(spec.name, spec.options, ctx))

@@ -191,6 +191,23 @@ class MotionCore:
         self.update_in_position()
         return n, 0
 
+    # -- rest (DESIGN.md "Time that costs nothing") ------------------------------------------------
+    def rest_state(self) -> bytes | None:
+        """Everything a tick may change, as bytes, except the profile clock (`skip` advances it);
+        None while a profile runs or a phase boundary or an event is due. Equal results around
+        one tick prove the core at a fixed point: the next ticks change nothing until a command
+        or an input does (the card compares: Card.rest_state)."""
+        prof = self.profile
+        if self._pending or prof.active or prof.next_t != math.inf:
+            return None
+        ax = self.axes
+        return b"".join((ax.state.tobytes(), ax.encoder.tobytes(), ax.flags.tobytes(),
+                         self.stepper.gen.tobytes(), self._enc.tobytes()))
+
+    def skip(self, k: int) -> None:
+        """k ticks at rest in closed form: only the profile clock moves (see rest_state)."""
+        self.profile.skip(k)
+
     def update_in_position(self) -> None:
         """IN_POSITION: no profile running and |ferr| within the in-position band. Not done
         every tick (it is a status, not an event): `run` refreshes it at its end."""
