@@ -26,6 +26,9 @@ from vdevd.rt.plants import StepperPlant
 
 HOME_CREEP = 256.0  # counts/s: phases 2 and 3 of HM [M Ch3 §Home Switch Input]
 TV_SECONDS = 0.25  # TV averages over about a quarter second (spec §1.2)
+#: a TV below this reads 0 in TV (rint) and in the data record (rint of 64 x TV): every 64
+#: samples it is made 0, so that a motor at rest settles and the card can rest (decision 0008)
+TV_FLUSH = 1 / 256
 _MOVING = int(AxisFlag.MOVING)
 
 
@@ -386,6 +389,8 @@ class GalilMotion:
         tmp *= self._tv_gain
         self.tv *= 1.0 - self._tv_alpha
         self.tv += tmp
+        if not core.profile.ticks & 63:
+            np.copyto(self.tv, 0.0, where=np.abs(self.tv) < TV_FLUSH)
         if self._searching:
             self._search_step(enc)
         np.copyto(self._enc_prev, enc)
@@ -396,6 +401,18 @@ class GalilMotion:
         np.copyto(self._moving_prev, moving)
         self._finish(np.flatnonzero(done))
         return done
+
+    def rest_state(self) -> bytes | None:
+        """What a sample may change (the core's and the filters', averages and latches of this
+        firmware), as bytes; None during a home search (MotionCore.rest_state)."""
+        core = self.core.rest_state()
+        if core is None or self._searching:
+            return None
+        return b"".join((core, self.tv.tobytes(), self.lowpass.tobytes(),
+                         self._enc_prev.tobytes(), self.error_over.tobytes(),
+                         self._moving_prev.tobytes(), self.phase.tobytes(),
+                         self.stop_code.tobytes(), self.oe_tripped.tobytes(),
+                         self.latch_occurred.tobytes(), self.latched.tobytes()))
 
     def _low_pass(self, out: np.ndarray) -> None:
         """L(z) = (1 - B)/(z - B), B = PL, then OF and the TL clamp (spec §5.1); axes that are

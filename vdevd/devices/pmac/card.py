@@ -47,6 +47,7 @@ from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.reply import Reply, frame
 from vdevd.devices.pmac.servo_ic import ChannelFlag
 from vdevd.devices.pmac.status import MotorStatus2
+from vdevd.devices.rest import state_bytes
 from vdevd.errors import StartError
 from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region
@@ -145,6 +146,12 @@ class DpramMemory:
 
     def region_written(self, offset: int, size: int) -> None:
         """Writes from the PMAC side do not trigger the host handshakes."""
+
+
+def _until_multiple(cycle: int, period: float) -> int:
+    """The cycles after `cycle` before the next multiple of `period` (0 counts as 1)."""
+    every = max(int(period), 1)
+    return (-cycle - 1) % every
 
 
 class PmacCard(Card):
@@ -277,6 +284,46 @@ class PmacCard(Card):
             self._report_background(cycle)
         if self.irq.mask & _MOTOR_SOURCES:
             self._irq_sources()
+
+    # -- rest (decision 0008) -------------------------------------------------------------------------
+    #: what changes at every cycle and `skip` advances in closed form, left out of rest_state
+    _COUNTERS = ("now_ns", "ticks", "_last_tick_ns", "quiet_skipped", "pause", "servo_cycles",
+                 "_vcount", "_vslot", "inpos_scans")
+
+    def rest_state(self) -> bytes | None:
+        """The firmware's state, the card's inputs and both windows, as bytes (the ASCII and
+        host-port channels answer at the access, not at the tick); None while the card has
+        work: a home search, a running table of conversion entries
+        with memory or the A/D ring, a velocity buffer still filling (I60's 16 slots hold
+        different readings), armed compare."""
+        fw = self.fw
+        m = fw.motors
+        if (m.homing.any_searching or fw.ect._stateful or fw.servo_ic._any_armed
+                or not (m._vbuf == m.core.axes.fb).all()):
+            return None
+        core = m.core.rest_state()
+        if core is None:
+            return None
+        skip = self._COUNTERS
+        return b"".join((core, state_bytes(self, fw, m, m.pid, m.homing, fw.servo_ic, fw.gpio,
+                                           fw.feedback, skip=skip),
+                         self.dpram.buf, self.host.buf))
+
+    def quiet_ticks(self) -> int:
+        """At rest, the cycles before the next reporting buffer the host asked for (I47, I50)."""
+        cycle, iv, rep = self.fw.servo_cycles, self.fw.ivars.values, self.reporting
+        k = 1 << 62
+        if iv[48] and rep.realtime_requested():
+            k = min(k, _until_multiple(cycle, iv[47]))
+        if iv[49] and rep.background_requested():
+            k = min(k, _until_multiple(cycle, iv[50]))
+        return k
+
+    def skip(self, k: int) -> None:
+        """k cycles at rest: the servo cycle count, the profile clock, I60's slot and the
+        in-position scan counts move."""
+        self.fw.skip(k)
+        super().skip(k)
 
     def _report_realtime(self, cycle: int) -> None:
         """The motors selected at L:$06001C, copied from their registers (README "Reporting

@@ -485,6 +485,16 @@ class Motors:
         """A motion command refused or stopped at once by a limit is not an abort deceleration."""
         self.abort_decel[m] = False
 
+    def skip(self, k: int) -> None:
+        """k cycles at rest: the profile clock, I60's slot counters (every slot already holds
+        the reading) and the in-position scan counts move, as k ticks would move them."""
+        self.core.skip(k)
+        total = self._vcount + k
+        self._vslot = (self._vslot + total // self._vperiod) % 16
+        self._vcount = total % self._vperiod
+        if self.count_inpos:
+            self.inpos_scans[self.inpos_scans > 0] += k
+
     # -- the tick ------------------------------------------------------------------------------------------
     def tick(self) -> int:
         """One servo cycle; the AxisFlag bits of what happened (FE_TRIP on a fatal following
