@@ -146,6 +146,7 @@ class ServoPlant:
         self._peak_dt_neg = -self._peak_dt
         self._damp = 1.0 / (1.0 + p["viscous"] * dt / p["inertia"]) * on
         self._coul_dt = p["coulomb"] * dt / p["inertia"]
+        self._coul_dt_neg = -self._coul_dt
         self._clamped = bool(np.isfinite(p["peak_torque"]).any())
         self._friction = bool(p["coulomb"].any())
 
@@ -159,11 +160,10 @@ class ServoPlant:
             np.minimum(dv, self._peak_dt, out=dv)
             np.maximum(dv, self._peak_dt_neg, out=dv)
         np.add(vel, dv, vel)
-        if self._friction:
-            np.abs(vel, tmp)
-            np.subtract(tmp, self._coul_dt, tmp)
-            np.maximum(tmp, 0.0, out=tmp)
-            np.copysign(tmp, vel, vel)
+        if self._friction:  # vel - clip(vel, -c, c): toward 0 by at most c, never past it
+            np.minimum(vel, self._coul_dt, out=tmp)
+            np.maximum(tmp, self._coul_dt_neg, out=tmp)
+            np.subtract(vel, tmp, vel)
         np.multiply(vel, self._damp, vel)  # viscous damping taken implicitly: stable for any damping
         np.multiply(vel, self.dt, tmp)
         np.add(pos, tmp, pos)

@@ -396,7 +396,7 @@ class GalilMotion:
         np.copyto(self._enc_prev, enc)
         moving, done = core.profile.moving, self._done
         np.greater(self._moving_prev, moving, out=done)
-        if not done.any():
+        if not np.count_nonzero(done):
             return None
         np.copyto(self._moving_prev, moving)
         self._finish(np.flatnonzero(done))
@@ -488,7 +488,7 @@ class GalilMotion:
         np.greater(self._tmp, self._er, out=over)
         np.greater(over, self.error_over, out=new)
         np.copyto(self.error_over, over)
-        if not new.any():
+        if not np.count_nonzero(new):
             return None
         trip = new & (self.values["OE"] > 0)
         if trip.any():

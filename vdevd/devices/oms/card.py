@@ -404,7 +404,12 @@ class MaxkCard(Card):
             self._post_captures()
         if fw.replies:
             self._post_reply()
-        self.publish()
+
+    def batch_done(self) -> None:
+        """The host reads the cycle's words only between batches of ticks: they are published
+        once, after the last tick of a batch (decision 0008)."""
+        if self.running:
+            self.publish()
 
     # -- rest (decision 0008) -------------------------------------------------------------------------
     def rest_state(self) -> bytes | None:

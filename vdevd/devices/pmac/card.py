@@ -353,12 +353,13 @@ class PmacCard(Card):
         rising = w2 & ~self._last_status2
         self._last_status2 = w2
         bits = 0
-        if (rising & _IN_POSITION).any():
-            bits |= HostIrq.IN_POSITION
-        if (rising & _WARN_FE).any():
-            bits |= HostIrq.WARNING_FOLLOWING_ERROR
-        if (rising & _FATAL_FE).any():
-            bits |= HostIrq.FATAL_FOLLOWING_ERROR
+        if np.count_nonzero(rising):
+            if np.count_nonzero(rising & _IN_POSITION):
+                bits |= HostIrq.IN_POSITION
+            if np.count_nonzero(rising & _WARN_FE):
+                bits |= HostIrq.WARNING_FOLLOWING_ERROR
+            if np.count_nonzero(rising & _FATAL_FE):
+                bits |= HostIrq.FATAL_FOLLOWING_ERROR
         equ = self.fw.servo_ic.equ_outputs()
         if len(equ) > 0 and equ[0]:
             bits |= HostIrq.COMPARE_EQU1
