@@ -52,6 +52,25 @@ def test_fine_advance_stops_after_the_tick_that_satisfies_stop() -> None:
     assert a.now_ns == b.now_ns == 2000
 
 
+def test_fine_advance_batches_the_cards_it_does_not_watch_to_where_ticking_leaves_them() -> None:
+    """Watching one card (the one a wait reads) gives every card the ticks of watching all:
+    those before the stopping tick, and those at its time that come before it in rack order."""
+    def run(watched: bool) -> list[list[int]]:
+        a, b, c = Counter("a", 400), Counter("b", 1000), Counter("c", 250)
+        sched = Scheduler([a, b, c])
+        reached = sched.advance(50_000, stop=lambda: b.ticks == 3,
+                                watched={b} if watched else None)
+        at_stop = [reached, a.seen[-1], c.seen[-1]]
+        sched.advance(7777, stop=lambda: b.ticks == 99, watched={b} if watched else None)
+        return [at_stop, a.seen, b.seen, c.seen, [sched.now_ns]]
+
+    batched, ticked = run(True), run(False)
+    assert batched == ticked
+    # b's tick at 3000 stopped it: a's tick at 2800 ran, c's at 3000 (after b in rack order) not
+    assert batched[0] == [3000, 2800, 2750]
+    assert batched[1][-1] == 7600 and batched[3][-1] == 7750
+
+
 def test_batched_tick_stops_at_an_interrupt_and_resumes() -> None:
     card = Counter("c", 1000, irq_at=(3,))
     assert card.tick(10) == 3

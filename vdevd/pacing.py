@@ -14,11 +14,11 @@ import asyncio
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from typing import Literal
 
 from vdevd.metrics import Samples
-from vdevd.rt.scheduler import Scheduler
+from vdevd.rt.scheduler import Scheduler, Tickable
 from vdevd.waits import Waits
 
 log = logging.getLogger("vdevd.rack")
@@ -120,11 +120,12 @@ class Pacer:
                 self.advance(wall)
                 self.waits.service(self.sched.now_ns)
 
-    def advance(self, target_ns: int, stop: Callable[[], bool] | None = None) -> int:
+    def advance(self, target_ns: int, stop: Callable[[], bool] | None = None,
+                watched: Collection[Tickable] | None = None) -> int:
         """The scheduler's advance; a card bug must not stop the rack: logged, counted, and
         time moves on to the tick that raised."""
         try:
-            return self.sched.advance(target_ns, stop)
+            return self.sched.advance(target_ns, stop, watched)
         except Exception:
             self.card_faults += 1
             log.exception("card raised during a tick; time continues")
@@ -156,8 +157,9 @@ class Pacer:
         target = self.waits.next_due_ns()
         chunk_end = self.sched.now_ns + LOCKSTEP_CHUNK_TICKS * self.sched.tick_ns
         target = chunk_end if target is None else min(target, chunk_end)
-        stop = self.waits.any_fired if self.waits.needs_fine() else None
-        self.advance(max(target, self.sched.now_ns), stop)
+        fine = self.waits.needs_fine()
+        stop = self.waits.any_fired if fine else None
+        self.advance(max(target, self.sched.now_ns), stop, self.waits.watched() if fine else None)
         self.waits.service(self.sched.now_ns)
 
     async def _drive(self) -> None:

@@ -458,6 +458,9 @@ class _FineEncoders:
     def encoder(self) -> np.ndarray:
         return self.reports.encoder_fine()
 
+    def encoder_into(self, out: np.ndarray) -> None:
+        self.reports.encoder_fine_into(out)
+
 
 class _Env:
     """The expression environment of one port: variables and the addressed C.S.'s Q0."""
