@@ -6,7 +6,7 @@ from tests.conftest import RawClient
 
 #: PROTOCOL.md, `hello`: what a v1 server implements, and the 1 MiB maximum message
 V1_CAPABILITIES = {"read", "write", "rep", "batch", "batch.compact", "wait.irq", "wait.value", "sim",
-                   "control", "stats", "sync"}
+                   "control", "stats", "sync", "shm"}
 
 
 def test_hello_reports_version_capabilities_and_limits(raw: RawClient) -> None:
