@@ -156,6 +156,11 @@ class Region:
             plans.clear()
         return h
 
+    @property
+    def hooks(self) -> tuple[Hook, ...]:
+        """The registers with side effects, in address order."""
+        return tuple(self._hooks)
+
     def describe(self) -> dict[str, object]:
         return {
             "name": self.name,

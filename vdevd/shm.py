@@ -152,7 +152,7 @@ def _remove_stale(path: Path, min_age_s: float = 0.0) -> bool:
         st, now = os.fstat(fd), os.stat(path, follow_symlinks=False)
         if st.st_uid != os.getuid() or (st.st_dev, st.st_ino) != (now.st_dev, now.st_ino):
             return False
-        if time.time() - max(st.st_mtime, st.st_ctime) < min_age_s:
+        if time.time() - st.st_mtime < min_age_s:
             return False
         log.info("removing the stale shared memory %s (its daemon is gone)", path)
         os.unlink(path)

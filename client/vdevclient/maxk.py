@@ -505,6 +505,12 @@ class Maxk:
         """Motor and encoder positions of the card's axes: the words the card updates every cycle,
         or (`coherent`) the snapshot of one cycle that the position request mailbox asks for."""
         n = self.axes
+        memory = self._memory
+        if not coherent and memory.is_mapped(Shm.MOTOR_POSITION, _POSITIONS.size) \
+                and memory.is_mapped(Shm.WK_MOTOR_POSITION, _WK_POSITIONS.size):
+            # the pending ops (the reply channel's) wait for the next batch, as in _read_word
+            return _positions(memory.read(Shm.MOTOR_POSITION, _POSITIONS.size),
+                              memory.read(Shm.WK_MOTOR_POSITION, _WK_POSITIONS.size), n)
         ops = self._begin()
         first = len(ops)
         timeout_ns = 0
@@ -515,10 +521,6 @@ class Maxk:
             xs, wk = Shm.COHERENT_MOTOR_POSITION, Shm.WK_COHERENT_MOTOR_POSITION
         else:
             xs, wk = Shm.MOTOR_POSITION, Shm.WK_MOTOR_POSITION
-            memory = self._memory
-            if memory.is_mapped(xs, _POSITIONS.size) and memory.is_mapped(wk, _WK_POSITIONS.size):
-                return _positions(memory.read(xs, _POSITIONS.size),
-                                  memory.read(wk, _WK_POSITIONS.size), n)
         ops.append(self._read(xs, _POSITIONS.size))
         if n > 8:
             ops.append(self._read(wk, _WK_POSITIONS.size))
