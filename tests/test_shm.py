@@ -20,7 +20,7 @@ import pytest
 import vdevclient
 
 from tests.conftest import free_endpoint, rack_config
-from vdevd.shm import STALE_AGE_S, Segment, segment_name
+from vdevd.shm import LIVE, STALE_AGE_S, Segment, segment_name
 from vdevd.testing import DaemonThread
 
 
@@ -44,17 +44,19 @@ def test_a_segment_is_an_owner_only_file_named_after_the_endpoint(tmp_path: Path
     seg.close()  # again: nothing
 
 
-def test_allocations_are_zeroed_page_aligned_parts_of_the_one_file(segment: Segment) -> None:
-    first, second = segment.allocate(100), segment.allocate(mmap.PAGESIZE + 1)
+def test_allocations_are_zeroed_page_aligned_parts_after_a_header_page(segment: Segment) -> None:
+    page = mmap.PAGESIZE
+    first, second = segment.allocate(100), segment.allocate(page + 1)
     assert first is not None and second is not None
-    assert (first[1], second[1]) == (0, mmap.PAGESIZE)
-    assert segment.size == 3 * mmap.PAGESIZE == segment.path.stat().st_size
+    assert (first[1], second[1]) == (page, 2 * page)
+    assert segment.size == 4 * page == segment.path.stat().st_size
     assert first[0][:] == bytes(100)
     second[0][:4] = b"vdev"
     with open(segment.path, "rb") as f:  # another mapping of the file sees the same pages
-        f.seek(mmap.PAGESIZE)
+        assert f.read(1)[0] == LIVE
+        f.seek(2 * page)
         assert f.read(4) == b"vdev"
-    assert segment.describe() == {"path": str(segment.path), "size": 3 * mmap.PAGESIZE,
+    assert segment.describe() == {"path": str(segment.path), "size": 4 * page,
                                   "dev": segment.ident[0], "ino": segment.ident[1]}
 
 
@@ -63,8 +65,30 @@ def test_a_stale_segment_is_replaced(tmp_path: Path) -> None:
     stale.write_bytes(b"left by a killed daemon")
     seg = Segment.create(tmp_path, "tcp://127.0.0.1:5555")
     assert seg is not None and seg.path == stale
-    assert stale.read_bytes() == b"" and stale.stat().st_mode & 0o777 == 0o600
+    assert stale.read_bytes() == bytes([LIVE]) + bytes(mmap.PAGESIZE - 1)
+    assert stale.stat().st_mode & 0o777 == 0o600
     seg.close()
+
+
+def test_a_replaced_or_closed_segment_reads_gone_to_those_who_map_it(tmp_path: Path) -> None:
+    """A client of a daemon that stopped, or that was killed and then replaced, sees byte 0
+    drop to 0 and goes back to requests."""
+    path = tmp_path / segment_name("tcp://127.0.0.1:5555")
+    # a process that exits without cleaning up, as a killed daemon: its lock goes, nothing else
+    subprocess.run([sys.executable, "-c", "import os, sys; from vdevd.shm import Segment; "
+                    "s = Segment.create(sys.argv[1], 'tcp://127.0.0.1:5555'); os._exit(0)",
+                    str(tmp_path)], check=True, timeout=60)
+    with open(path, "rb") as f:
+        view = mmap.mmap(f.fileno(), mmap.PAGESIZE, prot=mmap.PROT_READ)
+    assert view[0] == LIVE
+    successor = Segment.create(tmp_path, "tcp://127.0.0.1:5555")
+    assert successor is not None and successor.path == path
+    assert view[0] == 0
+    with open(successor.path, "rb") as f:
+        view = mmap.mmap(f.fileno(), mmap.PAGESIZE, prot=mmap.PROT_READ)
+    assert view[0] == LIVE
+    successor.close()
+    assert view[0] == 0
 
 
 def test_a_live_segment_is_left_alone_and_the_next_name_taken(segment: Segment) -> None:
@@ -72,7 +96,7 @@ def test_a_live_segment_is_left_alone_and_the_next_name_taken(segment: Segment) 
     other = Segment.create(segment.path.parent, "tcp://127.0.0.1:5555")
     assert other is not None
     assert other.path.name == segment.path.name + "-1"
-    assert segment.path.stat().st_size == mmap.PAGESIZE  # untouched
+    assert segment.path.stat().st_size == 2 * mmap.PAGESIZE  # untouched
     other.close()
     assert segment.path.exists()
 
@@ -121,7 +145,7 @@ def test_a_full_directory_leaves_further_regions_private(segment: Segment,
         assert segment.allocate(10) is None
         assert segment.allocate(10) is None
     assert len(caplog.records) == 1  # logged once
-    assert segment.path.stat().st_size == segment.size == mmap.PAGESIZE
+    assert segment.path.stat().st_size == segment.size == 2 * mmap.PAGESIZE
 
 
 def test_a_daemon_whose_shm_dir_is_unusable_serves_by_requests(tmp_path: Path) -> None:
@@ -143,6 +167,7 @@ def test_shm_dir_empty_turns_the_mappings_off() -> None:
 
 
 # -- a daemon process: killed, restarted, stopped ----------------------------------------------------
+UTILITY = 0x900  # the MAXk's utility buffer: passive memory nobody else writes
 RACK = """
 [server]
 endpoint = "{endpoint}"
@@ -183,9 +208,10 @@ def test_a_killed_daemons_segment_is_replaced_at_restart_and_removed_at_exit(tmp
     try:
         st = path.stat()
         assert st.st_mode & 0o777 == 0o600 and st.st_uid == os.getuid()
-        with vdevclient.connect(endpoint) as rack:
-            assert rack.info["shm"]["path"] == str(path)
-            assert rack.card("maxk0").region("shm").mapped
+        early = vdevclient.connect(endpoint)  # stays connected across the kill and restart
+        shm = early.card("maxk0").region("shm")
+        assert early.info["shm"]["path"] == str(path) and shm.is_mapped(UTILITY, 4)
+        shm.write32(UTILITY, 0x600D)
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=30)
         assert path.stat().st_ino == st.st_ino  # what a killed daemon leaves
@@ -193,6 +219,9 @@ def test_a_killed_daemons_segment_is_replaced_at_restart_and_removed_at_exit(tmp
         with vdevclient.connect(endpoint) as rack:
             assert rack.info["shm"]["ino"] == path.stat().st_ino
             assert rack.card("maxk0").region("shm").read32(0x48) & 0x4  # RUNNING, from the new one
+        # the old mapping is marked gone: the early client asks the new daemon instead
+        assert not shm.is_mapped(UTILITY, 4) and shm.read32(UTILITY) == 0
+        early.close()
     finally:
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(timeout=30) in (0, -signal.SIGKILL)

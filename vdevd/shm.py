@@ -1,11 +1,15 @@
 """The daemon's shared-memory segment: the backing of its regions' passive memory (decision 0010).
 
 One file per daemon in a tmpfs directory (/dev/shm), created with O_CREAT|O_EXCL, mode 0o600, and
-held under an exclusive `flock` for the daemon's life. Its name derives from the configured
-endpoint, so a restart finds the segment a killed daemon left (no process holds its lock any
-more) and replaces it; a name whose lock a live daemon holds is skipped for the next (`-1`,
-`-2`, ...). Each region with passive ranges gets its own page-aligned part of the file as an
-mmap (`Region(..., memory=segment)`); local clients map the whole file (`hello` "shm").
+held under an exclusive `flock` for the daemon's life. Its first page is a header whose byte 0 is
+LIVE while the daemon serves it and 0 once it has stopped or a successor has replaced it: a
+client still mapping it then goes back to requests instead of reading frozen memory.
+
+Its name derives from the configured endpoint, so a restart finds the segment a killed daemon
+left (no process holds its lock any more) and replaces it; a name whose lock a live daemon holds
+is skipped for the next (`-1`, `-2`, ...). Each region with passive ranges gets its own
+page-aligned part of the file as an mmap (`Region(..., memory=segment)`); local clients map the
+whole file (`hello` "shm").
 
 Nothing here stops a daemon from starting: a directory that cannot hold the segment, or a full
 one, is logged once and the regions fall back to private memory (requests only).
@@ -29,6 +33,8 @@ log = logging.getLogger("vdevd.shm")
 
 #: a segment this old with its lock free is stale whatever its name (`_sweep`)
 STALE_AGE_S = 10.0
+#: byte 0 of the file while its daemon serves it
+LIVE = 1
 #: names tried after the endpoint's own (`-1`, `-2`, ...) while live daemons hold them
 MAX_NAMES = 64
 _GRAIN = mmap.ALLOCATIONGRANULARITY  # an mmap's offset is a multiple of it
@@ -48,9 +54,10 @@ class Segment:
 
     def __init__(self, path: Path, fd: int) -> None:
         self.path = path
-        self.size = 0
-        st = os.fstat(fd)
-        self.ident = (st.st_dev, st.st_ino)
+        self.size = _GRAIN  # the header page; the regions follow
+        os.ftruncate(fd, self.size)
+        os.pwrite(fd, bytes([LIVE]), 0)
+        self.ident = _ident(fd)
         self._fd = fd
         self._full = False
         self._release = weakref.finalize(self, _remove, str(path), fd, self.ident)
@@ -66,7 +73,11 @@ class Segment:
                 path = Path(directory) / (base if n == 0 else f"{base}-{n}")
                 fd = _claim(path)
                 if fd is not None:
-                    return cls(path, fd)
+                    try:
+                        return cls(path, fd)
+                    except OSError:
+                        _remove(str(path), fd, _ident(fd))
+                        raise
         except OSError as exc:
             log.warning("no shared memory for local clients (%s): %s", directory,
                         exc.strerror or exc)
@@ -102,8 +113,8 @@ class Segment:
                 "ino": self.ident[1]}
 
     def close(self) -> None:
-        """Remove the file (if it is still this segment's) and release its lock. The mappings
-        stay valid in this process: the cards' views of them keep working."""
+        """Mark the file gone, remove it (if it is still this segment's) and release its lock.
+        The mappings stay valid in this process: the cards' views of them keep working."""
         self._release()
 
 
@@ -155,6 +166,8 @@ def _remove_stale(path: Path, min_age_s: float = 0.0) -> bool:
         if time.time() - st.st_mtime < min_age_s:
             return False
         log.info("removing the stale shared memory %s (its daemon is gone)", path)
+        if st.st_size:
+            os.pwrite(fd, b"\0", 0)  # its clients, if any, go back to requests
         os.unlink(path)
         return True
     except FileNotFoundError:
@@ -175,8 +188,16 @@ def _reserve(fd: int, offset: int, size: int) -> None:
             raise
 
 
+def _ident(fd: int) -> tuple[int, int]:
+    st = os.fstat(fd)
+    return st.st_dev, st.st_ino
+
+
 def _remove(path: str, fd: int, ident: tuple[int, int]) -> None:
-    """Unlink `path` if it is still the file of `ident`, then close `fd` (its lock goes)."""
+    """Mark the file of `fd` gone, unlink `path` if it is still that file (`ident`), then close
+    `fd` (its lock goes)."""
+    with contextlib.suppress(OSError):
+        os.pwrite(fd, b"\0", 0)
     try:
         st = os.stat(path, follow_symlinks=False)
         if (st.st_dev, st.st_ino) == ident:

@@ -64,6 +64,8 @@ def connect(
 
 
 _OFF = ("0", "no", "off", "false")
+#: the first byte of the daemon's shared memory while the daemon serves it (PROTOCOL.md)
+_LIVE = 1
 
 
 _ID_KEY = msgpack.packb("id")
@@ -398,35 +400,33 @@ class Region:
         return bool(self._starts)
 
     def is_mapped(self, offset: int, size: int) -> bool:
-        """This access would go through shared memory: inside one passive range and of a width
-        the bus takes (anything else is a request, which also reports the errors)."""
+        """This access would go through shared memory: inside one passive range, of a width the
+        bus takes, and the daemon still serves the mapping (anything else is a request, which
+        also reports the errors, and the closed connection)."""
         i = bisect.bisect_right(self._starts, offset) - 1
         if i < 0 or offset + size > self._ends[i] or size <= 0:
             return False
         if size in self._widths:
-            return not (self._aligned and offset % size)
-        return self._block and not size % self._unit and not (self._aligned and offset % self._unit)
-
-    def _closed(self) -> RackClosed:
-        return RackClosed(f"{self.name}: the connection to {self.card.rack.endpoint} is closed")
+            if self._aligned and offset % size:
+                return False
+        elif not self._block or size % self._unit or (self._aligned and offset % self._unit):
+            return False
+        try:
+            return self._mm[0] == _LIVE  # 0 once the daemon stopped or a successor replaced it
+        except ValueError:  # the rack was closed
+            return False
 
     def read(self, offset: int, size: int) -> bytes:
         if self._starts and self.is_mapped(offset, size):
             at = self._base + offset
-            try:
-                return self._mm[at:at + size]
-            except ValueError:
-                raise self._closed() from None
+            return self._mm[at:at + size]
         return self._call({"op": "read", "card": self._card_name, "region": self.name,
                            "offset": offset, "size": size})
 
     def write(self, offset: int, data: bytes) -> None:
         if self._starts and self.is_mapped(offset, len(data)):
             at = self._base + offset
-            try:
-                self._mm[at:at + len(data)] = data
-            except ValueError:
-                raise self._closed() from None
+            self._mm[at:at + len(data)] = data
             return
         self._req("write", offset=offset, data=bytes(data), **self._where)
 
@@ -440,10 +440,7 @@ class Region:
 
     def _read_int(self, offset: int, size: int) -> int:
         if self._starts and self.is_mapped(offset, size):
-            try:
-                return int(self._formats[size](self._mm, self._base + offset)[0])
-            except ValueError:
-                raise self._closed() from None
+            return int(self._formats[size](self._mm, self._base + offset)[0])
         return int.from_bytes(self.read(offset, size), self._endian)
 
     def _write_int(self, offset: int, value: int, size: int) -> None:
@@ -457,10 +454,7 @@ class Region:
 
     def read32(self, offset: int) -> int:
         if self._starts and self.is_mapped(offset, 4):  # the status poll: kept short
-            try:
-                return int(self._get32(self._mm, self._base + offset)[0])
-            except ValueError:
-                raise self._closed() from None
+            return int(self._get32(self._mm, self._base + offset)[0])
         return self._read_int(offset, 4)
 
     def read64(self, offset: int) -> int:
@@ -611,7 +605,11 @@ def _map_segment(info: Any) -> mmap.mmap | None:
         if (st.st_dev, st.st_ino) != ident or st.st_size < size or size <= 0:
             log.info("shared memory not used: %s is not the daemon's segment", path)
             return None
-        return mmap.mmap(fd, size)
+        mapped = mmap.mmap(fd, size)
+        if mapped[0] != _LIVE:
+            mapped.close()
+            return None
+        return mapped
     except (OSError, ValueError) as exc:
         log.info("shared memory not used, every access is a request: %s", exc)
         return None

@@ -219,3 +219,16 @@ def test_pcomm_dpram_reads_take_no_round_trip_but_beside_a_deferred_ack(
             assert trips.count == 1
     finally:
         pcomm.ClosePmacDevice(0)
+
+
+def test_when_the_daemon_stops_its_mapping_is_no_longer_used() -> None:
+    with DaemonThread(rack_config(card("oms-maxk", "maxk0", board=1))) as d:
+        rack = vdevclient.connect(d.endpoint, timeout=0.5)
+        shm = rack.card("maxk0").region("shm")
+        assert shm.is_mapped(Shm.FIRMWARE_STATE, 4)
+    try:
+        assert not shm.is_mapped(Shm.FIRMWARE_STATE, 4)  # not frozen memory: a request
+        with pytest.raises(vdevclient.VdevTimeout):
+            shm.read32(Shm.FIRMWARE_STATE)
+    finally:
+        rack.close()

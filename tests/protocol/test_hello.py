@@ -51,7 +51,7 @@ def test_regions_list_their_passive_ranges(raw: RawClient) -> None:
 
 def test_hello_to_a_local_client_announces_the_shared_memory(raw: RawClient) -> None:
     shm = raw.call(op="hello")["ok"]["shm"]
-    assert shm["regions"] == {"servo0": {"bar0": 0}}  # config is all hooks: not shared
+    assert shm["regions"] == {"servo0": {"bar0": 4096}}  # after the header page; config: hooks
     st = os.stat(shm["path"])
     assert (st.st_dev, st.st_ino) == (shm["dev"], shm["ino"]) and st.st_size == shm["size"]
     assert st.st_mode & 0o777 == 0o600
