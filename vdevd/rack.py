@@ -30,6 +30,7 @@ from vdevd.protocol import (
 )
 from vdevd.region import Region
 from vdevd.rt.scheduler import Scheduler
+from vdevd.shm import Segment
 from vdevd.waits import Reply, Waiter, Waits, make_waiter
 
 log = logging.getLogger("vdevd.rack")
@@ -76,9 +77,11 @@ class Rack:
         wake_ns: int = 1_000_000,
         waker: Waker = "thread",
         clock: Callable[[], int] = time.perf_counter_ns,
+        memory: Segment | None = None,
     ) -> None:
         """`sink`: where events go (default: nowhere); `wake_ns`, `waker`, `clock`: the
-        realtime pacing (`Pacer`)."""
+        realtime pacing (`Pacer`); `memory`: the shared segment the cards' passive regions were
+        built on (`CardContext.memory`), announced to local clients and removed at `stop`."""
         self.cards: dict[str, Card] = {}
         self._regions: dict[tuple[str, str], Region] = {}
         self.reads = 0  # counted apart from `requests`: the hot path keeps no dict
@@ -87,6 +90,7 @@ class Rack:
             self.add_card(card)
         self.mode: ClockMode = mode
         self.sink: EventSink = sink if sink is not None else NullSink()
+        self.memory = memory
         self.waits = Waits(self._internal)
         self.pacer = Pacer(self.sched, self.waits, mode, wake_ns=wake_ns, waker=waker,
                            clock=clock)
@@ -142,7 +146,10 @@ class Rack:
                 log.exception("closing the services of %s", card.name)
 
     def stop(self) -> None:
+        """Stop pacing and remove the shared segment (the cards keep their memory)."""
         self.pacer.stop()
+        if self.memory is not None:
+            self.memory.close()
 
     def catch_up(self) -> None:
         """Realtime: run the ticks fallen due since the last pass (`Pacer.catch_up`)."""
@@ -186,7 +193,8 @@ class Rack:
         op = req.op
         self.requests[op] = self.requests.get(op, 0) + 1
         try:
-            result = self._handlers[op](req.args, reply)
+            # `local` is set on a hello only (the server's knowledge of the peer)
+            result = self.hello(local=True) if req.local else self._handlers[op](req.args, reply)
         except VdevError as exc:
             self.errors += 1
             reply(exc)
@@ -220,8 +228,10 @@ class Rack:
             )
         return r
 
-    def hello(self) -> dict[str, Any]:
-        return {
+    def hello(self, local: bool = False) -> dict[str, Any]:
+        """The `hello` result; to a `local` client (on this machine), with the shared memory
+        that backs the regions' passive ranges (PROTOCOL.md "hello", decision 0010)."""
+        info = {
             "protocol": VERSION,
             "server": "vdevd",
             "capabilities": list(CAPABILITIES),
@@ -230,6 +240,22 @@ class Rack:
             "clock": {"mode": self.mode, "now_ns": self.now_ns, "tick_ns": self.sched.tick_ns},
             "cards": [c.describe() for c in self.cards.values()],
         }
+        shm = self.shared_memory() if local else None
+        if shm is not None:
+            info["shm"] = shm
+        return info
+
+    def shared_memory(self) -> dict[str, Any] | None:
+        """The segment (path, size, identity) and where each shared region starts in it
+        ({card: {region: offset}}); None when no region is shared."""
+        regions: dict[str, dict[str, int]] = {}
+        for card in self.cards.values():
+            for r in card.regions.values():
+                if r.shared_offset is not None:
+                    regions.setdefault(card.name, {})[r.name] = r.shared_offset
+        if self.memory is None or not regions:
+            return None
+        return {**self.memory.describe(), "regions": regions}
 
     def op_hello(self, args: dict[str, Any], reply: Reply) -> Any:
         return self.hello()
