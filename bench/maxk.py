@@ -6,7 +6,8 @@ Goal: p50 <= 2.5x the raw round trip.
 
 Method as bench/galil.py (bench/rtt.py's baseline server and block timing, a fresh random order of
 the series in every block). A command is one batch (PROTOCOL.md): [the release of the last reply
-(0x0FC, OMISR, semaphore), a read of the ring indices, the command bytes into the ring, the insert
+(0x0FC, OMISR, semaphore), a read of the ring indices, the command bytes into the ring (on this
+machine they go through the daemon's shared memory before the batch, decision 0010), the insert
 index (the card parses "AX RP;" on that write and posts its reply), a read of the indices and the
 response ring, a read of ODBR]. The series with `defer_release=False` releases each reply at once,
 in a second round trip. Diagnostics: a one-op register read of the same card (the round trip floor
@@ -60,7 +61,7 @@ CARD = "maxk0"
 
 MAXK = f'Maxk.send_and_get_string("{COMMAND}")'
 EAGER = f"{MAXK}, defer_release=False"
-READ = "diag: Region.read of 0x0F8 (one op)"
+READ = "diag: Region.read of 0x0FC (one op)"
 REPLAY = "diag: the command's batch via Rack.call"
 
 
@@ -103,7 +104,7 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
         batch_ops = 0
         if diag:
             shm = rack.card(CARD).region("shm")
-            fns[READ] = lambda: shm.read(Shm.RESPONSE_INSERT, 4)
+            fns[READ] = lambda: shm.read(Shm.RESPONSE_PROCESS, 4)  # a hook: always a request
             fns[REPLAY], batch_ops = replay_of(stack.enter_context(maxk.open(3, endpoint=d.endpoint)))
 
         series, counts, card_ns, stats = measure_commands(
@@ -130,13 +131,16 @@ def replay_of(card: Any) -> tuple[Callable[[], Any], int]:
     # as [kind, card, region, offset, data], whichever form the client sent
     template = [op if isinstance(op, list) else compact(op) for op in last["ops"]]
 
-    def write_at(test: Callable[[int], bool]) -> int:
-        return next(i for i, op in enumerate(template) if op[0] == "w" and test(op[3]))
+    def write_at(test: Callable[[int], bool]) -> int | None:
+        return next((i for i, op in enumerate(template) if op[0] == "w" and test(op[3])), None)
 
+    # the command's bytes: an op, or (shared memory) written before the batch
     ring_at = write_at(lambda offset: Shm.COMMAND_RING <= offset < Shm.RESPONSE_RING)
     insert_at = write_at(lambda offset: offset == Shm.COMMAND_INSERT)
     release_at = write_at(lambda offset: offset == Shm.RESPONSE_PROCESS)
-    data = template[ring_at][4]
+    assert insert_at is not None and release_at is not None
+    memory = rack.card(card.card).region("shm")
+    data = (COMMAND + ";").encode()
     size, reply_size = len(COMMAND) + 1, len(reply) + 1
     state = {"put": int.from_bytes(template[insert_at][4], "big"),
              "fc": (int.from_bytes(template[release_at][4], "big") + reply_size) % RING_SIZE}
@@ -147,9 +151,14 @@ def replay_of(card: Any) -> tuple[Callable[[], Any], int]:
         ops = list(template)
         ops[insert_at] = [*template[insert_at][:4], state["put"].to_bytes(4, "big")]
         ops[release_at] = [*template[release_at][:4], fc.to_bytes(4, "big")]
-        ops[ring_at:ring_at + 1] = [[*template[ring_at][:3], Shm.COMMAND_RING + off,
-                                     data[start:start + length]]
-                                    for off, start, length in ring_pieces(put, size)]
+        pieces = [(Shm.COMMAND_RING + off, data[start:start + length])
+                  for off, start, length in ring_pieces(put, size)]
+        if ring_at is None:
+            for offset, piece in pieces:
+                memory.write(offset, piece)
+        else:
+            ops[ring_at:ring_at + 1] = [[*template[ring_at][:3], offset, piece]
+                                        for offset, piece in pieces]
         return rack.call({"op": "batch", "ops": ops}, 1.0)
 
     return replay, len(template)

@@ -1,7 +1,7 @@
 """`make bench`: the figures of the issues' "Done when", each against a baseline of the same run.
 
-    python bench/run.py [--quick] [--only rtt,lockstep,realtime,galil,maxk,pmac] [--pin split|same|none]
-                        [--json [FILE]]
+    python bench/run.py [--quick] [--only rtt,lockstep,realtime,galil,maxk,pmac,shm]
+                        [--pin split|same|none] [--json [FILE]]
 
 1. rtt       4-byte register read through vdevclient vs a raw pyzmq REQ/REP round trip
              (p50 <= 1.25x, p99 <= 1.5x), bench/rtt.py
@@ -14,6 +14,8 @@
 6. pmac      pmac-dpram: PComm PmacGetResponseA("#1P") on a lockstep Turbo PMAC vs a raw pyzmq
              REQ/REP round trip; pmac-ethernet: dls-pmaclib sendCommand("#1P") on its Ethernet
              port vs a raw TCP round trip (both p50 <= 2.5x), bench/pmac.py
+7. shm       Region.read32 of a passive MAXk word through the daemon's shared memory (p50 <= 2 us,
+             >= 50x faster than the read by request), bench/shm.py
 
 The defaults are the issue's (realtime runs 60 s; the whole takes ~2 min); `--quick` shortens
 everything for a smoke run (~20 s). Placement (default split: servers on cpu0, client on cpu1)
@@ -35,10 +37,10 @@ from typing import Any
 if __package__ in (None, ""):  # run as a script: python bench/run.py
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench import galil, lockstep, maxk, pmac, realtime, rtt  # noqa: E402
+from bench import galil, lockstep, maxk, pmac, realtime, rtt, shm  # noqa: E402
 from bench.common import install_signal_handlers, machine_facts, table, verdict, write_json  # noqa: E402
 
-FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac")
+FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac", "shm")
 
 
 def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]], dict[str, Any],
@@ -58,6 +60,8 @@ def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]]
                             "warmup": 300 if q else 1000, "pin": a.pin}, maxk.report),
         "pmac": (pmac.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
                             "warmup": 300 if q else 1000, "pin": a.pin}, pmac.report),
+        "shm": (shm.run, {"n": 1000 if q else 5000, "repeats": 2 if q else 3,
+                          "warmup": 500 if q else 2000, "pin": a.pin}, shm.report),
     }
 
 
@@ -113,6 +117,12 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
                              f"{f['series'][series]['p50']:.0f} us",
                              f"raw {raw['p50']:.0f} us -> {ratio['p50']:.2f}x, {trips} round trip(s)",
                              verdict(ratio["p50"] <= pmac.GOAL_P50)])
+        elif name == "shm":
+            raw, req = r["series"][rtt.RAW], r["series"][shm.REQUEST]
+            rows.append(["shm read32 p50", f"<= {shm.GOAL_P50_US:g} us, >= {shm.GOAL_SPEEDUP:.0f}x "
+                         "request", f"{r['shm_p50_us']:.2f} us",
+                         f"request {req['p50']:.0f} us -> {r['speedup_p50']:.0f}x, raw "
+                         f"{raw['p50']:.0f} us", verdict(r["pass"])])
     return rows
 
 
@@ -120,7 +130,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="short runs, for a smoke test")
     ap.add_argument("--only", default=",".join(FIGURES),
-                    help="comma list of rtt, lockstep, realtime, galil, maxk, pmac")
+                    help="comma list of rtt, lockstep, realtime, galil, maxk, pmac, shm")
     ap.add_argument("--pin", choices=("split", "same", "none"), default="split")
     ap.add_argument("--realtime-seconds", type=float, help="override the realtime run's length")
     ap.add_argument("--wake-us", type=int, default=1000, help="realtime: [clock] wake_us")

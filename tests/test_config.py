@@ -22,6 +22,7 @@ def test_full_file_loads(tmp_path: Path) -> None:
 [server]
 endpoint = "tcp://127.0.0.1:6000"
 events = "ipc:///tmp/vdevd-events"
+shm_dir = "/run/vdevd"
 [clock]
 mode = "lockstep"
 [state]
@@ -34,7 +35,7 @@ plant = "stepper"
 period_ns = 250000
 """)
     assert cfg.endpoint == "tcp://127.0.0.1:6000" and cfg.clock == "lockstep"
-    assert cfg.state_dir == "/var/lib/vdevd"
+    assert cfg.state_dir == "/var/lib/vdevd" and cfg.shm_dir == "/run/vdevd"
     (card,) = cfg.cards
     assert (card.type, card.name, card.options["axes"], card.options["plant"]) == (
         "generic-servo", "x1", 2, "stepper")
@@ -47,7 +48,7 @@ def test_default_rack_has_one_card_of_each_type() -> None:
     cfg = config.load(None)
     assert sorted(c.type for c in cfg.cards) == sorted(CARD_TYPES)
     assert cfg.endpoint == "tcp://127.0.0.1:5555" and cfg.events == "tcp://127.0.0.1:5556"
-    assert cfg.clock == "realtime"
+    assert cfg.clock == "realtime" and cfg.shm_dir == "/dev/shm"
 
 
 @pytest.mark.parametrize(
@@ -70,6 +71,7 @@ def test_default_rack_has_one_card_of_each_type() -> None:
         ('[server]\nendpoint = 5555', "server.endpoint"),
         ('[server]\nendpoint = "tcp://0.0.0.0:5555"', "server.endpoint"),
         ('[server]\nport = 1', "server.port"),
+        ('[server]\nshm_dir = false', "server.shm_dir"),
         ('[bogus]\nx = 1', "bogus"),
         ("[[card]\n", "not valid TOML"),
     ],

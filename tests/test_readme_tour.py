@@ -92,8 +92,12 @@ def daemon(monkeypatch: pytest.MonkeyPatch) -> Iterator[Daemon]:
             monkeypatch.delenv("VDEVD_EVENTS", raising=False)
             yield Daemon(endpoint, events, line)
         finally:
-            proc.kill()
-            proc.communicate()
+            proc.terminate()  # a clean exit removes its shared memory; SIGKILL would leave it
+            try:
+                proc.communicate(timeout=20)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.communicate()
 
 
 def start_irq_terminal(argv: list[str], daemon: Daemon) -> tuple[subprocess.Popen[str], str]:

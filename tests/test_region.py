@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import mmap
+
 import pytest
 
 from vdevd.errors import ErrorCode, VdevError
-from vdevd.region import Region
+from vdevd.region import Region, passive_except
 
 
 def fifo_region() -> tuple[Region, list[bytes]]:
@@ -81,3 +83,54 @@ def test_single_access_straddling_a_register_is_refused() -> None:
     region.hook(4, 2, on_read=lambda off, n: b"\1" * n)
     assert code_of(region.read, 3, 2) == ErrorCode.BAD_WIDTH
     assert region.read(4, 2) == b"\1\1"
+
+
+# -- passive ranges (decision 0010) -----------------------------------------------------------------
+class Pages:
+    """A Backing that hands out anonymous shared mappings, as the daemon's segment does."""
+
+    def __init__(self) -> None:
+        self.offset = 0
+
+    def allocate(self, size: int) -> tuple[mmap.mmap, int]:
+        offset, self.offset = self.offset, self.offset + size
+        return mmap.mmap(-1, size), offset
+
+
+def test_passive_ranges_are_sorted_merged_and_listed_by_describe() -> None:
+    region = Region("bar", 64, passive=[(32, 40), (0, 8), (8, 16), (12, 20)])
+    assert region.passive == ((0, 20), (32, 40))
+    assert region.describe()["passive"] == [[0, 20], [32, 40]]
+    for bad in ([(0, 65)], [(8, 8)], [(-4, 4)]):
+        with pytest.raises(ValueError):
+            Region("bar", 64, passive=bad)
+
+
+def test_a_hook_may_not_cover_a_passive_byte() -> None:
+    region = Region("bar", 64, passive=[(8, 16)])
+    region.hook(4, 4)
+    region.hook(16, 4)
+    with pytest.raises(ValueError, match="passive"):
+        region.hook(12, 2)
+
+
+def test_passive_except_is_the_region_outside_its_registers() -> None:
+    assert passive_except(64, [(16, 4), (0, 4), (20, 4)]) == [(4, 16), (24, 64)]
+    assert passive_except(8, [(0, 8)]) == []
+
+
+def test_a_region_with_passive_ranges_takes_its_memory_from_the_backing() -> None:
+    pages = Pages()
+    shared = Region("bar", 64, endian="big", passive=[(0, 8)], memory=pages)
+    private = Region("cfg", 64, memory=pages)  # no passive range: nothing to share
+    assert isinstance(shared.buf, mmap.mmap) and shared.shared_offset == 0
+    assert isinstance(private.buf, bytearray) and private.shared_offset is None
+    shared.write(0, b"\1\2\3\4")
+    shared.set(4, 0x05060708)
+    assert shared.buf[:8] == bytes(range(1, 9))
+    assert shared.read(0, 8) == bytes(range(1, 9)) and shared.get(0) == 0x01020304
+
+
+def test_without_a_backing_a_passive_region_keeps_private_memory() -> None:
+    region = Region("bar", 64, passive=[(0, 8)])
+    assert isinstance(region.buf, bytearray) and region.shared_offset is None

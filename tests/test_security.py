@@ -35,6 +35,7 @@ def test_only_allowed_client_keys_are_served(tmp_path: Path) -> None:
         with vdevclient.connect(d.endpoint, server_key=server_public,
                                 client_key=str(client_secret)) as rack:
             assert rack.card("servo0").region("bar0").read32(0) == 0x56444556
+            assert rack.card("servo0").region("bar0").mapped  # CURVE too: the file mode decides
         with pytest.raises(vdevclient.VdevTimeout):
             vdevclient.connect(d.endpoint, server_key=server_public,
                                client_key=str(stranger_secret), timeout=0.5)

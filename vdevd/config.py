@@ -20,6 +20,7 @@ from vdevd.security import CurveConfig, check_curve, is_local
 
 DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
 DEFAULT_EVENTS = "tcp://127.0.0.1:5556"
+DEFAULT_SHM_DIR = "/dev/shm"
 CLOCK_MODES = ("realtime", "lockstep")
 _NAME = re.compile(r"[A-Za-z0-9_-]+")  # a card name: ASCII letters, digits, - and _
 WAKERS = ("thread", "timer")
@@ -51,6 +52,8 @@ class Config:
     #: cards at rest run their quiet ticks in closed form (false: every tick runs in full)
     skip_quiet: bool = True
     state_dir: str | None = None
+    #: where the shared memory of local clients is created ("": none; decision 0010)
+    shm_dir: str = DEFAULT_SHM_DIR
     curve: CurveConfig | None = None
     cards: list[CardSpec] = field(default_factory=list)
 
@@ -88,9 +91,10 @@ def parse(data: dict[str, Any]) -> Config:
         raise ConfigError(f"{unknown[0]}: unknown section (sections: {', '.join(sorted(_SECTIONS))})")
     cfg = Config()
     server = _table(data, "server")
-    _only(server, "server", ("endpoint", "events"))
+    _only(server, "server", ("endpoint", "events", "shm_dir"))
     cfg.endpoint = _str(server, "server", "endpoint", cfg.endpoint)
     cfg.events = _str(server, "server", "events", cfg.events)
+    cfg.shm_dir = _str(server, "server", "shm_dir", cfg.shm_dir)
     clock = _table(data, "clock")
     _only(clock, "clock", ("mode", "wake_us", "waker", "skip_quiet"))
     cfg.clock = _choice(clock, "clock", "mode", CLOCK_MODES, cfg.clock)  # type: ignore[assignment]

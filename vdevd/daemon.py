@@ -22,24 +22,43 @@ from vdevd.errors import StartError
 from vdevd.nvram import NvramStore
 from vdevd.rack import Rack
 from vdevd.server import Publisher, Server
+from vdevd.shm import Segment
 
 log = logging.getLogger("vdevd")
 
 
-def build_rack(cfg: Config) -> Rack:
+def build_rack(cfg: Config, memory: Segment | None = None) -> Rack:
     """The cards of `cfg` on one rack (not yet attached to a loop or sockets), publishing
-    through a `Publisher` that `Server.start` binds."""
-    nvram = NvramStore(cfg.state_dir) if cfg.state_dir else None
-    rack = Rack([], cfg.clock, sink=Publisher(), wake_ns=cfg.wake_us * 1000, waker=cfg.waker,
-                skip_quiet=cfg.skip_quiet)
-    for spec in cfg.cards:
-        ctx = CardContext(emit=rack.emit, nvram=nvram)
-        rack.add_card(card_class(spec.type)(spec.name, spec.options, ctx))
+    through a `Publisher` that `Server.start` binds; their passive regions on `memory` (the
+    rack removes it at `stop`; here too if a card cannot be built)."""
+    try:
+        nvram = NvramStore(cfg.state_dir) if cfg.state_dir else None
+        rack = Rack([], cfg.clock, sink=Publisher(), wake_ns=cfg.wake_us * 1000, waker=cfg.waker,
+                    skip_quiet=cfg.skip_quiet, memory=memory)
+        for spec in cfg.cards:
+            ctx = CardContext(emit=rack.emit, nvram=nvram, memory=memory)
+            rack.add_card(card_class(spec.type)(spec.name, spec.options, ctx))
+    except BaseException:
+        if memory is not None:
+            memory.close()
+        raise
     return rack
 
 
+def shared_memory(cfg: Config) -> Segment | None:
+    """The daemon's shared segment in `[server] shm_dir`, named after its endpoint (a stale one
+    replaced); None when the configuration turns it off or the directory cannot hold it."""
+    return Segment.create(cfg.shm_dir, cfg.endpoint) if cfg.shm_dir else None
+
+
 def build_server(cfg: Config, ctx: zmq.Context | None = None) -> Server:
-    return Server(build_rack(cfg), cfg.endpoint, cfg.events, ctx=ctx, curve=cfg.curve)
+    """A server of the rack of `cfg`, its passive regions in the daemon's shared segment."""
+    rack = build_rack(cfg, shared_memory(cfg))
+    try:
+        return Server(rack, cfg.endpoint, cfg.events, ctx=ctx, curve=cfg.curve)
+    except BaseException:
+        rack.stop()
+        raise
 
 
 def sd_notify(message: str) -> None:

@@ -24,7 +24,7 @@ HARD_MAX_MESSAGE = 4 * MAX_MESSAGE
 MAX_WAIT_NS = 86_400 * 1_000_000_000
 
 CAPABILITIES = ("read", "write", "rep", "batch", "batch.compact", "wait.irq", "wait.value", "sim",
-                "control", "stats", "sync")
+                "control", "stats", "sync", "shm")
 
 
 
@@ -94,11 +94,13 @@ BATCHABLE = frozenset({"read", "write", "wait", "control"})
 
 @dataclass(slots=True)
 class Request:
-    """A validated request: `args` holds the op's fields, already type-checked."""
+    """A validated request: `args` holds the op's fields, already type-checked; `local`, set by
+    the server, says the client is on this machine (a `hello` then announces the shared memory)."""
 
     id: Any
     op: str
     args: dict[str, Any]
+    local: bool = False
 
 
 _unpack = msgpack.unpackb  # str keys only (strict_map_key), str as str, arrays as lists

@@ -30,6 +30,7 @@ from vdevd.protocol import (
 )
 from vdevd.region import Region
 from vdevd.rt.scheduler import Scheduler
+from vdevd.shm import Segment
 from vdevd.waits import Reply, Waiter, Waits, make_waiter
 
 log = logging.getLogger("vdevd.rack")
@@ -77,10 +78,13 @@ class Rack:
         waker: Waker = "thread",
         clock: Callable[[], int] = time.perf_counter_ns,
         skip_quiet: bool = True,
+        memory: Segment | None = None,
     ) -> None:
         """`sink`: where events go (default: nowhere); `wake_ns`, `waker`, `clock`: the
         realtime pacing (`Pacer`); `skip_quiet`: whether cards at rest run their quiet ticks in
-        closed form (`Card.tick`; false ticks every period in full)."""
+        closed form (`Card.tick`; false ticks every period in full); `memory`: the shared
+        segment the cards' passive regions were built on (`CardContext.memory`), announced to
+        local clients and removed at `stop`."""
         self.skip_quiet = skip_quiet
         self.cards: dict[str, Card] = {}
         self._regions: dict[tuple[str, str], Region] = {}
@@ -90,6 +94,7 @@ class Rack:
             self.add_card(card)
         self.mode: ClockMode = mode
         self.sink: EventSink = sink if sink is not None else NullSink()
+        self.memory = memory
         self.waits = Waits(self._internal)
         self.pacer = Pacer(self.sched, self.waits, mode, wake_ns=wake_ns, waker=waker,
                            clock=clock)
@@ -146,7 +151,10 @@ class Rack:
                 log.exception("closing the services of %s", card.name)
 
     def stop(self) -> None:
+        """Stop pacing and remove the shared segment (the cards keep their memory)."""
         self.pacer.stop()
+        if self.memory is not None:
+            self.memory.close()
 
     def catch_up(self) -> None:
         """Realtime: run the ticks fallen due since the last pass (`Pacer.catch_up`)."""
@@ -190,7 +198,8 @@ class Rack:
         op = req.op
         self.requests[op] = self.requests.get(op, 0) + 1
         try:
-            result = self._handlers[op](req.args, reply)
+            # `local` is set on a hello only (the server's knowledge of the peer)
+            result = self.hello(local=True) if req.local else self._handlers[op](req.args, reply)
         except VdevError as exc:
             self.errors += 1
             reply(exc)
@@ -224,8 +233,10 @@ class Rack:
             )
         return r
 
-    def hello(self) -> dict[str, Any]:
-        return {
+    def hello(self, local: bool = False) -> dict[str, Any]:
+        """The `hello` result; to a `local` client (on this machine), with the shared memory
+        that backs the regions' passive ranges (PROTOCOL.md "hello", decision 0010)."""
+        info = {
             "protocol": VERSION,
             "server": "vdevd",
             "capabilities": list(CAPABILITIES),
@@ -234,6 +245,22 @@ class Rack:
             "clock": {"mode": self.mode, "now_ns": self.now_ns, "tick_ns": self.sched.tick_ns},
             "cards": [c.describe() for c in self.cards.values()],
         }
+        shm = self.shared_memory() if local else None
+        if shm is not None:
+            info["shm"] = shm
+        return info
+
+    def shared_memory(self) -> dict[str, Any] | None:
+        """The segment (path, size, identity) and where each shared region starts in it
+        ({card: {region: offset}}); None when no region is shared."""
+        regions: dict[str, dict[str, int]] = {}
+        for card in self.cards.values():
+            for r in card.regions.values():
+                if r.shared_offset is not None:
+                    regions.setdefault(card.name, {})[r.name] = r.shared_offset
+        if self.memory is None or not regions:
+            return None
+        return {**self.memory.describe(), "regions": regions}
 
     def op_hello(self, args: dict[str, Any], reply: Reply) -> Any:
         return self.hello()

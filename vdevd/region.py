@@ -3,15 +3,21 @@
 DESIGN.md "Region": plain memory is a buffer and needs no code; registers with side effects are
 hooks on offsets (`on_read(offset, size) -> bytes`, `on_write(offset, data)`). An access outside
 the region or of a width the bus forbids raises `VdevError`, never crashes the daemon.
+
+A region may declare passive ranges (memory with no hook that the card only polls or only
+publishes, decision 0010); given a `memory` (the daemon's shared segment, vdevd/shm.py) such a
+region is backed by it from construction, so that local clients read and write those ranges
+through a mapping of the same pages.
 """
 
 from __future__ import annotations
 
 import bisect
+import mmap
 import struct
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 from vdevd.errors import ErrorCode, VdevError
 
@@ -28,6 +34,15 @@ MAX_PLANS = 4096
 
 ReadPlan = Callable[[int, int], bytes]
 WritePlan = Callable[[int, bytes], None]
+#: a region's memory: private, or a part of the daemon's shared segment
+Memory = bytearray | mmap.mmap
+
+
+class Backing(Protocol):
+    """Where a region with passive ranges gets its memory (vdevd.shm.Segment)."""
+
+    def allocate(self, size: int) -> tuple[mmap.mmap, int] | None:
+        """`size` zeroed bytes and their offset in the shared file; None to use private memory."""
 
 
 @dataclass(frozen=True)
@@ -55,6 +70,10 @@ class Region:
     a longer block access is allowed when `block` is true and is performed as consecutive
     accesses of the smallest width wherever it touches a hook. `aligned` requires natural
     alignment of single accesses.
+
+    `passive`: the (start, end) byte ranges a local client may read and write through shared
+    memory (no hook may ever cover them); with a `memory` to allocate from, the region's buffer
+    is shared memory from the start (`shared_offset` is then its place in the segment).
     """
 
     def __init__(
@@ -67,6 +86,8 @@ class Region:
         aligned: bool = True,
         block: bool = True,
         description: str = "",
+        passive: Iterable[tuple[int, int]] = (),
+        memory: Backing | None = None,
     ) -> None:
         if size <= 0:
             raise ValueError(f"region {name}: size must be positive")
@@ -77,7 +98,15 @@ class Region:
         self.aligned = aligned
         self.block = block
         self.description = description
-        self.buf = bytearray(size)
+        self.passive = _ranges(name, size, passive)
+        shared = memory.allocate(size) if self.passive and memory is not None else None
+        #: where the region's memory starts in the shared segment (None: private memory)
+        self.shared_offset: int | None = None
+        self.buf: Memory
+        if shared is None:
+            self.buf = bytearray(size)
+        else:
+            self.buf, self.shared_offset = shared
         self.mem = memoryview(self.buf)
         self._hooks: list[Hook] = []
         self._starts: list[int] = []
@@ -115,6 +144,8 @@ class Region:
             i > 0 and self._hooks[i - 1].end > offset
         ):
             raise ValueError(f"region {self.name}: hook at {offset:#x} overlaps another")
+        if any(start < h.end and offset < end for start, end in self.passive):
+            raise ValueError(f"region {self.name}: hook at {offset:#x} in a passive range")
         self._hooks.insert(i, h)
         self._starts.insert(i, offset)
         if on_read is not None:
@@ -125,6 +156,11 @@ class Region:
             plans.clear()
         return h
 
+    @property
+    def hooks(self) -> tuple[Hook, ...]:
+        """The registers with side effects, in address order."""
+        return tuple(self._hooks)
+
     def describe(self) -> dict[str, object]:
         return {
             "name": self.name,
@@ -134,6 +170,7 @@ class Region:
             "aligned": self.aligned,
             "block": self.block,
             "description": self.description,
+            "passive": [list(r) for r in self.passive],
         }
 
     # -- bus accesses (from the host) -----------------------------------------------------------
@@ -354,6 +391,35 @@ class Region:
             )
         return h
 
+
+
+def passive_except(size: int, hooked: Iterable[tuple[int, int]]) -> list[tuple[int, int]]:
+    """The (start, end) ranges of a `size`-byte region outside the `hooked` (offset, size) spans:
+    the passive ranges of a region that is plain memory but for those registers."""
+    ranges, pos = [], 0
+    for offset, n in sorted(hooked):
+        if offset > pos:
+            ranges.append((pos, offset))
+        pos = max(pos, offset + n)
+    if pos < size:
+        ranges.append((pos, size))
+    return ranges
+
+
+def _ranges(name: str, size: int, ranges: Iterable[tuple[int, int]]
+            ) -> tuple[tuple[int, int], ...]:
+    """Passive ranges sorted, with adjacent or overlapping ones merged; ValueError for an empty
+    one or one outside the region."""
+    merged: list[tuple[int, int]] = []
+    for start, end in sorted(ranges):
+        if not 0 <= start < end <= size:
+            raise ValueError(f"region {name}: passive range {start:#x}..{end:#x} outside "
+                             f"0..{size:#x} or empty")
+        if merged and start <= merged[-1][1]:
+            merged[-1] = (merged[-1][0], max(merged[-1][1], end))
+        else:
+            merged.append((start, end))
+    return tuple(merged)
 
 
 def _keep(plans: dict[tuple[int, int], Any], key: tuple[int, int], plan: Any) -> Any:

@@ -9,6 +9,7 @@ then PUB, then the ROUTER last, so a client that reaches the endpoint finds ever
 from __future__ import annotations
 
 import asyncio
+import ipaddress
 import logging
 import time
 from typing import Any
@@ -92,6 +93,7 @@ class Server:
         self.endpoint = ""
         self.events = ""
         self._reading = False
+        self._last_frame: zmq.Frame | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._drain_scheduled = False
         self._draining = False
@@ -174,7 +176,23 @@ class Server:
             frame = recv(flags, copy=False)
             frames.append(frame.bytes)
             if not frame.more:
+                self._last_frame = frame  # what the transport tells of the peer (`_peer_local`)
                 return frames
+
+    def _peer_local(self) -> bool:
+        """The sender of the message being served is on this machine: an ipc:// or inproc://
+        endpoint, or a TCP peer whose address is loopback (decision 0010)."""
+        scheme = self.endpoint.partition("://")[0]
+        if scheme in ("ipc", "inproc"):
+            return True
+        if scheme != "tcp" or self._last_frame is None:
+            return False
+        try:
+            peer = ipaddress.ip_address(str(self._last_frame.get("Peer-Address")).partition("%")[0])
+            mapped = getattr(peer, "ipv4_mapped", None)  # ::ffff:127.0.0.1
+            return bool((mapped or peer).is_loopback)
+        except (zmq.ZMQError, ValueError):
+            return False
 
     def _schedule_drain(self) -> None:
         if not self._drain_scheduled and self._loop is not None:
@@ -192,6 +210,8 @@ class Server:
                 self.rack.latency.add(time.perf_counter_ns() - t0)
                 return
             req = protocol.request_from(msg)
+            if req.op == "hello":
+                req.local = self._peer_local()
         except VdevError as exc:
             self.rack.errors += 1
             self._send(envelope, protocol.encode_error(getattr(exc, "req_id", None), exc.code,

@@ -16,7 +16,7 @@ from dataclasses import replace
 import zmq
 
 from vdevd.config import Config, default_config
-from vdevd.daemon import build_rack
+from vdevd.daemon import build_rack, shared_memory
 from vdevd.devices.base import Card, CardContext
 from vdevd.rack import Rack
 from vdevd.server import Publisher, Server
@@ -81,9 +81,14 @@ class DaemonThread:
     async def _serve(self) -> None:
         self._loop = asyncio.get_running_loop()
         self._stop = asyncio.Event()
-        rack = self._rack if self._rack is not None else build_rack(self.cfg)
-        self.server = Server(rack, self.cfg.endpoint, self.cfg.events,
-                             ctx=self._ctx, curve=self.cfg.curve)
+        rack = self._rack if self._rack is not None else build_rack(self.cfg,
+                                                                      shared_memory(self.cfg))
+        try:
+            self.server = Server(rack, self.cfg.endpoint, self.cfg.events,
+                                 ctx=self._ctx, curve=self.cfg.curve)
+        except BaseException:
+            rack.stop()
+            raise
         try:
             await self.server.start(self._loop)
             self.endpoint, self.events = self.server.endpoint, self.server.events

@@ -72,6 +72,8 @@ class _Device:
         self.lock = threading.RLock()
         where = {"card": self.card, "region": DPRAM}
         self.where = where
+        #: the DPRAM as a Region: its passive bytes go through shared memory when mapped
+        self.memory = rack.card(self.card).region(DPRAM)
         self.ack = {"op": "write", "offset": RESP_CONTROL, "data": b"\0\0", **where}
         self.slot = {"op": "read", "offset": RESP_CONTROL, "size": RESP_SLOT, **where}
         self.head = {"op": "read", "offset": RESP_CONTROL, "size": RESP_HEAD, **where}

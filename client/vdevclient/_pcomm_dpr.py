@@ -1,7 +1,11 @@
 """PComm32's DPRAM functions (spec pmac.md §3.1): raw memory, IEEE and PMAC floats, and the real-time
 and background reporting buffers in the Turbo layout (PComm32 dprrtdbt.h `realtTURBO`, dprbkg.h
 `backgTURBO`; EPICS tpmac drvPmac.c; the card's README "Reporting buffers"). Re-exported from
-`vdevclient.pcomm`. The offsets duplicate vdevd/devices/pmac/dpram.py: keep them in step."""
+`vdevclient.pcomm`. The offsets duplicate vdevd/devices/pmac/dpram.py: keep them in step.
+
+On the daemon's machine the raw accesses (`PmacDPRGetMem`, `PmacDPRSetMem`, the float and
+data-ready functions) go through the daemon's shared memory, as PComm32 reads the real DPRAM
+through its mapping (decision 0010); the handshake words and the sampling waits stay requests."""
 
 from __future__ import annotations
 
@@ -16,6 +20,7 @@ from vdevmaps.pmac import (
     BG_STATUS,
     DPRAM_SIZE,
     READY,
+    RESP_CONTROL,
     RT_MASK,
     RT_MOTOR,
     RT_READY,
@@ -24,7 +29,14 @@ from vdevmaps.pmac import (
 from vdevclient._cargs import target as _target
 from vdevclient._pcomm_codes import COMM_EOT
 from vdevclient._pcomm_device import _NS_PER_MS, _Device, _guarded, _number, _reply
-from vdevclient._pmac_bus import MotorReport, join48, motor_report, pmac_float, realtime_motor
+from vdevclient._pmac_bus import (
+    RESP_SLOT,
+    MotorReport,
+    join48,
+    motor_report,
+    pmac_float,
+    realtime_motor,
+)
 
 log = logging.getLogger("vdevclient.pcomm")  # the public module's logger
 
@@ -60,6 +72,36 @@ def _pieces(offset: int, count: int) -> list[tuple[int, int]]:
     return [(offset, count)]
 
 
+def _mapped(dev: _Device, pieces: list[tuple[int, int]]) -> bool:
+    """Every piece goes through shared memory, and none touches the response slot while its
+    acknowledgement is still deferred (`dev.pending`: the ack lets the card post its next line
+    there, so such a read or write goes in the batch after it, as before)."""
+    memory = dev.memory
+    if not all(memory.is_mapped(o, n) for o, n in pieces):
+        return False
+    return not dev.pending or all(o + n <= RESP_CONTROL or o >= RESP_CONTROL + RESP_SLOT
+                                  for o, n in pieces)
+
+
+def _get(dev: _Device, offset: int, count: int) -> bytes:
+    """`count` bytes at `offset`: from shared memory, else in one batch after the pending ops."""
+    pieces = _pieces(offset, count)
+    if _mapped(dev, pieces):
+        return b"".join(dev.memory.read(o, n) for o, n in pieces)
+    res = dev.batch(dev.begin() + [dev.read(o, n) for o, n in pieces])
+    return b"".join(res[-len(pieces):])
+
+
+def _set(dev: _Device, offset: int, data: bytes) -> None:
+    """`data` at `offset`: into shared memory, else in one batch after the pending ops."""
+    pieces = _pieces(offset, len(data))
+    if _mapped(dev, pieces):
+        for o, n in pieces:
+            dev.memory.write(o, data[o - offset:o - offset + n])
+        return
+    dev.batch(dev.begin() + [dev.write(o, data[o - offset:o - offset + n]) for o, n in pieces])
+
+
 @_guarded(False)
 def PmacDPRAvailable(dev: _Device) -> bool:
     """The card has a DPRAM (every pmac-turbo has)."""
@@ -73,8 +115,7 @@ def PmacDPRGetMem(dev: _Device, offset: int, count: int, val: Any = None) -> byt
     offset, count = int(offset), int(count)
     if count <= 0 or offset < 0 or offset + count > DPRAM_SIZE:
         return None
-    res = dev.batch(dev.begin() + [dev.read(o, n) for o, n in _pieces(offset, count)])
-    data = b"".join(res[-len(_pieces(offset, count)):])
+    data = _get(dev, offset, count)
     _fill(val, data)
     return data
 
@@ -87,23 +128,19 @@ def PmacDPRSetMem(dev: _Device, offset: int, count: int, val: Any) -> Any:
     data = _bytes_of(val, int(count))
     if not data or offset < 0 or offset + len(data) > DPRAM_SIZE:
         return None
-    dev.batch(dev.begin() + [dev.write(o, data[o - offset:o - offset + n])
-                             for o, n in _pieces(offset, len(data))])
+    _set(dev, offset, data)
     return val
 
 
 @_guarded(0.0)
 def PmacDPRGetFloat(dev: _Device, offset: int) -> float:
     """The 32-bit IEEE float at host byte `offset` (`F:` format)."""
-    res = dev.batch(dev.begin() + [dev.read(o, n) for o, n in _pieces(int(offset), 4)])
-    return float(struct.unpack("<f", b"".join(r for r in res if isinstance(r, bytes))[-4:])[0])
+    return float(struct.unpack("<f", _get(dev, int(offset), 4))[0])
 
 
 @_guarded(None)
 def PmacDPRSetFloat(dev: _Device, offset: int, val: float) -> None:
-    data = struct.pack("<f", float(val))
-    dev.batch(dev.begin() + [dev.write(o, data[o - int(offset):o - int(offset) + n])
-                             for o, n in _pieces(int(offset), 4)])
+    _set(dev, int(offset), struct.pack("<f", float(val)))
 
 
 def _halves(d: Any) -> tuple[int, int]:
@@ -154,13 +191,13 @@ def PmacDPRBackgroundEx(dev: _Device, on: int, period: int, crd: int) -> bool:
 @_guarded(None)
 def PmacDPRResetDataReadyBit(dev: _Device) -> None:
     """Clear the real-time buffer's data-ready bit (X:$06001B bit 15): request the next sample."""
-    dev.batch(dev.begin() + [dev.write(RT_READY, b"\0\0")])
+    _set(dev, RT_READY, b"\0\0")
 
 
 @_guarded(0)
 def PmacDPRGetDataReadyBit(dev: _Device) -> int:
     """1 while a real-time sample is posted and not yet taken, else 0."""
-    word = struct.unpack("<H", dev.batch(dev.begin() + [dev.read(RT_READY, 2)])[-1])[0]
+    word = struct.unpack("<H", _get(dev, RT_READY, 2))[0]
     return int(bool(word & READY))
 
 

@@ -3,12 +3,20 @@
 `connect()` -> `Rack` -> `Card` -> `Region` (register access), `Card.irq` (interrupts),
 `Rack.sim` (the clock), `Rack.control` (the backdoor). One `Rack` is one DEALER socket: use it
 from one thread at a time.
+
+On the daemon's machine, `Region` reads and writes the passive ranges of a region (memory the card
+only polls or publishes, no hook) through the daemon's shared memory, with no round trip
+(decision 0010); everything else, and everything of a remote client, is a request.
 """
 
 from __future__ import annotations
 
+import bisect
 import itertools
+import logging
+import mmap
 import os
+import struct
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
@@ -17,6 +25,8 @@ import msgpack
 import zmq
 
 from vdevclient.errors import RackClosed, RemoteError, RequestTooLarge, VdevTimeout
+
+log = logging.getLogger("vdevclient")
 
 DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
 PROTOCOL_VERSION = 1
@@ -32,19 +42,30 @@ def connect(
     *,
     server_key: str | None = None,
     client_key: str | None = None,
+    shm: bool | None = None,
 ) -> Rack:
     """Connect to a daemon: `endpoint` defaults to $VDEVD_ENDPOINT, else tcp://127.0.0.1:5555;
     `events` to $VDEVD_EVENTS, else what `hello` reports. `timeout` is in wall seconds.
 
     For a CURVE-secured daemon, `server_key` is the server's public certificate file and
     `client_key` this client's secret certificate file ($VDEVD_SERVER_KEY, $VDEVD_CLIENT_KEY).
+
+    `shm`: access passive memory through the daemon's shared memory when the daemon offers it
+    (a client on its machine); default true unless $VDEVD_SHM is 0, no, off or false.
     """
     endpoint = endpoint or os.environ.get("VDEVD_ENDPOINT") or DEFAULT_ENDPOINT
     events = events or os.environ.get("VDEVD_EVENTS") or None
     server_key = server_key or os.environ.get("VDEVD_SERVER_KEY") or None
     client_key = client_key or os.environ.get("VDEVD_CLIENT_KEY") or None
     curve = (server_key, client_key) if server_key and client_key else None
-    return Rack(endpoint, events, timeout, curve=curve)
+    if shm is None:
+        shm = os.environ.get("VDEVD_SHM", "1").strip().lower() not in _OFF
+    return Rack(endpoint, events, timeout, curve=curve, shm=shm)
+
+
+_OFF = ("0", "no", "off", "false")
+#: the first byte of the daemon's shared memory while the daemon serves it (PROTOCOL.md)
+_LIVE = 1
 
 
 _ID_KEY = msgpack.packb("id")
@@ -105,6 +126,10 @@ class RegionInfo(_Record):
     size: int
     widths: tuple[int, ...]
     endian: str
+    aligned: bool = True
+    block: bool = True
+    #: the (start, end) ranges with no hook, which a local client maps (decision 0010)
+    passive: tuple[tuple[int, int], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -124,7 +149,8 @@ class Rack:
     """A connection to one daemon."""
 
     def __init__(self, endpoint: str, events: str | None = None, timeout: float = 10.0,
-                 curve: tuple[str, str] | None = None) -> None:
+                 curve: tuple[str, str] | None = None, shm: bool = True) -> None:
+        """`shm`: map the daemon's shared memory when `hello` offers it (see `connect`)."""
         self.endpoint = endpoint
         self.timeout = timeout
         self.curve = curve
@@ -149,6 +175,17 @@ class Rack:
         self.compact = "batch.compact" in self.info.get("capabilities", ())
         self.events_endpoint: str = events or self.info.get("events", "")
         self._infos = {c["name"]: _card_info(c) for c in self.info["cards"]}
+        #: the daemon's shared memory, mapped (None: every access is a request)
+        self.shm: mmap.mmap | None = _map_segment(self.info.get("shm")) if shm else None
+        self._shm_regions: dict[str, dict[str, int]] = (
+            self.info["shm"]["regions"] if self.shm is not None else {})
+
+    def mapping(self, card: str, region: str) -> tuple[mmap.mmap, int] | None:
+        """The shared memory and where `card`'s `region` starts in it; None when not mapped."""
+        offset = self._shm_regions.get(card, {}).get(region)
+        if self.shm is None or offset is None:
+            return None
+        return self.shm, offset
 
     # -- plumbing ---------------------------------------------------------------------------------
     def request(self, op: str, /, *, _wait_s: float = 0.0, **fields: Any) -> Any:
@@ -229,6 +266,8 @@ class Rack:
         for card in self._cards.values():
             card.irq.close()
         self._sock.close()
+        if self.shm is not None:
+            self.shm.close()  # nothing exports it: its users copy out (Region)
 
     def __enter__(self) -> Rack:
         return self
@@ -322,7 +361,12 @@ class Card:
 
 
 class Region:
-    """Register access to one region, in the card's byte order."""
+    """Register access to one region, in the card's byte order.
+
+    An access inside one passive range, of a width the bus takes, goes through the daemon's
+    shared memory when the rack maps it (`mapped`); any other access is a request. Either way
+    the result is the same: the memory as the card's last tick left it (in realtime, as of the
+    daemon's last pass; PROTOCOL.md "Shared memory")."""
 
     def __init__(self, card: Card, info: RegionInfo) -> None:
         self.card = card
@@ -334,12 +378,56 @@ class Region:
         self._call = card.rack.call
         self._where: dict[str, Any] = {"card": card.name, "region": info.name}
         self._card_name = card.name
+        mapping = card.rack.mapping(card.name, info.name)
+        self._mm: Any = None  # the mapping (an mmap) when `_starts` is not empty
+        self._base = 0
+        if mapping is not None:
+            self._mm, self._base = mapping
+        passive = info.passive if mapping is not None else ()
+        self._starts = [start for start, _ in passive]
+        self._ends = [end for _, end in passive]
+        self._widths = frozenset(info.widths)
+        self._unit = min(info.widths, default=1)
+        self._aligned, self._block = info.aligned, info.block
+        prefix = ">" if self._endian == "big" else "<"
+        self._formats = {n: struct.Struct(prefix + f).unpack_from
+                         for n, f in ((1, "B"), (2, "H"), (4, "I"), (8, "Q"))}
+        self._get32 = self._formats[4]
+
+    @property
+    def mapped(self) -> bool:
+        """Accesses to the passive ranges go through shared memory."""
+        return bool(self._starts)
+
+    def is_mapped(self, offset: int, size: int) -> bool:
+        """This access would go through shared memory: inside one passive range, of a width the
+        bus takes, and the daemon still serves the mapping (anything else is a request, which
+        also reports the errors, and the closed connection)."""
+        i = bisect.bisect_right(self._starts, offset) - 1
+        if i < 0 or offset + size > self._ends[i] or size <= 0:
+            return False
+        if size in self._widths:
+            if self._aligned and offset % size:
+                return False
+        elif not self._block or size % self._unit or (self._aligned and offset % self._unit):
+            return False
+        try:
+            return self._mm[0] == _LIVE  # 0 once the daemon stopped or a successor replaced it
+        except ValueError:  # the rack was closed
+            return False
 
     def read(self, offset: int, size: int) -> bytes:
+        if self._starts and self.is_mapped(offset, size):
+            at = self._base + offset
+            return self._mm[at:at + size]
         return self._call({"op": "read", "card": self._card_name, "region": self.name,
                            "offset": offset, "size": size})
 
     def write(self, offset: int, data: bytes) -> None:
+        if self._starts and self.is_mapped(offset, len(data)):
+            at = self._base + offset
+            self._mm[at:at + len(data)] = data
+            return
         self._req("write", offset=offset, data=bytes(data), **self._where)
 
     def read_rep(self, offset: int, size: int) -> bytes:
@@ -351,6 +439,8 @@ class Region:
         self._req("write", offset=offset, data=bytes(data), rep=True, **self._where)
 
     def _read_int(self, offset: int, size: int) -> int:
+        if self._starts and self.is_mapped(offset, size):
+            return int(self._formats[size](self._mm, self._base + offset)[0])
         return int.from_bytes(self.read(offset, size), self._endian)
 
     def _write_int(self, offset: int, value: int, size: int) -> None:
@@ -363,7 +453,12 @@ class Region:
         return self._read_int(offset, 2)
 
     def read32(self, offset: int) -> int:
+        if self._starts and self.is_mapped(offset, 4):  # the status poll: kept short
+            return int(self._get32(self._mm, self._base + offset)[0])
         return self._read_int(offset, 4)
+
+    def read64(self, offset: int) -> int:
+        return self._read_int(offset, 8)
 
     def write8(self, offset: int, value: int) -> None:
         self._write_int(offset, value, 1)
@@ -373,6 +468,9 @@ class Region:
 
     def write32(self, offset: int, value: int) -> None:
         self._write_int(offset, value, 4)
+
+    def write64(self, offset: int, value: int) -> None:
+        self._write_int(offset, value, 8)
 
     def wait_value(self, offset: int, value: int, *, mask: int | None = None, size: int = 4,
                    timeout_s: float = 1.0, equal: bool = True) -> int | None:
@@ -482,8 +580,38 @@ class Irq:
 
 def _card_info(c: dict[str, Any]) -> CardInfo:
     regions = tuple(
-        RegionInfo(r["name"], r["size"], tuple(r["widths"]), r.get("endian", c["endian"]))
+        RegionInfo(r["name"], r["size"], tuple(r["widths"]), r.get("endian", c["endian"]),
+                   bool(r.get("aligned", True)), bool(r.get("block", True)),
+                   tuple((int(start), int(end)) for start, end in r.get("passive", ())))
         for r in c["regions"]
     )
     return CardInfo(c["name"], c["type"], c["endian"], c["period_ns"], regions,
                     tuple(c["irq"]), c.get("controls", {}))
+
+
+def _map_segment(info: Any) -> mmap.mmap | None:
+    """The daemon's shared memory as `hello` describes it, mapped; None (logged) when this
+    process may not open it (another user's: it is 0o600) or the file found is not that one."""
+    if not isinstance(info, dict):
+        return None
+    try:
+        path, size, ident = str(info["path"]), int(info["size"]), (info["dev"], info["ino"])
+        fd = os.open(path, os.O_RDWR | os.O_CLOEXEC | os.O_NOFOLLOW)
+    except (OSError, KeyError, TypeError, ValueError) as exc:
+        log.info("shared memory not used, every access is a request: %s", exc)
+        return None
+    try:
+        st = os.fstat(fd)
+        if (st.st_dev, st.st_ino) != ident or st.st_size < size or size <= 0:
+            log.info("shared memory not used: %s is not the daemon's segment", path)
+            return None
+        mapped = mmap.mmap(fd, size)
+        if mapped[0] != _LIVE:
+            mapped.close()
+            return None
+        return mapped
+    except (OSError, ValueError) as exc:
+        log.info("shared memory not used, every access is a request: %s", exc)
+        return None
+    finally:
+        os.close(fd)

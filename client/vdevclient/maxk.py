@@ -17,6 +17,11 @@ reply cost one round trip when the card answers as the command arrives (it parse
 the insert index), two when the reply comes later. The reply is released (0x0FC := 0x0F8, OMISR
 bit 0 cleared, semaphore 0) at the start of the next call's batch, which keeps the release off
 the round trip (`defer_release=False` releases at once, in a second round trip).
+
+On the daemon's machine the words the card publishes every cycle are read, and the command ring
+is written, through the daemon's shared memory (`vdevclient.Region`, decision 0010): the status
+poll (`read_limits`, `read_home`, `read_gpio`, `read_fw_status`, `get_positions()`) costs no
+round trip at all.
 """
 
 from __future__ import annotations
@@ -189,6 +194,8 @@ class Maxk:
         self._owns_rack = owns_rack
         self._shm: dict[str, Any] = {"card": card, "region": SHM}
         self._mu: dict[str, Any] = {"card": card, "region": MU}
+        #: the shared memory as a Region: its passive words go through the mapping when mapped
+        self._memory = rack.card(card).region(SHM)
         #: reads and writes go as compact accesses when the daemon takes them (PROTOCOL.md)
         self._compact = bool(getattr(rack, "compact", False))
         self._indices = self._read(INDICES, INDICES_SIZE)
@@ -308,8 +315,15 @@ class Maxk:
         if (put - self._proc) % RING_SIZE + size > MAX_MESSAGE:
             ops.append(self._wait(Shm.COMMAND_PROCESS, 0xFFFF_FFFF, put, timeout_ns))
             waits = 1
+        memory = self._memory
         for offset, start, length in ring_pieces(put, size):
-            ops.append(self._write(_COMMAND_RING + offset, data[start:start + length]))
+            at, piece = _COMMAND_RING + offset, data[start:start + length]
+            # past the card's insert index: the bytes go through shared memory at once, unless
+            # they must wait for room in the ring; the index write that hands them over is an op
+            if not waits and memory.is_mapped(at, length):
+                memory.write(at, piece)
+            else:
+                ops.append(self._write(at, piece))
         self._put = put = (put + size) % RING_SIZE
         ops.append(self._word(Shm.COMMAND_INSERT, put))
         return waits
@@ -491,6 +505,12 @@ class Maxk:
         """Motor and encoder positions of the card's axes: the words the card updates every cycle,
         or (`coherent`) the snapshot of one cycle that the position request mailbox asks for."""
         n = self.axes
+        memory = self._memory
+        if not coherent and memory.is_mapped(Shm.MOTOR_POSITION, _POSITIONS.size) \
+                and memory.is_mapped(Shm.WK_MOTOR_POSITION, _WK_POSITIONS.size):
+            # the pending ops (the reply channel's) wait for the next batch, as in _read_word
+            return _positions(memory.read(Shm.MOTOR_POSITION, _POSITIONS.size),
+                              memory.read(Shm.WK_MOTOR_POSITION, _WK_POSITIONS.size), n)
         ops = self._begin()
         first = len(ops)
         timeout_ns = 0
@@ -507,13 +527,7 @@ class Maxk:
         res = self._batch(ops, timeout_ns)
         if coherent and not res[first + 1]["fired"]:
             raise MaxkTimeout(f"{self.card}: the position request was not served")
-        words = _POSITIONS.unpack(res[first + 2 if coherent else first])
-        motor, encoder = words[:8], words[8:]
-        if n > 8:
-            w_motor, k_motor, w_encoder, k_encoder = _WK_POSITIONS.unpack(res[-1])
-            motor += (w_motor, k_motor)
-            encoder += (w_encoder, k_encoder)
-        return Positions(motor[:n], encoder[:n])
+        return _positions(res[first + 2 if coherent else first], res[-1] if n > 8 else b"", n)
 
     def get_rt_capture(self) -> list[CaptureEntry]:
         """Drain the real-time capture ring (spec §2.8): clear OMISR OM1I, read the entries from
@@ -526,6 +540,11 @@ class Maxk:
         return entries
 
     def _read_word(self, offset: int) -> int:
+        """A word the card publishes: through shared memory when mapped (what the last call
+        left to do waits for the next batch: it concerns the reply channel, not these words),
+        else one batch."""
+        if self._memory.is_mapped(offset, 4):
+            return self._memory.read32(offset)
         ops = self._begin()
         ops.append(self._read(offset, 4))
         return be32(self._batch(ops)[-1])
@@ -567,6 +586,17 @@ class Maxk:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _positions(xs: bytes, wk: bytes, n: int) -> Positions:
+    """The first `n` axes' positions from the X..S words and (more than 8 axes) the W, K ones."""
+    words = _POSITIONS.unpack(xs)
+    motor, encoder = words[:8], words[8:]
+    if n > 8:
+        w_motor, k_motor, w_encoder, k_encoder = _WK_POSITIONS.unpack(wk)
+        motor += (w_motor, k_motor)
+        encoder += (w_encoder, k_encoder)
+    return Positions(motor[:n], encoder[:n])
 
 
 def _letters(mask: int) -> str:

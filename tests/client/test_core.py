@@ -60,7 +60,10 @@ def test_card_info_reads_as_a_mapping_beside_attributes(rack: vdevclient.Rack) -
     assert info["regions"] is info.regions
     region = info["regions"][0]
     assert (region["name"], region["size"], region["widths"]) == ("bar0", 0x1000, (1, 2, 4))
-    assert dict(region) == {"name": "bar0", "size": 0x1000, "widths": (1, 2, 4), "endian": "little"}
+    assert dict(region) == {"name": "bar0", "size": 0x1000, "widths": (1, 2, 4), "endian": "little",
+                            "aligned": True, "block": True,
+                            "passive": ((0x2C, 0x30), *((0x104 + 0x40 * a, 0x118 + 0x40 * a)
+                                                        for a in range(4)))}
     assert list(info.keys()) == ["name", "type", "endian", "period_ns", "regions", "irq", "controls"]
     assert "set_limit" in info["controls"]
     assert info.get("period_ns") == 1_000_000 and info.get("bus") is None and "bus" not in info

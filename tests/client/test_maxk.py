@@ -385,15 +385,30 @@ def test_a_command_and_its_reply_cost_one_round_trip(m: maxk.Maxk,
             trips.reset()
             m.send_and_get_string(text)
             assert trips.count == 1, text
-        for call in (m.read_fw_status, m.get_status_flags, m.kill_all, m.get_positions,
-                     lambda: m.get_positions(coherent=True)):
+        for call in (m.get_status_flags, m.kill_all, lambda: m.get_positions(coherent=True)):
             trips.reset()
             call()
             assert trips.count == 1
+        for call in (m.read_fw_status, m.read_limits, m.get_positions):  # shared memory
+            trips.reset()
+            call()
+            assert trips.count == 0
         trips.reset()
         with pytest.raises(maxk.CommandError):
             m.send_and_get_string("XYZZY")
         assert trips.count == 1
+
+
+def test_without_shared_memory_the_status_poll_is_one_round_trip(
+        daemon: DaemonThread, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("VDEVD_SHM", "0")
+    with maxk.open(1, endpoint=daemon.endpoint) as board, round_trips(monkeypatch) as trips:
+        board.send_string("AX MR7 GO ID")
+        for call in (board.read_fw_status, board.read_limits, board.get_positions):
+            trips.reset()
+            call()
+            assert trips.count == 1
+        assert not board.rack.card(board.card).region("shm").mapped
 
 
 def test_releasing_at_once_costs_a_second_round_trip(daemon: DaemonThread,

@@ -21,7 +21,7 @@ from vdevd.errors import ErrorCode, VdevError
 from vdevd.irq import IrqEvent, IrqLine
 from vdevd.nvram import NvramStore
 from vdevd.pci import ConfigSpace, PciIdentity
-from vdevd.region import Region
+from vdevd.region import Backing, Region
 from vdevd.rt.world import AxisWorld
 
 __all__ = ["Card", "CardContext", "CardOptions", "Option", "control"]
@@ -36,10 +36,13 @@ QUIET_MIN = 16
 
 @dataclass
 class CardContext:
-    """What the rack gives a card: where to emit interrupts and its non-volatile store."""
+    """What the rack gives a card: where to emit interrupts, its non-volatile store, and the
+    memory its regions with passive ranges take (`Region(..., memory=ctx.memory)`; None:
+    private memory, as in-process racks and tests have)."""
 
     emit: EventSink
     nvram: NvramStore | None = None
+    memory: Backing | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 

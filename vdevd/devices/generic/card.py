@@ -43,9 +43,14 @@ class GenericServoCard(Card):
         self.n = self.opts.axes
         self.core = MotionCore(self.n, float(self.period), _PLANTS[self.opts.plant])
         self.make_world(self.n)
+        # passive (decision 0010): the outputs and the axes' parameters, the registers with no
+        # hook (the card reads the parameters when a command is written)
+        params = [(R.AXIS_BASE + R.AXIS_STRIDE * axis + AxisReg.TARGET,
+                   R.AXIS_BASE + R.AXIS_STRIDE * axis + AxisReg.STATUS) for axis in range(self.n)]
         self.bar = self.add_region(
             Region("bar0", R.BAR_SIZE, widths=(1, 2, 4), endian="little",
-                   description="registers (README.md)")
+                   description="registers (README.md)",
+                   passive=[(R.OUTPUTS, R.OUTPUTS + 4), *params], memory=ctx.memory)
         )
         self.inta = self.add_irq("inta")
         self.pci = self.add_config_space(PCI_IDENTITY, self.inta)

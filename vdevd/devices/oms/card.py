@@ -57,7 +57,7 @@ from vdevd.devices.oms.mu import MessageUnit
 from vdevd.devices.oms.params import AXIS_TYPES, PROFILES, SERVO_OUTPUTS
 from vdevd.devices.rest import state_bytes
 from vdevd.pci import Bar, PciIdentity
-from vdevd.region import Region
+from vdevd.region import Region, passive_except
 from vdevd.rt import wrap_int32
 from vdevd.rt.axes import AxisFlag
 
@@ -177,17 +177,21 @@ class MaxkCard(Card):
         self.travel_limits = _travel_limits(opts.travel_limits, self.n)
         self._make_world()
 
+        hooks = ((Shm.DIRECT_COMMAND, self._direct_command),
+                 (Shm.POSITION_REQUEST, self._position_request),
+                 (Shm.MESSAGE_SEMAPHORE, self._semaphore_written),
+                 (Shm.W_STATUS_FLAGS, self._wk_clear), (Shm.K_STATUS_FLAGS, self._wk_clear),
+                 (Shm.COMMAND_INSERT, self._commands_written),
+                 (Shm.RESPONSE_PROCESS, self._response_released))
+        # passive (decision 0010): all but the mailbox and index words, which have hooks
         self.shm = self.add_region(Region(
             SHM, SHM_SIZE, widths=(1, 2, 4), endian="big",
-            description="BAR2 shared memory: positions, status, rings, capture (Table 3-1)"))
+            description="BAR2 shared memory: positions, status, rings, capture (Table 3-1)",
+            passive=passive_except(SHM_SIZE, [(offset, 4) for offset, _ in hooks]),
+            memory=ctx.memory))
         self.mem = self.shm.buf
         self.words = np.frombuffer(self.mem, dtype=">i4")
-        for offset, fn in ((Shm.DIRECT_COMMAND, self._direct_command),
-                           (Shm.POSITION_REQUEST, self._position_request),
-                           (Shm.MESSAGE_SEMAPHORE, self._semaphore_written),
-                           (Shm.W_STATUS_FLAGS, self._wk_clear), (Shm.K_STATUS_FLAGS, self._wk_clear),
-                           (Shm.COMMAND_INSERT, self._commands_written),
-                           (Shm.RESPONSE_PROCESS, self._response_released)):
+        for offset, fn in hooks:
             self.shm.hook(offset, 4, on_write=fn)
         self.mu_region = self.add_region(Region(
             MU, MU_SIZE, widths=(4,), endian="little",

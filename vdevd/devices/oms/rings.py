@@ -14,6 +14,8 @@ import struct
 
 from vdevmaps.oms import CAPTURE_ENTRY_SIZE, CAPTURE_SLOTS, RING_SIZE, Shm
 
+from vdevd.region import Memory
+
 _U32 = struct.Struct(">I")
 _ENTRY = struct.Struct(">iBBHH")
 # the offsets as plain ints (an IntEnum costs a conversion on every access)
@@ -23,20 +25,20 @@ _RSP_INSERT, _RSP_PROCESS = int(Shm.RESPONSE_INSERT), int(Shm.RESPONSE_PROCESS)
 _CMD_RING, _RSP_RING = int(Shm.COMMAND_RING), int(Shm.RESPONSE_RING)
 
 
-def u32(buf: bytearray, offset: int) -> int:
+def u32(buf: Memory, offset: int) -> int:
     return _U32.unpack_from(buf, offset)[0]
 
 
-def put_u32(buf: bytearray, offset: int, value: int) -> None:
+def put_u32(buf: Memory, offset: int, value: int) -> None:
     _U32.pack_into(buf, offset, value & 0xFFFFFFFF)
 
 
-def commands_waiting(buf: bytearray) -> bool:
+def commands_waiting(buf: Memory) -> bool:
     """Whether the host has put bytes in the command ring that `take_commands` has not taken."""
     return u32(buf, _CMD_INSERT) % RING_SIZE != u32(buf, _CMD_PROCESS) % RING_SIZE
 
 
-def take_commands(buf: bytearray) -> bytes:
+def take_commands(buf: Memory) -> bytes:
     """The bytes the host has put in the command ring since the last call; advances 0x0F4.
 
     An index outside 0..1023 is taken modulo the ring size (the firmware masks it)."""
@@ -53,13 +55,13 @@ def take_commands(buf: bytearray) -> bytes:
     return data
 
 
-def response_free(buf: bytearray) -> bool:
+def response_free(buf: Memory) -> bool:
     """The host has released the last reply: semaphore 0 and its process index caught up."""
     return u32(buf, _SEMAPHORE) == 0 and u32(buf, _RSP_PROCESS) % RING_SIZE == u32(
         buf, _RSP_INSERT) % RING_SIZE
 
 
-def post_response(buf: bytearray, text: bytes) -> None:
+def post_response(buf: Memory, text: bytes) -> None:
     """Write one reply (the caller adds the LF) from 0x0F8, advance it, set the semaphore."""
     if len(text) >= RING_SIZE:
         text = text[: RING_SIZE - 2] + b"\n"
@@ -75,7 +77,7 @@ def post_response(buf: bytearray, text: bytes) -> None:
     put_u32(buf, _SEMAPHORE, 1)
 
 
-def push_capture(buf: bytearray, position: int, axis: int, home_bits: int, rising: int,
+def push_capture(buf: Memory, position: int, axis: int, home_bits: int, rising: int,
                  falling: int) -> None:
     """Store one capture entry at the insert index; when the ring is full the removal index is
     pushed on (the oldest entry is lost) [S §3.7]."""

@@ -50,7 +50,7 @@ from vdevd.devices.pmac.status import MotorStatus2
 from vdevd.devices.rest import state_bytes
 from vdevd.errors import StartError
 from vdevd.pci import Bar, PciIdentity
-from vdevd.region import Region
+from vdevd.region import Region, passive_except
 from vdevd.security import is_local
 
 log = logging.getLogger("vdevd.pmac")
@@ -199,9 +199,12 @@ class PmacCard(Card):
                              "(the PMAC protocol has no authentication)")
         self.ethernet_endpoint = ""
         self._server: EthernetServer | None = None
+        # passive (decision 0010): all but the two handshake control words, which have hooks
         self.dpram = self.add_region(Region(
             DPRAM, DPRAM_SIZE, widths=(1, 2, 4), endian="little",
-            description="DPRAM: ASCII command/response buffers, reporting buffers (UM p.402)"))
+            description="DPRAM: ASCII command/response buffers, reporting buffers (UM p.402)",
+            passive=passive_except(DPRAM_SIZE, [(CMD_CONTROL, 2), (RESP_CONTROL, 2)]),
+            memory=ctx.memory))
         self.host = self.add_region(Region(
             HOST, HOST_SIZE, widths=(1,), endian="little",
             description="host port (HI08 bytes 0-7) and interrupt controller (8 status, 9 mask)"))

@@ -65,6 +65,8 @@ from vdevmaps.pmac import (
     RT_VEL,
 )
 
+from vdevd.region import Memory
+
 _SLOT_HEAD = struct.Struct("<HH")  # a posted line: control word, characters + 1
 
 
@@ -95,7 +97,7 @@ class AsciiChannel:
     `command_control` and `response_control` are the write hooks of the two control words.
     """
 
-    def __init__(self, mem: bytearray, execute: Callable[[str], tuple[list[str], int | None]],
+    def __init__(self, mem: Memory, execute: Callable[[str], tuple[list[str], int | None]],
                  control: Callable[[int], str], post: Callable[[], None]) -> None:
         self.mem = mem
         self._execute = execute
@@ -132,7 +134,7 @@ class AsciiChannel:
                 pending.extend(slot(line, CR) for line in text.split("\r"))
             pending.append(_ACK_SLOT)
         else:
-            end = mem.find(0, CMD_BUFFER, CMD_BUFFER + CMD_MAX)
+            end = mem.find(b"\0", CMD_BUFFER, CMD_BUFFER + CMD_MAX)
             line = mem[CMD_BUFFER:end if end >= 0 else CMD_BUFFER + CMD_MAX].decode("latin-1")
             lines, error = self._execute(line)
             for text in lines:
@@ -166,7 +168,7 @@ class Reporting:
     [dprrtdbt.h, dprbkg.h; README "Reporting buffers"]. Values are 24-bit words sign-extended to
     32 bits, 48-bit ones as two such halves, low first [UM p.402]."""
 
-    def __init__(self, mem: bytearray) -> None:
+    def __init__(self, mem: Memory) -> None:
         self.mem = mem
         words = (BG_CS + CS_COUNT * BG_CS_SIZE - RT_MOTORS) // 4
         #: every 32-bit word from the first motor record to the last C.S. record
