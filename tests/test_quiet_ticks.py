@@ -84,6 +84,7 @@ def run(scenario: Callable[[DaemonThread, vdevclient.Rack, Recorder], None], ski
     """(digest, replies recorded, quiet ticks skipped by card) of `scenario` on a fresh
     daemon."""
     rec = Recorder()
+    monkeypatch.setenv("VDEVD_SHM", "0")  # every read a request, so that the spy sees it
     with DaemonThread(rack_config(skip)) as d, \
             vdevclient.connect(d.endpoint, d.events, timeout=20) as rack:
         subs = {c.name: rack.card(c.name).irq.subscribe() for c in rack.cards()}

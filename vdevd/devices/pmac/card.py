@@ -291,7 +291,9 @@ class PmacCard(Card):
     # -- rest (decision 0008) -------------------------------------------------------------------------
     #: what changes at every cycle and `skip` advances in closed form, left out of rest_state
     _COUNTERS = ("now_ns", "ticks", "_last_tick_ns", "quiet_skipped", "pause", "servo_cycles",
-                 "_vcount", "_vslot", "inpos_scans")
+                 "_vcount", "_vslot", "inpos_scans",
+                 # and the P and Q variables (1.1 MB): only commands write them between batches
+                 "p", "q")
 
     def rest_state(self) -> bytes | None:
         """The firmware's state, the card's inputs and both windows, as bytes (the ASCII and
