@@ -1,6 +1,6 @@
 """`make bench`: the figures of the issues' "Done when", each against a baseline of the same run.
 
-    python bench/run.py [--quick] [--only rtt,lockstep,realtime,galil,maxk,pmac,shm]
+    python bench/run.py [--quick] [--only rtt,lockstep,realtime,galil,maxk,pmac,shm,rack]
                         [--pin split|same|none] [--json [FILE]]
 
 1. rtt       4-byte register read through vdevclient vs a raw pyzmq REQ/REP round trip
@@ -16,6 +16,9 @@
              port vs a raw TCP round trip (both p50 <= 2.5x), bench/pmac.py
 7. shm       Region.read32 of a passive MAXk word through the daemon's shared memory (p50 <= 2 us,
              >= 50x faster than the read by request), bench/shm.py
+8. rack      lockstep speed of sets of the default rack's four cards: one set idle >= 200x and
+             all axes moving >= 30x, four sets (16 cards) moving >= 8x; the growth with cards and
+             axes as a table and a PNG plot in bench/results/, bench/rack.py
 
 The defaults are the issue's (realtime runs 60 s; the whole takes ~2 min); `--quick` shortens
 everything for a smoke run (~20 s). Placement (default split: servers on cpu0, client on cpu1)
@@ -37,10 +40,10 @@ from typing import Any
 if __package__ in (None, ""):  # run as a script: python bench/run.py
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench import galil, lockstep, maxk, pmac, realtime, rtt, shm  # noqa: E402
+from bench import galil, lockstep, maxk, pmac, rack, realtime, rtt, shm  # noqa: E402
 from bench.common import install_signal_handlers, machine_facts, table, verdict, write_json  # noqa: E402
 
-FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac", "shm")
+FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac", "shm", "rack")
 
 
 def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]], dict[str, Any],
@@ -62,6 +65,8 @@ def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]]
                             "warmup": 300 if q else 1000, "pin": a.pin}, pmac.report),
         "shm": (shm.run, {"n": 1000 if q else 5000, "repeats": 2 if q else 3,
                           "warmup": 500 if q else 2000, "pin": a.pin}, shm.report),
+        "rack": (rack.run, {"seconds": 0.5 if q else 2.0, "repeats": 2 if q else 3,
+                            "sets": (1, 4) if q else (1, 2, 4), "pin": a.pin}, rack.report),
     }
 
 
@@ -123,6 +128,19 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
                          "request", f"{r['shm_p50_us']:.2f} us",
                          f"request {req['p50']:.0f} us -> {r['speedup_p50']:.0f}x, raw "
                          f"{raw['p50']:.0f} us", verdict(r["pass"])])
+        elif name == "rack":
+            one = next(x for x in r["rows"] if x["sets"] == 1)
+            base = f"core tick {r['core_tick_us']:.2f} us"
+            rows.append(["rack idle (4 cards)", f">= {rack.GOAL_IDLE:.0f}x real time",
+                         f"{one['idle']:.0f}x", base, verdict(r["checks"]["idle"])])
+            rows.append(["rack moving (4 cards)", f">= {rack.GOAL_MOVING:.0f}x real time",
+                         f"{one['moving']:.1f}x", f"{one['moving_core_ticks']:.0f} core ticks "
+                         "per sim s", verdict(r["checks"]["moving"])])
+            four = next((x for x in r["rows"] if x["sets"] == 4), None)
+            rows.append(["rack moving (16 cards)", f">= {rack.GOAL_MOVING_16:.0f}x real time",
+                         f"{four['moving']:.1f}x" if four else "-",
+                         f"{four['moving_core_ticks']:.0f} core ticks per sim s" if four else "-",
+                         verdict(r["checks"]["moving_16"])])
     return rows
 
 
@@ -130,7 +148,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="short runs, for a smoke test")
     ap.add_argument("--only", default=",".join(FIGURES),
-                    help="comma list of rtt, lockstep, realtime, galil, maxk, pmac, shm")
+                    help="comma list of rtt, lockstep, realtime, galil, maxk, pmac, shm, rack")
     ap.add_argument("--pin", choices=("split", "same", "none"), default="split")
     ap.add_argument("--realtime-seconds", type=float, help="override the realtime run's length")
     ap.add_argument("--wake-us", type=int, default=1000, help="realtime: [clock] wake_us")
