@@ -26,7 +26,6 @@ import ctypes
 import statistics
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
