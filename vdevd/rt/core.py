@@ -128,7 +128,7 @@ class MotionCore:
             events |= self._finish(finished)
         if self._any_ideal:
             if self._all_ideal:
-                np.copyto(ax.pv, ax.cmd_pv)
+                ax.pv[...] = ax.cmd_pv
             else:
                 np.copyto(ax.pv, ax.cmd_pv, where=self._ideal_on2)
         if self._any_step:
@@ -141,7 +141,7 @@ class MotionCore:
         fb = ax.fb
         if self._plain_encoder:
             np.floor(ax.pos, fb)
-            ax.encoder[:] = fb
+            ax.encoder[...] = fb
         else:
             self._encode()
         np.subtract(ax.cmd_pos, fb, ax.ferr)
@@ -161,7 +161,7 @@ class MotionCore:
             self.stepper.step(ax.cmd_pos, ax.pos, ax.vel)
             return
         pv2 = self._pv2
-        np.copyto(pv2, ax.pv)
+        pv2[...] = ax.pv
         self.stepper.step(ax.cmd_pos, pv2[0], pv2[1])
         np.copyto(ax.pv, pv2, where=self._step_on2)
 

@@ -83,7 +83,7 @@ class StepperPlant:
         np.rint(gen, out=tgt)
         np.subtract(tgt, pos, out=vel)
         vel *= self._inv_dt
-        np.copyto(pos, tgt)
+        pos[...] = tgt
 
 
 class ServoPlant:

@@ -92,7 +92,7 @@ class SmoothedStepper(StepperPlant):
         np.rint(gen, out=tgt)
         np.subtract(tgt, pos, out=vel)
         vel *= self._inv_dt
-        np.copyto(pos, tgt)
+        pos[...] = tgt
 
 
 class GalilMotion:
@@ -147,6 +147,7 @@ class GalilMotion:
         self._new = np.zeros(n, dtype=bool)
         self._er = np.zeros(n)
         self._tv_gain = self._tv_alpha / self.dt
+        self._tv_keep = 1.0 - self._tv_alpha
         self.apply_filter()
         self.apply_limits()
         self.core.servo_on(slice(None))
@@ -384,21 +385,21 @@ class GalilMotion:
             self.sense()
         if self._pl:
             self._low_pass(core.axes.out)
-        enc, tmp = core.axes.fb, self._tmp
-        np.subtract(enc, self._enc_prev, out=tmp)  # TV: a first-order average of the velocity
-        tmp *= self._tv_gain
-        self.tv *= 1.0 - self._tv_alpha
-        self.tv += tmp
+        enc, tmp, tv = core.axes.fb, self._tmp, self.tv
+        np.subtract(enc, self._enc_prev, tmp)  # TV: a first-order average of the velocity
+        np.multiply(tmp, self._tv_gain, tmp)
+        np.multiply(tv, self._tv_keep, tv)
+        np.add(tv, tmp, tv)
         if not core.profile.ticks & 63:
             np.copyto(self.tv, 0.0, where=np.abs(self.tv) < TV_FLUSH)
         if self._searching:
             self._search_step(enc)
-        np.copyto(self._enc_prev, enc)
+        self._enc_prev[...] = enc
         moving, done = core.profile.moving, self._done
-        np.greater(self._moving_prev, moving, out=done)
+        np.greater(self._moving_prev, moving, done)
         if not np.count_nonzero(done):
             return None
-        np.copyto(self._moving_prev, moving)
+        self._moving_prev[...] = moving
         self._finish(np.flatnonzero(done))
         return done
 
@@ -484,10 +485,10 @@ class GalilMotion:
         """|TE| > ER (ER -1 disables): the ERROR output; with OE1 the motor turns off (SC 8).
         Returns the mask of axes that newly exceeded the limit, None if none [M Ch2 Step 7a]."""
         over, new = self._over, self._new
-        np.abs(self.core.axes.ferr, out=self._tmp)
-        np.greater(self._tmp, self._er, out=over)
-        np.greater(over, self.error_over, out=new)
-        np.copyto(self.error_over, over)
+        np.abs(self.core.axes.ferr, self._tmp)
+        np.greater(self._tmp, self._er, over)
+        np.greater(over, self.error_over, new)
+        self.error_over[...] = over
         if not np.count_nonzero(new):
             return None
         trip = new & (self.values["OE"] > 0)

@@ -54,7 +54,7 @@ class MotorReports:
 
     def velocity(self) -> np.ndarray:
         """Filtered actual velocity, counts per servo cycle, over 16*(I60+1) cycles [SRM I60]."""
-        return self.motors.filtered_velocity.copy()
+        return self.motors.filtered_velocity
 
     def commanded(self) -> np.ndarray:
         """Commanded motor position, counts (the actual position while the loop is open)."""
