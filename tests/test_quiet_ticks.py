@@ -23,6 +23,7 @@ import pytest
 import vdevclient
 from vdevclient import core as client_core
 from vdevclient import galil, maxk, pcomm
+from vdevmaps.pmac import HostIrq
 
 from vdevd.config import Config, default_config
 from vdevd.testing import DaemonThread
@@ -32,7 +33,7 @@ S = 1_000_000_000
 #: the generic card's axis registers (README of the generic card)
 AXIS_BASE, AXIS_STRIDE = 0x100, 0x40
 COMMAND, TARGET, VMAX, ACC, DEC, POSITION = 0x00, 0x04, 0x08, 0x0C, 0x10, 0x1C
-IRQ_ENABLE = 0x14
+IRQ_ENABLE = 0x24
 MOVE_ABS, JOG, STOP = 1, 3, 4
 
 
@@ -233,6 +234,21 @@ def pmac_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None
         rack.sim.step(ns=4 * S + 99)
         rec.add([pcomm.PmacDPRPosition(0, 3, 1.0), pcomm.PmacDPRGetGlobalStatus(0)])
         ask("#1P#2P#3P")
+        # at rest: the clock register (1/1024 s at Y:$000017) and the servo cycle counter
+        ask("M100->Y:$17,0,24")
+        ask("M101->X:$0,0,24")
+        for ns in (S // 2 + 3, 1234 * MS):
+            rack.sim.step(ns=ns)
+            ask("M100 M101")
+        # the in-position interrupt after Ixx88 + 1 scans in position: its edge at its cycle
+        pmac = rack.card("pmac0")
+        pmac.region("host").write8(9, int(HostIrq.IN_POSITION))  # IR mask
+        ask("I188=200")
+        rack.sim.step(seconds=1.0)
+        rec.add(rack.stats()["cards"]["pmac0"]["irq_seq"])
+        ask("I188=0")
+        ask("#1J=1500")
+        rec.add(pmac.irq.wait(5.0))
     finally:
         pcomm.ClosePmacDevice(0)
 

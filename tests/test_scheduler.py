@@ -131,6 +131,20 @@ def test_a_card_that_raises_does_not_stop_the_rack() -> None:
     assert run(rack, "read", card="good", region="mem", offset=0, size=4) == good.mem.read(0, 4)
 
 
+def test_a_watched_card_that_raises_leaves_the_other_cards_where_ticking_would() -> None:
+    """A fault in a fine advance: the cards not watched run to the faulting tick's time, as if
+    every card had ticked in time order, so time goes on from there and no card is behind."""
+    bad, other = Faulty("bad", 1000), Counter("other", 300)
+    sched = Scheduler([other, bad])
+    try:
+        sched.advance(10_000, stop=lambda: False, watched={bad})
+    except RuntimeError:
+        pass
+    else:
+        raise AssertionError("the fault did not reach the caller")
+    assert bad.ticks == 3 and other.seen[-1] == 3000  # other comes first in rack order
+
+
 class BrokenPeek(Counter):
     """A card whose status register's side-effect-free read breaks from tick 3 on."""
 

@@ -93,8 +93,9 @@ class Pid:
         for row, value in zip(self._gains, rows, strict=True):
             np.multiply(value, on, out=row)
         self._g, self._t = self._gains.T, self.terms.T
-        #: the axes that integrate (ki != 0), as bools and as 0/1 factors
-        self.ki_on = p["ki"] != 0
+        #: the axes that integrate (ki != 0 and enabled: an axis that is off is reset when it
+        #: comes on), as bools and as 0/1 factors
+        self.ki_on = (p["ki"] != 0) & on
         self._integrating = self.ki_on.astype(float)
         self._integrate_all = bool(self._integrating.all())
         self._integrate_some = bool(self._integrating.any())
@@ -110,8 +111,9 @@ class Pid:
 
     def update(self, out: np.ndarray) -> None:
         """One sample from the error in `e` (and the feed-forward rows): write the controller
-        output into `out`, then remember `e` as the previous error. Only axes with an integral
-        gain integrate (the cards sum ki x error: without ki the sum stays where it is)."""
+        output into `out`, then remember `e` as the previous error. Only enabled axes with an
+        integral gain integrate (the cards sum ki x error: without ki the sum stays where it
+        is)."""
         e, integ = self.e, self.integ
         if self._integrate_all:
             np.add(integ, e, integ)

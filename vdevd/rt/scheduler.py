@@ -92,7 +92,11 @@ class Scheduler:
         while heap and heap[0][0] <= target_ns:
             t, i = heapq.heappop(heap)
             card = self.cards[i]
-            card.tick(1)
+            try:
+                card.tick(1)
+            except Exception:  # the others to where ticking in time order leaves them
+                self._run_others(fine, t, i)
+                raise
             heapq.heappush(heap, (card.time_of_tick(card.ticks + 1), i))
             if stop():
                 self._run_others(fine, t, i)

@@ -440,6 +440,8 @@ class MaxkCard(Card):
     def skip(self, k: int) -> None:
         self.fw.motion.core.skip(k)
         super().skip(k)
+        if self.running:
+            self.fw.now_ns = self.now_ns  # what the last of the k cycles would have set
 
     def publish(self) -> None:
         """Positions, status words and DACs as the host reads them every cycle [S Table 3-1]."""

@@ -298,13 +298,13 @@ class PmacCard(Card):
     def rest_state(self) -> bytes | None:
         """The firmware's state, the card's inputs and both windows, as bytes (the ASCII and
         host-port channels answer at the access, not at the tick); None while the card has
-        work: a home search, a running table of conversion entries
+        work: a home search, an in-position scan count still short of its Ixx88, a running table of conversion entries
         with memory or the A/D ring, a velocity buffer still filling (I60's 16 slots hold
         different readings), armed compare."""
         fw = self.fw
         m = fw.motors
         if (m.homing.any_searching or fw.ect._stateful or fw.servo_ic._any_armed
-                or not (m._vbuf == m.core.axes.fb).all()):
+                or not (m._vbuf == m.core.axes.fb).all() or m.counting_to_inpos()):
             return None
         core = m.core.rest_state()
         if core is None:
@@ -326,9 +326,10 @@ class PmacCard(Card):
 
     def skip(self, k: int) -> None:
         """k cycles at rest: the servo cycle count, the profile clock, I60's slot and the
-        in-position scan counts move."""
+        in-position scan counts move; the firmware's clock (X/Y:$000017) reads the card's."""
         self.fw.skip(k)
         super().skip(k)
+        self.fw.now_ns = self.now_ns
 
     def _report_realtime(self, cycle: int) -> None:
         """The motors selected at L:$06001C, copied from their registers (README "Reporting

@@ -498,6 +498,15 @@ class Motors:
         if self.count_inpos:
             self.inpos_scans[self.inpos_scans > 0] += k
 
+    def counting_to_inpos(self) -> bool:
+        """Whether a motor's in-position scan count is under way to Ixx88 (in position but not
+        yet for Ixx88 + 1 scans): its in-position bit, and the interrupt on its edge, are still
+        to come at a cycle of their own."""
+        if not self.count_inpos:
+            return False
+        scans = self.inpos_scans
+        return bool(np.count_nonzero((scans > 0) & (scans <= self._iv(88))))
+
     @property
     def filtered_velocity(self) -> np.ndarray:
         """The actual velocity over the last 16 samples of I60's buffer, counts per servo cycle
