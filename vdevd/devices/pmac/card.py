@@ -298,9 +298,9 @@ class PmacCard(Card):
     def rest_state(self) -> bytes | None:
         """The firmware's state, the card's inputs and both windows, as bytes (the ASCII and
         host-port channels answer at the access, not at the tick); None while the card has
-        work: a home search, an in-position scan count still short of its Ixx88, a running table of conversion entries
-        with memory or the A/D ring, a velocity buffer still filling (I60's 16 slots hold
-        different readings), armed compare."""
+        work: a home search, an in-position scan count still short of its Ixx88, conversion
+        entries with memory or the A/D ring running, a velocity buffer still filling (I60's
+        slots hold different readings), armed compare."""
         fw = self.fw
         m = fw.motors
         if (m.homing.any_searching or fw.ect._stateful or fw.servo_ic._any_armed
