@@ -81,6 +81,8 @@ class Pacer:
         # stats
         self.late = Samples()
         self.behind = Samples()
+        #: how far simulated time is behind wall time as each request is answered
+        self.answered_behind = Samples()
         self.passes = 0
         self.catch_ups = 0
         self.continuations = 0
@@ -221,11 +223,14 @@ class Pacer:
         """Realtime: run the ticks that fell due since the last pass, so that a request sees the
         hardware as it is at this wall time (within one servo period), not as at the last wake;
         at most SLICE_BUDGET_NS of it, and none while catching up is already under way."""
-        if self.paced and not self._continuing:
+        if not self.paced:
+            return
+        behind = self._clock() - self.t0 - self.sched.now_ns
+        if not self._continuing and (behind >= CATCH_UP_NS or behind >= self.sched.tick_ns):
+            self.catch_ups += 1
+            self._work()
             behind = self._clock() - self.t0 - self.sched.now_ns
-            if behind >= CATCH_UP_NS or behind >= self.sched.tick_ns:
-                self.catch_ups += 1
-                self._work()
+        self.answered_behind.add(behind)
 
     def overload_stats(self) -> dict[str, int | bool]:
         """The `stats` `overload` map (PROTOCOL.md)."""

@@ -462,6 +462,7 @@ class Rack:
                 "overruns": self.overruns,
                 "late_ns": self.late.summary(),
                 "behind_ns": self.behind.summary(),
+                "answered_behind_ns": self.pacer.answered_behind.summary(),
                 "card_faults": self.card_faults,
                 "lost_ticks": sum(lost.values()),
             },
