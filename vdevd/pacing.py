@@ -7,8 +7,8 @@ answers the waits; each request first catches up. No piece of that work holds th
 than SLICE_BUDGET_NS: time advances in slices, and what is left goes on at the loop's next turn,
 after the sockets and signals. A rack that cannot keep up is overloaded once simulated time is
 more than OVERLOAD_BEHIND_NS behind; simulated time then slips (decision 0009). In lockstep time
-moves only while a wait or a `sim step` is pending, in chunks of LOCKSTEP_CHUNK_TICKS base ticks
-between looks at the sockets. A card that raises in a tick is logged and counted; time goes on.
+moves only while a wait or a `sim step` is pending, in chunks of at most LOCKSTEP_CHUNK_TICKS
+base ticks and SLICE_BUDGET_NS of wall time between looks at the sockets. A card that raises in a tick is logged and counted; time goes on.
 """
 
 from __future__ import annotations
@@ -30,8 +30,11 @@ log = logging.getLogger("vdevd.rack")
 ClockMode = Literal["realtime", "lockstep"]
 Waker = Literal["timer", "thread"]
 
-#: lockstep: simulated ticks run between two looks at the socket while time is driven
+#: lockstep: simulated ticks run between two looks at the socket while time is driven, at most
 LOCKSTEP_CHUNK_TICKS = 1000
+#: lockstep: a chunk's ticks run in slices of this many base ticks, the loop's budget looked at
+#: between two
+LOCKSTEP_SLICE_TICKS = 32
 #: realtime: the wall time one turn of ticking may hold the event loop (a pass, a continuation,
 #: a request's catch-up); a request waits at most about this long behind the clock's work
 SLICE_BUDGET_NS = 2_000_000
@@ -270,18 +273,28 @@ class Pacer:
 
     def _drive_step(self) -> None:
         """Advance to the earliest deadline or the end of one chunk, tick by tick (stopping at
-        the tick a condition holds) when a waiter watches a condition."""
+        the tick a condition holds) when a waiter watches a condition. The chunk runs in slices
+        of LOCKSTEP_SLICE_TICKS base ticks and ends early, at a slice's end, once it has held
+        the loop for SLICE_BUDGET_NS: where slices end never depends on the wall clock."""
+        sched = self.sched
         target = self.waits.next_due_ns()
-        chunk_end = self.sched.now_ns + LOCKSTEP_CHUNK_TICKS * self.sched.tick_ns
-        target = chunk_end if target is None else min(target, chunk_end)
+        chunk_end = sched.now_ns + LOCKSTEP_CHUNK_TICKS * sched.tick_ns
+        target = max(sched.now_ns, chunk_end if target is None else min(target, chunk_end))
         stop = self.waits.any_fired if self.waits.needs_fine() else None
-        self.advance(max(target, self.sched.now_ns), stop)
-        self.waits.service(self.sched.now_ns)
+        until = self._clock() + SLICE_BUDGET_NS
+        while True:
+            begin = sched.now_ns
+            end = min(target, begin + LOCKSTEP_SLICE_TICKS * sched.tick_ns)
+            reached = self.advance(end, stop)
+            if (reached >= target or reached < end or reached == begin
+                    or (stop is not None and stop()) or self._clock() >= until):
+                break
+        self.waits.service(sched.now_ns)
 
     async def _drive(self) -> None:
         """Lockstep: advance time while anyone waits, looking at the sockets between chunks."""
         try:
-            while self.waits.pending:
+            while self.waits.pending and not self._stop.is_set():
                 self._drive_step()
                 await asyncio.sleep(0)
         finally:
