@@ -8,7 +8,8 @@ than SLICE_BUDGET_NS: time advances in slices, and what is left goes on at the l
 after the sockets and signals. A rack that cannot keep up is overloaded once simulated time is
 more than OVERLOAD_BEHIND_NS behind; simulated time then slips (decision 0009). In lockstep time
 moves only while a wait or a `sim step` is pending, in chunks of at most LOCKSTEP_CHUNK_TICKS
-base ticks and SLICE_BUDGET_NS of wall time between looks at the sockets. A card that raises in a tick is logged and counted; time goes on.
+base ticks and SLICE_BUDGET_NS of wall time between looks at the sockets. A card that raises in
+a tick is logged and counted; time goes on.
 """
 
 from __future__ import annotations
