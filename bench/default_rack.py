@@ -10,8 +10,9 @@ Ethernet port, on a free port so that runs never collide. It is pinned to the se
 * rt-cpu: nothing talks to the daemon; its user + system time (/proc, every thread) over the
   window, as % of one core. Baseline of the same run: an empty rack (no card) on the same clock,
   what the pacing and the process cost without a tick.
-* rt-behind: eight client processes (bench/poller.py, client cpu) each read a register every
-  `poll_ms` on absolute deadlines, alternately of the generic card and of the MAXk. The figure
+* rt-behind: eight client processes (bench/poller.py, client cpu) each read a register by
+  request (they map no shared memory) every `poll_ms` on absolute deadlines, alternately of the
+  generic card and of the MAXk. The figure
   is how far simulated time is behind wall time when a request is answered, taken two ways:
   by the daemon itself, at every request of every client (`stats` `answered_behind_ns`, after
   the request's catch-up, the last 65536 requests); and from outside by this process, which

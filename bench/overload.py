@@ -8,8 +8,8 @@ tick lost (simulated time slips instead); SIGTERM and SIGINT stop the daemon wit
 Method. `vdevd serve` (realtime, pinned to the server cpu) with eight oms-maxk cards at
 update_hz = 8192, each running a contour (`VP`, an arc `VC`, `VP` back; tens of seconds of
 simulated time): about four times what one core here ticks in real time. This process (client
-cpu) sends a 4-byte register read and a `stats` every `interval_ms` for `seconds` and times each
-round trip. Baseline of the same run and placement: the same requests against one oms-maxk at its
+cpu) sends a 4-byte register read (a request: the client maps no shared memory) and a `stats`
+every `interval_ms` for `seconds` and times each round trip. Baseline of the same run and placement: the same requests against one oms-maxk at its
 default 1024 Hz running the same contour (a rack that keeps up). The overloaded daemon's `stats`
 give the overload fields and how fast simulated time ran (simulated s per wall s over the
 window); its log is counted for overload lines. Then SIGTERM is sent and the time to its exit
@@ -107,7 +107,7 @@ def run(seconds: float = 10.0, interval_ms: float = 5.0, cards: int = 8, update_
     server_cpus, client_cpus, where = placement(pin)
     pin_self(client_cpus)
     with daemon(maxk_rack(1, 1024), "realtime", server_cpus) as d:
-        rack = connect(d)
+        rack = connect(d, shm=False)
         try:
             pin_self(client_cpus)
             _contours(rack, 1)
@@ -115,7 +115,7 @@ def run(seconds: float = 10.0, interval_ms: float = 5.0, cards: int = 8, update_
         finally:
             rack.close()
     with daemon(maxk_rack(cards, update_hz), "realtime", server_cpus) as d:
-        rack = connect(d)
+        rack = connect(d, shm=False)
         try:
             pin_self(client_cpus)
             _contours(rack, cards)
@@ -125,7 +125,7 @@ def run(seconds: float = 10.0, interval_ms: float = 5.0, cards: int = 8, update_
         stop_term = _stop_time(d, signal.SIGTERM)
         log_lines = d.child.log.read_text(errors="replace").count("overload:")
     with daemon(maxk_rack(cards, update_hz), "realtime", server_cpus) as d:
-        rack = connect(d)
+        rack = connect(d, shm=False)
         try:
             pin_self(client_cpus)
             _contours(rack, cards)

@@ -1,10 +1,10 @@
-"""A polling client, one process: reads one 4-byte register every INTERVAL_MS on absolute
-deadlines for SECONDS, then writes the distribution of its round trips (us) as JSON to OUT.
+"""A polling client, one process: reads one 4-byte register by request (no shared memory) every
+INTERVAL_MS on absolute deadlines for SECONDS, then writes the distribution of its round trips
+(us) as JSON to OUT.
 
     python bench/poller.py ENDPOINT CARD REGION OFFSET SECONDS INTERVAL_MS OUT
 
-Used by bench/default_rack.py (the eight clients polling the default rack) and
-bench/overload.py (clients of an overloaded rack).
+Used by bench/default_rack.py (the eight clients polling the default rack).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from bench.common import dist  # noqa: E402
 def main() -> None:
     endpoint, card, region, offset, seconds, interval_ms, out = sys.argv[1:8]
     rtt: list[float] = []
-    with vdevclient.connect(endpoint, timeout=30.0) as rack:
+    with vdevclient.connect(endpoint, timeout=30.0, shm=False) as rack:
         read32 = rack.card(card).region(region).read32
         where = int(offset, 0)
         clock = time.perf_counter_ns
