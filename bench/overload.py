@@ -9,11 +9,12 @@ Method. `vdevd serve` (realtime, pinned to the server cpu) with eight oms-maxk c
 update_hz = 8192, each running a contour (`VP`, an arc `VC`, `VP` back; tens of seconds of
 simulated time): about four times what one core here ticks in real time. This process (client
 cpu) sends a 4-byte register read (a request: the client maps no shared memory) and a `stats`
-every `interval_ms` for `seconds` and times each round trip. Baseline of the same run and placement: the same requests against one oms-maxk at its
-default 1024 Hz running the same contour (a rack that keeps up). The overloaded daemon's `stats`
-give the overload fields and how fast simulated time ran (simulated s per wall s over the
-window); its log is counted for overload lines. Then SIGTERM is sent and the time to its exit
-taken; a second overloaded daemon gets SIGINT after `signal_after_s`.
+every `interval_ms` for `seconds` and times each round trip. Baseline of the same run and
+placement: the same requests against one oms-maxk at its default 1024 Hz running the same
+contour (a rack that keeps up). The overloaded daemon's `stats` give the overload fields and how
+fast simulated time ran (simulated s per wall s over the window); its log is counted for
+overload lines. Then SIGTERM is sent and the time to its exit taken; a second overloaded daemon
+gets SIGINT after `signal_after_s`.
 """
 
 from __future__ import annotations
