@@ -31,13 +31,13 @@ log = logging.getLogger("vdevd.rack")
 ClockMode = Literal["realtime", "lockstep"]
 Waker = Literal["timer", "thread"]
 
-#: lockstep: simulated ticks run between two looks at the socket while time is driven, at most
+#: lockstep: base ticks run at most between two looks at the sockets while time is driven
 LOCKSTEP_CHUNK_TICKS = 1000
-#: lockstep: a chunk's ticks run in slices of this many base ticks, the loop's budget looked at
-#: between two
+#: lockstep: a chunk runs in slices of this many base ticks, the wall clock looked at between two
 LOCKSTEP_SLICE_TICKS = 32
-#: realtime: the wall time one turn of ticking may hold the event loop (a pass, a continuation,
-#: a request's catch-up); a request waits at most about this long behind the clock's work
+#: the wall time one turn of ticking may hold the event loop (a realtime pass, continuation or
+#: request's catch-up, a lockstep chunk), give or take a slice; a request waits about this long
+#: at most behind the clock's work
 SLICE_BUDGET_NS = 2_000_000
 #: realtime: simulated time further behind wall time than this is an overload; simulated time
 #: then slips so that it stays this far behind (decision 0009)
@@ -119,8 +119,9 @@ class Pacer:
         return max(0, self._clock() - self.t0 - self.sched.now_ns) if self.paced else 0
 
     def _wake_thread(self) -> None:
-        """Sleep to each wake deadline, then hand the pass to the event loop (no shared state
-        but two flags; one pass queued at a time, so a busy loop gets no backlog of passes)."""
+        """Sleep to each wake deadline, then hand the pass to the event loop. Shares two plain
+        attributes with the loop, no lock: the epoch, and a flag that keeps one pass queued at a
+        time (a busy loop gets no backlog of passes)."""
         assert self._loop is not None
         _set_timer_slack(WAKER_SLACK_NS)
         loop, period, clock, stopped = self._loop, self.wake_ns, self._clock, self._stop.is_set
@@ -225,8 +226,9 @@ class Pacer:
 
     def catch_up(self) -> None:
         """Realtime: run the ticks that fell due since the last pass, so that a request sees the
-        hardware as it is at this wall time (within one servo period), not as at the last wake;
-        at most SLICE_BUDGET_NS of it, and none while catching up is already under way."""
+        hardware as it is at this wall time (within CATCH_UP_NS or a base tick), not as at the
+        last wake; at most SLICE_BUDGET_NS of it, and none while a continuation is queued (the
+        request is then answered from where simulated time is). Counts how far behind that is."""
         if not self.paced:
             return
         behind = self._clock() - self.t0 - self.sched.now_ns
