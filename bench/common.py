@@ -173,15 +173,17 @@ def daemon(config: str, clock: str, cpus: set[int] | None) -> Iterator[Daemon]:
             yield Daemon(endpoint, events, c, config)
 
 
-def connect(d: Daemon, within: float = 30.0, timeout: float = 10.0) -> Any:
-    """A vdevclient.Rack on the daemon once it answers `hello` (it was just started)."""
+def connect(d: Daemon, within: float = 30.0, timeout: float = 10.0,
+            shm: bool | None = None) -> Any:
+    """A vdevclient.Rack on the daemon once it answers `hello` (it was just started); `shm`:
+    as `vdevclient.connect`'s (False: every access is a request)."""
     import vdevclient
 
     deadline = time.monotonic() + within
     while True:
         d.child.check_alive("vdevd")
         try:
-            rack = vdevclient.connect(d.endpoint, d.events, timeout=1.0)
+            rack = vdevclient.connect(d.endpoint, d.events, timeout=1.0, shm=shm)
         except vdevclient.VdevClientError:
             if time.monotonic() > deadline:
                 raise RuntimeError(f"vdevd did not answer within {within:.0f} s:\n"

@@ -1,6 +1,6 @@
 """`make bench`: the figures of the issues' "Done when", each against a baseline of the same run.
 
-    python bench/run.py [--quick] [--only rtt,lockstep,realtime,galil,maxk,pmac,shm,rack]
+    python bench/run.py [--quick] [--only rtt,lockstep,...,shm,overload,rt-cpu,rt-behind,rack]
                         [--pin split|same|none] [--json [FILE]]
 
 1. rtt       4-byte register read through vdevclient vs a raw pyzmq REQ/REP round trip
@@ -16,15 +16,23 @@
              port vs a raw TCP round trip (both p50 <= 2.5x), bench/pmac.py
 7. shm       Region.read32 of a passive MAXk word through the daemon's shared memory (p50 <= 2 us,
              >= 50x faster than the read by request), bench/shm.py
-8. rack      lockstep speed of sets of the default rack's four cards: one set idle >= 200x and
+8. overload  eight MAXk at 8192 Hz running contours (beyond this machine): read and `stats`
+             answered within 50 ms p99 (against one MAXk at 1024 Hz), the overload in `stats`
+             and logged once per episode, no tick lost, SIGTERM and SIGINT stop it within 2 s,
+             bench/overload.py
+9. rt-cpu    the embedded default rack idle in realtime uses <= 15 % of one core over 60 s
+             (against an empty rack), bench/default_rack.py
+10. rt-behind  the default rack with 8 clients polling: simulated time behind wall time when a
+             request is answered p99 <= 500 us, no tick lost, over 60 s, bench/default_rack.py
+11. rack     lockstep speed of sets of the default rack's four cards: one set idle >= 200x and
              all axes moving >= 30x, four sets (16 cards) moving >= 8x; the growth with cards and
              axes as a table and a PNG plot in bench/results/, bench/rack.py
 
-The defaults are the issue's (realtime runs 60 s; the whole takes ~2 min); `--quick` shortens
-everything for a smoke run (~20 s). Placement (default split: servers on cpu0, client on cpu1)
-is stated with every figure. A figure that misses its goal prints FAIL and the exit status stays
-0; the status is 1 only when a benchmark could not run at all. `--json` writes every result to
-bench/results/bench-<time>.json (or to FILE).
+The defaults are the issue's (realtime, rt-cpu and rt-behind run 60 s each; the whole takes
+~6 min); `--quick` shortens everything for a smoke run (~1 min). Placement (default split:
+servers on cpu0, client on cpu1) is stated with every figure. A figure that misses its goal
+prints FAIL and the exit status stays 0; the status is 1 only when a benchmark could not run at
+all. `--json` writes every result to bench/results/bench-<time>.json (or to FILE).
 """
 
 from __future__ import annotations
@@ -40,10 +48,22 @@ from typing import Any
 if __package__ in (None, ""):  # run as a script: python bench/run.py
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench import galil, lockstep, maxk, pmac, rack, realtime, rtt, shm  # noqa: E402
+from bench import (  # noqa: E402
+    default_rack,
+    galil,
+    lockstep,
+    maxk,
+    overload,
+    pmac,
+    rack,
+    realtime,
+    rtt,
+    shm,
+)
 from bench.common import install_signal_handlers, machine_facts, table, verdict, write_json  # noqa: E402
 
-FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac", "shm", "rack")
+FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac", "shm", "overload", "rt-cpu",
+           "rt-behind", "rack")
 
 
 def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]], dict[str, Any],
@@ -65,6 +85,14 @@ def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]]
                             "warmup": 300 if q else 1000, "pin": a.pin}, pmac.report),
         "shm": (shm.run, {"n": 1000 if q else 5000, "repeats": 2 if q else 3,
                           "warmup": 500 if q else 2000, "pin": a.pin}, shm.report),
+        "overload": (overload.run, {"seconds": 3.0 if q else 10.0, "pin": a.pin}, overload.report),
+        "rt-cpu": (default_rack.run_cpu, {"seconds": a.realtime_seconds or (10.0 if q else 60.0),
+                                          "wake_us": a.wake_us, "waker": a.waker, "pin": a.pin},
+                   default_rack.report_cpu),
+        "rt-behind": (default_rack.run_behind,
+                      {"seconds": a.realtime_seconds or (10.0 if q else 60.0),
+                       "wake_us": a.wake_us, "waker": a.waker, "pin": a.pin},
+                      default_rack.report_behind),
         "rack": (rack.run, {"seconds": 0.5 if q else 2.0, "repeats": 2 if q else 3,
                             "sets": (1, 4) if q else (1, 2, 4), "pin": a.pin}, rack.report),
     }
@@ -128,6 +156,25 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
                          "request", f"{r['shm_p50_us']:.2f} us",
                          f"request {req['p50']:.0f} us -> {r['speedup_p50']:.0f}x, raw "
                          f"{raw['p50']:.0f} us", verdict(r["pass"])])
+        elif name == "overload":
+            rows.extend(overload_rows(r))
+        elif name == "rt-cpu":
+            idle, empty = r["default_rack"], r["baseline_empty_rack"]
+            rows.append(["rt-cpu idle default rack", f"<= {default_rack.GOAL_CPU_PERCENT:.0f} % "
+                         "of a core", f"{idle['cpu_percent']:.1f} %",
+                         f"empty rack {empty['cpu_percent']:.1f} % -> cards "
+                         f"{r['cards_percent']:.1f} %", verdict(r["pass"])])
+        elif name == "rt-behind":
+            answered, at_send = r["answered_behind_us"], r["behind_at_send_us"]
+            rows.append(["rt-behind p99, 8 clients", f"<= {default_rack.GOAL_BEHIND_P99_US:.0f} us",
+                         f"{answered['p99']:.0f} us (daemon), {at_send['p99']:.0f} us (client)",
+                         f"sim-now RTT p50 {r['sim_now_rtt_us']['p50']:.0f} us, midpoint p99 "
+                         f"{r['midpoint_behind_us']['p99']:.0f} us",
+                         verdict(answered["p99"] <= default_rack.GOAL_BEHIND_P99_US
+                                 and at_send["p99"] <= default_rack.GOAL_BEHIND_P99_US)])
+            rows.append(["rt-behind lost ticks", "0", str(r["lost_ticks"]),
+                         f"{r['daemon']['overruns_per_minute']:.0f} overruns/min, slipped "
+                         f"{r['slipped_ns']} ns", verdict(r["ticks_ok"] and r["slipped_ns"] == 0)])
         elif name == "rack":
             one = next(x for x in r["rows"] if x["sets"] == 1)
             base = f"core tick {r['core_tick_us']:.2f} us"
@@ -144,13 +191,32 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
     return rows
 
 
+def overload_rows(r: dict[str, Any]) -> list[list[Any]]:
+    """The overload figure's summary rows: answers, reporting, stopping."""
+    o, b, ov = r["overloaded"], r["baseline"], r["overload"]
+    goal = f"<= {overload.GOAL_ANSWER_P99_MS:.0f} ms"
+    rows = [[f"overload {what} p99", goal, f"{o[key]['p99']:.1f} ms",
+             f"1 MAXk 1024 Hz {b[key]['p99']:.2f} ms -> {o[key]['p99'] / b[key]['p99']:.0f}x",
+             verdict(o[key]["p99"] <= overload.GOAL_ANSWER_P99_MS)]
+            for what, key in (("read", "read_ms"), ("stats", "stats_ms"))]
+    rows.append(["overload reported", "active, 1 log/episode, 0 lost",
+                 f"episodes {ov['episodes']}, {r['log_lines']} log, lost {r['lost_ticks']}",
+                 f"behind {ov['behind_ns'] / 1e6:.0f} ms, sim {o['sim_speed']:.2f}x real time",
+                 verdict(r["reported_ok"] and r["lost_ticks"] == 0)])
+    rows.append(["overload stop", f"<= {overload.GOAL_STOP_S:.0f} s",
+                 f"TERM {r['stop_s']['SIGTERM']:.2f} s, INT {r['stop_s']['SIGINT']:.2f} s",
+                 "-", verdict(r["stops_ok"])])
+    return rows
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="short runs, for a smoke test")
     ap.add_argument("--only", default=",".join(FIGURES),
-                    help="comma list of rtt, lockstep, realtime, galil, maxk, pmac, shm, rack")
+                    help="comma list of " + ", ".join(FIGURES))
     ap.add_argument("--pin", choices=("split", "same", "none"), default="split")
-    ap.add_argument("--realtime-seconds", type=float, help="override the realtime run's length")
+    ap.add_argument("--realtime-seconds", type=float,
+                    help="override the length of the realtime, rt-cpu and rt-behind runs")
     ap.add_argument("--wake-us", type=int, default=1000, help="realtime: [clock] wake_us")
     ap.add_argument("--waker", choices=("thread", "timer"), default="thread", help="realtime: [clock] waker")
     ap.add_argument("--json", nargs="?", const="", help="write JSON (default: bench/results/)")

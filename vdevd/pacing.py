@@ -1,16 +1,21 @@
-"""How simulated time moves (DESIGN.md "Clock and scheduler", decision 0002): realtime pacing
-to the wall clock and lockstep driving while someone waits.
+"""How simulated time moves (DESIGN.md "Clock and scheduler", decisions 0002 and 0009): realtime
+pacing to the wall clock and lockstep driving while someone waits.
 
 `Pacer` owns the scheduler's advances: in realtime a waker (a thread sleeping to each deadline,
-or a loop timer) hands a pass to the event loop, which runs every tick due by wall time and then
-answers the waits; each request first catches up. In lockstep time moves only while a wait or a
-`sim step` is pending, in chunks of LOCKSTEP_CHUNK_TICKS base ticks between looks at the sockets.
-A card that raises in a tick is logged and counted; time goes on.
+or a loop timer) hands a pass to the event loop, which runs the ticks due by wall time and then
+answers the waits; each request first catches up. No piece of that work holds the loop longer
+than SLICE_BUDGET_NS: time advances in slices, and what is left goes on at the loop's next turn,
+after the sockets and signals. A rack that cannot keep up is overloaded once simulated time is
+more than OVERLOAD_BEHIND_NS behind; simulated time then slips (decision 0009). In lockstep time
+moves only while a wait or a `sim step` is pending, in chunks of at most LOCKSTEP_CHUNK_TICKS
+base ticks and SLICE_BUDGET_NS of wall time between looks at the sockets. A card that raises in
+a tick is logged and counted; time goes on.
 """
 
 from __future__ import annotations
 
 import asyncio
+import ctypes
 import logging
 import threading
 import time
@@ -26,8 +31,25 @@ log = logging.getLogger("vdevd.rack")
 ClockMode = Literal["realtime", "lockstep"]
 Waker = Literal["timer", "thread"]
 
-#: lockstep: simulated ticks run between two looks at the socket while time is driven
+#: lockstep: base ticks run at most between two looks at the sockets while time is driven
 LOCKSTEP_CHUNK_TICKS = 1000
+#: lockstep: a chunk runs in slices of this many base ticks, the wall clock looked at between two
+LOCKSTEP_SLICE_TICKS = 32
+#: the wall time one turn of ticking may hold the event loop (a realtime pass, continuation or
+#: request's catch-up, a lockstep chunk), give or take a slice; a request waits about this long
+#: at most behind the clock's work
+SLICE_BUDGET_NS = 2_000_000
+#: realtime: simulated time further behind wall time than this is an overload; simulated time
+#: then slips so that it stays this far behind (decision 0009)
+OVERLOAD_BEHIND_NS = 100_000_000
+#: an overload episode ends once simulated time has stayed at most CALM_BEHIND_NS behind for
+#: CALM_HOLD_NS of wall time
+CALM_BEHIND_NS = 10_000_000
+CALM_HOLD_NS = 1_000_000_000
+#: realtime: a request catches up once simulated time is this far behind (or a base tick)
+CATCH_UP_NS = 100_000
+#: the waker thread's timer slack (Linux PR_SET_TIMERSLACK; the default is 50 us)
+WAKER_SLACK_NS = 1_000
 
 
 class Pacer:
@@ -45,15 +67,29 @@ class Pacer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self.t0 = 0  # realtime: the wall clock reading at simulated time 0
+        #: realtime: the wall clock reading at simulated time 0; moves on when time slips
+        self.t0 = 0
         self.paced = False  # realtime and started: requests first run the ticks fallen due
         self._next_wake = 0
+        self._posted = False  # the waker thread's pass is queued on the loop, not yet run
+        self._continuing = False  # ticks still due are queued on the loop (`_work`)
+        self._cost = 0.0  # wall ns per simulated ns of the last slice
         self._driving = False
+        # overload (decision 0009)
+        self.overloaded = False
+        self.episodes = 0
+        self.slipped_ns = 0
+        self._episode_start = 0  # wall clock at the episode's start
+        self._episode_slip = 0  # slipped_ns at the episode's start
+        self._calm_since: int | None = None
         # stats
         self.late = Samples()
         self.behind = Samples()
+        #: how far simulated time is behind wall time as each request is answered
+        self.answered_behind = Samples()
         self.passes = 0
         self.catch_ups = 0
+        self.continuations = 0
         self.overruns = 0
         self.card_faults = 0
 
@@ -78,23 +114,36 @@ class Pacer:
         if self._thread is not None:
             self._thread.join(timeout=1.0)
 
+    def behind_ns(self) -> int:
+        """Realtime: how far simulated time is behind wall time now (0 when not paced)."""
+        return max(0, self._clock() - self.t0 - self.sched.now_ns) if self.paced else 0
+
     def _wake_thread(self) -> None:
-        """Sleep to each wake deadline, then hand the pass to the event loop (no shared state)."""
+        """Sleep to each wake deadline, then hand the pass to the event loop. Shares two plain
+        attributes with the loop, no lock: the epoch, and a flag that keeps one pass queued at a
+        time (a busy loop gets no backlog of passes)."""
         assert self._loop is not None
-        loop, period, t0, clock = self._loop, self.wake_ns, self.t0, self._clock
-        deadline = t0 + ((clock() - t0) // period + 1) * period
-        while not self._stop.is_set():
+        _set_timer_slack(WAKER_SLACK_NS)
+        loop, period, clock, stopped = self._loop, self.wake_ns, self._clock, self._stop.is_set
+        pass_ = self._pass
+        while not stopped():
+            t0 = self.t0  # read at every deadline: it moves on when simulated time slips
+            deadline = t0 + ((clock() - t0) // period + 1) * period
             delay = deadline - clock()
             if delay > 0:
                 time.sleep(delay / 1e9)
+            if self._posted:
+                continue
+            self._posted = True
             try:
-                loop.call_soon_threadsafe(self._pass)
+                loop.call_soon_threadsafe(pass_)
             except RuntimeError:  # loop closed
                 return
-            deadline = t0 + ((clock() - t0) // period + 1) * period
 
     def _pass(self) -> None:
-        """Realtime: run every tick due by wall time (a batch after a late wake), then waiters."""
+        """Realtime: a wake; run the ticks due by wall time (`_work`) unless that work is
+        already under way, then arm the next wake (timer waker)."""
+        self._posted = False
         if self._stop.is_set():
             return
         wall = self._clock() - self.t0
@@ -103,22 +152,97 @@ class Pacer:
         self.behind.add(wall - self.sched.now_ns)
         if wall - self._next_wake >= self.wake_ns:
             self.overruns += 1
-        self.advance(wall)
-        self.waits.service(self.sched.now_ns)
         self._next_wake = wall - wall % self.wake_ns + self.wake_ns
+        if not self._continuing:
+            self._work()
         if self.waker == "timer" and self._loop is not None:
+            # uvloop's timers count whole ms and fire at once below 1 ms: round up, never spin
             delay = self._next_wake - (self._clock() - self.t0)
-            self._loop.call_later(max(delay, 0) / 1e9, self._pass)
+            self._loop.call_later(-(-max(delay, 1) // 1_000_000) / 1e3, self._pass)
+
+    def _work(self) -> None:
+        """Realtime: run the ticks due by wall time for at most SLICE_BUDGET_NS; what is left
+        goes on at the loop's next turn, after the sockets. Then look at the overload."""
+        self._continuing = False
+        if self._stop.is_set():
+            return
+        start = self._clock()
+        if not self._run(start - self.t0, start + SLICE_BUDGET_NS) and self._loop is not None:
+            self._continuing = True
+            self.continuations += 1
+            self._loop.call_soon(self._work)
+        self._check_overload()
+
+    def _run(self, target: int, until: int) -> bool:
+        """Advance towards `target` in slices, answering the waits after each, until the wall
+        clock reads `until`; whether `target` was reached. A slice is at most one wake period
+        of simulated time, less when the last slice says it would not fit the budget left, and
+        at least one base tick."""
+        sched, clock = self.sched, self._clock
+        while sched.now_ns < target:
+            t = clock()
+            if t >= until:
+                return False
+            span = self.wake_ns
+            if self._cost > 0.0:
+                span = min(span, max(sched.tick_ns, int((until - t) / self._cost)))
+            begin = sched.now_ns
+            self.advance(min(target, begin + span))
+            self.waits.service(sched.now_ns)
+            if sched.now_ns == begin:  # a card raised and time could not move: the next pass
+                return True
+            self._cost = (clock() - t) / (sched.now_ns - begin)
+        return True
+
+    def _check_overload(self) -> None:
+        """Overload episodes (decision 0009): beyond OVERLOAD_BEHIND_NS simulated time slips to
+        stay that far behind; the episode ends once it stays within CALM_BEHIND_NS for
+        CALM_HOLD_NS. Logged once at each start and end."""
+        now = self._clock()
+        behind = now - self.t0 - self.sched.now_ns
+        if behind > OVERLOAD_BEHIND_NS:
+            if not self.overloaded:
+                self.overloaded = True
+                self.episodes += 1
+                self._episode_start, self._episode_slip = now, self.slipped_ns
+                log.warning("overload: simulated time is %.0f ms behind wall time, more than "
+                            "%.0f ms; it slips from now on, the rack runs slower than real time "
+                            "(episode %d)", behind / 1e6, OVERLOAD_BEHIND_NS / 1e6, self.episodes)
+            slip = behind - OVERLOAD_BEHIND_NS
+            self.t0 += slip
+            self.slipped_ns += slip
+            self._calm_since = None
+        elif self.overloaded:
+            if behind > CALM_BEHIND_NS:
+                self._calm_since = None
+            elif self._calm_since is None:
+                self._calm_since = now
+            elif now - self._calm_since >= CALM_HOLD_NS:
+                self.overloaded = False
+                self._calm_since = None
+                log.warning("overload over after %.1f s: simulated time slipped %.0f ms in the "
+                            "episode (%.0f ms in all)", (now - self._episode_start) / 1e9,
+                            (self.slipped_ns - self._episode_slip) / 1e6, self.slipped_ns / 1e6)
 
     def catch_up(self) -> None:
         """Realtime: run the ticks that fell due since the last pass, so that a request sees the
-        hardware as it is at this wall time (within one servo period), not as at the last wake."""
-        if self.paced:
-            wall = self._clock() - self.t0
-            if wall - self.sched.now_ns >= self.sched.tick_ns:
-                self.catch_ups += 1
-                self.advance(wall)
-                self.waits.service(self.sched.now_ns)
+        hardware as it is at this wall time (within CATCH_UP_NS or a base tick), not as at the
+        last wake; at most SLICE_BUDGET_NS of it, and none while a continuation is queued (the
+        request is then answered from where simulated time is). Counts how far behind that is."""
+        if not self.paced:
+            return
+        behind = self._clock() - self.t0 - self.sched.now_ns
+        if not self._continuing and (behind >= CATCH_UP_NS or behind >= self.sched.tick_ns):
+            self.catch_ups += 1
+            self._work()
+            behind = self._clock() - self.t0 - self.sched.now_ns
+        self.answered_behind.add(behind)
+
+    def overload_stats(self) -> dict[str, int | bool]:
+        """The `stats` `overload` map (PROTOCOL.md)."""
+        return {"active": self.overloaded, "episodes": self.episodes,
+                "behind_ns": self.behind_ns(), "slipped_ns": self.slipped_ns,
+                "threshold_ns": OVERLOAD_BEHIND_NS}
 
     def advance(self, target_ns: int, stop: Callable[[], bool] | None = None,
                 watched: Collection[Tickable] | None = None) -> int:
@@ -153,19 +277,33 @@ class Pacer:
 
     def _drive_step(self) -> None:
         """Advance to the earliest deadline or the end of one chunk, tick by tick (stopping at
-        the tick a condition holds) when a waiter watches a condition."""
+        the tick a condition holds) when a waiter watches a condition. The chunk runs in slices
+        of LOCKSTEP_SLICE_TICKS base ticks, then twice as many each time, and ends early, at a
+        slice's end, once it has held the loop for SLICE_BUDGET_NS: where slices end never
+        depends on the wall clock."""
+        sched = self.sched
         target = self.waits.next_due_ns()
-        chunk_end = self.sched.now_ns + LOCKSTEP_CHUNK_TICKS * self.sched.tick_ns
-        target = chunk_end if target is None else min(target, chunk_end)
+        chunk_end = sched.now_ns + LOCKSTEP_CHUNK_TICKS * sched.tick_ns
+        target = max(sched.now_ns, chunk_end if target is None else min(target, chunk_end))
         fine = self.waits.needs_fine()
         stop = self.waits.any_fired if fine else None
-        self.advance(max(target, self.sched.now_ns), stop, self.waits.watched() if fine else None)
-        self.waits.service(self.sched.now_ns)
+        watched = self.waits.watched() if fine else None
+        until = self._clock() + SLICE_BUDGET_NS
+        span = LOCKSTEP_SLICE_TICKS
+        while True:
+            begin = sched.now_ns
+            end = min(target, begin + span * sched.tick_ns)
+            reached = self.advance(end, stop, watched)
+            if (reached >= target or reached < end or reached == begin
+                    or (stop is not None and stop()) or self._clock() >= until):
+                break
+            span *= 2  # slices double: a card at rest runs most of a chunk in closed form
+        self.waits.service(sched.now_ns)
 
     async def _drive(self) -> None:
         """Lockstep: advance time while anyone waits, looking at the sockets between chunks."""
         try:
-            while self.waits.pending:
+            while self.waits.pending and not self._stop.is_set():
                 self._drive_step()
                 await asyncio.sleep(0)
         finally:
@@ -178,3 +316,13 @@ class Pacer:
                 self._drive_step()
         finally:
             self._driving = False
+
+
+def _set_timer_slack(ns: int) -> None:
+    """Ask Linux to wake the calling thread within `ns` of its deadlines (prctl
+    PR_SET_TIMERSLACK); elsewhere, or if refused, the default slack stays."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(29, ctypes.c_ulong(ns), 0, 0, 0)  # 29: PR_SET_TIMERSLACK
+    except (OSError, AttributeError):
+        pass

@@ -463,12 +463,15 @@ class Rack:
             "scheduler": {
                 "passes": self.passes,
                 "catch_ups": self.catch_ups,
+                "continuations": self.pacer.continuations,
                 "overruns": self.overruns,
                 "late_ns": self.late.summary(),
                 "behind_ns": self.behind.summary(),
+                "answered_behind_ns": self.pacer.answered_behind.summary(),
                 "card_faults": self.card_faults,
                 "lost_ticks": sum(lost.values()),
             },
+            "overload": self.pacer.overload_stats(),
             "cards": {
                 c.name: {"ticks": c.ticks, "lost_ticks": lost[c.name], "irq_seq": c.irq_seq,
                          "quiet_ticks": c.quiet_skipped}
