@@ -219,7 +219,8 @@ class Card(WorldBackdoor):
         rest = self.rest_state if self.skip_quiet and n >= QUIET_MIN else None
         i = 0
         while i < n:
-            before = rest() if rest is not None and i % QUIET_CHECK == 0 else None
+            before = (rest() if rest is not None and i % QUIET_CHECK == 0 and n - i >= QUIET_MIN
+                      else None)
             begin()
             step()
             i += 1
@@ -227,7 +228,7 @@ class Card(WorldBackdoor):
                 self.pause = False
                 self.batch_done()
                 return i
-            if before is not None and n - i >= QUIET_MIN and rest() == before:  # type: ignore[misc]
+            if before is not None and i < n and rest() == before:  # type: ignore[misc]
                 i += self.skip_quiet_ticks(n - i)
         self.batch_done()
         return n

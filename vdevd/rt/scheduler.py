@@ -46,6 +46,8 @@ class Scheduler:
         #: the rack's base tick: the shortest card period now, in whole ns (`sim step ticks=`);
         #: kept current by the cards (`periods_changed`), as a realtime request reads it
         self.tick_ns = 1_000_000
+        #: the longest card period now, in whole ns (a lockstep slice holds QUIET_MIN of them)
+        self.longest_ns = 1_000_000
         for card in cards:
             self.add(card)
 
@@ -57,6 +59,7 @@ class Scheduler:
     def periods_changed(self) -> None:
         """A card's period changed (Card.set_period): the base tick again."""
         self.tick_ns = min((c.period_ns for c in self.cards), default=1_000_000)
+        self.longest_ns = max((c.period_ns for c in self.cards), default=1_000_000)
 
     @property
     def base_period(self) -> Fraction:

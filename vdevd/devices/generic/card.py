@@ -132,7 +132,7 @@ class GenericServoCard(Card):
                 if self.pause:
                     self.pause = False
                     break
-            if before is not None and n - done >= QUIET_MIN and self.rest_state() == before:
+            if before is not None and done < n and self.rest_state() == before:
                 done += self.skip_quiet_ticks(n - done)
         self._store_status()
         return done
