@@ -23,6 +23,7 @@ test: $(STAMP) lint
 	$(PY) -m pytest -q $(PYTEST_ARGS)
 
 bench: $(STAMP)
+	$(PY) -m pip install --quiet -e '.[test,bench]'
 	$(PY) bench/run.py $(ARGS)
 
 clean:

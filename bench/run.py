@@ -1,6 +1,6 @@
 """`make bench`: the figures of the issues' "Done when", each against a baseline of the same run.
 
-    python bench/run.py [--quick] [--only rtt,lockstep,...,shm,overload,rt-cpu,rt-behind]
+    python bench/run.py [--quick] [--only rtt,lockstep,...,shm,overload,rt-cpu,rt-behind,rack]
                         [--pin split|same|none] [--json [FILE]]
 
 1. rtt       4-byte register read through vdevclient vs a raw pyzmq REQ/REP round trip
@@ -24,6 +24,9 @@
              (against an empty rack), bench/default_rack.py
 10. rt-behind  the default rack with 8 clients polling: simulated time behind wall time when a
              request is answered p99 <= 500 us, no tick lost, over 60 s, bench/default_rack.py
+11. rack     lockstep speed of sets of the default rack's four cards: one set idle >= 200x and
+             all axes moving >= 30x, four sets (16 cards) moving >= 8x; the growth with cards and
+             axes as a table and a PNG plot in bench/results/, bench/rack.py
 
 The defaults are the issue's (realtime, rt-cpu and rt-behind run 60 s each; the whole takes
 ~6 min); `--quick` shortens everything for a smoke run (~1 min). Placement (default split:
@@ -45,11 +48,22 @@ from typing import Any
 if __package__ in (None, ""):  # run as a script: python bench/run.py
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench import default_rack, galil, lockstep, maxk, overload, pmac, realtime, rtt, shm  # noqa: E402
+from bench import (  # noqa: E402
+    default_rack,
+    galil,
+    lockstep,
+    maxk,
+    overload,
+    pmac,
+    rack,
+    realtime,
+    rtt,
+    shm,
+)
 from bench.common import install_signal_handlers, machine_facts, table, verdict, write_json  # noqa: E402
 
 FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac", "shm", "overload", "rt-cpu",
-           "rt-behind")
+           "rt-behind", "rack")
 
 
 def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]], dict[str, Any],
@@ -79,6 +93,8 @@ def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]]
                       {"seconds": a.realtime_seconds or (10.0 if q else 60.0),
                        "wake_us": a.wake_us, "waker": a.waker, "pin": a.pin},
                       default_rack.report_behind),
+        "rack": (rack.run, {"seconds": 0.5 if q else 2.0, "repeats": 2 if q else 3,
+                            "sets": (1, 4) if q else (1, 2, 4), "pin": a.pin}, rack.report),
     }
 
 
@@ -143,9 +159,9 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
         elif name == "overload":
             rows.extend(overload_rows(r))
         elif name == "rt-cpu":
-            rack, empty = r["default_rack"], r["baseline_empty_rack"]
+            idle, empty = r["default_rack"], r["baseline_empty_rack"]
             rows.append(["rt-cpu idle default rack", f"<= {default_rack.GOAL_CPU_PERCENT:.0f} % "
-                         "of a core", f"{rack['cpu_percent']:.1f} %",
+                         "of a core", f"{idle['cpu_percent']:.1f} %",
                          f"empty rack {empty['cpu_percent']:.1f} % -> cards "
                          f"{r['cards_percent']:.1f} %", verdict(r["pass"])])
         elif name == "rt-behind":
@@ -159,6 +175,19 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
             rows.append(["rt-behind lost ticks", "0", str(r["lost_ticks"]),
                          f"{r['daemon']['overruns_per_minute']:.0f} overruns/min, slipped "
                          f"{r['slipped_ns']} ns", verdict(r["ticks_ok"] and r["slipped_ns"] == 0)])
+        elif name == "rack":
+            one = next(x for x in r["rows"] if x["sets"] == 1)
+            base = f"core tick {r['core_tick_us']:.2f} us"
+            rows.append(["rack idle (4 cards)", f">= {rack.GOAL_IDLE:.0f}x real time",
+                         f"{one['idle']:.0f}x", base, verdict(r["checks"]["idle"])])
+            rows.append(["rack moving (4 cards)", f">= {rack.GOAL_MOVING:.0f}x real time",
+                         f"{one['moving']:.1f}x", f"{one['moving_core_ticks']:.0f} core ticks "
+                         "per sim s", verdict(r["checks"]["moving"])])
+            four = next((x for x in r["rows"] if x["sets"] == 4), None)
+            rows.append(["rack moving (16 cards)", f">= {rack.GOAL_MOVING_16:.0f}x real time",
+                         f"{four['moving']:.1f}x" if four else "-",
+                         f"{four['moving_core_ticks']:.0f} core ticks per sim s" if four else "-",
+                         verdict(r["checks"]["moving_16"])])
     return rows
 
 

@@ -52,6 +52,25 @@ def test_fine_advance_stops_after_the_tick_that_satisfies_stop() -> None:
     assert a.now_ns == b.now_ns == 2000
 
 
+def test_fine_advance_batches_the_cards_it_does_not_watch_to_where_ticking_leaves_them() -> None:
+    """Watching one card (the one a wait reads) gives every card the ticks of watching all:
+    those before the stopping tick, and those at its time that come before it in rack order."""
+    def run(watched: bool) -> list[list[int]]:
+        a, b, c = Counter("a", 400), Counter("b", 1000), Counter("c", 250)
+        sched = Scheduler([a, b, c])
+        reached = sched.advance(50_000, stop=lambda: b.ticks == 3,
+                                watched={b} if watched else None)
+        at_stop = [reached, a.seen[-1], c.seen[-1]]
+        sched.advance(7777, stop=lambda: b.ticks == 99, watched={b} if watched else None)
+        return [at_stop, a.seen, b.seen, c.seen, [sched.now_ns]]
+
+    batched, ticked = run(True), run(False)
+    assert batched == ticked
+    # b's tick at 3000 stopped it: a's tick at 2800 ran, c's at 3000 (after b in rack order) not
+    assert batched[0] == [3000, 2800, 2750]
+    assert batched[1][-1] == 7600 and batched[3][-1] == 7750
+
+
 def test_batched_tick_stops_at_an_interrupt_and_resumes() -> None:
     card = Counter("c", 1000, irq_at=(3,))
     assert card.tick(10) == 3
@@ -110,6 +129,20 @@ def test_a_card_that_raises_does_not_stop_the_rack() -> None:
     rack.execute(Request(7, "control", {"card": "bad", "action": "explode"}), out.append)
     assert isinstance(out[0], VdevError) and out[0].code == "internal"
     assert run(rack, "read", card="good", region="mem", offset=0, size=4) == good.mem.read(0, 4)
+
+
+def test_a_watched_card_that_raises_leaves_the_other_cards_where_ticking_would() -> None:
+    """A fault in a fine advance: the cards not watched run to the faulting tick's time, as if
+    every card had ticked in time order, so time goes on from there and no card is behind."""
+    bad, other = Faulty("bad", 1000), Counter("other", 300)
+    sched = Scheduler([other, bad])
+    try:
+        sched.advance(10_000, stop=lambda: False, watched={bad})
+    except RuntimeError:
+        pass
+    else:
+        raise AssertionError("the fault did not reach the caller")
+    assert bad.ticks == 3 and other.seen[-1] == 3000  # other comes first in rack order
 
 
 class BrokenPeek(Counter):

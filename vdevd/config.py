@@ -49,6 +49,8 @@ class Config:
     clock: Literal["realtime", "lockstep"] = "realtime"
     wake_us: int = 1000
     waker: Literal["thread", "timer"] = "thread"
+    #: cards at rest run their quiet ticks in closed form (false: every tick runs in full)
+    skip_quiet: bool = True
     state_dir: str | None = None
     #: where the shared memory of local clients is created ("": none; decision 0010)
     shm_dir: str = DEFAULT_SHM_DIR
@@ -94,13 +96,17 @@ def parse(data: dict[str, Any]) -> Config:
     cfg.events = _str(server, "server", "events", cfg.events)
     cfg.shm_dir = _str(server, "server", "shm_dir", cfg.shm_dir)
     clock = _table(data, "clock")
-    _only(clock, "clock", ("mode", "wake_us", "waker"))
+    _only(clock, "clock", ("mode", "wake_us", "waker", "skip_quiet"))
     cfg.clock = _choice(clock, "clock", "mode", CLOCK_MODES, cfg.clock)  # type: ignore[assignment]
     cfg.waker = _choice(clock, "clock", "waker", WAKERS, cfg.waker)  # type: ignore[assignment]
     wake = clock.get("wake_us", cfg.wake_us)
     if not isinstance(wake, int) or isinstance(wake, bool) or not 100 <= wake <= 100_000:
         raise ConfigError(f"clock.wake_us: {wake!r} is not an integer in 100..100000")
     cfg.wake_us = wake
+    skip = clock.get("skip_quiet", cfg.skip_quiet)
+    if not isinstance(skip, bool):
+        raise ConfigError(f"clock.skip_quiet: {skip!r} is not true or false")
+    cfg.skip_quiet = skip
     state = _table(data, "state")
     _only(state, "state", ("dir",))
     cfg.state_dir = _str(state, "state", "dir", None)

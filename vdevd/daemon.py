@@ -34,7 +34,7 @@ def build_rack(cfg: Config, memory: Segment | None = None) -> Rack:
     try:
         nvram = NvramStore(cfg.state_dir) if cfg.state_dir else None
         rack = Rack([], cfg.clock, sink=Publisher(), wake_ns=cfg.wake_us * 1000, waker=cfg.waker,
-                    memory=memory)
+                    skip_quiet=cfg.skip_quiet, memory=memory)
         for spec in cfg.cards:
             ctx = CardContext(emit=rack.emit, nvram=nvram, memory=memory)
             rack.add_card(card_class(spec.type)(spec.name, spec.options, ctx))

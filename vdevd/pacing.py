@@ -8,7 +8,7 @@ than SLICE_BUDGET_NS: time advances in slices, and what is left goes on at the l
 after the sockets and signals. A rack that cannot keep up is overloaded once simulated time is
 more than OVERLOAD_BEHIND_NS behind; simulated time then slips (decision 0009). In lockstep time
 moves only while a wait or a `sim step` is pending, in chunks of at most LOCKSTEP_CHUNK_TICKS
-base ticks and SLICE_BUDGET_NS of wall time between looks at the sockets. A card that raises in
+base ticks and LOCKSTEP_BUDGET_NS of wall time between looks at the sockets. A card that raises in
 a tick is logged and counted; time goes on.
 """
 
@@ -19,11 +19,12 @@ import ctypes
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from typing import Literal
 
+from vdevd.devices.base import QUIET_MIN
 from vdevd.metrics import Samples
-from vdevd.rt.scheduler import Scheduler
+from vdevd.rt.scheduler import Scheduler, Tickable
 from vdevd.waits import Waits
 
 log = logging.getLogger("vdevd.rack")
@@ -39,6 +40,9 @@ LOCKSTEP_SLICE_TICKS = 32
 #: request's catch-up, a lockstep chunk), give or take a slice; a request waits about this long
 #: at most behind the clock's work
 SLICE_BUDGET_NS = 2_000_000
+#: lockstep: the wall time a chunk may hold the event loop (give or take a slice): a lockstep
+#: client waits for its step anyway, and a longer turn lets cards at rest skip whole chunks
+LOCKSTEP_BUDGET_NS = 10_000_000
 #: realtime: simulated time further behind wall time than this is an overload; simulated time
 #: then slips so that it stays this far behind (decision 0009)
 OVERLOAD_BEHIND_NS = 100_000_000
@@ -74,6 +78,9 @@ class Pacer:
         self._posted = False  # the waker thread's pass is queued on the loop, not yet run
         self._continuing = False  # ticks still due are queued on the loop (`_work`)
         self._cost = 0.0  # wall ns per simulated ns of the last slice
+        self._lock_cost = 0.0  # lockstep: the same, of the last slice of a chunk
+        self._lock_span = 0  # lockstep: the simulated ns of that slice
+        self._lock_wall = 0  # lockstep: and its wall ns
         self._driving = False
         # overload (decision 0009)
         self.overloaded = False
@@ -244,11 +251,12 @@ class Pacer:
                 "behind_ns": self.behind_ns(), "slipped_ns": self.slipped_ns,
                 "threshold_ns": OVERLOAD_BEHIND_NS}
 
-    def advance(self, target_ns: int, stop: Callable[[], bool] | None = None) -> int:
+    def advance(self, target_ns: int, stop: Callable[[], bool] | None = None,
+                watched: Collection[Tickable] | None = None) -> int:
         """The scheduler's advance; a card bug must not stop the rack: logged, counted, and
         time moves on to the tick that raised."""
         try:
-            return self.sched.advance(target_ns, stop)
+            return self.sched.advance(target_ns, stop, watched)
         except Exception:
             self.card_faults += 1
             log.exception("card raised during a tick; time continues")
@@ -277,20 +285,40 @@ class Pacer:
     def _drive_step(self) -> None:
         """Advance to the earliest deadline or the end of one chunk, tick by tick (stopping at
         the tick a condition holds) when a waiter watches a condition. The chunk runs in slices
-        of LOCKSTEP_SLICE_TICKS base ticks and ends early, at a slice's end, once it has held
-        the loop for SLICE_BUDGET_NS: where slices end never depends on the wall clock."""
-        sched = self.sched
+        sized by what the last slices cost, to fill LOCKSTEP_BUDGET_NS of wall time (at least
+        LOCKSTEP_SLICE_TICKS base ticks and QUIET_MIN ticks of the slowest card, at most 8
+        times the last slice: a rack that starts
+        moving overruns the budget by one slice at most), and ends at the slice that used the
+        budget up. Where slices end changes no result (every advance is exact); a rack at rest
+        runs whole chunks in one slice, which its cards run in closed form (decision 0008)."""
+        sched, clock = self.sched, self._clock
         target = self.waits.next_due_ns()
         chunk_end = sched.now_ns + LOCKSTEP_CHUNK_TICKS * sched.tick_ns
         target = max(sched.now_ns, chunk_end if target is None else min(target, chunk_end))
-        stop = self.waits.any_fired if self.waits.needs_fine() else None
-        until = self._clock() + SLICE_BUDGET_NS
+        fine = self.waits.needs_fine()
+        stop = self.waits.any_fired if fine else None
+        watched = self.waits.watched() if fine else None
+        until = clock() + LOCKSTEP_BUDGET_NS
+        # a slice holds enough ticks of every card for one at rest to skip the rest of them
+        least = max(LOCKSTEP_SLICE_TICKS * sched.tick_ns, QUIET_MIN * sched.longest_ns)
         while True:
+            t = clock()
+            span = least
+            if self._lock_cost > 0.0:
+                grow = 8 * self._lock_span
+                # a slice that cost little (cards at rest: a fixed cost, whatever its length)
+                # grows 8 times; else it gets what its cost per simulated ns says fits
+                fit = grow if self._lock_wall * 4 < LOCKSTEP_BUDGET_NS else int(
+                    (until - t) / self._lock_cost)
+                span = min(grow, max(least, fit))
             begin = sched.now_ns
-            end = min(target, begin + LOCKSTEP_SLICE_TICKS * sched.tick_ns)
-            reached = self.advance(end, stop)
+            end = min(target, begin + span)
+            reached = self.advance(end, stop, watched)
+            if reached > begin:
+                self._lock_span, self._lock_wall = reached - begin, clock() - t
+                self._lock_cost = self._lock_wall / (reached - begin)
             if (reached >= target or reached < end or reached == begin
-                    or (stop is not None and stop()) or self._clock() >= until):
+                    or (stop is not None and stop()) or clock() >= until):
                 break
         self.waits.service(sched.now_ns)
 

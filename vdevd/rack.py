@@ -77,11 +77,15 @@ class Rack:
         wake_ns: int = 1_000_000,
         waker: Waker = "thread",
         clock: Callable[[], int] = time.perf_counter_ns,
+        skip_quiet: bool = True,
         memory: Segment | None = None,
     ) -> None:
         """`sink`: where events go (default: nowhere); `wake_ns`, `waker`, `clock`: the
-        realtime pacing (`Pacer`); `memory`: the shared segment the cards' passive regions were
-        built on (`CardContext.memory`), announced to local clients and removed at `stop`."""
+        realtime pacing (`Pacer`); `skip_quiet`: whether cards at rest run their quiet ticks in
+        closed form (`Card.tick`; false ticks every period in full); `memory`: the shared
+        segment the cards' passive regions were built on (`CardContext.memory`), announced to
+        local clients and removed at `stop`."""
+        self.skip_quiet = skip_quiet
         self.cards: dict[str, Card] = {}
         self._regions: dict[tuple[str, str], Region] = {}
         self.reads = 0  # counted apart from `requests`: the hot path keeps no dict
@@ -111,6 +115,7 @@ class Rack:
         if card.name in self.cards:
             raise ValueError(f"duplicate card name {card.name!r}")
         self.cards[card.name] = card
+        card.skip_quiet = self.skip_quiet
         self.sched.add(card)
         self._regions.update({(card.name, r.name): r for r in card.regions.values()})
 
@@ -468,7 +473,8 @@ class Rack:
             },
             "overload": self.pacer.overload_stats(),
             "cards": {
-                c.name: {"ticks": c.ticks, "lost_ticks": lost[c.name], "irq_seq": c.irq_seq}
+                c.name: {"ticks": c.ticks, "lost_ticks": lost[c.name], "irq_seq": c.irq_seq,
+                         "quiet_ticks": c.quiet_skipped}
                 for c in self.cards.values()
             },
             "requests": {

@@ -169,6 +169,10 @@ class Waits:
         """Whether a pending waiter must stop time at the exact tick its condition holds."""
         return any(w.on != "step" for w in self.pending)
 
+    def watched(self) -> set[Card]:
+        """The cards whose ticks may resolve a pending waiter (the others may run in batches)."""
+        return {w.card for w in self.pending if w.on != "step" and w.card is not None}
+
     def any_fired(self) -> bool:
         """Whether a waiter resolves now; one whose condition raises does (`service` answers it)."""
         try:

@@ -296,3 +296,36 @@ def test_snapshot_lists_every_field() -> None:
     assert snap["cmd_pos"] == [5.0, -5.0] and snap["encoder"] == [5, -5]
     assert set(snap) == {"cmd_pos", "cmd_vel", "cmd_acc", "pos", "vel", "ferr", "out", "encoder",
                          "flags"}
+
+
+def test_a_core_at_rest_skips_ticks_exactly_as_it_would_run_them() -> None:
+    """MotionCore.rest_state is equal around a tick only at a fixed point; skip(k) then leaves
+    what k ticks leave (the profile clock), so a move planned afterwards runs the same bits
+    (decision 0008)."""
+    def core() -> MotionCore:
+        c = MotionCore(3, 1e6, [PlantKind.SERVO, PlantKind.STEPPER, PlantKind.IDEAL])
+        c.servo_on(slice(None))
+        c.move_absolute(slice(None), [4000, -700, 123], 40_000, 400_000, 400_000)
+        return c
+
+    ticked, skipped = core(), core()
+    assert ticked.rest_state() is None  # a profile runs
+    n = 0
+    while True:
+        before = skipped.rest_state()
+        skipped.tick()
+        n += 1
+        if before is not None and skipped.rest_state() == before:
+            break
+        assert n < 5000, "the core never came to rest"
+    skipped.skip(2500)
+    for _ in range(n + 2500):
+        ticked.tick()
+    assert skipped.rest_state() == ticked.rest_state()
+    assert skipped.profile.t == ticked.profile.t
+    for c in (ticked, skipped):
+        c.move_relative(slice(None), [-1000, 50, 7], 40_000, 400_000, 400_000)
+    for _ in range(300):
+        ticked.tick()
+        skipped.tick()
+        assert ticked.axes.state.tobytes() == skipped.axes.state.tobytes()

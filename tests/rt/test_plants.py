@@ -13,7 +13,7 @@ MS = 1_000_000
 
 def test_servo_step_is_semi_implicit_euler_with_implicit_damping() -> None:
     plant = ServoPlant(1, 1e-3)
-    plant.set(0, amp_gain=2000.0, inertia=2.0, viscous=4.0)
+    plant.set(0, amp_gain=2000.0, inertia=2.0, viscous=4.0, coulomb=0.0)
     pos, vel = np.array([10.0]), np.array([100.0])
     plant.step(np.array([3.0]), pos, vel)
     v = (100.0 + 1e-3 * 2000.0 * 3.0 / 2.0) / (1 + 4.0 * 1e-3 / 2.0)
@@ -23,6 +23,7 @@ def test_servo_step_is_semi_implicit_euler_with_implicit_damping() -> None:
 
 def test_servo_reaches_the_viscous_terminal_velocity() -> None:
     plant = ServoPlant(2, 1e-3)
+    plant.set(slice(None), coulomb=0.0)
     pos, vel = np.zeros(2), np.zeros(2)
     for _ in range(20_000):
         plant.step(np.array([1.0, -0.5]), pos, vel)
@@ -31,7 +32,7 @@ def test_servo_reaches_the_viscous_terminal_velocity() -> None:
 
 def test_servo_peak_torque_limits_acceleration() -> None:
     plant = ServoPlant(1, 1e-3)
-    plant.set(0, peak_torque=100.0, viscous=1e-9)
+    plant.set(0, peak_torque=100.0, viscous=1e-9, coulomb=0.0)
     pos, vel = np.zeros(1), np.zeros(1)
     for _ in range(10):
         plant.step(np.array([1e6]), pos, vel)
@@ -44,6 +45,26 @@ def test_servo_coulomb_friction_opposes_motion() -> None:
     pos, vel = np.zeros(1), np.array([50.0])
     plant.step(np.zeros(1), pos, vel)
     assert vel[0] == pytest.approx(49.0)
+
+
+def test_servo_default_static_friction_lets_a_motor_at_rest_settle() -> None:
+    """The default Coulomb friction (DEFAULT_COULOMB) ends the hunting of a motor held by its
+    integrator: after a move the core reaches an exact fixed point (decision 0008), which it
+    never does without friction."""
+    def settles(coulomb: float) -> bool:
+        core = MotionCore(2, 1e6, PlantKind.SERVO)
+        core.plant.set(slice(None), coulomb=coulomb)
+        core.servo_on(slice(None))
+        core.move_absolute(slice(None), [5000, -3001], 50_000, 500_000, 500_000)
+        for _ in range(5000):
+            before = core.rest_state()
+            core.tick()
+            if before is not None and core.rest_state() == before:
+                return True
+        return False
+
+    assert settles(ServoPlant(1, 1e-3).coulomb[0])
+    assert not settles(0.0)
 
 
 def test_stepper_max_rate_limits_pulses_and_keeps_whole_steps() -> None:

@@ -28,6 +28,11 @@ __all__ = ["Card", "CardContext", "CardOptions", "Option", "control"]
 
 EventSink = Callable[[IrqEvent], None]
 
+#: a card in a batch of ticks looks whether it came to rest every QUIET_CHECK ticks, when at
+#: least QUIET_MIN ticks are left (fewer are not worth two `rest_state` calls)
+QUIET_CHECK = 64
+QUIET_MIN = 16
+
 
 @dataclass
 class CardContext:
@@ -58,6 +63,9 @@ class Card(WorldBackdoor):
     period_from: ClassVar[str | None] = None
     #: deprecated parameter names of actions: {action: {old name: name}} (kept for old scripts)
     control_params: ClassVar[Mapping[str, Mapping[str, str]]] = {}
+    #: quiet ticks run in closed form (`tick`); the rack turns it off to tick every period
+    #: (`[clock] skip_quiet = false`: the equality tests compare both)
+    skip_quiet: bool = True
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         """`config`: the card's options, as config loading checked them, or a plain mapping
@@ -78,6 +86,8 @@ class Card(WorldBackdoor):
         self.line_events: dict[str, IrqEvent] = {}
         #: set by an assertion so a batch of ticks stops at the tick that interrupted
         self.pause = False
+        #: ticks run in closed form at rest (stats)
+        self.quiet_skipped = 0
         self._controls = self._collect_controls()
 
     @classmethod
@@ -201,16 +211,63 @@ class Card(WorldBackdoor):
         """Run up to n ticks; stop early after a tick that asserted an interrupt.
 
         Returns the number of ticks run. Cards may override for speed but must count `ticks` and keep
-        `now_ns` (= `time_of_tick(ticks)`) the time of the tick being run.
+        `now_ns` (= `time_of_tick(ticks)`) the time of the tick being run. A card at rest runs
+        the rest of the batch in closed form (`rest_state`, `skip`): every QUIET_CHECK ticks of
+        a long batch it compares its state around one tick.
         """
         begin, step = self.begin_tick, self.step
-        for i in range(n):
+        rest = self.rest_state if self.skip_quiet and n >= QUIET_MIN else None
+        i = 0
+        while i < n:
+            before = (rest() if rest is not None and i % QUIET_CHECK == 0 and n - i >= QUIET_MIN
+                      else None)
             begin()
             step()
+            i += 1
             if self.pause:
                 self.pause = False
-                return i + 1
+                self.batch_done()
+                return i
+            if before is not None and i < n and rest() == before:  # type: ignore[misc]
+                i += self.skip_quiet_ticks(n - i)
+        self.batch_done()
         return n
+
+    # -- rest (DESIGN.md "Time that costs nothing", decision 0008) ---------------------------------
+    def rest_state(self) -> bytes | None:
+        """Everything a tick of the card may change, as bytes, except what `skip` advances in
+        closed form (tick counters and the clocks derived from them); None while the card is
+        busy (a command being served, a reply to send, a timer, a program). Two equal results
+        around one tick prove the card at a fixed point: the next ticks change nothing until an
+        input does, and inputs change only between batches. Override (None: never at rest)."""
+        return None
+
+    def quiet_ticks(self) -> int:
+        """At rest, how many of the next ticks may run in closed form at most: those before the
+        card's next periodic event (a data record, a reporting buffer; override)."""
+        return 1 << 62
+
+    def skip(self, k: int) -> None:
+        """Run k ticks at rest in closed form: what k calls of `begin_tick` and `step` would
+        leave (override to advance the card's own counters, calling this one)."""
+        self.ticks_run(k)
+
+    def skip_quiet_ticks(self, room: int) -> int:
+        """At rest with `room` ticks left in the batch: skip as many as the card and the next
+        change of period allow; the count skipped."""
+        k = min(room, self.quiet_ticks())
+        if self.retimes:  # a new period takes effect at a tick: `begin_tick` runs that one
+            k = min(k, self.retimes[0][0] - self.ticks - 1)
+        if k <= 0:
+            return 0
+        self.skip(k)
+        self.quiet_skipped += k
+        return k
+
+    def batch_done(self) -> None:
+        """The last tick of a batch ran (or the batch stopped at an interrupt): publish what the
+        host reads only between batches (override; a card whose memory must show every tick
+        publishes in `step` instead)."""
 
     def reset(self) -> None:
         """Power-on reset of the firmware (override)."""

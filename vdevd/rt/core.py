@@ -128,7 +128,7 @@ class MotionCore:
             events |= self._finish(finished)
         if self._any_ideal:
             if self._all_ideal:
-                np.copyto(ax.pv, ax.cmd_pv)
+                ax.pv[...] = ax.cmd_pv
             else:
                 np.copyto(ax.pv, ax.cmd_pv, where=self._ideal_on2)
         if self._any_step:
@@ -141,7 +141,7 @@ class MotionCore:
         fb = ax.fb
         if self._plain_encoder:
             np.floor(ax.pos, fb)
-            ax.encoder[:] = fb
+            ax.encoder[...] = fb
         else:
             self._encode()
         np.subtract(ax.cmd_pos, fb, ax.ferr)
@@ -161,7 +161,7 @@ class MotionCore:
             self.stepper.step(ax.cmd_pos, ax.pos, ax.vel)
             return
         pv2 = self._pv2
-        np.copyto(pv2, ax.pv)
+        pv2[...] = ax.pv
         self.stepper.step(ax.cmd_pos, pv2[0], pv2[1])
         np.copyto(ax.pv, pv2, where=self._step_on2)
 
@@ -190,6 +190,23 @@ class MotionCore:
                 return i + 1, events
         self.update_in_position()
         return n, 0
+
+    # -- rest (DESIGN.md "Time that costs nothing") ------------------------------------------------
+    def rest_state(self) -> bytes | None:
+        """Everything a tick may change, as bytes, except the profile clock (`skip` advances it);
+        None while a profile runs or a phase boundary or an event is due. Equal results around
+        one tick prove the core at a fixed point: the next ticks change nothing until a command
+        or an input does (the card compares: Card.rest_state)."""
+        prof = self.profile
+        if self._pending or prof.active or prof.next_t != math.inf:
+            return None
+        ax = self.axes
+        return b"".join((ax.state.tobytes(), ax.encoder.tobytes(), ax.flags.tobytes(),
+                         self.stepper.gen.tobytes(), self._enc.tobytes()))
+
+    def skip(self, k: int) -> None:
+        """k ticks at rest in closed form: only the profile clock moves (see rest_state)."""
+        self.profile.skip(k)
 
     def update_in_position(self) -> None:
         """IN_POSITION: no profile running and |ferr| within the in-position band. Not done

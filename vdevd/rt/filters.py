@@ -21,8 +21,9 @@ _vecdot: Callable[..., Any] = getattr(np, "vecdot", _einsum_rows)
 
 class Pid:
     """out = clamp(offset + kp*e + ki*I + kd*(e - e_prev) + vff*cmd_vel + aff*cmd_acc, +-out_limit)
-    with I += e each tick, clamped to +-il (anti-windup). Gains are per sample, as on the cards:
-    kd multiplies the difference of two successive errors, ki the running sum of errors.
+    with I += e each tick on axes with ki != 0, clamped to +-il (anti-windup). Gains are per
+    sample, as on the cards: kd multiplies the difference of two successive errors, ki the
+    running sum of errors.
 
     The terms are the rows of `terms` (cmd_vel, cmd_acc, ones, I, e_prev, e; `Axes.pid_terms` in a
     motion core) and the gains are compiled into one matching block, so the output is a single
@@ -54,6 +55,7 @@ class Pid:
         self._il, self._out_lim = self._params["il"], self._params["out_limit"]
         self._il_neg = np.zeros(n)
         self._out_neg = np.zeros(n)
+        self._ie = np.zeros(n)
         self._configure()
 
     # the parameter views, for type checkers (set in __init__)
@@ -91,6 +93,12 @@ class Pid:
         for row, value in zip(self._gains, rows, strict=True):
             np.multiply(value, on, out=row)
         self._g, self._t = self._gains.T, self.terms.T
+        #: the axes that integrate (ki != 0 and enabled: an axis that is off is reset when it
+        #: comes on), as bools and as 0/1 factors
+        self.ki_on = (p["ki"] != 0) & on
+        self._integrating = self.ki_on.astype(float)
+        self._integrate_all = bool(self._integrating.all())
+        self._integrate_some = bool(self._integrating.any())
         self._limit_integ = bool(np.isfinite(p["il"]).any())
         self._limit_out = bool(np.isfinite(p["out_limit"]).any())
         np.negative(p["il"], out=self._il_neg)
@@ -103,9 +111,15 @@ class Pid:
 
     def update(self, out: np.ndarray) -> None:
         """One sample from the error in `e` (and the feed-forward rows): write the controller
-        output into `out`, then remember `e` as the previous error."""
+        output into `out`, then remember `e` as the previous error. Only enabled axes with an
+        integral gain integrate (the cards sum ki x error: without ki the sum stays where it
+        is)."""
         e, integ = self.e, self.integ
-        np.add(integ, e, integ)
+        if self._integrate_all:
+            np.add(integ, e, integ)
+        elif self._integrate_some:
+            np.multiply(e, self._integrating, self._ie)
+            np.add(integ, self._ie, integ)
         if self._limit_integ:
             np.minimum(integ, self._il, out=integ)
             np.maximum(integ, self._il_neg, out=integ)
@@ -113,4 +127,4 @@ class Pid:
         if self._limit_out:
             np.minimum(out, self._out_lim, out=out)
             np.maximum(out, self._out_neg, out=out)
-        np.copyto(self.e_prev, e)
+        self.e_prev[...] = e  # (an Ellipsis copy: a third of np.copyto's cost here)

@@ -8,10 +8,13 @@
   viscous term implicit, so any damping is stable; Coulomb friction stops the motor rather than
   reversing it, so it holds a motor at rest below the friction torque).
   Units: out in DAC units, torque in counts/s^2 per unit of inertia (inertia defaults to 1).
-  Defaults: amp_gain 1000 (counts/s^2 per DAC unit), inertia 1, viscous 1/s, coulomb 0, no peak
-  torque; `default_gains` closes the loop at ~20 Hz, damping 0.7, with velocity and acceleration
+  Defaults: amp_gain 1000 (counts/s^2 per DAC unit), inertia 1, viscous 1/s, coulomb 100
+  counts/s^2 (the static friction every motor has: without it the integrator keeps a motor at
+  rest creeping and hunting about the encoder count for ever, and with it the motor settles
+  and stays, which lets a card at rest cost nothing: decision 0008), no peak torque;
+  `default_gains` closes the loop at ~20 Hz, damping 0.7, with velocity and acceleration
   feed-forward: a 10000-count move at 50000 counts/s follows within ~2 counts and the axis
-  then holds within one count (it hunts at the encoder's quantisation, as real servos do).
+  then holds at its count.
 The encoder (floor(pos * scale), frozen while lost) is sampled by the core (core.py).
 """
 
@@ -21,9 +24,11 @@ import numpy as np
 
 from vdevd.rt.axes import PlantKind
 
-#: default servo parameters: 1000 counts/s^2 per DAC count, 1/s viscous damping
+#: default servo parameters: 1000 counts/s^2 per DAC count, 1/s viscous damping, and the
+#: static friction of a real motor: 100 counts/s^2, the torque of 0.1 DAC counts
 DEFAULT_AMP_GAIN = 1000.0
 DEFAULT_VISCOUS = 1.0
+DEFAULT_COULOMB = 100.0
 
 
 def _readonly(arr: np.ndarray) -> np.ndarray:
@@ -78,7 +83,7 @@ class StepperPlant:
         np.rint(gen, out=tgt)
         np.subtract(tgt, pos, out=vel)
         vel *= self._inv_dt
-        np.copyto(pos, tgt)
+        pos[...] = tgt
 
 
 class ServoPlant:
@@ -96,7 +101,7 @@ class ServoPlant:
             "peak_torque": np.full(n, np.inf),
             "inertia": np.ones(n),
             "viscous": np.full(n, DEFAULT_VISCOUS),
-            "coulomb": np.zeros(n),
+            "coulomb": np.full(n, DEFAULT_COULOMB),
         }
         for key, arr in self._params.items():
             setattr(self, key, _readonly(arr))
@@ -141,6 +146,7 @@ class ServoPlant:
         self._peak_dt_neg = -self._peak_dt
         self._damp = 1.0 / (1.0 + p["viscous"] * dt / p["inertia"]) * on
         self._coul_dt = p["coulomb"] * dt / p["inertia"]
+        self._coul_dt_neg = -self._coul_dt
         self._clamped = bool(np.isfinite(p["peak_torque"]).any())
         self._friction = bool(p["coulomb"].any())
 
@@ -154,11 +160,10 @@ class ServoPlant:
             np.minimum(dv, self._peak_dt, out=dv)
             np.maximum(dv, self._peak_dt_neg, out=dv)
         np.add(vel, dv, vel)
-        if self._friction:
-            np.abs(vel, tmp)
-            np.subtract(tmp, self._coul_dt, tmp)
-            np.maximum(tmp, 0.0, out=tmp)
-            np.copysign(tmp, vel, vel)
+        if self._friction:  # vel - clip(vel, -c, c): toward 0 by at most c, never past it
+            np.minimum(vel, self._coul_dt, out=tmp)
+            np.maximum(tmp, self._coul_dt_neg, out=tmp)
+            np.subtract(vel, tmp, vel)
         np.multiply(vel, self._damp, vel)  # viscous damping taken implicitly: stable for any damping
         np.multiply(vel, self.dt, tmp)
         np.add(pos, tmp, pos)

@@ -286,6 +286,12 @@ class ProfileGenerator:
         self.evaluate()
 
     # -- the tick ----------------------------------------------------------------------------------
+    def skip(self, k: int) -> None:
+        """Move the clock k ticks with no axis profiling and no phase boundary due (the core at
+        rest: MotionCore.skip): what k calls of `advance` would do then."""
+        self.ticks += k
+        self.t = self._t_base + (self.ticks - self._ticks_base) * self.dt
+
     def advance(self) -> np.ndarray | None:
         """Move the clock one tick; the axes whose plan ended this tick (None when no phase
         boundary was due)."""

@@ -12,7 +12,7 @@ rack; this module has no I/O and no wall clock.
 from __future__ import annotations
 
 import heapq
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from fractions import Fraction
 from typing import Protocol
 
@@ -46,6 +46,8 @@ class Scheduler:
         #: the rack's base tick: the shortest card period now, in whole ns (`sim step ticks=`);
         #: kept current by the cards (`periods_changed`), as a realtime request reads it
         self.tick_ns = 1_000_000
+        #: the longest card period now, in whole ns (a lockstep slice holds QUIET_MIN of them)
+        self.longest_ns = 1_000_000
         for card in cards:
             self.add(card)
 
@@ -57,6 +59,7 @@ class Scheduler:
     def periods_changed(self) -> None:
         """A card's period changed (Card.set_period): the base tick again."""
         self.tick_ns = min((c.period_ns for c in self.cards), default=1_000_000)
+        self.longest_ns = max((c.period_ns for c in self.cards), default=1_000_000)
 
     @property
     def base_period(self) -> Fraction:
@@ -68,36 +71,62 @@ class Scheduler:
         return min((c.time_of_tick(c.ticks + 1) for c in self.cards),
                    default=self.now_ns + self.tick_ns)
 
-    def advance(self, target_ns: int, stop: Callable[[], bool] | None = None) -> int:
+    def advance(self, target_ns: int, stop: Callable[[], bool] | None = None,
+                watched: Collection[Tickable] | None = None) -> int:
         """Run every tick with time <= target_ns and return the time reached.
 
-        With `stop`, ticks run one at a time in time order (ties in rack order) and the advance
-        ends right after the first tick after which `stop()` is true; the time reached is then
-        that tick's time. Without it each card runs its due ticks as one batch.
+        With `stop`, the ticks of the `watched` cards (every card when None: the cards whose
+        state `stop` reads) run one at a time in time order (ties in rack order) and the
+        advance ends right after the first tick after which `stop()` is true; the time reached
+        is then that tick's time, and the other cards run in batches to where the tick-by-tick
+        order would have left them (their ticks before it, and those at its time that come
+        before it in rack order). Without `stop` each card runs its due ticks as one batch.
         """
         if target_ns < self.now_ns:
             return self.now_ns
         if stop is None:
             for card in self.cards:
-                # counted again after a batch that stopped early: a tick may change the period
-                due = card.ticks_due(target_ns) - card.ticks
-                while due > 0:
-                    card.tick(due)
-                    due = card.ticks_due(target_ns) - card.ticks
+                self._run_to(card, target_ns)
             self.settle(target_ns)
             return target_ns
-        heap = [(c.time_of_tick(c.ticks + 1), i) for i, c in enumerate(self.cards)]
+        fine = [(i, c) for i, c in enumerate(self.cards) if watched is None or c in watched]
+        heap = [(c.time_of_tick(c.ticks + 1), i) for i, c in fine]
         heapq.heapify(heap)
         while heap and heap[0][0] <= target_ns:
             t, i = heapq.heappop(heap)
             card = self.cards[i]
-            card.tick(1)
+            try:
+                card.tick(1)
+            except Exception:  # the others to where ticking in time order leaves them
+                self._run_others(fine, t, i)
+                raise
             heapq.heappush(heap, (card.time_of_tick(card.ticks + 1), i))
             if stop():
+                self._run_others(fine, t, i)
                 self.settle(t)
                 return t
+        self._run_others(fine, target_ns, len(self.cards))
         self.settle(target_ns)
         return target_ns
+
+    def _run_others(self, fine: list[tuple[int, Tickable]], t: int, before: int) -> None:
+        """The cards not run tick by tick: every tick before `t`, and the one at `t` of the
+        cards before rack position `before` (the order of ticking every card in time order)."""
+        if len(fine) == len(self.cards):
+            return
+        done = {i for i, _ in fine}
+        for i, card in enumerate(self.cards):
+            if i not in done:
+                self._run_to(card, t if i < before else t - 1)
+
+    @staticmethod
+    def _run_to(card: Tickable, t: int) -> None:
+        """Run the card's ticks due by `t` in batches (recounted after a batch that stopped
+        early: a tick may change the period)."""
+        due = card.ticks_due(t) - card.ticks
+        while due > 0:
+            card.tick(due)
+            due = card.ticks_due(t) - card.ticks
 
     def settle(self, t: int) -> None:
         """Make every card's clock read `t`, the time stamped on what happens until the next tick."""

@@ -140,6 +140,16 @@ class GalilCard(Card):
         """One sample of the firmware: motion, interrupts, commands, the data record."""
         self.firmware.step()
 
+    def rest_state(self) -> bytes | None:
+        return self.firmware.rest_state()
+
+    def quiet_ticks(self) -> int:
+        return self.firmware.quiet_ticks()
+
+    def skip(self, k: int) -> None:
+        self.firmware.skip(k)
+        super().skip(k)
+
     def _raise_irq(self, status: int) -> None:
         """The firmware queued `code | vector << 8` with the output enabled: the line asserts at
         the jumpered level (README.md "Interrupts")."""

@@ -115,6 +115,27 @@ class Firmware:
         if rate and not (self.ticks - self.time_origin) % (1 << rate):
             self.bus.load_record(self.data_record())
 
+    # -- rest (decision 0008) -----------------------------------------------------------------------
+    def rest_state(self) -> bytes | None:
+        """What a sample may change, as bytes, but the sample count; None while the interpreter
+        has work (a command, a reply to send, a trippoint) or a home search runs."""
+        if self._out or self._trip is not None or self.bus.commands_waiting:
+            return None
+        return self.motion.rest_state()
+
+    def quiet_ticks(self) -> int:
+        """At rest, the samples before the next data record (DR n: every 2^n samples)."""
+        rate = self.record_rate
+        if not rate:
+            return 1 << 62
+        every = 1 << rate
+        return (-(self.ticks - self.time_origin) - 1) % every
+
+    def skip(self, k: int) -> None:
+        """k samples at rest: only the sample count and the profile clock move."""
+        self.ticks += k
+        self.motion.core.skip(k)
+
     def _motion_complete(self, done: np.ndarray) -> None:
         """EI bits 0-3 per axis and bit 8 when every axis has stopped [M Ch4]."""
         mask = self.ei_mask

@@ -26,6 +26,9 @@ from vdevd.rt.plants import StepperPlant
 
 HOME_CREEP = 256.0  # counts/s: phases 2 and 3 of HM [M Ch3 §Home Switch Input]
 TV_SECONDS = 0.25  # TV averages over about a quarter second (spec §1.2)
+#: a TV below this reads 0 in TV (rint) and in the data record (rint of 64 x TV): every 64
+#: samples it is made 0, so that a motor at rest settles and the card can rest (decision 0008)
+TV_FLUSH = 1 / 256
 _MOVING = int(AxisFlag.MOVING)
 
 
@@ -89,7 +92,7 @@ class SmoothedStepper(StepperPlant):
         np.rint(gen, out=tgt)
         np.subtract(tgt, pos, out=vel)
         vel *= self._inv_dt
-        np.copyto(pos, tgt)
+        pos[...] = tgt
 
 
 class GalilMotion:
@@ -144,6 +147,7 @@ class GalilMotion:
         self._new = np.zeros(n, dtype=bool)
         self._er = np.zeros(n)
         self._tv_gain = self._tv_alpha / self.dt
+        self._tv_keep = 1.0 - self._tv_alpha
         self.apply_filter()
         self.apply_limits()
         self.core.servo_on(slice(None))
@@ -381,21 +385,35 @@ class GalilMotion:
             self.sense()
         if self._pl:
             self._low_pass(core.axes.out)
-        enc, tmp = core.axes.fb, self._tmp
-        np.subtract(enc, self._enc_prev, out=tmp)  # TV: a first-order average of the velocity
-        tmp *= self._tv_gain
-        self.tv *= 1.0 - self._tv_alpha
-        self.tv += tmp
+        enc, tmp, tv = core.axes.fb, self._tmp, self.tv
+        np.subtract(enc, self._enc_prev, tmp)  # TV: a first-order average of the velocity
+        np.multiply(tmp, self._tv_gain, tmp)
+        np.multiply(tv, self._tv_keep, tv)
+        np.add(tv, tmp, tv)
+        if not core.profile.ticks & 63:
+            np.copyto(self.tv, 0.0, where=np.abs(self.tv) < TV_FLUSH)
         if self._searching:
             self._search_step(enc)
-        np.copyto(self._enc_prev, enc)
+        self._enc_prev[...] = enc
         moving, done = core.profile.moving, self._done
-        np.greater(self._moving_prev, moving, out=done)
-        if not done.any():
+        np.greater(self._moving_prev, moving, done)
+        if not np.count_nonzero(done):
             return None
-        np.copyto(self._moving_prev, moving)
+        self._moving_prev[...] = moving
         self._finish(np.flatnonzero(done))
         return done
+
+    def rest_state(self) -> bytes | None:
+        """What a sample may change (the core's and the filters', averages and latches of this
+        firmware), as bytes; None during a home search (MotionCore.rest_state)."""
+        core = self.core.rest_state()
+        if core is None or self._searching:
+            return None
+        return b"".join((core, self.tv.tobytes(), self.lowpass.tobytes(),
+                         self._enc_prev.tobytes(), self.error_over.tobytes(),
+                         self._moving_prev.tobytes(), self.phase.tobytes(),
+                         self.stop_code.tobytes(), self.oe_tripped.tobytes(),
+                         self.latch_occurred.tobytes(), self.latched.tobytes()))
 
     def _low_pass(self, out: np.ndarray) -> None:
         """L(z) = (1 - B)/(z - B), B = PL, then OF and the TL clamp (spec §5.1); axes that are
@@ -467,11 +485,11 @@ class GalilMotion:
         """|TE| > ER (ER -1 disables): the ERROR output; with OE1 the motor turns off (SC 8).
         Returns the mask of axes that newly exceeded the limit, None if none [M Ch2 Step 7a]."""
         over, new = self._over, self._new
-        np.abs(self.core.axes.ferr, out=self._tmp)
-        np.greater(self._tmp, self._er, out=over)
-        np.greater(over, self.error_over, out=new)
-        np.copyto(self.error_over, over)
-        if not new.any():
+        np.abs(self.core.axes.ferr, self._tmp)
+        np.greater(self._tmp, self._er, over)
+        np.greater(over, self.error_over, new)
+        self.error_over[...] = over
+        if not np.count_nonzero(new):
             return None
         trip = new & (self.values["OE"] > 0)
         if trip.any():

@@ -12,7 +12,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vdevd.devices.base import Card, CardContext, Option, control
+from vdevd.devices.base import QUIET_CHECK, QUIET_MIN, Card, CardContext, Option, control
 from vdevd.devices.generic import regions as R
 from vdevd.devices.generic.regions import AxisReg, CardStatus, Command, CommandError
 from vdevd.pci import Bar, PciIdentity
@@ -102,17 +102,26 @@ class GenericServoCard(Card):
 
     # -- firmware --------------------------------------------------------------------------------
     def tick(self, n: int) -> int:
-        """Run up to n ticks in the motion core; stop at a tick that interrupted the host."""
+        """Run up to n ticks in the motion core; stop at a tick that interrupted the host. At
+        rest (every QUIET_CHECK ticks of a long batch, one tick is compared) the rest of the
+        batch runs in closed form."""
         done = 0
         sensing = self.world.mechanical  # the switches follow the stage: sense every tick
+        rest = self.skip_quiet and n >= QUIET_MIN
         while done < n:
             run = 1 if sensing else n - done
+            probe = rest and n - done >= QUIET_MIN and done % QUIET_CHECK == 0
+            if probe:
+                run = 1
+            elif rest:
+                run = min(run, QUIET_CHECK - done % QUIET_CHECK)
             retimes = self.retimes
             if retimes:  # a new period from that tick: no batch runs across it
                 if retimes[0][0] == self.ticks + 1:
                     self.period_changed(retimes.pop(0)[1])
                 if retimes:
                     run = min(run, retimes[0][0] - self.ticks - 1)
+            before = self.rest_state() if probe else None
             k, events = self.core.run(run)
             done += k
             self.ticks_run(k)
@@ -123,8 +132,18 @@ class GenericServoCard(Card):
                 if self.pause:
                     self.pause = False
                     break
+            if before is not None and done < n and self.rest_state() == before:
+                done += self.skip_quiet_ticks(n - done)
         self._store_status()
         return done
+
+    def rest_state(self) -> bytes | None:
+        """The motion core's (the registers are stored from it at the end of a batch)."""
+        return self.core.rest_state()
+
+    def skip(self, k: int) -> None:
+        self.core.skip(k)
+        super().skip(k)
 
     def period_changed(self, period: Fraction) -> None:
         """A tick of a new servo period (`set_period`): the motion core's step and PERIOD_NS

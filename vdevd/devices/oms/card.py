@@ -55,6 +55,7 @@ from vdevd.devices.oms.layout import (
 )
 from vdevd.devices.oms.mu import MessageUnit
 from vdevd.devices.oms.params import AXIS_TYPES, PROFILES, SERVO_OUTPUTS
+from vdevd.devices.rest import state_bytes
 from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region, passive_except
 from vdevd.rt import wrap_int32
@@ -407,7 +408,40 @@ class MaxkCard(Card):
             self._post_captures()
         if fw.replies:
             self._post_reply()
-        self.publish()
+
+    def batch_done(self) -> None:
+        """The host reads the cycle's words only between batches of ticks: they are published
+        once, after the last tick of a batch (decision 0008)."""
+        if self.running:
+            self.publish()
+
+    # -- rest (decision 0008) -------------------------------------------------------------------------
+    def rest_state(self) -> bytes | None:
+        """The firmware's state and both windows, as bytes; None while the card has work: bytes
+        in the command ring, replies or captures to post, queued or contouring motion, a home
+        search, armed capture inputs. A card whose application is stopped does nothing."""
+        if not self.running:
+            return b"stopped"
+        fw = self.fw
+        m = fw.motion
+        if (fw.replies or fw.contours or fw.running_contours or fw.waiting_contours
+                or fw.live_contours or fw.capture.armed or fw.capture.pending
+                or fw.reset_requested or m.searching.any()
+                or any(q.items for q in fw.queues)
+                or (not self.decode_on_arrival and rings.commands_waiting(self.mem))):
+            return None
+        core = m.core.rest_state()
+        if core is None:
+            return None
+        return b"".join((core, state_bytes(fw, m, m.encoders, m.servo, fw.capture, self.mu,
+                                           skip=("now_ns",)),
+                         repr(fw.wk_flags).encode(), self.mem, self.mu_region.buf))
+
+    def skip(self, k: int) -> None:
+        self.fw.motion.core.skip(k)
+        super().skip(k)
+        if self.running:
+            self.fw.now_ns = self.now_ns  # what the last of the k cycles would have set
 
     def publish(self) -> None:
         """Positions, status words and DACs as the host reads them every cycle [S Table 3-1]."""

@@ -204,7 +204,7 @@ class Encoders:
             steps = self.home_steps(first, down)
             np.logical_and(homing, steps < np.abs(moved), out=self.home_hit)
             self.home_at[:] = np.where(self.home_hit, np.where(down, -steps, steps) + first, 0.0)
-        np.copyto(self.tick_start, self._enc_prev)
+        self.tick_start[...] = self._enc_prev
         self._enc_prev[:] = enc
 
     def _places(self, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

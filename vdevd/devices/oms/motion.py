@@ -280,11 +280,12 @@ class OmsMotion:
             self.hold_whole_counts()
         self.servo.after_tick()
         enc = self.encoders
+        searching = np.count_nonzero(self.searching)
         if enc.watching:
-            enc.step_index(self.searching & self.home_index if self.searching.any() else None)
+            enc.step_index(self.searching & self.home_index if searching else None)
         if self.home_edge_set:
             self.update_home_edges()
-        if self.searching.any():
+        if searching:
             self.searching &= self.core.profile.moving  # a limit or a stop ended the search
             self.check_homes()
         if enc.maintaining:

@@ -33,6 +33,11 @@ def put_u32(buf: Memory, offset: int, value: int) -> None:
     _U32.pack_into(buf, offset, value & 0xFFFFFFFF)
 
 
+def commands_waiting(buf: Memory) -> bool:
+    """Whether the host has put bytes in the command ring that `take_commands` has not taken."""
+    return u32(buf, _CMD_INSERT) % RING_SIZE != u32(buf, _CMD_PROCESS) % RING_SIZE
+
+
 def take_commands(buf: Memory) -> bytes:
     """The bytes the host has put in the command ring since the last call; advances 0x0F4.
 

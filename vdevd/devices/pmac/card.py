@@ -47,6 +47,7 @@ from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.reply import Reply, frame
 from vdevd.devices.pmac.servo_ic import ChannelFlag
 from vdevd.devices.pmac.status import MotorStatus2
+from vdevd.devices.rest import state_bytes
 from vdevd.errors import StartError
 from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region, passive_except
@@ -145,6 +146,12 @@ class DpramMemory:
 
     def region_written(self, offset: int, size: int) -> None:
         """Writes from the PMAC side do not trigger the host handshakes."""
+
+
+def _until_multiple(cycle: int, period: float) -> int:
+    """The cycles after `cycle` before the next multiple of `period` (0 counts as 1)."""
+    every = max(int(period), 1)
+    return (-cycle - 1) % every
 
 
 class PmacCard(Card):
@@ -281,6 +288,49 @@ class PmacCard(Card):
         if self.irq.mask & _MOTOR_SOURCES:
             self._irq_sources()
 
+    # -- rest (decision 0008) -------------------------------------------------------------------------
+    #: what changes at every cycle and `skip` advances in closed form, left out of rest_state
+    _COUNTERS = ("now_ns", "ticks", "_last_tick_ns", "quiet_skipped", "pause", "servo_cycles",
+                 "_vcount", "_vslot", "inpos_scans",
+                 # and the P and Q variables (1.1 MB): only commands write them between batches
+                 "p", "q")
+
+    def rest_state(self) -> bytes | None:
+        """The firmware's state, the card's inputs and both windows, as bytes (the ASCII and
+        host-port channels answer at the access, not at the tick); None while the card has
+        work: a home search, an in-position scan count still short of its Ixx88, conversion
+        entries with memory or the A/D ring running, a velocity buffer still filling (I60's
+        slots hold different readings), armed compare."""
+        fw = self.fw
+        m = fw.motors
+        if (m.homing.any_searching or fw.ect._stateful or fw.servo_ic._any_armed
+                or not (m._vbuf == m.core.axes.fb).all() or m.counting_to_inpos()):
+            return None
+        core = m.core.rest_state()
+        if core is None:
+            return None
+        skip = self._COUNTERS
+        return b"".join((core, state_bytes(self, fw, m, m.pid, m.homing, fw.servo_ic, fw.gpio,
+                                           fw.feedback, skip=skip),
+                         self.dpram.buf, self.host.buf))
+
+    def quiet_ticks(self) -> int:
+        """At rest, the cycles before the next reporting buffer the host asked for (I47, I50)."""
+        cycle, iv, rep = self.fw.servo_cycles, self.fw.ivars.values, self.reporting
+        k = 1 << 62
+        if iv[48] and rep.realtime_requested():
+            k = min(k, _until_multiple(cycle, iv[47]))
+        if iv[49] and rep.background_requested():
+            k = min(k, _until_multiple(cycle, iv[50]))
+        return k
+
+    def skip(self, k: int) -> None:
+        """k cycles at rest: the servo cycle count, the profile clock, I60's slot and the
+        in-position scan counts move; the firmware's clock (X/Y:$000017) reads the card's."""
+        self.fw.skip(k)
+        super().skip(k)
+        self.fw.now_ns = self.now_ns
+
     def _report_realtime(self, cycle: int) -> None:
         """The motors selected at L:$06001C, copied from their registers (README "Reporting
         buffers"): the position bias is 0, the home origin being already out of the actual
@@ -309,12 +359,13 @@ class PmacCard(Card):
         rising = w2 & ~self._last_status2
         self._last_status2 = w2
         bits = 0
-        if (rising & _IN_POSITION).any():
-            bits |= HostIrq.IN_POSITION
-        if (rising & _WARN_FE).any():
-            bits |= HostIrq.WARNING_FOLLOWING_ERROR
-        if (rising & _FATAL_FE).any():
-            bits |= HostIrq.FATAL_FOLLOWING_ERROR
+        if np.count_nonzero(rising):
+            if np.count_nonzero(rising & _IN_POSITION):
+                bits |= HostIrq.IN_POSITION
+            if np.count_nonzero(rising & _WARN_FE):
+                bits |= HostIrq.WARNING_FOLLOWING_ERROR
+            if np.count_nonzero(rising & _FATAL_FE):
+                bits |= HostIrq.FATAL_FOLLOWING_ERROR
         equ = self.fw.servo_ic.equ_outputs()
         if len(equ) > 0 and equ[0]:
             bits |= HostIrq.COMPARE_EQU1

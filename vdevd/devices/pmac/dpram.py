@@ -181,6 +181,14 @@ class Reporting:
         """The host has taken the last sample (data ready clear) and is not reading."""
         return not (self.mem[host_busy + 1] & 0x80 or self.mem[ready + 1] & 0x80)
 
+    def realtime_requested(self) -> bool:
+        """The host waits for a real-time buffer (`realtime_due` at the next multiple of I47)."""
+        return self._requested(RT_HOST_BUSY, RT_READY)
+
+    def background_requested(self) -> bool:
+        """The host waits for a background buffer (`background_due` at the next multiple of I50)."""
+        return self._requested(BG_HOST_BUSY, BG_READY)
+
     def realtime_due(self, cycle: int, period: float) -> bool:
         """At a multiple of I47 servo cycles (0 counts as 1) with the buffer requested."""
         return cycle % max(int(period), 1) == 0 and self._requested(RT_HOST_BUSY, RT_READY)

@@ -42,7 +42,7 @@ class FeedbackSelect:
 
     @property
     def active(self) -> bool:
-        return bool(self.source.any())
+        return bool(np.count_nonzero(self.source))
 
     def refresh(self, encoder: np.ndarray) -> None:
         """Ixx03 may have changed: motors that now read another result start from where their

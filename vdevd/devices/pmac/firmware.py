@@ -114,6 +114,11 @@ class Firmware:
         self.gpio.tick()
         return events
 
+    def skip(self, k: int) -> None:
+        """k servo cycles at rest (the card's rest_state holds): what k ticks would count."""
+        self.servo_cycles += k
+        self.motors.skip(k)
+
     def _offset_feedback(self) -> None:
         """What the loops see beside their own encoder, as an offset of the motion core's encoder
         reading (to the nearest count):
@@ -452,6 +457,9 @@ class _FineEncoders:
 
     def encoder(self) -> np.ndarray:
         return self.reports.encoder_fine()
+
+    def encoder_into(self, out: np.ndarray) -> None:
+        self.reports.encoder_fine_into(out)
 
 
 class _Env:

@@ -36,6 +36,7 @@ class MotorReports:
         self.motors = motors
         self._ix = 100 * np.arange(1, motors.n + 1)  # I-variable number of Ixx00 per motor
         self._tmp = np.zeros(motors.n)
+        self._counts = np.zeros(motors.n, dtype=np.int64)
 
     def _iv(self, yy: int) -> np.ndarray:
         return self.motors.ivars.values[self._ix + yy]
@@ -53,7 +54,7 @@ class MotorReports:
 
     def velocity(self) -> np.ndarray:
         """Filtered actual velocity, counts per servo cycle, over 16*(I60+1) cycles [SRM I60]."""
-        return self.motors.filtered_velocity.copy()
+        return self.motors.filtered_velocity
 
     def commanded(self) -> np.ndarray:
         """Commanded motor position, counts (the actual position while the loop is open)."""
@@ -94,6 +95,23 @@ class MotorReports:
         frac = pos - np.floor(pos)
         frac[core.encoder_loss] = 0.0
         return self.encoder() + frac
+
+    def encoder_fine_into(self, out: np.ndarray) -> None:
+        """`encoder_fine` written into `out` (one float per motor), with no allocation: the
+        Servo ICs read it every cycle."""
+        core = self.motors.core
+        pos, counts = core.axes.pos, self._counts
+        np.floor(pos, out)
+        np.subtract(pos, out, out)
+        if core.any_slip:
+            np.copyto(counts, core.encoder_slip, casting="unsafe")
+            np.add(counts, core.axes.encoder, counts)
+            np.bitwise_and(counts, ENCODER_MASK, counts)
+        else:
+            np.bitwise_and(core.axes.encoder, ENCODER_MASK, counts)
+        if core.encoder_loss.tobytes().count(1):
+            out[core.encoder_loss] = 0.0
+        np.add(counts, out, out)
 
     def capture(self) -> np.ndarray:
         """The counter value latched by the last home trigger (X:b+3 low 24 bits, Mxx73)."""

@@ -109,8 +109,11 @@ class Motors:
         self._soft_hi_hit = np.zeros(n, dtype=bool)
         self._soft_lo_hit = np.zeros(n, dtype=bool)
         self.inpos_scans = np.zeros(n, dtype=np.int64)
-        self._vbuf = np.zeros((16, n))
-        self.filtered_velocity = np.zeros(n)
+        #: I60's velocity buffer: the feedback at each of the last 17 sample times (the newest at
+        #: `_vslot`, the one 16 samples before it next to it); `filtered_velocity` is their
+        #: difference, computed when read
+        self._vbuf = np.zeros((17, n))
+        self._vdiv = 16.0
         self._vslot = 0
         self._vcount = 0
         self._any_open = False
@@ -485,6 +488,32 @@ class Motors:
         """A motion command refused or stopped at once by a limit is not an abort deceleration."""
         self.abort_decel[m] = False
 
+    def skip(self, k: int) -> None:
+        """k cycles at rest: the profile clock, I60's slot counters (every slot already holds
+        the reading) and the in-position scan counts move, as k ticks would move them."""
+        self.core.skip(k)
+        total = self._vcount + k
+        self._vslot = (self._vslot + total // self._vperiod) % 17
+        self._vcount = total % self._vperiod
+        if self.count_inpos:
+            self.inpos_scans[self.inpos_scans > 0] += k
+
+    def counting_to_inpos(self) -> bool:
+        """Whether a motor's in-position scan count is under way to Ixx88 (in position but not
+        yet for Ixx88 + 1 scans): its in-position bit, and the interrupt on its edge, are still
+        to come at a cycle of their own."""
+        if not self.count_inpos:
+            return False
+        scans = self.inpos_scans
+        return bool(np.count_nonzero((scans > 0) & (scans <= self._iv(88))))
+
+    @property
+    def filtered_velocity(self) -> np.ndarray:
+        """The actual velocity over the last 16 samples of I60's buffer, counts per servo cycle
+        (a fresh array) [SRM I60]."""
+        slot = self._vslot
+        return (self._vbuf[slot] - self._vbuf[(slot + 1) % 17]) / self._vdiv
+
     # -- the tick ------------------------------------------------------------------------------------------
     def tick(self) -> int:
         """One servo cycle; the AxisFlag bits of what happened (FE_TRIP on a fatal following
@@ -510,11 +539,9 @@ class Motors:
         self._vcount += 1
         if self._vcount >= self._vperiod:  # I60: 16-slot velocity buffer [SRM I60]
             self._vcount = 0
-            old = self._vbuf[self._vslot]
-            np.subtract(core.axes.fb, old, out=self.filtered_velocity)
-            self.filtered_velocity /= 16 * self._vperiod
-            old[:] = core.axes.fb
-            self._vslot = (self._vslot + 1) % 16
+            self._vslot = slot = (self._vslot + 1) % 17
+            self._vbuf[slot] = core.axes.fb
+            self._vdiv = 16 * self._vperiod
         if self.count_inpos:
             ok = self.reports.in_position_now()
             self.inpos_scans = np.where(ok, self.inpos_scans + 1, 0)

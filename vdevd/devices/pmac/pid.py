@@ -29,5 +29,6 @@ class PmacPid(Pid):
             np.abs(out, out=self._abs)
             np.greater_equal(self._abs, self.out_limit, out=sat)
             hold |= sat
+            hold &= self.ki_on  # the others do not integrate at all
             self.integ -= self.e * hold  # the parent adds e back: no net integration
         super().update(out)

@@ -85,6 +85,9 @@ class Encoders(Protocol):
 
     def encoder(self) -> np.ndarray: ...
 
+    # optional: `encoder_into(out)` writes `encoder()` into a float array, with no allocation
+    # (the IC reads the counters every cycle)
+
 
 def _s24(v: np.ndarray) -> np.ndarray:
     return ((v + (1 << 23)) & WORD) - (1 << 23)
@@ -139,7 +142,9 @@ class ServoIC:
         self._armed = np.zeros(n, dtype=bool)
         self._any_armed = False
         self._pos = self._read_encoders()
-        self._prev = self._pos
+        self._prev = self._pos.copy()
+        self._motors = len(self.encoders.encoder())
+        self._wide = np.zeros(self._motors)
         self._cfg = b""
         self._mldt_ch = np.zeros(0, dtype=np.int64)
         self._cap_dirty = True
@@ -149,8 +154,8 @@ class ServoIC:
         """One servo cycle: sample the counters, run compare, capture and the MLDT timers. Idle
         channels cost nothing: compare runs when armed, capture when its inputs, arming or
         I7mn2/I7mn3 changed (it is level-triggered), the MLDT model only for I7mn0 = 12."""
-        old = self._pos
-        new = self._read_encoders()
+        old, new = self._pos, self._prev  # two buffers in turn: no allocation per cycle
+        self._read_encoders_into(new)
         self._prev, self._pos = old, new
         if self._any_armed:
             self._compare(old, new)
@@ -164,6 +169,19 @@ class ServoIC:
             self._capture()
         if self._mldt_ch.size:
             self._mldt(self._mldt_ch)
+
+    def _read_encoders_into(self, out: np.ndarray) -> None:
+        """`_read_encoders` into `out` (channels without a motor read 0)."""
+        m, into = self._motors, getattr(self.encoders, "encoder_into", None)
+        if into is None:  # an Encoders without the fast path
+            np.copyto(out, self._read_encoders())
+        elif m == self.n:
+            into(out)
+        elif m < self.n:
+            into(out[:m])
+        else:
+            into(self._wide)
+            np.copyto(out, self._wide[: self.n])
 
     def _read_encoders(self) -> np.ndarray:
         v = np.array(self.encoders.encoder()[: self.n], dtype=np.float64)

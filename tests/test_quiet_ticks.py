@@ -1,0 +1,261 @@
+"""Quiet ticks in closed form give the replies and events of ticking every period (issue 17,
+DESIGN.md "Time that costs nothing", decision 0008).
+
+Each scenario runs twice against a real lockstep daemon with the embedded default rack (one card
+of each kind): once with `[clock] skip_quiet = true` (the default: a card at rest runs its quiet
+ticks in closed form) and once with `false` (every tick in full). Every reply a client receives
+(through the vendor libraries, as an application sees them), every published event and the
+final contents of every region are digested; the two digests must be equal, and the skipping run
+must have skipped ticks (else the test proves nothing).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import replace
+from typing import Any
+
+import msgpack
+import pytest
+import vdevclient
+from vdevclient import core as client_core
+from vdevclient import galil, maxk, pcomm
+from vdevmaps.pmac import HostIrq
+
+from vdevd.config import Config, default_config
+from vdevd.testing import DaemonThread
+
+MS = 1_000_000
+S = 1_000_000_000
+#: the generic card's axis registers (README of the generic card)
+AXIS_BASE, AXIS_STRIDE = 0x100, 0x40
+COMMAND, TARGET, VMAX, ACC, DEC, POSITION = 0x00, 0x04, 0x08, 0x0C, 0x10, 0x1C
+IRQ_ENABLE = 0x24
+MOVE_ABS, JOG, STOP = 1, 3, 4
+
+
+def rack_config(skip: bool) -> Config:
+    cfg = default_config()
+    cfg.clock = "lockstep"
+    cfg.skip_quiet = skip
+    cfg.endpoint = cfg.events = "tcp://127.0.0.1:*"
+    cfg.cards = [replace(spec, options={**spec.options, "ethernet": "tcp://127.0.0.1:*"})
+                 if spec.options.get("ethernet") else spec for spec in cfg.cards]
+    return cfg
+
+
+class Recorder:
+    """Every reply of every request the clients of this process make, in order (not `hello`
+    and `stats`: endpoints and wall times differ from run to run)."""
+
+    def __init__(self) -> None:
+        self.digest = hashlib.sha256()
+        self.count = 0
+
+    def add(self, what: Any) -> None:
+        self.digest.update(msgpack.packb(what, default=repr))
+        self.count += 1
+
+
+@contextmanager
+def recorded(monkeypatch: pytest.MonkeyPatch, rec: Recorder) -> Iterator[None]:
+    call = client_core.Rack.call
+
+    def spy(self: client_core.Rack, message: Any, wait_s: float = 0.0) -> Any:
+        try:
+            result = call(self, message, wait_s)
+        except vdevclient.VdevClientError as exc:
+            rec.add(["error", str(exc)])
+            raise
+        op = message.get("op") if isinstance(message, dict) else None
+        if op not in ("hello", "stats", "sync"):
+            rec.add([op, result])
+        return result
+
+    with monkeypatch.context() as m:
+        m.setattr(client_core.Rack, "call", spy)
+        yield
+
+
+def run(scenario: Callable[[DaemonThread, vdevclient.Rack, Recorder], None], skip: bool,
+        monkeypatch: pytest.MonkeyPatch) -> tuple[str, int, dict[str, int]]:
+    """(digest, replies recorded, quiet ticks skipped by card) of `scenario` on a fresh
+    daemon."""
+    rec = Recorder()
+    monkeypatch.setenv("VDEVD_SHM", "0")  # every read a request, so that the spy sees it
+    with DaemonThread(rack_config(skip)) as d, \
+            vdevclient.connect(d.endpoint, d.events, timeout=20) as rack:
+        subs = {c.name: rack.card(c.name).irq.subscribe() for c in rack.cards()}
+        with recorded(monkeypatch, rec):
+            scenario(d, rack, rec)
+            for c in rack.cards():  # the final memory of every region
+                for r in c.regions:
+                    if r.name != "config":
+                        rec.add([c.name, r.name, rack.card(c.name).region(r.name).read(0, 0)
+                                 if r.size == 0 else _dump(rack, c.name, r.name, r.size)])
+        for name, irq in subs.items():
+            for event in irq.events(timeout_s=0.2):
+                rec.add(["event", name, event])
+        stats = rack.stats()
+        skipped = {name: c["quiet_ticks"] for name, c in stats["cards"].items()}
+        assert stats["scheduler"]["card_faults"] == 0
+    return rec.digest.hexdigest(), rec.count, skipped
+
+
+def _dump(rack: vdevclient.Rack, card: str, region: str, size: int) -> bytes:
+    """A region's memory in reads of at most 4 KiB, by its smallest width where it has hooks
+    (the same reads in both runs: their side effects are part of the scenario)."""
+    reg = rack.card(card).region(region)
+    out = bytearray()
+    for off in range(0, min(size, 1 << 16), 4096):
+        try:
+            out += reg.read(off, min(4096, size - off))
+        except vdevclient.VdevClientError as exc:  # a bus that allows no block reads
+            out += str(exc).encode()
+    return bytes(out)
+
+
+def both_ways(scenario: Callable[[DaemonThread, vdevclient.Rack, Recorder], None], card: str,
+              monkeypatch: pytest.MonkeyPatch) -> None:
+    fast, n_fast, skipped = run(scenario, True, monkeypatch)
+    full, n_full, skipped_full = run(scenario, False, monkeypatch)
+    assert not any(skipped_full.values())
+    assert skipped[card] > 0, f"the scenario never let {card} rest: it proves nothing"
+    assert n_fast == n_full and n_fast > 20
+    assert fast == full
+
+
+# -- scenarios ---------------------------------------------------------------------------------------
+def generic_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
+    """Moves, a jog and its stop, interrupts, backdoor inputs at scheduled times, reads after
+    steps of odd lengths (batch boundaries fall anywhere)."""
+    card = rack.card("servo0")
+    bar = card.region("bar0")
+    bar.write32(IRQ_ENABLE, 0xFFFF_FFFF)
+    for axis, target in enumerate((5000, -3000, 12000, 1)):
+        base = AXIS_BASE + AXIS_STRIDE * axis
+        bar.write32(base + TARGET, target & 0xFFFF_FFFF)
+        bar.write32(base + COMMAND, MOVE_ABS)
+    for ns in (3 * MS + 17, 400 * MS, 2 * S + 123_457, 7, 5 * S):
+        rack.sim.step(ns=ns)
+        rec.add([bar.read32(AXIS_BASE + AXIS_STRIDE * a + POSITION) for a in range(4)])
+    rec.add(card.irq.wait(1.0))
+    bar.write32(AXIS_BASE + TARGET, 20_000)
+    bar.write32(AXIS_BASE + COMMAND, JOG)
+    rack.control("servo0", "set_limit", after_ns=700 * MS, axis=0, side="positive")
+    rack.sim.step(seconds=3.3)
+    rec.add(card.irq.wait(1.0))
+    rack.control("servo0", "set_limit", axis=0, side="positive", active=False)
+    rec.add(card.control("axis_state", axis=0))
+    rack.sim.step(seconds=4.0)
+    rec.add(card.control("axis_state", axis=0))
+
+
+def galil_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
+    """Commands, a trippoint, the data record every 2^8 samples, TIME, a jog and its stop."""
+    h = ctypes.c_long()
+    assert galil.DMCOpen(1, 0, ctypes.byref(h), endpoint=d.endpoint, events=d.events) == 0
+    buf = ctypes.create_string_buffer(512)
+
+    def cmd(text: str) -> None:
+        rc = galil.DMCCommand(h, text, buf, 512)
+        rec.add([text, rc, buf.value])
+
+    for text in ("TP", "MG TIME", "PR 1000,-2000,3000,4", "SP 20000,20000,20000,20000",
+                 "BG ABCD", "AM", "TP", "MG TIME", "WT 777", "MG TIME", "TE", "DR 8",
+                 "JG 5000", "BG A"):
+        cmd(text)
+    rack.sim.step(seconds=1.7)
+    cmd("TV")
+    cmd("ST A")
+    rack.sim.step(seconds=2.0)
+    for text in ("TP", "MG TIME", "DR 0", "MG TIME"):
+        cmd(text)
+    rack.sim.step(ns=3 * S + 1)
+    cmd("MG TIME")
+    cmd("TD")
+    cmd("DR 7")  # at rest: a record every 128 samples, the one read after each step
+    record = ctypes.create_string_buffer(1024)
+    for ns in (S + 17, 333 * MS, 7 * MS):
+        rack.sim.step(ns=ns)
+        rec.add([galil.DMCRefreshDataRecord(h, 0), galil.DMCCopyDataRecord(h, record),
+                 record.raw])
+    cmd("DR 0")
+    galil.DMCClose(h)
+
+
+def maxk_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
+    """Moves on servo and stepper axes, done flags, positions, a jog and its stop."""
+    with maxk.open(1, endpoint=d.endpoint) as m:
+        rec.add(m.send_and_get_string("WY"))
+        m.send_string("AX VL20000 AC200000 MR5000 GO ID; AY MR-3000 GO ID; AU MR700 GO ID;")
+        rec.add(str(m.wait_done(0x13, timeout_ms=10_000)))
+        rec.add(str(m.get_positions()))
+        rack.sim.step(seconds=1.3)
+        rec.add(m.send_and_get_string("AA RP"))
+        m.send_string("AZ JG4000;")
+        rack.sim.step(seconds=0.9)
+        rec.add(str(m.get_positions()))
+        m.send_string("AZ ST;")
+        rack.sim.step(seconds=2.0)
+        rec.add(str(m.get_positions()))
+        rec.add(str(m.get_status_flags()))
+        rec.add(m.send_and_get_string("AA RP"))
+
+
+def pmac_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
+    """Jogs and moves, on-line queries, the real-time and background reporting buffers."""
+    assert pcomm.OpenPmacDevice(0, endpoint=d.endpoint)
+    buf = ctypes.create_string_buffer(pcomm.MAX_COMM_BUFFER)
+
+    def ask(text: str) -> None:
+        r = pcomm.PmacGetResponseA(0, buf, pcomm.MAX_COMM_BUFFER, text)
+        rec.add([text, int(r), buf.value])
+
+    try:
+        for text in ("#1P", "I10", "#1J=5000", "#2J:-3000", "#3J+"):
+            ask(text)
+        rack.sim.step(seconds=1.1)
+        ask("#1P#2P#3P")
+        ask("#3J=0")  # J/ would stop between two counts, where the servo hunts for ever
+        pcomm.PmacDPRRealTimeEx(0, 0xFF, 50, 1)
+        pcomm.PmacDPRBackgroundEx(0, 1, 30, 2)
+        rack.sim.step(seconds=2.3)
+        ask("#1P#2P#3P")
+        dpram = rack.card("pmac0").region("dpram")
+        for ns in (97 * MS + 13, S + 7, 333 * MS):  # one sample each, at its multiple of I47
+            pcomm.PmacDPRResetDataReadyBit(0)
+            rack.sim.step(ns=ns)
+            rec.add(dpram.read(0, 4096))
+        rec.add([pcomm.PmacDPRPosition(0, 1, 1.0), pcomm.PmacDPRGetVel(0, 3, 1.0)])
+        rack.sim.step(ns=4 * S + 99)
+        rec.add([pcomm.PmacDPRPosition(0, 3, 1.0), pcomm.PmacDPRGetGlobalStatus(0)])
+        ask("#1P#2P#3P")
+        # at rest: the clock register (1/1024 s at Y:$000017) and the servo cycle counter
+        ask("M100->Y:$17,0,24")
+        ask("M101->X:$0,0,24")
+        for ns in (S // 2 + 3, 1234 * MS):
+            rack.sim.step(ns=ns)
+            ask("M100 M101")
+        # the in-position interrupt after Ixx88 + 1 scans in position: its edge at its cycle
+        pmac = rack.card("pmac0")
+        pmac.region("host").write8(9, int(HostIrq.IN_POSITION))  # IR mask
+        ask("I188=200")
+        rack.sim.step(seconds=1.0)
+        rec.add(rack.stats()["cards"]["pmac0"]["irq_seq"])
+        ask("I188=0")
+        ask("#1J=1500")
+        rec.add(pmac.irq.wait(5.0))
+    finally:
+        pcomm.ClosePmacDevice(0)
+
+
+@pytest.mark.parametrize(("scenario", "card"), [
+    (generic_scenario, "servo0"), (galil_scenario, "galil0"), (maxk_scenario, "maxk0"),
+    (pmac_scenario, "pmac0")], ids=["generic", "galil", "maxk", "pmac"])
+def test_skipping_quiet_ticks_changes_no_reply(scenario: Callable[..., None], card: str,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    both_ways(scenario, card, monkeypatch)
