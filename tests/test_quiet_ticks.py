@@ -259,3 +259,26 @@ def pmac_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None
 def test_skipping_quiet_ticks_changes_no_reply(scenario: Callable[..., None], card: str,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
     both_ways(scenario, card, monkeypatch)
+
+
+def test_a_card_proven_at_rest_skips_small_batches_until_an_input_changes() -> None:
+    """Realtime passes run a tick or two per card: once a card proved itself at rest it skips
+    them without looking again, until something touches it (a host access, a backdoor action,
+    a new period); then it runs and looks again (decision 0008)."""
+    from vdevd.devices.base import CardContext
+    from vdevd.devices.generic.card import GenericServoCard
+
+    card = GenericServoCard("servo0", {}, CardContext(emit=lambda e: None))
+    for _ in range(10):
+        card.tick(2)
+    skipped = card.quiet_skipped
+    assert skipped > 0
+    card.tick(1)
+    assert card.quiet_skipped == skipped + 1  # no look, no tick: skipped
+    card.control("set_gains", {"axis": 0, "kp": 0.5})
+    card.tick(1)
+    assert card.quiet_skipped == skipped + 1  # touched: this tick ran
+    card.regions["bar0"].read(0, 4)
+    card.tick(2)
+    assert card.quiet_skipped == skipped + 2  # read: the first tick ran, the second is skipped
+    assert card.ticks == 10 * 2 + 1 + 1 + 2

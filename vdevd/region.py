@@ -121,6 +121,8 @@ class Region:
         self._write_plans: dict[tuple[int, int], WritePlan] = {}
         self._read_rep_plans: dict[tuple[int, int], ReadPlan] = {}
         self._write_rep_plans: dict[tuple[int, int], WritePlan] = {}
+        #: told of every host access (the card's `touched`: an input may have changed)
+        self.on_access: Callable[[], None] | None = None
 
     # -- declaration -------------------------------------------------------------------------
     def hook(
@@ -176,6 +178,8 @@ class Region:
     # -- bus accesses (from the host) -----------------------------------------------------------
     def read(self, offset: int, size: int) -> bytes:
         """A host read: plain memory from the buffer, hooked registers through their hook."""
+        if self.on_access is not None:
+            self.on_access()
         plan = self._read_plans.get((offset, size))
         if plan is None:
             plan = _keep(self._read_plans, (offset, size), self._plan_read(offset, size))
@@ -188,6 +192,8 @@ class Region:
         """A host write: plain memory into the buffer, hooked registers through their hook."""
         if type(data) is not bytes:
             data = bytes(data)  # a hook gets bytes, whatever buffer the access carried
+        if self.on_access is not None:
+            self.on_access()
         plan = self._write_plans.get((offset, len(data)))
         if plan is None:
             plan = _keep(self._write_plans, (offset, len(data)), self._plan_write(offset, len(data)))
@@ -196,6 +202,8 @@ class Region:
     def read_rep(self, offset: int, size: int) -> bytes:
         """A repeated read (string I/O, Linux `ioread8_rep`): `size` bytes read as single accesses
         of the bus's smallest width, all at `offset` (a FIFO port)."""
+        if self.on_access is not None:
+            self.on_access()
         plan = self._read_rep_plans.get((offset, size))
         if plan is None:
             plan = _keep(self._read_rep_plans, (offset, size), self._plan_read_rep(offset, size))
@@ -209,6 +217,8 @@ class Region:
         `offset` (a FIFO port), in order."""
         if type(data) is not bytes:
             data = bytes(data)
+        if self.on_access is not None:
+            self.on_access()
         plan = self._write_rep_plans.get((offset, len(data)))
         if plan is None:
             plan = _keep(self._write_rep_plans, (offset, len(data)),

@@ -28,8 +28,9 @@ __all__ = ["Card", "CardContext", "CardOptions", "Option", "control"]
 
 EventSink = Callable[[IrqEvent], None]
 
-#: a card in a batch of ticks looks whether it came to rest every QUIET_CHECK ticks, when at
-#: least QUIET_MIN ticks are left (fewer are not worth two `rest_state` calls)
+#: a card that is moving looks whether it came to rest after 1, 2, 4, ... ticks, at most every
+#: QUIET_CHECK ticks (two `rest_state` calls a look); a lockstep slice holds at least QUIET_MIN
+#: ticks of every card
 QUIET_CHECK = 64
 QUIET_MIN = 16
 
@@ -88,6 +89,13 @@ class Card(WorldBackdoor):
         self.pause = False
         #: ticks run in closed form at rest (stats)
         self.quiet_skipped = 0
+        #: counts what may have changed the card's inputs (`touched`); the card is proven at rest
+        #: while `_rest_epoch` equals it; it looks again at tick `_rest_due`, `_rest_wait` ticks
+        #: after the last look that found it moving
+        self.inputs_epoch = 0
+        self._rest_epoch = -1
+        self._rest_due = 0
+        self._rest_wait = 1
         self._controls = self._collect_controls()
 
     @classmethod
@@ -102,7 +110,9 @@ class Card(WorldBackdoor):
         return self.world
 
     def add_region(self, region: Region) -> Region:
+        """Add a region; the host's accesses to it touch the card (`touched`)."""
         self.regions[region.name] = region
+        region.on_access = self.touched
         return region
 
     def add_config_space(self, identity: PciIdentity, irq: IrqLine | None) -> ConfigSpace:
@@ -163,6 +173,7 @@ class Card(WorldBackdoor):
         self.retimes = [r for r in self.retimes if r[0] <= base_ticks]  # later ones superseded
         self.retimes.append((base_ticks + 1, exact))
         self._set_base(base, base_ticks, exact)
+        self.touched()
         self.pause = True  # a batch of ticks under way stops here: the scheduler recounts
         if self.on_period is not None:
             self.on_period()
@@ -212,15 +223,13 @@ class Card(WorldBackdoor):
 
         Returns the number of ticks run. Cards may override for speed but must count `ticks` and keep
         `now_ns` (= `time_of_tick(ticks)`) the time of the tick being run. A card at rest runs
-        the rest of the batch in closed form (`rest_state`, `skip`): every QUIET_CHECK ticks of
-        a long batch it compares its state around one tick.
+        its ticks in closed form (`rest_state`, `skip`; the steps of `rest_enter`,
+        `rest_before`, `rest_after`, which an overriding card calls the same way).
         """
         begin, step = self.begin_tick, self.step
-        rest = self.rest_state if self.skip_quiet and n >= QUIET_MIN else None
-        i = 0
+        i = self.rest_enter(n)
         while i < n:
-            before = (rest() if rest is not None and i % QUIET_CHECK == 0 and n - i >= QUIET_MIN
-                      else None)
+            before = self.rest_before()
             begin()
             step()
             i += 1
@@ -228,18 +237,58 @@ class Card(WorldBackdoor):
                 self.pause = False
                 self.batch_done()
                 return i
-            if before is not None and i < n and rest() == before:  # type: ignore[misc]
-                i += self.skip_quiet_ticks(n - i)
+            if before is not None:
+                i += self.rest_after(before, n - i)
         self.batch_done()
         return n
 
     # -- rest (DESIGN.md "Time that costs nothing", decision 0008) ---------------------------------
+    def touched(self) -> None:
+        """An input of the card may have changed (a host access, a backdoor action, a command on
+        a port of its own, a new period): a card at rest looks again at its next tick."""
+        self.inputs_epoch += 1
+        self._rest_due = 0
+        self._rest_wait = 1
+
+    def rest_enter(self, n: int) -> int:
+        """At the start of a batch of n ticks: a card proven at rest with nothing touched since
+        skips them (up to its next periodic event or period change); the count skipped."""
+        if not self.skip_quiet or self._rest_epoch != self.inputs_epoch:
+            return 0
+        k = self.skip_quiet_ticks(n)
+        if k < n:  # the tick ahead is an event of the card's own: look again after it
+            self._rest_epoch = -1
+            self._rest_due = self.ticks + 2
+        return k
+
+    def rest_before(self) -> bytes | None:
+        """Before a tick: the state to compare after it, when the card is due to look whether it
+        came to rest (None: not now)."""
+        if not self.skip_quiet or self.ticks < self._rest_due:
+            return None
+        state = self.rest_state()
+        if state is None:  # busy: look again in a while
+            self._rest_due = self.ticks + QUIET_CHECK
+        return state
+
+    def rest_after(self, before: bytes, room: int) -> int:
+        """After the tick `before` was taken for, with `room` ticks left in the batch: equal
+        states prove the card at rest until an input changes, and it skips what it may of the
+        room; else it looks again after twice as many ticks as last time (at most QUIET_CHECK).
+        The count skipped."""
+        if self.rest_state() != before:
+            self._rest_wait = min(2 * self._rest_wait, QUIET_CHECK)
+            self._rest_due = self.ticks + self._rest_wait
+            return 0
+        self._rest_epoch, self._rest_wait = self.inputs_epoch, 1
+        return self.rest_enter(room) if room else 0
+
     def rest_state(self) -> bytes | None:
         """Everything a tick of the card may change, as bytes, except what `skip` advances in
         closed form (tick counters and the clocks derived from them); None while the card is
         busy (a command being served, a reply to send, a timer, a program). Two equal results
         around one tick prove the card at a fixed point: the next ticks change nothing until an
-        input does, and inputs change only between batches. Override (None: never at rest)."""
+        input does (`touched`). Override (None: never at rest)."""
         return None
 
     def quiet_ticks(self) -> int:
@@ -343,6 +392,7 @@ class Card(WorldBackdoor):
     def control(self, action: str, params: Mapping[str, Any]) -> Any:
         """Run a backdoor action; bad params (a flag that is not true or false among them)
         become BAD_PARAM errors."""
+        self.touched()
         fn = self.check_control(action, params)
         params = dict(self._renamed(action, params))
         try:

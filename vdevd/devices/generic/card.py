@@ -12,7 +12,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vdevd.devices.base import QUIET_CHECK, QUIET_MIN, Card, CardContext, Option, control
+from vdevd.devices.base import Card, CardContext, Option, control
 from vdevd.devices.generic import regions as R
 from vdevd.devices.generic.regions import AxisReg, CardStatus, Command, CommandError
 from vdevd.pci import Bar, PciIdentity
@@ -103,25 +103,21 @@ class GenericServoCard(Card):
     # -- firmware --------------------------------------------------------------------------------
     def tick(self, n: int) -> int:
         """Run up to n ticks in the motion core; stop at a tick that interrupted the host. At
-        rest (every QUIET_CHECK ticks of a long batch, one tick is compared) the rest of the
-        batch runs in closed form."""
-        done = 0
+        rest the ticks run in closed form (Card.rest_enter, rest_before, rest_after): a tick
+        the card looks around runs alone, the others in runs of the core."""
         sensing = self.world.mechanical  # the switches follow the stage: sense every tick
-        rest = self.skip_quiet and n >= QUIET_MIN
+        done = self.rest_enter(n)
         while done < n:
-            run = 1 if sensing else n - done
-            probe = rest and n - done >= QUIET_MIN and done % QUIET_CHECK == 0
-            if probe:
-                run = 1
-            elif rest:
-                run = min(run, QUIET_CHECK - done % QUIET_CHECK)
+            before = self.rest_before()
+            run = 1 if sensing or before is not None else n - done
+            if self.skip_quiet and run > 1:  # up to the next look
+                run = max(1, min(run, self._rest_due - self.ticks))
             retimes = self.retimes
             if retimes:  # a new period from that tick: no batch runs across it
                 if retimes[0][0] == self.ticks + 1:
                     self.period_changed(retimes.pop(0)[1])
                 if retimes:
                     run = min(run, retimes[0][0] - self.ticks - 1)
-            before = self.rest_state() if probe else None
             k, events = self.core.run(run)
             done += k
             self.ticks_run(k)
@@ -132,8 +128,8 @@ class GenericServoCard(Card):
                 if self.pause:
                     self.pause = False
                     break
-            if before is not None and done < n and self.rest_state() == before:
-                done += self.skip_quiet_ticks(n - done)
+            if before is not None:
+                done += self.rest_after(before, n - done)
         self._store_status()
         return done
 

@@ -85,6 +85,7 @@ class CommandPort:
 
     def reply(self, line: str) -> Reply:
         """Run a line; control characters in it act first and report ahead of its data."""
+        self.card.touched()
         fw = self.card.fw
         controls = _CONTROL.findall(line)
         if not controls:
@@ -96,6 +97,7 @@ class CommandPort:
         return reply
 
     def command(self, line: str) -> bytes:
+        self.card.touched()
         fw = self.card.fw
         # a printable line holds no control character: straight to the interpreter
         reply = fw.interpreter.execute(self.state, line) if line.isprintable() else self.reply(line)
@@ -103,6 +105,7 @@ class CommandPort:
         return frame(reply, int(iv[3]), int(iv[6]))
 
     def control(self, ch: int) -> bytes:
+        self.card.touched()
         text = self.card.fw.control(self.state, ch)
         return (text + "\r").encode("latin-1") if text else b""
 
@@ -396,6 +399,7 @@ class PmacCard(Card):
         return self.hostport.peek(offset) if peek else self.hostport.read(offset)
 
     def host_write(self, offset: int, value: int) -> None:
+        self.touched()
         if not 0 <= offset < HOST_SIZE:
             raise ValueError(f"host port offset {offset} outside 0-{HOST_SIZE - 1}")
         if offset == IR_STATUS:
