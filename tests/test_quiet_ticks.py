@@ -23,6 +23,7 @@ import pytest
 import vdevclient
 from vdevclient import core as client_core
 from vdevclient import galil, maxk, pcomm
+from vdevmaps.oms import RING_SIZE, Shm
 from vdevmaps.pmac import HostIrq
 
 from vdevd.config import Config, default_config
@@ -35,6 +36,7 @@ AXIS_BASE, AXIS_STRIDE = 0x100, 0x40
 COMMAND, TARGET, VMAX, ACC, DEC, POSITION = 0x00, 0x04, 0x08, 0x0C, 0x10, 0x1C
 IRQ_ENABLE = 0x24
 MOVE_ABS, JOG, STOP = 1, 3, 4
+COMMAND_RING, COMMAND_PROCESS = int(Shm.COMMAND_RING), int(Shm.COMMAND_PROCESS)
 
 
 def rack_config(skip: bool) -> Config:
@@ -282,3 +284,61 @@ def test_a_card_proven_at_rest_skips_small_batches_until_an_input_changes() -> N
     card.tick(2)
     assert card.quiet_skipped == skipped + 2  # read: the first tick ran, the second is skipped
     assert card.ticks == 10 * 2 + 1 + 1 + 2
+
+
+def through_the_mapping(scenario: Callable[[DaemonThread, vdevclient.Rack], list[Any]],
+                        maxk_decode: str = "arrival") -> None:
+    """Run `scenario` (it writes passive memory through the shared mapping) both ways; its
+    results must be equal (a card proven at rest reads such memory at its ticks: it must not
+    go on skipping past a change, decision 0008 `polled_state`)."""
+    runs = []
+    for skip in (True, False):
+        cfg = rack_config(skip)
+        cfg.cards = [replace(s, options={**s.options, "decode": maxk_decode})
+                     if s.type == "oms-maxk" else s for s in cfg.cards]
+        with DaemonThread(cfg) as d, vdevclient.connect(d.endpoint, d.events, timeout=20) as rack:
+            assert rack.shm is not None, "no shared mapping: the test proves nothing"
+            runs.append(scenario(d, rack))
+    assert runs[0] == runs[1]
+
+
+def test_pmac_feedback_read_from_dpram_written_through_the_mapping() -> None:
+    """Ixx03 at a DPRAM word: motor 1 reads its position from it at every servo cycle [SRM
+    Ixx03]; a local client writes it through the mapping while the card rests."""
+    def scenario(d: DaemonThread, rack: vdevclient.Rack) -> list[Any]:
+        assert pcomm.OpenPmacDevice(0, endpoint=d.endpoint)
+        buf = ctypes.create_string_buffer(pcomm.MAX_COMM_BUFFER)
+        out: list[Any] = []
+        try:
+            pcomm.PmacGetResponseA(0, buf, pcomm.MAX_COMM_BUFFER, "I103=$60100")
+            rack.sim.step(seconds=0.5)
+            dpram = rack.card("pmac0").region("dpram")
+            assert dpram.is_mapped(0x400, 4)
+            dpram.write32(0x400, 0x1234 << 16)
+            rack.sim.step(seconds=0.1)
+            pcomm.PmacGetResponseA(0, buf, pcomm.MAX_COMM_BUFFER, "#1P")
+            out.append(buf.value)
+        finally:
+            pcomm.ClosePmacDevice(0)
+        return out
+
+    through_the_mapping(scenario)
+
+
+def test_maxk_decoding_at_the_cycle_reads_its_ring_indices_written_through_the_mapping() -> None:
+    """decode = "cycle": the card polls the command ring at every update cycle [S §2.4]; the
+    text and the process index are written through the mapping while the card rests."""
+    def scenario(d: DaemonThread, rack: vdevclient.Rack) -> list[Any]:
+        shm = rack.card("maxk0").region("shm")
+        rack.sim.step(seconds=0.5)
+        text = b"AX MR5000 GO;"
+        start = -len(text) % RING_SIZE  # the insert index of a fresh card is 0
+        for i, b in enumerate(text):
+            shm.write8(COMMAND_RING + (start + i) % RING_SIZE, b)
+        assert shm.is_mapped(COMMAND_PROCESS, 4)
+        shm.write32(COMMAND_PROCESS, start)
+        rack.sim.step(seconds=1.0)
+        with maxk.open(1, endpoint=d.endpoint) as m:
+            return [str(m.get_positions())]
+
+    through_the_mapping(scenario, maxk_decode="cycle")

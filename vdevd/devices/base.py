@@ -96,6 +96,7 @@ class Card(WorldBackdoor):
         self._rest_epoch = -1
         self._rest_due = 0
         self._rest_wait = 1
+        self._polled = b""  # `polled_state` when the card was proven at rest
         self._controls = self._collect_controls()
 
     @classmethod
@@ -253,7 +254,8 @@ class Card(WorldBackdoor):
     def rest_enter(self, n: int) -> int:
         """At the start of a batch of n ticks: a card proven at rest with nothing touched since
         skips them (up to its next periodic event or period change); the count skipped."""
-        if not self.skip_quiet or self._rest_epoch != self.inputs_epoch:
+        if (not self.skip_quiet or self._rest_epoch != self.inputs_epoch
+                or self.polled_state() != self._polled):
             return 0
         k = self.skip_quiet_ticks(n)
         if k < n:  # the tick ahead is an event of the card's own: look again after it
@@ -281,7 +283,14 @@ class Card(WorldBackdoor):
             self._rest_due = self.ticks + self._rest_wait
             return 0
         self._rest_epoch, self._rest_wait = self.inputs_epoch, 1
+        self._polled = self.polled_state()
         return self.rest_enter(room) if room else 0
+
+    def polled_state(self) -> bytes:
+        """The passive memory the card's ticks read (decision 0010: a local client writes it
+        through the shared mapping, touching nothing), as bytes: a card proven at rest compares
+        it at every batch and looks again when it changed. Override (default: none)."""
+        return b""
 
     def rest_state(self) -> bytes | None:
         """Everything a tick of the card may change, as bytes, except what `skip` advances in

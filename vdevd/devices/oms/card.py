@@ -437,6 +437,13 @@ class MaxkCard(Card):
                                            skip=("now_ns",)),
                          repr(fw.wk_flags).encode(), self.mem, self.mu_region.buf))
 
+    def polled_state(self) -> bytes:
+        """Decoding at the cycle, the card reads the command ring's indices at every cycle (the
+        process index is passive: a local client may write it through the shared mapping)."""
+        if self.decode_on_arrival:
+            return b""
+        return bytes(self.mem[_CMD_INSERT:_CMD_INSERT + 8])  # insert and process indices
+
     def skip(self, k: int) -> None:
         self.fw.motion.core.skip(k)
         super().skip(k)

@@ -317,6 +317,11 @@ class PmacCard(Card):
                                            fw.feedback, skip=skip),
                          self.dpram.buf, self.host.buf))
 
+    def polled_state(self) -> bytes:
+        """The DPRAM: a motor's feedback (Ixx03) or a conversion-table entry may read a word of
+        it at every cycle, and a local client writes it through the shared mapping."""
+        return bytes(self.dpram.buf)
+
     def quiet_ticks(self) -> int:
         """At rest, the cycles before the next reporting buffer the host asked for (I47, I50)."""
         cycle, iv, rep = self.fw.servo_cycles, self.fw.ivars.values, self.reporting
