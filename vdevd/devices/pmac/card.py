@@ -313,7 +313,7 @@ class PmacCard(Card):
         if core is None:
             return None
         skip = self._COUNTERS
-        return b"".join((core, state_bytes(self, fw, m, m.pid, m.homing, fw.servo_ic, fw.gpio,
+        return b"".join((core, state_bytes(self, self.irq, fw, m, m.pid, m.homing, fw.servo_ic, fw.gpio,
                                            fw.feedback, skip=skip),
                          self.dpram.buf, self.host.buf))
 
