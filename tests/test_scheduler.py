@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import logging
 from typing import Any
+
+import pytest
 
 from vdevd.devices.base import Card, CardContext, control
 from vdevd.errors import VdevError
@@ -129,6 +132,27 @@ def test_a_card_that_raises_does_not_stop_the_rack() -> None:
     rack.execute(Request(7, "control", {"card": "bad", "action": "explode"}), out.append)
     assert isinstance(out[0], VdevError) and out[0].code == "internal"
     assert run(rack, "read", card="good", region="mem", offset=0, size=4) == good.mem.read(0, 4)
+
+
+class AlwaysFaulty(Counter):
+    """A card whose firmware raises at every tick from the third on."""
+
+    def step(self) -> None:
+        super().step()
+        if self.ticks >= 3:
+            raise RuntimeError("firmware bug")
+
+
+def test_a_card_that_raises_at_every_tick_is_counted_every_time_and_logged_once_a_while(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """No log flood from a card that raises at every tick: every fault counts in `card_faults`,
+    the log has one report with its traceback every FAULT_LOG_NS of wall time."""
+    rack = Rack([AlwaysFaulty("bad", 1000), Counter("good", 1000)], "lockstep")
+    with caplog.at_level(logging.ERROR, logger="vdevd.rack"):
+        assert run(rack, "sim", action="step", ns=1_000_000)["now_ns"] == 1_000_000
+    assert rack.card_faults == 998
+    reports = [r for r in caplog.records if "card raised during a tick" in r.getMessage()]
+    assert len(reports) == 1 and reports[0].exc_info is not None
 
 
 def test_a_watched_card_that_raises_leaves_the_other_cards_where_ticking_would() -> None:

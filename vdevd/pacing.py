@@ -52,6 +52,9 @@ CALM_BEHIND_NS = 10_000_000
 CALM_HOLD_NS = 1_000_000_000
 #: realtime: a request catches up once simulated time is this far behind (or a base tick)
 CATCH_UP_NS = 100_000
+#: a card that raises at every tick is logged at most once in this much wall time (with the
+#: count of the faults in between; `stats` counts every one in `card_faults`)
+FAULT_LOG_NS = 10_000_000_000
 #: the waker thread's timer slack (Linux PR_SET_TIMERSLACK; the default is 50 us)
 WAKER_SLACK_NS = 1_000
 
@@ -99,6 +102,8 @@ class Pacer:
         self.continuations = 0
         self.overruns = 0
         self.card_faults = 0
+        self._faults_logged = 0  # card_faults at the last one logged
+        self._fault_logged_ns = -FAULT_LOG_NS
 
     # -- realtime ----------------------------------------------------------------------------------
     def start(self, loop: asyncio.AbstractEventLoop) -> None:
@@ -259,7 +264,12 @@ class Pacer:
             return self.sched.advance(target_ns, stop, watched)
         except Exception:
             self.card_faults += 1
-            log.exception("card raised during a tick; time continues")
+            now = self._clock()
+            if now - self._fault_logged_ns >= FAULT_LOG_NS:  # once a while, not once a tick
+                more = self.card_faults - self._faults_logged - 1
+                log.exception("card raised during a tick; time continues%s",
+                              f" ({more} more since the last report)" if more else "")
+                self._fault_logged_ns, self._faults_logged = now, self.card_faults
             self.sched.settle(max(self.sched.now_ns, min(target_ns, self.sched.next_tick_ns())))
             return self.sched.now_ns
 
