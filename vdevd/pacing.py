@@ -81,8 +81,7 @@ class Pacer:
         self._posted = False  # the waker thread's pass is queued on the loop, not yet run
         self._continuing = False  # ticks still due are queued on the loop (`_work`)
         self._cost = 0.0  # wall ns per simulated ns of the last slice
-        self._lock_cost = 0.0  # lockstep: the same, of the last slice of a chunk
-        self._lock_span = 0  # lockstep: the simulated ns of that slice
+        self._lock_span = 0  # lockstep: the simulated ns of the last slice of a chunk
         self._lock_wall = 0  # lockstep: and its wall ns
         self._driving = False
         # overload (decision 0009)
@@ -314,19 +313,18 @@ class Pacer:
         while True:
             t = clock()
             span = least
-            if self._lock_cost > 0.0:
+            if self._lock_span:
                 grow = 8 * self._lock_span
                 # a slice that cost little (cards at rest: a fixed cost, whatever its length)
                 # grows 8 times; else it gets what its cost per simulated ns says fits
-                fit = grow if self._lock_wall * 4 < LOCKSTEP_BUDGET_NS else int(
-                    (until - t) / self._lock_cost)
+                fit = grow if self._lock_wall * 4 < LOCKSTEP_BUDGET_NS else (
+                    (until - t) * self._lock_span // self._lock_wall)
                 span = min(grow, max(least, fit))
             begin = sched.now_ns
             end = min(target, begin + span)
             reached = self.advance(end, stop, watched)
             if reached > begin:
-                self._lock_span, self._lock_wall = reached - begin, clock() - t
-                self._lock_cost = self._lock_wall / (reached - begin)
+                self._lock_span, self._lock_wall = reached - begin, max(1, clock() - t)
             if (reached >= target or reached < end or reached == begin
                     or (stop is not None and stop()) or clock() >= until):
                 break

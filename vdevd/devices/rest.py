@@ -15,6 +15,12 @@ from collections.abc import Collection
 import numpy as np
 
 
+def ticks_before_multiple(count: int, every: int) -> int:
+    """The ticks after tick `count` that come before the next one whose count is a multiple of
+    `every` (a periodic event at every `every`-th tick): what a card at rest may skip."""
+    return (-count - 1) % every
+
+
 def state_bytes(*objs: object, skip: Collection[str] = ()) -> bytes:
     """Every array (its bytes) and every int, float or bool (its repr) of the objects' `vars`,
     in attribute order; the attributes named in `skip` are left out."""

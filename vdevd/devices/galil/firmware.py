@@ -23,6 +23,7 @@ from vdevd.devices.galil.motion import GalilMotion, StopCode
 from vdevd.devices.galil.numbers import REPORT_FORMATS
 from vdevd.devices.galil.params import COUNTS_PER_VOLT, PARAMS
 from vdevd.devices.galil.record import record_dtype
+from vdevd.devices.rest import ticks_before_multiple
 from vdevd.rt import wrap_int32
 
 #: a host repeats its lines (`TPX\r`): frame each content of the command FIFO once (pure)
@@ -128,8 +129,7 @@ class Firmware:
         rate = self.record_rate
         if not rate:
             return 1 << 62
-        every = 1 << rate
-        return (-(self.ticks - self.time_origin) - 1) % every
+        return ticks_before_multiple(self.ticks - self.time_origin, 1 << rate)
 
     def skip(self, k: int) -> None:
         """k samples at rest: only the sample count and the profile clock move."""

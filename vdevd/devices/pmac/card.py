@@ -47,7 +47,7 @@ from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.reply import Reply, frame
 from vdevd.devices.pmac.servo_ic import ChannelFlag
 from vdevd.devices.pmac.status import MotorStatus2
-from vdevd.devices.rest import state_bytes
+from vdevd.devices.rest import state_bytes, ticks_before_multiple
 from vdevd.errors import StartError
 from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region, passive_except
@@ -149,12 +149,6 @@ class DpramMemory:
 
     def region_written(self, offset: int, size: int) -> None:
         """Writes from the PMAC side do not trigger the host handshakes."""
-
-
-def _until_multiple(cycle: int, period: float) -> int:
-    """The cycles after `cycle` before the next multiple of `period` (0 counts as 1)."""
-    every = max(int(period), 1)
-    return (-cycle - 1) % every
 
 
 class PmacCard(Card):
@@ -327,9 +321,9 @@ class PmacCard(Card):
         cycle, iv, rep = self.fw.servo_cycles, self.fw.ivars.values, self.reporting
         k = 1 << 62
         if iv[48] and rep.realtime_requested():
-            k = min(k, _until_multiple(cycle, iv[47]))
+            k = min(k, ticks_before_multiple(cycle, max(int(iv[47]), 1)))  # 0 counts as 1
         if iv[49] and rep.background_requested():
-            k = min(k, _until_multiple(cycle, iv[50]))
+            k = min(k, ticks_before_multiple(cycle, max(int(iv[50]), 1)))
         return k
 
     def skip(self, k: int) -> None:
