@@ -1,9 +1,10 @@
 """Lockstep speed of a whole rack: simulated seconds per wall second, idle and moving, and how the
 cost grows with the number of cards and axes.
 
-Goals (issue 17): the embedded default rack (generic servo, Galil DMC-13X8, OMS MAXk, Turbo PMAC:
-4 cards, 24 axes) all idle >= 200x real time and all axes moving >= 30x; four of each kind (16
-cards, 96 axes) moving >= 8x.
+Goals (issue 17; the moving ones met with the compiled motion core, decision 0011): the
+embedded default rack (generic servo, Galil DMC-13X8, OMS MAXk, Turbo PMAC: 4 cards, 24 axes)
+all idle >= 200x real time and all axes moving >= 30x; four of each kind (16 cards, 96 axes)
+moving >= 8x.
 
 Method. `vdevd serve --clock lockstep` runs pinned to the server cpu with N sets of the default
 rack's cards (N = 1, 2, 4; the PMAC Ethernet ports off, they cost no tick). "Idle": every card as
@@ -176,7 +177,10 @@ def measure(sets: int, seconds: float, repeats: int, pin: str) -> dict[str, Any]
 
 def run(seconds: float = 2.0, repeats: int = 3, sets: tuple[int, ...] = (1, 2, 4),
         pin: str = "split") -> dict[str, Any]:
+    from vdevd.rt import kernel
+
     base = core_tick_us()
+    core = "compiled" if kernel.compiled() is not None else "numpy"
     rows = [measure(k, seconds, repeats, pin) for k in sets]
     one = next(r for r in rows if r["sets"] == 1)
     four = next((r for r in rows if r["sets"] == 4), None)
@@ -190,6 +194,7 @@ def run(seconds: float = 2.0, repeats: int = 3, sets: tuple[int, ...] = (1, 2, 4
         r["idle_core_ticks"] = 1e6 / r["idle"] / base
     plot = _plot(rows)
     return {"figure": "rack", "seconds": seconds, "repeats": repeats, "core_tick_us": base,
+            "motion_core": core,
             "rows": rows, "checks": checks, "pass": all(checks.values()),
             "plot": str(plot) if plot else None}
 
@@ -229,7 +234,8 @@ def report(r: dict[str, Any]) -> None:
             ", ".join(f"{v:.1f}" for v in x["moving_runs"]), x["moving_valid"]]
            for x in r["rows"]],
           title=f"rack lockstep speed ({r['rows'][0]['placement']}; {r['seconds']} s steps, "
-                f"median of {r['repeats']}; baseline core tick {r['core_tick_us']:.2f} us)")
+                f"median of {r['repeats']}; baseline core tick {r['core_tick_us']:.2f} us, "
+                f"{r['motion_core']} motion core)")
     print(f"idle quiet ticks per run: {[x['idle_quiet_ticks'] for x in r['rows']]}")
     if r["plot"]:
         print(f"plot: {r['plot']}")

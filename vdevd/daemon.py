@@ -118,8 +118,9 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
         if not cards:
             cards = "none"
             log.warning("the configuration has no [[card]]: the rack is empty")
-        log.info("listening on %s, events on %s, clock %s; cards: %s",
-                 server.endpoint, server.events, cfg.clock, cards)
+        log.info("listening on %s, events on %s, clock %s, motion core %s; cards: %s",
+                 server.endpoint, server.events, cfg.clock, server.rack.stats()["motion_core"],
+                 cards)
         if ready_file is not None:
             write_ready_file(ready_file, server.listeners())
             written = True

@@ -29,6 +29,7 @@ from vdevd.protocol import (
     Request,
 )
 from vdevd.region import Region
+from vdevd.rt import kernel
 from vdevd.rt.scheduler import Scheduler
 from vdevd.shm import Segment
 from vdevd.waits import Reply, Waiter, Waits, make_waiter
@@ -472,6 +473,7 @@ class Rack:
                 "lost_ticks": sum(lost.values()),
             },
             "overload": self.pacer.overload_stats(),
+            "motion_core": "compiled" if kernel.compiled() is not None else "numpy",
             "cards": {
                 c.name: {"ticks": c.ticks, "lost_ticks": lost[c.name], "irq_seq": c.irq_seq,
                          "quiet_ticks": c.quiet_skipped}

@@ -22,3 +22,12 @@ def test_distributions_have_every_field_before_the_first_sample(raw: RawClient) 
     stats = raw.call(op="stats")["ok"]
     for dist in (stats["scheduler"]["late_ns"], stats["scheduler"]["behind_ns"]):  # lockstep
         assert dist == {"count": 0, "p50": 0, "p90": 0, "p99": 0, "p999": 0, "max": 0}
+
+
+def test_stats_says_which_motion_core_ticks(raw: RawClient) -> None:
+    """Decision 0011: the compiled kernel (numba is a dependency), the numpy path when
+    VDEVD_JIT=0 runs the suite."""
+    from vdevd.rt import kernel
+
+    want = "numpy" if kernel.jit_disabled() else "compiled"
+    assert raw.call(op="stats")["ok"]["motion_core"] == want

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from vdevd.rt import kernel as kn
 from vdevd.rt.axes import MOTION_STICKY, Axes, AxisFlag, PlantKind, ProfileMode
 from vdevd.rt.filters import Pid
 from vdevd.rt.limits import Limits
@@ -46,8 +47,10 @@ class MotionCore:
     is the PID's error; the following-error limit is checked; the PID computes the new output.
     """
 
-    def __init__(self, n: int, dt_ns: float, plant: PlantKind | Sequence[PlantKind] = PlantKind.SERVO
-                 ) -> None:
+    def __init__(self, n: int, dt_ns: float, plant: PlantKind | Sequence[PlantKind] = PlantKind.SERVO,
+                 compiled: bool | None = None) -> None:
+        """`compiled`: tick with the compiled kernel (vdevd.rt.kernel); None: when it is
+        available (numba installed, VDEVD_JIT not 0), False: the numpy path."""
         if n < 1 or dt_ns <= 0:
             raise ValueError("need at least one axis and a positive period")
         self.n, self.dt_ns, self.dt = n, dt_ns, dt_ns / 1e9
@@ -56,18 +59,29 @@ class MotionCore:
             raise ValueError(f"{len(kinds)} plant kinds for {n} axes")
         self.kinds = np.array([int(k) for k in kinds], dtype=np.int64)
         self.axes = Axes(n)
-        self.pid = Pid(n, self.axes.pid_terms)
+        #: the per-axis coefficients the tick reads, one block (rows: vdevd.rt.kernel); the
+        #: parts below own their rows as views and write them in place
+        self.coef = c = np.zeros((kn.ROWS, n))
+        self.pid = Pid(n, self.axes.pid_terms, c[kn.PID_GAINS:kn.PID_HOLD_SAT + 1])
         self.pid.set(slice(None), **default_gains(self.dt))
-        self.profile = ProfileGenerator(self.axes, self.dt)
-        self.plant = ServoPlant(n, self.dt)
-        self.stepper = StepperPlant(n, self.dt)
-        self.limits = Limits(n)
+        self.profile = ProfileGenerator(self.axes, self.dt, c[kn.JSTEP:kn.JSTEP + 3])
+        self.plant = ServoPlant(n, self.dt, c[kn.GAIN_DT:kn.COUL_DT + 1])
+        self._stepper = StepperPlant(n, self.dt, c[kn.STEP_GEN:kn.STEP_LIM + 1])
+        self._own_stepper = True
+        self.limits = Limits(n, c[kn.FE_OVER])
+        self._kernel = kn.compiled() if compiled is None or compiled else None
+        if compiled and self._kernel is None:
+            raise RuntimeError("the compiled motion core is not available (numba)")
+        self._ax_flags = np.zeros(n, dtype=np.int64)  # kernel.AX_* of each axis
+        self._kmode = 0
         self.servo_on_mask = np.zeros(n, dtype=bool)
         self.amp_fault = np.zeros(n, dtype=bool)
         self.encoder_loss = np.zeros(n, dtype=bool)
-        self.encoder_slip = np.zeros(n)  # counts the encoder has lost (slip_encoder)
+        self.encoder_slip = c[kn.SLIP]  # counts the encoder has lost (slip_encoder)
         self.home_switch = np.zeros(n, dtype=bool)
-        self._scale = np.ones(n)
+        self._scale = c[kn.SCALE]
+        self._scale[:] = 1.0
+        self._inv_scale = c[kn.INV_SCALE]
         self.encoder_scale = self._scale.view()  # read-only: set_encoder_scale
         self.encoder_scale.flags.writeable = False
         self.target = np.zeros(n, dtype=np.int64)  # last move target (move_relative's origin)
@@ -76,7 +90,7 @@ class MotionCore:
         self.last_jerk = np.zeros(n)
         self.done_bits = np.zeros(n, dtype=np.int64)  # bits latched with DONE (a soft-limit stop)
         self._pending = 0
-        self._enc = np.zeros(n)  # the encoder as floats, in encoder counts
+        self._enc = c[kn.ENC]  # the encoder as floats, in encoder counts
         self._tmp = np.zeros(n)
         self._pv2 = np.zeros((2, n))
         #: the actual position minus the stage's physical position: what redefinitions of zero
@@ -84,7 +98,7 @@ class MotionCore:
         self.zero = np.zeros(n)
         #: the motor is blocked (backdoor `jam`): the stage stays at `_jam_pos`
         self.jammed = np.zeros(n, dtype=bool)
-        self._jam_pos = np.zeros(n)
+        self._jam_pos = c[kn.JAM_POS]
         self._has_servo = bool((self.kinds == PlantKind.SERVO).any())
         self._configure()
 
@@ -108,14 +122,68 @@ class MotionCore:
         self._any_loss = bool(self.encoder_loss.any())
         self._any_slip = bool(self.encoder_slip.any())
         self._scaled = bool((self.encoder_scale != 1.0).any())
-        self._inv_scale = 1.0 / self.encoder_scale
+        np.divide(1.0, self.encoder_scale, out=self._inv_scale)
         self._plain_encoder = not (self._scaled or self._any_loss or self._any_slip)
         self._any_jam = bool(self.jammed.any())
         self._enc[:] = self.axes.encoder  # where a lost encoder freezes
+        self._ax_flags[...] = (ideal_on * kn.AX_IDEAL + step_on * kn.AX_STEP + self._off * kn.AX_OFF
+                               + self.jammed * kn.AX_JAM + self._enc_ok * kn.AX_ENC_OK)
+        self._kmode = ((kn.PLANT | kn.PID if self._has_servo else 0) | kn.FOLLOW
+                       | (kn.PLAIN_ENCODER if self._plain_encoder else 0)
+                       | (kn.STEPPERS if self._any_step else 0))
+
+    @property
+    def stepper(self) -> StepperPlant:
+        """The stepper plant; a card may put its own in (a StepperPlant whose `step` it
+        overrides): while one of its axes is on, the core then ticks its numpy path."""
+        return self._stepper
+
+    @stepper.setter
+    def stepper(self, plant: StepperPlant) -> None:
+        self._stepper = plant
+        self._own_stepper = plant.gen.base is self.coef and type(plant).step is StepperPlant.step
 
     # -- the tick ----------------------------------------------------------------------------------
     def tick(self) -> int:
         """One servo tick; the AxisFlag bits of what happened (0 when nothing did)."""
+        kernel = self._kernel
+        if kernel is None or (self._any_step and not self._own_stepper):
+            return self.tick_numpy()
+        events = self._pending
+        if events:
+            self._pending = 0
+        prof, ax = self.profile, self.axes
+        prof.ticks += 1
+        prof.t = t = prof._t_base + (prof.ticks - prof._ticks_base) * prof.dt
+        mode = self._kmode
+        if self.stepper._limited:
+            mode |= kn.STEP_LIMITED
+        if self.plant._friction:
+            mode |= kn.FRICTION
+        if t < prof.next_t:
+            if prof.active:
+                mode |= kn.PROFILE
+            over = kernel(mode, ax.state, ax.encoder, self.coef, self._ax_flags, prof._m3, self.dt)
+        else:
+            kernel(mode & ~(kn.FOLLOW | kn.PID), ax.state, ax.encoder, self.coef, self._ax_flags,
+                   prof._m3, self.dt)
+            finished = prof.boundary(t)
+            if len(finished):
+                events |= self._finish(finished)
+            mode = self._kmode | (mode & (kn.STEP_LIMITED | kn.FRICTION))
+            over = kernel(mode & ~kn.PLANT, ax.state, ax.encoder, self.coef, self._ax_flags,
+                          prof._m3, self.dt)
+        if over:
+            hit = self.limits.fe_exceeded(ax.ferr)
+            if hit is not None:
+                events |= self._fe_trip(hit)
+            kernel(self._kmode & kn.PID, ax.state, ax.encoder, self.coef, self._ax_flags,
+                   prof._m3, self.dt)
+        return events
+
+    def tick_numpy(self) -> int:
+        """`tick` with numpy calls (the reference the compiled kernel follows; the path
+        without numba)."""
         events = self._pending
         if events:
             self._pending = 0

@@ -3,7 +3,6 @@ offset and output limit, vectorised over axes. Cards map their vendor gains onto
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -11,12 +10,10 @@ import numpy as np
 Index = slice | np.ndarray | int | list[int]
 
 
-def _einsum_rows(g: np.ndarray, t: np.ndarray, out: np.ndarray) -> Any:
-    return np.einsum("ij,ij->i", g, t, out=out)
-
-
-#: per-axis dot product of two (n, k) arrays in one call (numpy >= 2.0 has it as a gufunc)
-_vecdot: Callable[..., Any] = getattr(np, "vecdot", _einsum_rows)
+def _readonly(arr: np.ndarray) -> np.ndarray:
+    view = arr.view()
+    view.flags.writeable = False
+    return view
 
 
 class Pid:
@@ -24,6 +21,10 @@ class Pid:
     with I += e each tick on axes with ki != 0, clamped to +-il (anti-windup). Gains are per
     sample, as on the cards: kd multiplies the difference of two successive errors, ki the
     running sum of errors.
+
+    Integrator hold (`set_hold`, PMAC's [spec pmac.md §2.7, PMAC1-UM p.108]): the error is not
+    integrated on axes that hold it while their commanded velocity is not zero (`hold_moving`),
+    nor on any axis while its previous output is saturated at out_limit (`hold_saturated`).
 
     The terms are the rows of `terms` (cmd_vel, cmd_acc, ones, I, e_prev, e; `Axes.pid_terms` in a
     motion core) and the gains are compiled into one matching block, so the output is a single
@@ -33,7 +34,12 @@ class Pid:
 
     PARAMS = ("kp", "ki", "kd", "il", "vff", "aff", "offset", "out_limit")
 
-    def __init__(self, n: int, terms: np.ndarray | None = None) -> None:
+    def __init__(self, n: int, terms: np.ndarray | None = None,
+                 rows: np.ndarray | None = None) -> None:
+        """`terms`: the (6, n) rows the output is the dot product of (its own if None);
+        `rows`: where the compiled gains, the integrating switch, the two limits and the two
+        hold switches live, (11, n) (a motion core's coefficient block; its own otherwise)."""
+        rows = np.zeros((11, n)) if rows is None else rows
         if terms is None:
             terms = np.zeros((6, n))
             terms[2] = 1.0
@@ -44,6 +50,7 @@ class Pid:
         self.e_prev: np.ndarray = terms[4]
         self.e: np.ndarray = terms[5]
         self._params = {key: np.zeros(n) for key in self.PARAMS}
+        self._params["il"], self._params["out_limit"] = rows[7], rows[8]
         self._params["il"][:] = np.inf
         self._params["out_limit"][:] = np.inf
         for key, arr in self._params.items():
@@ -51,7 +58,14 @@ class Pid:
             view.flags.writeable = False
             setattr(self, key, view)
         self.enabled = np.ones(n, dtype=bool)
-        self._gains = np.zeros((6, n))  # rows match `terms`
+        self._gains = rows[:6]  # rows match `terms`
+        self._integrating = rows[6]
+        self._hold_moving, self._hold_sat = rows[9], rows[10]  # 1.0 where the hold applies
+        self.hold_moving = _readonly(self._hold_moving != 0)
+        self.hold_saturated = False
+        self._hold = np.zeros(n, dtype=bool)
+        self._sat = np.zeros(n, dtype=bool)
+        self._abs = np.zeros(n)
         self._il, self._out_lim = self._params["il"], self._params["out_limit"]
         self._il_neg = np.zeros(n)
         self._out_neg = np.zeros(n)
@@ -81,6 +95,18 @@ class Pid:
             self._params[key][axes] = arr
         self._configure()
 
+    def set_hold(self, moving: Any = None, saturated: bool | None = None) -> None:
+        """Integrator hold: `moving`, one bool per axis (or one for all), holds while the
+        commanded velocity is not zero; `saturated` holds every axis while its output is at
+        out_limit. None leaves a setting as it is."""
+        if moving is not None:
+            self._hold_moving[...] = np.asarray(moving, dtype=bool)
+            self.hold_moving = _readonly(self._hold_moving != 0)
+        if saturated is not None:
+            self.hold_saturated = bool(saturated)
+            self._hold_sat[...] = self.hold_saturated
+        self._configure()
+
     def enable(self, mask: np.ndarray) -> None:
         """Which axes drive their output (the others output 0 and are not integrated into out)."""
         self.enabled[:] = mask
@@ -92,13 +118,13 @@ class Pid:
         rows = (p["vff"], p["aff"], p["offset"], p["ki"], -p["kd"], p["kp"] + p["kd"])
         for row, value in zip(self._gains, rows, strict=True):
             np.multiply(value, on, out=row)
-        self._g, self._t = self._gains.T, self.terms.T
         #: the axes that integrate (ki != 0 and enabled: an axis that is off is reset when it
         #: comes on), as bools and as 0/1 factors
         self.ki_on = (p["ki"] != 0) & on
-        self._integrating = self.ki_on.astype(float)
+        self._integrating[...] = self.ki_on
         self._integrate_all = bool(self._integrating.all())
         self._integrate_some = bool(self._integrating.any())
+        self._holding = self._integrate_some and (self.hold_saturated or bool(self.hold_moving.any()))
         self._limit_integ = bool(np.isfinite(p["il"]).any())
         self._limit_out = bool(np.isfinite(p["out_limit"]).any())
         np.negative(p["il"], out=self._il_neg)
@@ -109,12 +135,31 @@ class Pid:
         self.integ[axes] = 0.0
         self.e_prev[axes] = 0.0
 
+    def _dot(self, out: np.ndarray) -> None:
+        """out = sum of gains x terms, row by row left to right as the compiled kernel adds
+        them (not np.vecdot: BLAS orders and fuses its sums by CPU), so both agree to the bit."""
+        g, t, tmp = self._gains, self.terms, self._ie
+        np.multiply(g[0], t[0], out)
+        for k in range(1, 6):
+            np.multiply(g[k], t[k], tmp)
+            out += tmp
+
     def update(self, out: np.ndarray) -> None:
         """One sample from the error in `e` (and the feed-forward rows): write the controller
         output into `out`, then remember `e` as the previous error. Only enabled axes with an
         integral gain integrate (the cards sum ki x error: without ki the sum stays where it
         is)."""
         e, integ = self.e, self.integ
+        if self._holding:  # `out` still holds the previous output here
+            hold, sat = self._hold, self._sat
+            np.not_equal(self.cmd_vel, 0.0, out=hold)
+            hold &= self.hold_moving
+            if self.hold_saturated:
+                np.abs(out, out=self._abs)
+                np.greater_equal(self._abs, self.out_limit, out=sat)
+                hold |= sat
+            hold &= self.ki_on  # the others do not integrate at all
+            integ -= e * hold  # added back below: no net integration
         if self._integrate_all:
             np.add(integ, e, integ)
         elif self._integrate_some:
@@ -123,7 +168,7 @@ class Pid:
         if self._limit_integ:
             np.minimum(integ, self._il, out=integ)
             np.maximum(integ, self._il_neg, out=integ)
-        _vecdot(self._g, self._t, out=out)
+        self._dot(out)
         if self._limit_out:
             np.minimum(out, self._out_lim, out=out)
             np.maximum(out, self._out_neg, out=out)

@@ -26,13 +26,16 @@ class Limits:
     limit in counts, 0 disables (read-only: change it with `set_fe_limit`).
     """
 
-    def __init__(self, n: int) -> None:
+    def __init__(self, n: int, fe_over: np.ndarray | None = None) -> None:
+        """`fe_over`: where the limit the tick compares with lives, (n,) (a row of a motion
+        core's coefficient block; its own otherwise)."""
         self.soft_lo = np.full(n, -np.inf)
         self.soft_hi = np.full(n, np.inf)
         self._fe_limit = np.zeros(n)
         self.fe_limit = self._fe_limit.view()
         self.fe_limit.flags.writeable = False
-        self._fe_over = np.full(n, np.inf)  # the limit that the tick compares with
+        self._fe_over = np.zeros(n) if fe_over is None else fe_over  # what the tick compares with
+        self._fe_over[:] = np.inf
         self.limit_dec = np.full(n, np.inf)
         self.in_position = np.full(n, 1.0)
         self.hard_pos = np.zeros(n, dtype=bool)

@@ -43,11 +43,14 @@ class StepperPlant:
 
     kind = PlantKind.STEPPER
 
-    def __init__(self, n: int, dt: float) -> None:
+    def __init__(self, n: int, dt: float, rows: np.ndarray | None = None) -> None:
+        """`rows`: where the generator and the per-tick limit live, (2, n) (a motion core's
+        coefficient block; its own otherwise)."""
         self.dt = dt
         self._max_rate = np.full(n, np.inf)
         self.max_rate = _readonly(self._max_rate)
-        self.gen = np.zeros(n)
+        rows = np.zeros((2, n)) if rows is None else rows
+        self.gen, self._lim = rows[0], rows[1]
         self._tgt = np.zeros(n)
         self._inv_dt = 1.0 / dt
         self._configure()
@@ -65,7 +68,7 @@ class StepperPlant:
         self._configure()
 
     def _configure(self) -> None:
-        self._lim = self._max_rate * self.dt
+        np.multiply(self._max_rate, self.dt, out=self._lim)
         self._lim_neg = -self._lim
         self._limited = bool(np.isfinite(self._max_rate).any())
 
@@ -94,8 +97,16 @@ class ServoPlant:
     kind = PlantKind.SERVO
     PARAMS = ("amp_gain", "peak_torque", "inertia", "viscous", "coulomb")
 
-    def __init__(self, n: int, dt: float) -> None:
+    def __init__(self, n: int, dt: float, rows: np.ndarray | None = None) -> None:
+        """`rows`: where the per-tick coefficients live, (4, n): amp_gain*dt/inertia, peak
+        torque*dt/inertia, the viscous damping factor, coulomb*dt/inertia (a motion core's
+        coefficient block; its own otherwise)."""
         self.dt = dt
+        rows = np.zeros((4, n)) if rows is None else rows
+        self._gain_dt: np.ndarray = rows[0]
+        self._peak_dt: np.ndarray = rows[1]
+        self._damp: np.ndarray = rows[2]
+        self._coul_dt: np.ndarray = rows[3]
         self._params = {
             "amp_gain": np.full(n, DEFAULT_AMP_GAIN),
             "peak_torque": np.full(n, np.inf),
@@ -141,11 +152,11 @@ class ServoPlant:
 
     def _configure(self) -> None:
         p, dt, on = self._params, self.dt, self.enabled
-        self._gain_dt = p["amp_gain"] * dt / p["inertia"] * on
-        self._peak_dt = p["peak_torque"] * dt / p["inertia"]
+        self._gain_dt[...] = p["amp_gain"] * dt / p["inertia"] * on
+        self._peak_dt[...] = p["peak_torque"] * dt / p["inertia"]
         self._peak_dt_neg = -self._peak_dt
-        self._damp = 1.0 / (1.0 + p["viscous"] * dt / p["inertia"]) * on
-        self._coul_dt = p["coulomb"] * dt / p["inertia"]
+        self._damp[...] = 1.0 / (1.0 + p["viscous"] * dt / p["inertia"]) * on
+        self._coul_dt[...] = p["coulomb"] * dt / p["inertia"]
         self._coul_dt_neg = -self._coul_dt
         self._clamped = bool(np.isfinite(p["peak_torque"]).any())
         self._friction = bool(p["coulomb"].any())

@@ -164,7 +164,9 @@ class ProfileGenerator:
     at rest has not ended, or while a jog runs.
     """
 
-    def __init__(self, axes: Axes, dt: float) -> None:
+    def __init__(self, axes: Axes, dt: float, jstep: np.ndarray | None = None) -> None:
+        """`jstep`: where the (3, n) jerk step lives (rows of a motion core's coefficient
+        block; its own otherwise)."""
         n = axes.n
         self.axes = axes
         self.t = 0.0
@@ -190,9 +192,8 @@ class ProfileGenerator:
         self.jerky = False
         # one tick of constant jerk: (pos, vel, acc) <- M @ (pos, vel, acc) + jstep, where jstep
         # is (j dt^3/6, j dt^2/2, j dt) of each axis's current phase
-        self._jstep = np.zeros((3, n))
+        self._jstep = np.zeros((3, n)) if jstep is None else jstep
         self._set_matrices(dt)
-        self._next = np.zeros((3, n))
         self._tau = np.zeros(n)
         self._tmp = np.zeros(n)
         self._pva = axes.cmd_pva
@@ -299,10 +300,29 @@ class ProfileGenerator:
         self.t = t = self._t_base + (self.ticks - self._ticks_base) * self.dt
         if t < self.next_t:
             if self.active:  # exact within a phase of constant jerk, up to rounding
-                nxt = self._next
-                np.dot(self._m3, self._pva, nxt)
-                np.add(nxt, self._jstep, self._pva)
+                self._step()
             return None
+        return self.boundary(t)
+
+    def _step(self) -> None:
+        """(p, v, a) <- M (p, v, a) + jstep, added left to right as the compiled kernel does
+        (not np.dot: BLAS orders and fuses its sums by CPU), so both paths agree to the bit."""
+        p, v, a = self._pva
+        j0, j1, j2 = self._jstep
+        m, tmp = self._m3, self._tmp
+        np.multiply(m[0, 1], v, tmp)
+        p += tmp
+        np.multiply(m[0, 2], a, tmp)
+        p += tmp
+        p += j0
+        np.multiply(m[1, 2], a, tmp)
+        v += tmp
+        v += j1
+        a += j2
+
+    def boundary(self, t: float) -> np.ndarray:
+        """`advance` at a tick where a phase boundary is due (t >= next_t, the clock already
+        moved): enter the axes' next phases; the axes whose plan ended."""
         idx = np.flatnonzero(self.t_end <= t)  # never in their last phase (it ends at INF)
         k = self.k[idx] + 1
         ends = self.pend[idx, k]

@@ -12,7 +12,7 @@ Servo loop [§2.7, PMAC1-UM p.108]: with K = Ixx30 * 2^-19 (16-bit DAC units),
 (CV, CA, AV per servo cycle). The derivative acts on the actual velocity AV = CV - (FE - FE_prev),
 so it maps onto the core's PID (derivative on the error) as kd = K*Ixx09*Ixx31/128 and a velocity
 feed-forward reduced by kd. Output clamped to Ixx69, integrator held while the output saturates
-or (Ixx34 = 1) while the commanded velocity is not zero (`pid.PmacPid`).
+or (Ixx34 = 1) while the commanded velocity is not zero (the core's `Pid.set_hold`).
 
 Plant (servo): a torque-mode amplifier and an almost frictionless motor (`PLANT_AMP_GAIN`,
 `PLANT_VISCOUS`), chosen so the factory gains (Ixx30 2000, Ixx31 = Ixx32 1280, Ixx33 0) close the
@@ -30,7 +30,6 @@ from vdevd.devices.pmac.homing import Found, HomeAction, HomeSearch, Jog
 from vdevd.devices.pmac.ivars import IVars
 from vdevd.devices.pmac.jog_profile import jog_accel, jog_speed
 from vdevd.devices.pmac.motor_reports import DAC_FULL_SCALE, IXX24_LIMITS_OFF, MotorReports
-from vdevd.devices.pmac.pid import PmacPid
 from vdevd.rt import AxisFlag, MotionCore, PlantKind
 from vdevd.rt.axes import MOTION_STICKY
 
@@ -72,8 +71,8 @@ class Motors:
         self.period_ms = period_ns / 1e6
         kind = PlantKind.SERVO if plant == "servo" else PlantKind.IDEAL
         self.core = MotionCore(n, period_ns, kind)
-        self.pid = PmacPid(n, self.core.axes.pid_terms)
-        self.core.pid = self.pid
+        self.pid = self.core.pid
+        self.pid.set_hold(saturated=True)  # [§2.7]: never integrates while saturated at Ixx69
         self.core.plant.set(slice(None), amp_gain=PLANT_AMP_GAIN, viscous=PLANT_VISCOUS)
         self._ix = 100 * np.arange(1, n + 1)  # I-variable number of Ixx00 per motor
         #: Mxx72 variable jog position/distance, counts (J=* J:* J^*)
@@ -145,8 +144,7 @@ class Motors:
         self.out_limit = np.minimum(self._iv(69), DAC_FULL_SCALE)
         self.pid.set(slice(None), kp=kp, kd=kd, ki=ki, il=il, vff=(vff - kd) * dt,
                      aff=aff * dt * dt, offset=self._iv(29), out_limit=self.out_limit)
-        self.pid.hold_moving[:] = self._iv(34) == 1
-        self.pid.integrating = bool(ki.any())
+        self.pid.set_hold(moving=self._iv(34) == 1)
         self.friction = self._iv(68)
         self._any_friction = bool(self.friction.any())
         core.set_fe_limit(slice(None), self._iv(11) / 16)
