@@ -342,3 +342,36 @@ def test_maxk_decoding_at_the_cycle_reads_its_ring_indices_written_through_the_m
             return [str(m.get_positions())]
 
     through_the_mapping(scenario, maxk_decode="cycle")
+
+
+def test_polled_memory_that_changes_and_changes_back_still_ends_a_proven_rest() -> None:
+    """A MAXk decoding at the cycle, proven at rest, gets a command through the mapping (no
+    touch); within one batch it runs it and its ring indices come back to what they were.
+    The card must prove rest again, not go on skipping from the old proof while its servo
+    settles (decision 0008 `polled_state`; the bug showed as 4997 for 5000 beside a 200 us
+    card, whose ticks cut the batches there)."""
+    from vdevd.devices.base import CardContext
+    from vdevd.devices.oms.card import MaxkCard
+
+    def run(skip: bool) -> tuple[int, list[int]]:
+        card = MaxkCard("maxk0", {"decode": "cycle"}, CardContext(emit=lambda e: None))
+        card.skip_quiet = skip
+        for _ in range(8):
+            card.tick(64)
+        text = b"AX MR5000 GO;"
+        start = -len(text) % RING_SIZE  # the insert index of a fresh card is 0
+        for i, b in enumerate(text):
+            card.mem[COMMAND_RING + (start + i) % RING_SIZE] = b
+        card.mem[Shm.COMMAND_PROCESS:Shm.COMMAND_PROCESS + 4] = start.to_bytes(4, "big")
+        card.tick(204)  # the move runs; the process index is back at the insert index, 0
+        quiet = card.quiet_skipped
+        card.tick(50)
+        settling = card.quiet_skipped - quiet
+        for _ in range(20):
+            card.tick(64)
+        return settling, card.fw.motion.core.axes.encoder.tolist()
+
+    settling, skipped = run(True)
+    assert settling == 0  # still moving: every tick ran
+    assert skipped == run(False)[1]
+    assert skipped[0] == 5000

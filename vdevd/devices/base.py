@@ -254,9 +254,11 @@ class Card(WorldBackdoor):
     def rest_enter(self, n: int) -> int:
         """At the start of a batch of n ticks: a card proven at rest with nothing touched since
         skips them (up to its next periodic event or period change); the count skipped."""
-        if (not self.skip_quiet or self._rest_epoch != self.inputs_epoch
-                or self.polled_state() != self._polled):
+        if not self.skip_quiet or self._rest_epoch != self.inputs_epoch:
             return 0
+        if self.polled_state() != self._polled:  # written through the shared mapping: an input
+            self.touched()  # changed, and the card proves rest again (once back to what it
+            return 0  # was, the memory would not tell the card's work apart from rest)
         k = self.skip_quiet_ticks(n)
         if k < n:  # the tick ahead is an event of the card's own: look again after it
             self._rest_epoch = -1
