@@ -20,7 +20,8 @@ VARIANTS: list[tuple[str, dict[str, Any]]] = [
     ("pmac-turbo", {"motors": 32}),
 ]
 #: the regions that have passive ranges; every other region is all hooks or has none
-SHARED = {("generic-servo", "bar0"), ("oms-maxk", "shm"), ("pmac-turbo", "dpram")}
+SHARED = {("generic-servo", "bar0"), ("oms-maxk", "shm"), ("pmac-turbo", "dpram"),
+          ("dspcg-octavia", "dpr")}
 
 
 class Pages:

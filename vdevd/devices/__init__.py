@@ -12,6 +12,7 @@ CARD_TYPES: dict[str, str] = {
     "galil-dmc13x8": "vdevd.devices.galil.card:GalilCard",
     "oms-maxk": "vdevd.devices.oms.card:MaxkCard",
     "pmac-turbo": "vdevd.devices.pmac.card:PmacCard",
+    "dspcg-octavia": "vdevd.devices.octavia.card:OctaviaCard",
 }
 
 #: the prefix of the default name of each type in the embedded default rack
@@ -20,6 +21,7 @@ DEFAULT_NAMES: dict[str, str] = {
     "galil-dmc13x8": "galil",
     "oms-maxk": "maxk",
     "pmac-turbo": "pmac",
+    "dspcg-octavia": "octavia",
 }
 
 

@@ -592,6 +592,27 @@ class MotionCore:
             self.profile.hold(a, p)
         self.profile.commit()
 
+    def shift_position(self, axes: Selector, counts: Any) -> None:
+        """Add whole `counts` to the position counters of `axes`, command and actual alike: the
+        following error, the motion under way and the integrator are kept (a reference shift,
+        e.g. the Octavia's POS_SHIFT)."""
+        idx = self._select(axes)
+        d = np.rint(self._per_axis(counts, len(idx)))
+        ax = self.axes
+        ax.pos[idx] += d
+        self.zero[idx] += d
+        self._jam_pos[idx] += d
+        self.stepper.gen[idx] += d
+        enc = np.floor(ax.pos[idx] * self.encoder_scale[idx]) - self.encoder_slip[idx]
+        enc = np.where(self.encoder_loss[idx], self._enc[idx] + d, enc)
+        self._enc[idx] = enc
+        ax.encoder[idx] = enc
+        ax.fb[idx] = enc * self._inv_scale[idx]
+        self.target[idx] += d.astype(np.int64)
+        for a, dist in zip(idx.tolist(), d.tolist(), strict=True):
+            self.profile.shift(a, dist)
+        self.profile.commit()
+
     def slip_encoder(self, axes: Selector, counts: Any) -> None:
         """The encoder slips: from the next tick it reads `counts` fewer (more if negative) than
         the position gives, until set_position or redefine_and_stop define its reading again.

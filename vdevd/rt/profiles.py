@@ -255,6 +255,13 @@ class ProfileGenerator:
         phases[-1] = Phase(end.t0, INF, end.p0, 0.0, 0.0, 0.0)
         self.load(axis, phases, mode=mode)
 
+    def shift(self, axis: int, distance: float) -> None:
+        """Move the axis's whole plan and its commanded position by `distance` (a redefinition
+        of zero that keeps the motion: MotionCore.shift_position)."""
+        self.pp0[axis, :] += distance
+        self.p0[axis] += distance
+        self.axes.cmd_pos[axis] += distance
+
     def hold(self, axis: int, position: float) -> None:
         """Stop the profile at once and hold `position` (abort, servo on/off, define position)."""
         self.load(axis, [Phase(self.t, INF, position, 0.0, 0.0, 0.0)])

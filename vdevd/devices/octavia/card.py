@@ -1,0 +1,199 @@
+"""The DSP Control Group PCI Mx4 Octavia (type `dspcg-octavia`): README.md in this package.
+
+One window, `dpr`: the 8 KiB dual-port RAM, which both sides poll (all of it passive but 1FFEh,
+whose host access ends the interrupt [Ch6 Handling Interrupts]); the interrupt line `inta`; the
+PCI `config` space. The firmware (firmware.py) runs one 200 us sample per tick and the card
+publishes the DPR's state windows after the last sample of a batch.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+from vdevmaps.octavia import (
+    CARD_TYPE,
+    DPR,
+    DPR_SIZE,
+    FIRMWARE_OPTIONS,
+    PCI_CLASS_CODE,
+    PCI_DEVICE_ID,
+    PCI_REVISION_ID,
+    PCI_VENDOR_ID,
+    SAMPLE_NS,
+    Dpr,
+)
+
+from vdevd.devices.base import Card, CardContext, Option, control
+from vdevd.devices.octavia.firmware import Firmware
+from vdevd.devices.octavia.law import dac_to_volts
+from vdevd.devices.rest import state_bytes
+from vdevd.pci import Bar, PciIdentity
+from vdevd.region import Region, passive_except
+
+_HOSTINT = int(Dpr.HOSTINT1)
+#: IN lines the axis world drives (an assumption, README "Inputs"): axis k (1..8) has its
+#: positive limit on IN(3k-3), negative limit on IN(3k-2), home on IN(3k-1); amplifier faults
+#: on IN24..IN31
+_LIMIT_POS, _LIMIT_NEG, _HOME, _AMP = 0, 1, 2, 24
+
+
+def pci_identity(card: int) -> PciIdentity:
+    """The configuration header (no IDs in the manual, spec Q-1: README "PCI identity"): the
+    subsystem ID is the card number the client opens (0: by configuration order)."""
+    return PciIdentity(vendor=PCI_VENDOR_ID, device=PCI_DEVICE_ID, revision=PCI_REVISION_ID,
+                       class_code=PCI_CLASS_CODE, subsystem_vendor=PCI_VENDOR_ID,
+                       subsystem=card, bars=(Bar(DPR_SIZE),))
+
+
+class OctaviaCard(Card):
+    type_name: ClassVar[str] = CARD_TYPE
+    axis_base: ClassVar[int] = 1  # axes 1..8, as the manual numbers them
+    default_period_ns: ClassVar[int] = SAMPLE_NS
+    options: ClassVar[Mapping[str, Option]] = {
+        "axes": Option(int, 8, min=5, max=8, help="5-8: the five- to eight-axis card [Ch1]"),
+        "plant": Option(str, "servo", choices=("servo", "ideal"), help="servo or ideal"),
+        "firmware": Option(str, "standard", choices=FIRMWARE_OPTIONS,
+                           help="the firmware option that defines RTC 8Eh [Ch5 INT5MS, NOTCH, "
+                                "LOW_PASS]"),
+        "card": Option(int, 0, min=0, max=255,
+                       help="card number the client opens (0: by configuration order)"),
+    }
+
+    def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
+        super().__init__(name, config, ctx)
+        self.n = n = self.opts.axes
+        self.dpr = self.add_region(Region(
+            DPR, DPR_SIZE, widths=(1, 2, 4), endian="little", aligned=False,
+            description="dual-port RAM [Ch6 Table 6-1]",
+            passive=passive_except(DPR_SIZE, [(_HOSTINT, 1)]), memory=ctx.memory))
+        self.dpr.hook(_HOSTINT, 1, on_read=self._read_hostint, on_write=self._write_hostint,
+                      peek=self._peek_hostint)
+        self.inta = self.add_irq("inta")
+        self.pci = self.add_config_space(pci_identity(self.opts.card), self.inta)
+        self.fw = Firmware(self.dpr.buf, n, self.opts.plant, self.opts.firmware,
+                           raise_line=self.inta.trigger)
+        self.make_world(n)
+        self._world_lines = 0  # the IN lines the axis world holds active (apply_world)
+        self._world_changed()
+        self.inta.clear()  # power-up: the reset-finished bit is posted, the line starts low
+
+    # -- the interrupt mailbox [Ch6 Handling Interrupts] -----------------------------------------
+    def _read_hostint(self, offset: int, size: int) -> bytes:
+        """A host read of 1FFEh ends the interrupt; the bits stay."""
+        self.inta.clear()
+        return bytes(self.dpr.buf[_HOSTINT:_HOSTINT + 1])
+
+    def _write_hostint(self, offset: int, data: bytes) -> None:
+        """A host write of 1FFEh (clearing the bits it handled) ends the interrupt too."""
+        self.dpr.buf[_HOSTINT] = data[0]
+        self.inta.clear()
+
+    def _peek_hostint(self, offset: int, size: int) -> bytes:
+        return bytes(self.dpr.buf[offset:offset + size])
+
+    # -- the firmware ----------------------------------------------------------------------------
+    def step(self) -> None:
+        if self.world.mechanical:
+            self.sense_world()
+        self.fw.cycle()
+
+    def batch_done(self) -> None:
+        self.fw.publish()
+
+    def reset(self) -> None:
+        self.fw.reset()
+
+    def rest_state(self) -> bytes | None:
+        """The firmware's state and the core's (None while a profile runs), the DPR, the
+        line: all a sample may change but the counters."""
+        fw = self.fw
+        core = fw.core.rest_state()
+        if core is None or fw.parread is not None or fw.mailbox.queue or fw._deferred:
+            return None
+        if fw.params.int5ms or fw.index_period is not None and fw.params.index_axis >= 0:
+            return None
+        return (core + state_bytes(fw.params, fw, skip=("sample", "rtc_count"))
+                + bytes(self.dpr.buf) + bytes((self.inta.asserted,)))
+
+    def polled_state(self) -> bytes:
+        """The card polls the whole DPR (RTC byte, ring pointers, access bytes)."""
+        return bytes(self.dpr.buf)
+
+    def skip(self, k: int) -> None:
+        fw = self.fw
+        fw.core.skip(k)
+        fw.sample += k
+        super().skip(k)
+
+    def quiet_ticks(self) -> int:
+        """At rest the 5 ms housekeeping still refreshes SERVOCHK (to 0): it changes nothing
+        once it ran, so rest may cross it."""
+        return 1 << 62
+
+    # -- the axis world and the backdoor ---------------------------------------------------------
+    def physical_positions(self) -> np.ndarray:
+        return self.fw.core.physical()
+
+    def apply_world(self) -> None:
+        """Limits and home switches on IN lines, amplifier faults on IN24..31 and on the motor,
+        lost encoders on the core and ENCSTAT, index pulses, jams (README "Backdoor")."""
+        w, fw, n = self.world, self.fw, self.n
+        core = fw.core
+        core.set_inputs(amp_fault=w.amp_fault, encoder_loss=w.encoder_loss)
+        core.follow_jams(w.jammed)
+        levels = fw.levels | self._world_lines
+        active = 0
+        for a in range(n):  # at most 8 axes, at command time
+            base = 3 * a
+            active |= (int(w.limit_pos[a]) << (base + _LIMIT_POS)
+                       | int(w.limit_neg[a]) << (base + _LIMIT_NEG)
+                       | int(w.home[a]) << (base + _HOME) | int(w.amp_fault[a]) << (_AMP + a))
+        self._world_lines = active
+        fw.levels = levels & ~active  # active low: a switch that is on pulls its line low
+        fw.encstat = int(sum(int(v) << a for a, v in enumerate(w.encoder_loss)))
+        fw.set_index_pulses(w.index_period, w.index_phase)
+        fw.refresh_inputs()
+
+    def drive_input(self, line: int, level: bool) -> None:
+        """IN0..IN31 at +5 V (True: inactive for an active-low input) or 0 V [Ch2 Inputs]."""
+        if isinstance(line, bool) or not isinstance(line, int) or not 0 <= line < 32:
+            raise ValueError(f"line {line!r} outside 0..31 (IN0-IN31)")
+        fw = self.fw
+        fw.levels = fw.levels | 1 << line if level else fw.levels & ~(1 << line)
+        fw.refresh_inputs()
+
+    def drive_estop(self, active: bool) -> None:
+        """*ESTOP (shared by all cards of the rack's sync chain)."""
+        self.fw.set_estop(bool(active))
+
+    @control()
+    def set_probe(self, input: int, active: bool = True) -> None:
+        """Drive *EXT1..4 (`input` 1..4) active or inactive; a going-active edge is what EN_PROBE
+        (and CAM_PROBE, GEAR_PROBE) wait for [Ch2 General Purpose External Interrupt Inputs]."""
+        if isinstance(input, bool) or not isinstance(input, int) or not 1 <= input <= 4:
+            raise ValueError(f"input {input!r} outside 1..4 (*EXT1-4)")
+        fw, bit = self.fw, 1 << (input - 1)
+        was = fw.ext & bit
+        fw.ext = fw.ext | bit if active else fw.ext & ~bit
+        if active and not was:
+            fw.probe_edge(bit)
+
+    @control()
+    def get_outputs(self) -> dict[str, Any]:
+        """What the DPR does not show: the 8 DAC codes and volts, OUT0..31 (bit set: ON, driven
+        low) and their levels."""
+        fw = self.fw
+        dac = np.clip(np.rint(fw.core.axes.out), -32768, 32767)
+        return {"dac": [int(v) for v in dac], "dac_volts": [float(v) for v in dac_to_volts(dac)],
+                "outputs": fw.params.outputs_on & 0xFFFFFFFF}
+
+    @control()
+    def axis_state(self, axis: int) -> dict[str, Any]:
+        """The motion core's state of axis 1..8 (floats, for tests and scopes)."""
+        a = self.axis_index(axis)
+        ax = self.fw.core.axes
+        return {"cmd_pos": float(ax.cmd_pos[a]), "cmd_vel": float(ax.cmd_vel[a]),
+                "pos": float(ax.pos[a]), "vel": float(ax.vel[a]), "encoder": int(ax.encoder[a]),
+                "ferr": float(ax.ferr[a]), "out": float(ax.out[a]), "mode": int(self.fw.mode[a])}

@@ -1,0 +1,384 @@
+"""The Octavia's firmware, sans-I/O: it polls the DPR for RTCs once per 200 us sample, runs the
+trajectory generators and the control law on the shared motion core, checks the interrupt
+conditions and posts them through the mailbox [Ch4, Ch6, Ch7; spec octavia.md §5.1].
+
+One `cycle()` is one sample, in the order of spec §5.1: hardware sampled (the card applies its
+axis world before), a pending RTC executed, trajectories and the control law (the core's tick),
+following-error, breakpoint and completion checks, and every 25 samples (5 ms) the housekeeping
+(SERVOCHK, INT5MS, the PARREAD echo, the MONITOR_VAR refresh). The DPR windows are published by
+the card after the last sample of a batch (`publish`).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+
+import numpy as np
+from vdevmaps.octavia import (
+    ACTVEL_SCALE,
+    DPR_SIZE,
+    SAMPLE_NS,
+    Dpr,
+    DspStat1,
+    DspStat2,
+    HostInt,
+    Rtc,
+    Truncated,
+    Window,
+    table_for,
+    unpack,
+)
+
+from vdevd.devices.octavia import cmd_control, cmd_interrupts, cmd_io, cmd_motion
+from vdevd.devices.octavia.commands import COMMANDS
+from vdevd.devices.octavia.dpr import Mailbox, Memory, Windows, clear_dpr
+from vdevd.devices.octavia.law import PLANT_AMP_GAIN, pid_params
+from vdevd.devices.octavia.state import HALTING, Mode, Params, axes_bits
+from vdevd.rt import AxisFlag, MotionCore, PlantKind
+
+log = logging.getLogger(__name__)
+
+TS = SAMPLE_NS / 1e9
+HOUSEKEEPING = 25  # samples in 5 ms [Ch5 INT5MS, Ch7 Table 7-1 SERVOCHK]
+_DONE = int(AxisFlag.DONE)
+_RTC, _ARGS = int(Dpr.RTC), int(Dpr.ARGMNTS)
+#: DSPSTAT1 type bit -> its INTAXIS source byte (000h + bit number + 1) [Table 6-2]
+_SOURCE = {int(b): int(Dpr.DSPSTAT1) + 1 + int(b).bit_length() - 1 for b in DspStat1}
+
+
+def acc_per_s2(raw: np.ndarray | float) -> np.ndarray:
+    """Raw 1.15 accelerations (counts/sample^2) in counts/s^2."""
+    return np.asarray(raw, dtype=float) / 32768.0 / (TS * TS)
+
+
+def vel_per_s(counts_per_sample: np.ndarray | float) -> np.ndarray:
+    return np.asarray(counts_per_sample, dtype=float) / TS
+
+
+class Firmware:
+    """The card's firmware over its DPR memory `buf` (8 KiB) and `n` axes (5..8)."""
+
+    def __init__(self, buf: Memory, n: int, plant: str = "servo",
+                 option: str = "standard", raise_line: Callable[[int], None] | None = None
+                 ) -> None:
+        self.buf, self.n, self.option = buf, n, option
+        kind = PlantKind.SERVO if plant == "servo" else PlantKind.IDEAL
+        self.core = MotionCore(n, SAMPLE_NS, kind)
+        self.core.plant.set(slice(None), amp_gain=PLANT_AMP_GAIN)
+        self.params = Params()
+        self.mode = np.zeros(n, dtype=np.int64)
+        self.windows = Windows(buf)
+        self.mailbox = Mailbox(buf, raise_line or (lambda status: None))
+        self.rtcs: dict[int, Rtc] = table_for(option)
+        self.handlers = COMMANDS.bind(cmd_control, cmd_motion, cmd_interrupts, cmd_io)
+        self.open_dac = np.zeros(n)  # DDAC output of open-loop axes (DAC codes)
+        self.fault_open = np.zeros(n, dtype=bool)  # opened by an encoder fault (0 V)
+        self.any_open = False
+        self.estop = False  # the *ESTOP input is active
+        self.levels = 0xFFFFFFFF  # IN0..31 electrical levels: pulled up, high = inactive
+        self.inputs = 0  # input levels after polarity: bit set = active (INPUT 094h)
+        self.ext = 0  # *EXT1..4 active (bit 0 = EXT1)
+        self.encstat = 0  # ENCSTAT (113h): encoder hardware failure bits
+        #: index pulses (physical counts: phase + k * period; None: no encoder has any) and the
+        #: physical positions at the last sample
+        self.index_period: np.ndarray | None = None
+        self.index_phase: np.ndarray | None = None
+        self._index_from = np.zeros(n)
+        #: captures waiting for the host to release their window
+        self._deferred: list[tuple[tuple[np.ndarray, np.ndarray], Window, np.ndarray]] = []
+        self.index_seen = 0  # index pulses seen in the current 5 ms window (SERVOCHK)
+        self.parread: int | None = None  # a PARREAD to echo at the next 5 ms boundary
+        self.sample = 0
+        self.unknown: set[int] = set()  # opcodes met that the card does not know (logged once)
+        self.rtc_count = 0
+        self._prev_flags = np.zeros(n, dtype=np.int64)
+        self._published = np.zeros((3, n), dtype=np.int64)
+        self.reset()
+
+    # -- power-up / RESET [Ch7 Power-Up/Reset State; spec §1.5] --------------------------------
+    def reset(self) -> None:
+        """Clear every parameter and the whole DPR, hold every axis where it is, write the
+        signatures, then report "reset finished" (1FFEh b4)."""
+        clear_dpr(self.buf)
+        self.mailbox.clear()
+        self.params.reset()
+        core = self.core
+        core.abort(slice(None))
+        core.servo_on(slice(None))
+        self.mode[:] = Mode.HOLD
+        self.open_dac[:] = 0
+        self.fault_open[:] = False
+        self.any_open = False
+        self.parread = None
+        self.index_seen = 0
+        self._deferred.clear()
+        self.apply_gains()
+        self.refresh_inputs()
+        self.write_signatures()
+        self.publish()
+        self.mailbox.post(int(HostInt.RESET_DONE))
+
+    def write_signatures(self) -> None:
+        """The hardware signature (086h: 'P', 'I', 'A') and the signature window (115h: "MX4",
+        DSP1 version, '+', DSP2 version) [Tables 6-4, 6-6; spec Q-13]."""
+        self.buf[Dpr.HW_SIGNATURE:Dpr.HW_SIGNATURE + 3] = b"PIA"
+        self.buf[Dpr.SIGNATURE:Dpr.SIGNATURE + 11] = b"MX4\x04\x00+\x04\x00\x00\x00\x00"
+
+    def apply_gains(self) -> None:
+        """The core's PID from the card's gains and limits (law.py)."""
+        p = self.params
+        n = self.n
+        self.core.pid.set(slice(None), **{k: v[:n] for k, v in pid_params(
+            p.ki, p.kp, p.kf, p.kd, p.ka, p.outgain, p.kilimit, p.trq_limit, p.offset_v).items()})
+
+    # -- the sample ------------------------------------------------------------------------------
+    def cycle(self) -> None:
+        """One 200 us sample (spec §5.1)."""
+        self.sample += 1
+        buf = self.buf
+        if self.mailbox.queue:
+            self.mailbox.flush()
+        if buf[_RTC]:
+            self.poll_rtc()
+        events = self.core.tick()
+        if self.any_open:
+            out = self.core.axes.out
+            np.copyto(out, self.open_dac, where=self.mode == Mode.OPEN)
+        if events:
+            self.on_events()
+        p = self.params
+        if p.err_on.any() or p.errhlt_on.any():
+            self.check_following_error()
+        if p.encflt_on.any():
+            self.check_encoder_fault()
+        if p.posbrk_on.any():
+            self.check_breakpoints()
+        if self.index_period is not None:
+            self.check_index()
+        if self.sample % HOUSEKEEPING == 0:
+            self.housekeeping()
+
+    def poll_rtc(self) -> None:
+        """Execute the RTC at 3C2h and clear it [Ch6 Real-Time Commands]: an unknown code is
+        cleared and ignored; arguments are read linearly from 3C3h (past 3FBh when a layout is
+        longer than the 57-byte window, spec Q-3)."""
+        buf = self.buf
+        code = buf[_RTC]
+        rtc = self.rtcs.get(code)
+        self.rtc_count += 1
+        if rtc is None:
+            if code not in self.unknown:
+                self.unknown.add(code)
+                log.warning("octavia: RTC code %02Xh is not defined: cleared and ignored", code)
+        else:
+            try:
+                head, groups = unpack(rtc, bytes(buf[_ARGS:DPR_SIZE]))
+            except Truncated as exc:  # cannot happen within 8 KiB: a guard
+                log.warning("octavia: %s", exc)
+            else:
+                handler = self.handlers.get(rtc.name)
+                if handler is None:
+                    if code not in self.unknown:
+                        self.unknown.add(code)
+                        log.warning("octavia: RTC %s is not emulated yet: cleared", rtc.name)
+                else:
+                    handler(self, head, groups)
+        if rtc is None or rtc.name != "RESET":  # RESET cleared the whole DPR
+            buf[_RTC] = 0
+
+    def on_events(self) -> None:
+        """Profiles that ended: halting axes hold, motion complete where enabled [Ch5
+        EN_MOTCP]."""
+        flags = self.core.axes.flags
+        new = (flags & _DONE) & ~self._prev_flags
+        np.copyto(self._prev_flags, flags & _DONE)
+        done = new != 0
+        if not done.any():
+            return
+        mode = self.mode
+        finished = done & np.isin(mode, (Mode.MOVE, Mode.STOP, Mode.ESTOP, Mode.VELMODE))
+        mode[finished] = Mode.HOLD
+        hit = finished & self.params.motcp_on[:self.n]
+        if hit.any():
+            self.post_stat1(DspStat1.MOTCP, axes_bits(hit))
+
+    def check_following_error(self) -> None:
+        """EN_ERR and EN_ERRHLT: |FE| over the setpoint, on the rising edge (spec Q-7); an
+        ERRHLT axis halts at its ESTOP_ACC [Ch5 EN_ERRHLT]."""
+        p, n = self.params, self.n
+        fe = np.abs(self.core.axes.ferr)
+        over = p.err_on[:n] & (fe > p.err_thr[:n])
+        rising = over & ~p.err_over[:n]
+        p.err_over[:n] = over
+        if rising.any():
+            self.post_stat1(DspStat1.ERR, axes_bits(rising))
+        over = p.errhlt_on[:n] & (fe > p.errhlt_thr[:n])
+        rising = over & ~p.errhlt_over[:n]
+        p.errhlt_over[:n] = over
+        if rising.any():
+            self.post_stat1(DspStat1.ERR_HALT, axes_bits(rising))
+            cmd_motion.halt(self, np.flatnonzero(rising), estop=True)
+
+    def check_encoder_fault(self) -> None:
+        """EN_ENCFLT: |FE| over the setpoint (and, with mode bit 0 clear, the encoder's hardware
+        failure bit) opens the axis's loop at 0 V and reports (DSPSTAT2 b0, 00Ah) [Ch5
+        EN_ENCFLT; spec Q-9, Q-10]; nothing for an axis already open."""
+        p, n = self.params, self.n
+        over = p.encflt_on[:n] & (np.abs(self.core.axes.ferr) > p.encflt_thr[:n])
+        if not p.encflt_mode & 2:  # bit 1 clear: the hardware status bit is required too
+            over &= (self.encstat >> np.arange(n)) & 1 == 1
+        over &= self.mode != Mode.OPEN
+        if not over.any():
+            return
+        for a in np.flatnonzero(over).tolist():
+            self.core.servo_off(a)
+            self.mode[a], self.open_dac[a], self.fault_open[a] = Mode.OPEN, 0.0, True
+        self.any_open = True
+        self.post_stat2(DspStat2.ENCFLT, int(Dpr.INTAXIS_ENCFLT), axes_bits(over))
+
+    def check_breakpoints(self) -> None:
+        """EN_POSBRK: an axis that travelled |bp - start| either way fires once (then disabled),
+        with its POSBRK_OUT masks applied [Ch5 EN_POSBRK, POSBRK_OUT]."""
+        p, n = self.params, self.n
+        pos = self.core.axes.encoder.astype(float)
+        hit = p.posbrk_on[:n] & (np.abs(pos - p.posbrk_from[:n])
+                                 >= np.abs(p.posbrk_at[:n] - p.posbrk_from[:n]))
+        if not hit.any():
+            return
+        p.posbrk_on[:n] &= ~hit
+        for a in np.flatnonzero(hit).tolist():
+            p.outputs_on |= int(p.posbrk_on_mask[a])
+            p.outputs_on &= ~int(p.posbrk_off_mask[a])  # OFF after ON: OFF wins (spec §4.3)
+        self.post_stat1(DspStat1.POSBRK, axes_bits(hit))
+
+    # -- captures [Ch5 EN_INDEX, EN_PROBE; spec §5.8] ---------------------------------------------
+    def set_index_pulses(self, period: np.ndarray, phase: np.ndarray) -> None:
+        """The encoders' index pulses: at phase + k * period physical counts (period 0: none)."""
+        if (period > 0).any():
+            self.index_period, self.index_phase = period.copy(), phase.copy()
+            self._index_from = self.core.physical()
+        else:
+            self.index_period = self.index_phase = None
+
+    def arm_index(self) -> None:
+        self._index_from = self.core.physical()
+
+    def check_index(self) -> None:
+        """Index edges crossed during the last sample: SERVOCHK bits, and the armed axis's first
+        one latches every axis's position at the edge (interpolated within the sample: the
+        card's 100 ns capture) to INDPOS and reports (one-shot)."""
+        if self.index_period is None:
+            return
+        now = self.core.physical()
+        before = self._index_from
+        self._index_from = now
+        period, phase = self.index_period, self.index_phase
+        assert phase is not None
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k0 = np.floor((before - phase) / period)
+            k1 = np.floor((now - phase) / period)
+        crossed = (period > 0) & (k0 != k1)
+        if not crossed.any():
+            return
+        self.index_seen |= axes_bits(crossed)
+        a = self.params.index_axis
+        if a < 0 or not crossed[a]:
+            return
+        edge = phase[a] + period[a] * max(k0[a], k1[a])
+        f = (edge - before[a]) / (now[a] - before[a]) if now[a] != before[a] else 1.0
+        self.latch(self.windows.indpos, Window.INDPOS, f)
+        self.params.index_axis = -1
+        self.post_stat1(DspStat1.INDEX, 1 << a)
+
+    def latch(self, views: tuple[np.ndarray, np.ndarray], window: Window, f: float) -> None:
+        """Every axis's actual position at fraction `f` of the last sample into a capture
+        window (the card holds it until the host releases the window)."""
+        ax = self.core.axes
+        pos = ax.pos - ax.vel * TS * (1.0 - f)
+        latched = np.floor(pos * self.core.encoder_scale).astype(np.int64)
+        if not self.windows.put(window, views, _int32(latched), self.n):
+            self._deferred.append((views, window, _int32(latched)))
+
+    def probe_edge(self, inputs: int) -> None:
+        """*EXT1..4 went active (bits of `inputs`): EN_PROBE's input latches every axis's
+        position to PRB and reports with its code (006h) [Ch5 EN_PROBE]; one-shot."""
+        k = self.params.probe_input
+        if k and inputs >> (k - 1) & 1:
+            self.params.probe_input = 0
+            self.latch(self.windows.prb, Window.PRB, 1.0)
+            self.post_stat1(DspStat1.PROBE, 1 << (k - 1))
+
+    # -- inputs ------------------------------------------------------------------------------------
+    def refresh_inputs(self) -> None:
+        """INPUT (094h): set bit = active: low level on an active-low input (polarity bit 0),
+        high on an active-high one [Ch5 INP_STATE; Table 6-5]."""
+        pol = self.params.inp_polarity
+        self.inputs = (~self.levels & ~pol | self.levels & pol) & 0xFFFFFFFF
+        self.buf[Dpr.INPUT:Dpr.INPUT + 4] = self.inputs.to_bytes(4, "little")
+
+    def set_estop(self, active: bool) -> None:
+        """*ESTOP: on going active, 1FFEh b2 and every axis halts at its ESTOP_ACC; while active,
+        motion RTCs are ignored ("RTC ignored") [Ch7 Table 7-1; spec §5.3, Q-31]."""
+        was, self.estop = self.estop, active
+        if active and not was:
+            self.mailbox.post(int(HostInt.ESTOP))
+            cmd_motion.halt(self, np.arange(self.n), estop=True)
+
+    def housekeeping(self) -> None:
+        """Every 5 ms: the PARREAD echo, INT5MS, SERVOCHK [spec §5.1 step 8]."""
+        if self.parread is not None:
+            m, self.parread = self.parread, None
+            self.buf[Dpr.PARACC] = m  # the data went first (cmd_io.parread)
+        if self.params.int5ms and self.option == "int5ms":
+            self.post_stat2(DspStat2.INT5MS, -1, 0)
+        self.windows.put_bytes(Window.ENC, Dpr.SERVOCHK, bytes((self.index_seen & 0xFF,)))
+        self.index_seen = 0
+
+    # -- interrupts ------------------------------------------------------------------------------
+    def post_stat1(self, bit: DspStat1, sources: int) -> None:
+        """A DSPSTAT1 interrupt with its source byte (an axis mask or the EXT code)."""
+        b = int(bit)
+        self.mailbox.post(int(HostInt.STAT1), int(Dpr.DSPSTAT1), b, _SOURCE[b], sources & 0xFF)
+
+    def post_stat2(self, bit: DspStat2, src_addr: int, sources: int) -> None:
+        self.mailbox.post(int(HostInt.STAT2), int(Dpr.DSPSTAT2), int(bit), src_addr,
+                          sources & 0xFF)
+
+    # -- commands' helpers -----------------------------------------------------------------------
+    def axes_of(self, groups: list[tuple[int, dict[str, int]]]) -> list[tuple[int, dict[str, int]]]:
+        """The groups of axes the card has (0-based axis, fields); the others were parsed to keep
+        the stream aligned and are ignored (spec §1.1)."""
+        return [(a - 1, g) for a, g in groups if a <= self.n]
+
+    def mask(self, mask: int) -> list[int]:
+        """The 0-based axes of an axis mask that the card has."""
+        return [a for a in range(self.n) if mask >> a & 1]
+
+    def halting(self, axes: list[int]) -> list[int]:
+        """Of `axes`, those halting under STOP or ESTOP (or held by an active *ESTOP)."""
+        if self.estop:
+            return list(axes)
+        return [a for a in axes if self.mode[a] in HALTING]
+
+    # -- the DPR ---------------------------------------------------------------------------------
+    def publish(self) -> None:
+        """ACTPOS, ACTVEL, ERROR, ENCSTAT and INPUT, each unless the host holds its window
+        [Table 6-5; spec §2.5.1]."""
+        ax, n, w = self.core.axes, self.n, self.windows
+        pub = self._published
+        np.copyto(pub[0], ax.encoder)
+        pub[1] = np.rint(ax.ferr)
+        pub[2] = np.rint(ax.vel * TS * ACTVEL_SCALE)
+        w.put(Window.ACTPOS, w.actpos, _int32(pub[0]), n)
+        w.put(Window.ERROR, w.error, _int32(pub[1]), n)
+        w.put(Window.ACTVEL, w.actvel, _int32(pub[2]), n)
+        w.put_bytes(Window.ENC, Dpr.ENCSTAT, bytes((self.encstat & 0xFF,)))
+        if self._deferred:
+            self._deferred = [d for d in self._deferred if not w.put(d[1], d[0], d[2], n)]
+        self.buf[Dpr.INPUT:Dpr.INPUT + 4] = (self.inputs & 0xFFFFFFFF).to_bytes(4, "little")
+
+
+def _int32(values: np.ndarray) -> np.ndarray:
+    """Counters as the card's int32 words: wrapping beyond 2^31."""
+    return ((values + 2**31) % 2**32 - 2**31).astype(np.int32)
