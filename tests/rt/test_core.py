@@ -329,3 +329,21 @@ def test_a_core_at_rest_skips_ticks_exactly_as_it_would_run_them() -> None:
         ticked.tick()
         skipped.tick()
         assert ticked.axes.state.tobytes() == skipped.axes.state.tobytes()
+
+
+def test_track_runs_a_path_given_every_tick_and_hold_ends_it() -> None:
+    """The caller gives the next tick's commanded positions; the axes reach them exactly (an
+    ideal plant follows) with the path's velocity, MOVING until `hold`, which reports DONE."""
+    core = core_with(PlantKind.IDEAL, 3)
+    for k in range(1, 6):
+        core.track([0, 2], [10.0 * k, -3.0 * k])
+        assert core.tick() == 0
+        assert core.axes.cmd_pos.tolist() == [10.0 * k, 0.0, -3.0 * k]
+        assert core.axes.cmd_vel.tolist() == [10_000.0, 0.0, -3_000.0]
+    assert core.axes.flags[0] & AxisFlag.MOVING and not core.axes.flags[1] & AxisFlag.MOVING
+    core.hold([0, 2])
+    assert core.tick() & AxisFlag.DONE
+    assert core.axes.cmd_vel.tolist() == [0.0, 0.0, 0.0]
+    assert not core.axes.flags[0] & AxisFlag.MOVING
+    with pytest.raises(ValueError):
+        core.track(0, float("nan"))

@@ -182,3 +182,12 @@ def test_without_numba_or_with_vdevd_jit_0_the_numpy_path_serves(
     assert MotionCore(2, 1e6)._kernel is None
     with pytest.raises(RuntimeError, match="not available"):
         MotionCore(2, 1e6, compiled=True)
+
+
+def test_a_tracked_path_sampled_every_tick() -> None:
+    """MotionCore.track (contouring, cam and gear followers) on both paths."""
+    script: Script = {t: (lambda t: lambda c: c.track([0, 2], [3000 * np.sin(t / 40), -7.5 * t]))(t)
+                      for t in range(1, 300)}
+    script[300] = lambda c: c.hold([0, 2])
+    fast, seen = run_both([S, S, ID], script, 400)
+    assert seen & AxisFlag.DONE

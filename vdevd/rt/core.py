@@ -613,6 +613,32 @@ class MotionCore:
             self.profile.shift(a, dist)
         self.profile.commit()
 
+    def track(self, axes: Selector, positions: Any) -> None:
+        """The commanded positions of `axes` at the next tick, given by the caller every tick
+        (a path sampled once a tick: contouring, cam and gear followers): each axis runs in a
+        straight line to its position, MOVING, and on at that velocity until the next call;
+        end with `hold` (or stop, abort). No limit checks: the caller plans the path."""
+        idx = self._select(axes)
+        if not len(idx):
+            return
+        pos = self._per_axis(positions, len(idx))
+        if not np.isfinite(pos).all():
+            raise ValueError("positions must be finite")
+        self._begin(idx)
+        self.target_valid[idx] = False
+        self.profile.reach_many(idx, np.asarray(pos, dtype=float))
+        self.axes.flags[idx] |= _MOVING
+        self.profile.commit()
+
+    def hold(self, axes: Selector) -> None:
+        """End a tracked path: the axes hold their commanded position now (DONE)."""
+        idx = self._select(axes)
+        for a in idx.tolist():
+            self.profile.hold(a, float(self.axes.cmd_pos[a]))
+            self.done_bits[a] = 0
+            self._after_plan(a)
+        self.profile.commit()
+
     def slip_encoder(self, axes: Selector, counts: Any) -> None:
         """The encoder slips: from the next tick it reads `counts` fewer (more if negative) than
         the position gives, until set_position or redefine_and_stop define its reading again.

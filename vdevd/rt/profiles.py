@@ -274,6 +274,23 @@ class ProfileGenerator:
         here = float(self.axes.cmd_pos[axis])
         self.load(axis, [Phase(self.t, INF, here, (position - here) / self.dt, 0.0, 0.0)])
 
+    def reach_many(self, idx: np.ndarray, positions: np.ndarray) -> None:
+        """`reach` for the axes `idx` at once (vectorised: a path every axis of which is
+        sampled once a tick, e.g. contouring or a cam follower): each runs in a straight line
+        from its commanded position now to its `positions` entry at the next tick, and on at
+        that velocity until the next plan. Call `commit` after."""
+        here = self.axes.cmd_pos[idx]
+        t, cols = self.t, self.table[:, idx, 0]
+        cols[0], cols[1], cols[2] = t, INF, here
+        cols[3] = (positions - here) / self.dt
+        cols[4] = cols[5] = 0.0
+        self.table[:, idx, 0] = cols
+        self.pend[idx, :] = INF
+        self.k[idx] = 0
+        self._enter(idx)
+        self.moving[idx] = True
+        self.mode[idx] = ProfileMode.JOG
+
     def load(self, axis: int, phases: list[Phase], endless: bool = False,
              mode: ProfileMode = ProfileMode.IDLE) -> None:
         """Make `phases` the axis's plan from now (the first is current at once)."""
