@@ -186,8 +186,10 @@ def test_without_numba_or_with_vdevd_jit_0_the_numpy_path_serves(
 
 def test_a_tracked_path_sampled_every_tick() -> None:
     """MotionCore.track (contouring, cam and gear followers) on both paths."""
-    script: Script = {t: (lambda t: lambda c: c.track([0, 2], [3000 * np.sin(t / 40), -7.5 * t]))(t)
-                      for t in range(1, 300)}
+    def at(t: int) -> Callable[[MotionCore], None]:
+        return lambda c: c.track([0, 2], [3000 * np.sin(t / 40), -7.5 * t])
+
+    script: Script = {t: at(t) for t in range(1, 300)}
     script[300] = lambda c: c.hold([0, 2])
     fast, seen = run_both([S, S, ID], script, 400)
     assert seen & AxisFlag.DONE
