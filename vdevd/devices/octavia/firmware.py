@@ -98,14 +98,15 @@ class Firmware:
 
     # -- power-up / RESET [Ch7 Power-Up/Reset State; spec §1.5] --------------------------------
     def reset(self) -> None:
-        """Clear every parameter and the whole DPR, hold every axis where it is, write the
-        signatures, then report "reset finished" (1FFEh b4)."""
+        """Clear every parameter and the whole DPR, zero the position counters and hold every
+        axis there, write the signatures, then report "reset finished" (1FFEh b4)."""
         clear_dpr(self.buf)
         self.mailbox.clear()
         self.params.reset()
         core = self.core
         core.abort(slice(None))
         core.servo_on(slice(None))
+        core.set_position(slice(None), 0)  # the position counters start at 0 (spec §1.5)
         self.mode[:] = Mode.HOLD
         self.open_dac[:] = 0
         self.fault_open[:] = False
