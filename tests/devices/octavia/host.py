@@ -8,10 +8,11 @@ import struct
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from vdevmaps.octavia import BY_NAME, Dpr, axis_offset, pack
+
 from vdevd.devices.base import CardContext
 from vdevd.devices.octavia.card import OctaviaCard
 from vdevd.irq import IrqEvent
-from vdevmaps.octavia import BY_NAME, Dpr, axis_offset, pack
 
 
 class Host:
