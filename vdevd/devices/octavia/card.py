@@ -27,7 +27,7 @@ from vdevmaps.octavia import (
 
 from vdevd.devices.base import Card, CardContext, Option, control
 from vdevd.devices.octavia.firmware import Firmware
-from vdevd.devices.octavia.law import dac_to_volts
+from vdevd.devices.octavia.law import DAC_PER_VOLT, dac_to_volts
 from vdevd.devices.rest import state_bytes
 from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region, passive_except
@@ -114,7 +114,7 @@ class OctaviaCard(Card):
             return None
         if fw.params.int5ms or fw.index_period is not None and fw.params.index_axis >= 0:
             return None
-        return (core + state_bytes(fw.params, fw, skip=("sample", "rtc_count"))
+        return (core + state_bytes(fw.params, fw, fw.filters, skip=("sample", "rtc_count"))
                 + bytes(self.dpr.buf) + bytes((self.inta.asserted,)))
 
     def polled_state(self) -> bytes:
@@ -185,9 +185,20 @@ class OctaviaCard(Card):
         """What the DPR does not show: the 8 DAC codes and volts, OUT0..31 (bit set: ON, driven
         low) and their levels."""
         fw = self.fw
-        dac = np.clip(np.rint(fw.core.axes.out), -32768, 32767)
+        dac = fw.dac()
         return {"dac": [int(v) for v in dac], "dac_volts": [float(v) for v in dac_to_volts(dac)],
                 "outputs": fw.params.outputs_on & 0xFFFFFFFF}
+
+    @control()
+    def set_amp_offset(self, axis: int, volts: float) -> None:
+        """The input offset of axis 1..8's amplifier, in volts (+-10): the motor turns as if
+        the DAC output that much more, which OFFSET measures and cancels [Ch5 OFFSET]."""
+        a, v = self.axis_index(axis), float(volts)
+        if not -10.0 <= v <= 10.0:
+            raise ValueError(f"volts {volts!r} outside -10..10")
+        fw = self.fw
+        fw.amp_offset[a] = v * DAC_PER_VOLT
+        fw.any_amp_offset = bool(fw.amp_offset.any())
 
     @control()
     def axis_state(self, axis: int) -> dict[str, Any]:

@@ -23,6 +23,9 @@ COMMANDS = CommandTable([
     Command("SYNC", "sync", section="Ch5 SYNC"),
     Command("OVERRIDE", "override", section="Ch5 OVERRIDE"),
     Command("STEPPER_ON", "stepper_on", section="Ch5 STEPPER_ON"),
+    Command("NOTCH", "notch", section="Ch5 NOTCH"),
+    Command("LOW_PASS", "low_pass", section="Ch5 LOW_PASS"),
+    Command("OFFSET", "offset", section="Ch5 OFFSET"),
     # simple motion [Ch5 Simple Motion]
     Command("AXMOVE", "axmove", ("abs", "trapezoid"), section="Ch5 AXMOVE"),
     Command("AXMOVE_S", "axmove", ("abs", "s_curve"), section="Ch5 AXMOVE_S"),
@@ -52,7 +55,7 @@ COMMANDS = CommandTable([
     Command("POSBRK_OUT", "posbrk_out", section="Ch5 POSBRK_OUT"),
     Command("PARREAD", "parread", section="Ch5 PARREAD"),
 ], not_emulated={name: _LATER for name in (
-    "OFFSET", "NOTCH", "LOW_PASS", "START", "VECCHG", "BTRATE", "CUBIC_RATE", "CUBIC_SCALE",
+    "START", "VECCHG", "BTRATE", "CUBIC_RATE", "CUBIC_SCALE",
     "CUBIC_INT", "LOAD_CUBIC_TABLE", "CLEAR_CUBIC_TABLE", "CAM", "CAM_POS", "CAM_PROBE",
     "CAM_OFF", "CAM_OFF_ACC", "CAM_POINT", "LOAD_CAM_TABLE", "GEAR", "GEAR_POS", "GEAR_PROBE",
     "GEAR_OFF", "GEAR_OFF_ACC", "REL_AXMOVE_SLAVE", "TABLE_SEL", "LOAD_POS_TABLE",

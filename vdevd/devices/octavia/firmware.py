@@ -30,10 +30,11 @@ from vdevmaps.octavia import (
     unpack,
 )
 
-from vdevd.devices.octavia import cmd_control, cmd_interrupts, cmd_io, cmd_motion
+from vdevd.devices.octavia import cmd_control, cmd_filters, cmd_interrupts, cmd_io, cmd_motion
 from vdevd.devices.octavia.commands import COMMANDS
 from vdevd.devices.octavia.dpr import Mailbox, Memory, Windows, clear_dpr
-from vdevd.devices.octavia.law import PLANT_AMP_GAIN, pid_params
+from vdevd.devices.octavia.filters import Biquads, Coeffs
+from vdevd.devices.octavia.law import DAC_PER_VOLT, PLANT_AMP_GAIN, pid_params
 from vdevd.devices.octavia.state import HALTING, Mode, Params, axes_bits
 from vdevd.rt import AxisFlag, MotionCore, PlantKind
 
@@ -71,9 +72,20 @@ class Firmware:
         self.windows = Windows(buf)
         self.mailbox = Mailbox(buf, raise_line or (lambda status: None))
         self.rtcs: dict[int, Rtc] = table_for(option)
-        self.handlers = COMMANDS.bind(cmd_control, cmd_motion, cmd_interrupts, cmd_io)
+        self.handlers = COMMANDS.bind(cmd_control, cmd_motion, cmd_interrupts, cmd_io,
+                                      cmd_filters)
         self.open_dac = np.zeros(n)  # DDAC output of open-loop axes (DAC codes)
         self.fault_open = np.zeros(n, dtype=bool)  # opened by an encoder fault (0 V)
+        self.filters = Biquads(n)  # NOTCH or LOW_PASS at the controller output
+        #: the amplifiers' input offsets (backdoor set_amp_offset), in DAC codes: the motor is
+        #: driven by the DAC output plus it
+        self.amp_offset = np.zeros(n)
+        self.any_amp_offset = False
+        #: OFFSET under way: the axis and the samples it has been settled for, and since when
+        self.offset_axis = -1
+        self.offset_settled = 0
+        self.offset_samples = 0
+        self._integ_last = 0.0
         self.any_open = False
         self.estop = False  # the *ESTOP input is active
         self.levels = 0xFFFFFFFF  # IN0..31 electrical levels: pulled up, high = inactive
@@ -92,6 +104,7 @@ class Firmware:
         self.sample = 0
         self.unknown: set[int] = set()  # opcodes met that the card does not know (logged once)
         self.rtc_count = 0
+        self.refused = 0  # RTCs ignored for an argument out of range
         self._prev_flags = np.zeros(n, dtype=np.int64)
         self._published = np.zeros((3, n), dtype=np.int64)
         self.reset()
@@ -110,6 +123,9 @@ class Firmware:
         self.mode[:] = Mode.HOLD
         self.open_dac[:] = 0
         self.fault_open[:] = False
+        for a in range(self.n):
+            self.filters.bypass(a)
+        self.offset_axis = -1
         self.any_open = False
         self.parread = None
         self.index_seen = 0
@@ -143,9 +159,15 @@ class Firmware:
         if buf[_RTC]:
             self.poll_rtc()
         events = self.core.tick()
+        out = self.core.axes.out
+        if self.filters.active:  # the law's output: DDAC's value bypasses it (spec §5.2)
+            self.filters.apply(out, out)
         if self.any_open:
-            out = self.core.axes.out
             np.copyto(out, self.open_dac, where=self.mode == Mode.OPEN)
+        if self.any_amp_offset:  # the amplifier adds its offset to what the DAC outputs
+            out += self.amp_offset
+        if self.offset_axis >= 0:
+            self.calibrate_offset()
         if events:
             self.on_events()
         p = self.params
@@ -335,6 +357,53 @@ class Firmware:
             self.post_stat2(DspStat2.INT5MS, -1, 0)
         self.windows.put_bytes(Window.ENC, Dpr.SERVOCHK, bytes((self.index_seen & 0xFF,)))
         self.index_seen = 0
+
+    # -- the output stage ------------------------------------------------------------------------
+    def dac(self) -> np.ndarray:
+        """What the DACs output now, in codes (the motor's drive less the amplifiers' offsets)."""
+        return np.clip(np.rint(self.core.axes.out - self.amp_offset), -32768, 32767)
+
+    def set_filter(self, axis: int, coeffs: Coeffs | None) -> None:
+        """NOTCH or LOW_PASS on `axis`'s output (None: no filter)."""
+        if coeffs is None:
+            self.filters.bypass(axis)
+        else:
+            self.filters.set(axis, coeffs)
+
+    def refuse(self, name: str, exc: Exception) -> None:
+        """An RTC whose argument is out of range: ignored (the manual has no report for it)."""
+        self.refused += 1
+        log.info("octavia: %s ignored: %s", name, exc)
+
+    # -- OFFSET [Ch5 OFFSET; spec §5.2 "OFFSET algorithm"] -------------------------------------------
+    OFFSET_SETTLE = 250  # samples (50 ms) settled: |e| <= 1 and the integral action steady
+    OFFSET_TIMEOUT = 50_000  # samples (10 s)
+
+    def start_offset(self, axis: int) -> None:
+        self.offset_axis, self.offset_settled, self.offset_samples = axis, 0, 0
+        self._integ_last = float(self.core.pid.integ[axis])
+
+    def calibrate_offset(self) -> None:
+        """One sample of an OFFSET run: once the axis has held within a count with its integral
+        action changing by less than a DAC code for 50 ms, that action becomes the offset
+        compensation (the integrator restarts from 0: the output is continuous) and completion
+        is reported; an axis that cannot settle (Ki 0, moving, open loop) reports after 10 s,
+        its compensation unchanged."""
+        a, pid = self.offset_axis, self.core.pid
+        self.offset_samples += 1
+        integ = float(pid.integ[a])
+        steady = (abs(float(self.core.axes.ferr[a])) <= 1.0 and self.mode[a] == Mode.HOLD
+                  and pid.ki[a] != 0 and abs((integ - self._integ_last) * pid.ki[a]) < 1.0)
+        self._integ_last = integ
+        self.offset_settled = self.offset_settled + 1 if steady else 0
+        if self.offset_settled >= self.OFFSET_SETTLE:
+            self.params.offset_v[a] += float(pid.ki[a]) * integ / DAC_PER_VOLT
+            pid.integ[a] = 0.0
+            self.apply_gains()
+        elif self.offset_samples < self.OFFSET_TIMEOUT:
+            return
+        self.offset_axis = -1
+        self.post_stat2(DspStat2.OFFSET, int(Dpr.INTAXIS_OFFSET), 1 << a)
 
     # -- interrupts ------------------------------------------------------------------------------
     def post_stat1(self, bit: DspStat1, sources: int) -> None:
