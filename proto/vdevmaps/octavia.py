@@ -399,14 +399,24 @@ RTC_8E: dict[str, Rtc] = {
 }
 FIRMWARE_OPTIONS = ("standard", "notch", "low_pass", "int5ms")
 
-BY_NAME: dict[str, Rtc] = {r.name: r for r in (*RTCS, *RTC_8E.values())}
+#: the three NURBS RTCs, which the manual names without codes or layouts [Ch9; spec Q-27]:
+#: vdevd's assumption (the card README), B8h..BAh, the first codes above the documented ones;
+#: FeedRate in counts/sample, NURBSRate in ms, the knots' parameter values, IEEE float32
+NURBS_RTCS: tuple[Rtc, ...] = (
+    Rtc(0xB8, "NURBS", (("feed", "f"), ("rate", "f"), ("first", "f"), ("last", "f"),
+                        ("npts", "f")), section="Ch9"),
+    Rtc(0xB9, "NURBS_BUFBRK", (("threshold", "B"),), section="Ch9"),
+    Rtc(0xBA, "NURBS_FEEDRATE", (("feed", "f"),), section="Ch9"),
+)
+
+BY_NAME: dict[str, Rtc] = {r.name: r for r in (*RTCS, *RTC_8E.values(), *NURBS_RTCS)}
 
 
 def table_for(firmware: str) -> dict[int, Rtc]:
     """The opcodes the card runs with `firmware` (8Eh only in the option defining it)."""
     if firmware not in FIRMWARE_OPTIONS:
         raise ValueError(f"firmware {firmware!r} (one of {', '.join(FIRMWARE_OPTIONS)})")
-    table = {r.code: r for r in RTCS}
+    table = {r.code: r for r in (*RTCS, *NURBS_RTCS)}
     if firmware in RTC_8E:
         table[0x8E] = RTC_8E[firmware]
     return table

@@ -630,11 +630,14 @@ class MotionCore:
         self.axes.flags[idx] |= _MOVING
         self.profile.commit()
 
-    def hold(self, axes: Selector) -> None:
-        """End a tracked path: the axes hold their commanded position now (DONE)."""
+    def hold(self, axes: Selector, positions: Any = None) -> None:
+        """End a tracked path: the axes hold their commanded position now, or `positions`, the
+        path's last (DONE)."""
         idx = self._select(axes)
-        for a in idx.tolist():
-            self.profile.hold(a, float(self.axes.cmd_pos[a]))
+        where = (self.axes.cmd_pos[idx] if positions is None
+                 else self._per_axis(positions, len(idx)))
+        for a, p in zip(idx.tolist(), where.tolist(), strict=True):
+            self.profile.hold(a, p)
             self.done_bits[a] = 0
             self._after_plan(a)
         self.profile.commit()

@@ -118,7 +118,15 @@ def halt(fw: Firmware, axes: np.ndarray, estop: bool) -> None:
     """Bring `axes` to rest: at MAXACC (STOP), or at ESTOP_ACC (*ESTOP, EN_ERRHLT), falling back
     to MAXACC, then at once (spec §5.3 ESTOP). Open-loop axes are left alone."""
     p, core = fw.params, fw.core
-    for a in np.asarray(axes, dtype=np.int64).tolist():
+    axes = np.asarray(axes, dtype=np.int64)
+    if fw.nurbs_axes and set(axes.tolist()) & set(fw.nurbs_axes):
+        keep = [a for a in fw.nurbs_axes if a not in set(axes.tolist())]
+        fw.nurbs.stop()  # the curve ends here: the axes stopped decelerate below, the others hold
+        fw.nurbs_axes = []
+        if keep:
+            core.hold(keep)
+            fw.mode[keep] = Mode.HOLD
+    for a in axes.tolist():
         if fw.mode[a] == Mode.OPEN:
             continue
         raw = p.estop_acc[a] if estop and p.estop_acc[a] else p.maxacc[a]

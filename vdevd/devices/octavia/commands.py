@@ -54,6 +54,10 @@ COMMANDS = CommandTable([
     Command("INP_STATE", "inp_state", section="Ch5 INP_STATE"),
     Command("POSBRK_OUT", "posbrk_out", section="Ch5 POSBRK_OUT"),
     Command("PARREAD", "parread", section="Ch5 PARREAD"),
+    # NURBS [Ch9]: codes assigned by vdevd (vdevmaps.octavia NURBS_RTCS)
+    Command("NURBS", "nurbs", section="Ch9"),
+    Command("NURBS_BUFBRK", "nurbs_bufbrk", section="Ch9"),
+    Command("NURBS_FEEDRATE", "nurbs_feedrate", section="Ch9"),
 ], not_emulated={name: _LATER for name in (
     "START", "VECCHG", "BTRATE", "CUBIC_RATE", "CUBIC_SCALE",
     "CUBIC_INT", "LOAD_CUBIC_TABLE", "CLEAR_CUBIC_TABLE", "CAM", "CAM_POS", "CAM_PROBE",

@@ -30,11 +30,19 @@ from vdevmaps.octavia import (
     unpack,
 )
 
-from vdevd.devices.octavia import cmd_control, cmd_filters, cmd_interrupts, cmd_io, cmd_motion
+from vdevd.devices.octavia import (
+    cmd_control,
+    cmd_filters,
+    cmd_interrupts,
+    cmd_io,
+    cmd_motion,
+    cmd_nurbs,
+)
 from vdevd.devices.octavia.commands import COMMANDS
 from vdevd.devices.octavia.dpr import Mailbox, Memory, Windows, clear_dpr
 from vdevd.devices.octavia.filters import Biquads, Coeffs
 from vdevd.devices.octavia.law import DAC_PER_VOLT, PLANT_AMP_GAIN, pid_params
+from vdevd.devices.octavia.nurbs import DprRings, NurbsRun, NurbsState, pending
 from vdevd.devices.octavia.state import HALTING, Mode, Params, axes_bits
 from vdevd.rt import AxisFlag, MotionCore, PlantKind
 
@@ -73,7 +81,7 @@ class Firmware:
         self.mailbox = Mailbox(buf, raise_line or (lambda status: None))
         self.rtcs: dict[int, Rtc] = table_for(option)
         self.handlers = COMMANDS.bind(cmd_control, cmd_motion, cmd_interrupts, cmd_io,
-                                      cmd_filters)
+                                      cmd_filters, cmd_nurbs)
         self.open_dac = np.zeros(n)  # DDAC output of open-loop axes (DAC codes)
         self.fault_open = np.zeros(n, dtype=bool)  # opened by an encoder fault (0 V)
         self.filters = Biquads(n)  # NOTCH or LOW_PASS at the controller output
@@ -86,6 +94,13 @@ class Firmware:
         self.offset_settled = 0
         self.offset_samples = 0
         self._integ_last = 0.0
+        #: NURBS [Ch9]: the run, the rings it reads, its axes, the breakpoint threshold and the
+        #: knots pending at the last sample (the breakpoint fires on a downward crossing)
+        self.nurbs = NurbsRun()
+        self.nurbs_rings = DprRings(buf)
+        self.nurbs_axes: list[int] = []
+        self.nurbs_threshold = 0
+        self.nurbs_pending = 0
         self.any_open = False
         self.estop = False  # the *ESTOP input is active
         self.levels = 0xFFFFFFFF  # IN0..31 electrical levels: pulled up, high = inactive
@@ -123,6 +138,8 @@ class Firmware:
         self.mode[:] = Mode.HOLD
         self.open_dac[:] = 0
         self.fault_open[:] = False
+        self.nurbs.stop()
+        self.nurbs_axes, self.nurbs_threshold = [], 0
         for a in range(self.n):
             self.filters.bypass(a)
         self.offset_axis = -1
@@ -158,6 +175,8 @@ class Firmware:
             self.mailbox.flush()
         if buf[_RTC]:
             self.poll_rtc()
+        if self.nurbs_axes:
+            self.nurbs_sample()
         events = self.core.tick()
         out = self.core.axes.out
         if self.filters.active:  # the law's output: DDAC's value bypasses it (spec §5.2)
@@ -357,6 +376,39 @@ class Firmware:
             self.post_stat2(DspStat2.INT5MS, -1, 0)
         self.windows.put_bytes(Window.ENC, Dpr.SERVOCHK, bytes((self.index_seen & 0xFF,)))
         self.index_seen = 0
+
+    # -- NURBS [Ch9] -------------------------------------------------------------------------------
+    def nurbs_count(self) -> int:
+        return pending(self.nurbs_rings)
+
+    def nurbs_sample(self) -> None:
+        """The curve's next sample on its axes; the breakpoint on a downward crossing of the
+        threshold, data run-out (1FFEh b5) when the run starves, hold at its end."""
+        run, axes = self.nurbs, self.nurbs_axes
+        was = run.state
+        xyz = run.step(self.nurbs_rings)
+        if run.state is NurbsState.DONE:
+            self.end_nurbs(xyz[:len(axes)] if xyz is not None else None)
+            return
+        if xyz is not None:
+            self.core.track(axes, xyz[:len(axes)])
+        now = self.nurbs_count()
+        if self.nurbs_threshold and now < self.nurbs_threshold <= self.nurbs_pending:
+            self.mailbox.post(int(HostInt.NURBS_BUFBRK))
+        self.nurbs_pending = now
+        if run.state is NurbsState.STARVED and was is not NurbsState.STARVED:
+            self.mailbox.post(int(HostInt.RUN_OUT))
+        if run.state not in (NurbsState.RUNNING, NurbsState.STARVED):
+            self.end_nurbs()
+
+    def end_nurbs(self, last: np.ndarray | None = None) -> None:
+        """The curve ended (its axes hold at its `last` point) or faulted (where they are)."""
+        axes, self.nurbs_axes = self.nurbs_axes, []
+        self.nurbs.stop()
+        self.core.hold(axes, last)
+        for a in axes:
+            if self.mode[a] == Mode.CONTOUR:  # no motion complete: contouring [Ch5 EN_MOTCP]
+                self.mode[a] = Mode.HOLD
 
     # -- the output stage ------------------------------------------------------------------------
     def dac(self) -> np.ndarray:

@@ -49,27 +49,40 @@ from collections.abc import Sequence
 from typing import Protocol
 
 import numpy as np
+from vdevmaps.octavia import (
+    BY_NAME,
+    NURBS_CTRL,
+    NURBS_CTRL_POINTS,
+    NURBS_INPTR,
+    NURBS_KNOT,
+    NURBS_KNOTS,
+    NURBS_OUTPTR,
+    NURBS_WEIGHT,
+    HostInt,
+)
 
 DEGREE = 3  # ASSUMPTION (spec §5.10): Ch9's example has 45 knots - 41 control points - 1 = 3
 SAMPLE_NS = 200_000  # the interpolation sample [Ch9 "every 200μsec"]
 
-NURBS_START = 0xB8
-NURBS_BUFBRK = 0xB9
-NURBS_FEEDRATE = 0xBA
-NURBS_RTC_FORMATS: dict[int, str] = {NURBS_START: "<5f", NURBS_BUFBRK: "<B", NURBS_FEEDRATE: "<f"}
-NURBS_BUFBRK_BIT = 0x80  # HOSTINT1 b7
-NURBS_RUN_OUT_BIT = 0x20  # HOSTINT1 b5, shared with contouring's data run-out
+NURBS_START = BY_NAME["NURBS"].code
+NURBS_BUFBRK = BY_NAME["NURBS_BUFBRK"].code
+NURBS_FEEDRATE = BY_NAME["NURBS_FEEDRATE"].code
+NURBS_RTC_FORMATS: dict[int, str] = {
+    BY_NAME[name].code: "<" + "".join(c for _, c in BY_NAME[name].head)
+    for name in ("NURBS", "NURBS_BUFBRK", "NURBS_FEEDRATE")}
+NURBS_BUFBRK_BIT = int(HostInt.NURBS_BUFBRK)  # HOSTINT1 b7
+NURBS_RUN_OUT_BIT = int(HostInt.RUN_OUT)  # HOSTINT1 b5, shared with contouring's data run-out
 NURBS_AXES = 0x07  # X, Y, Z -> axes 1, 2, 3
 
 # The DPR rings [Ch9], spec §5.10
-CONTROL_RING = 0x120  # 32 points x (X, Y, Z) float32
-CONTROL_SLOTS = 32
-WEIGHT_RING = 0x2A0  # 32 float32
-WEIGHT_SLOTS = 32
-KNOT_RING = 0x320  # 36 float32
-KNOT_SLOTS = 36
-NURBS_INPTR = 0x3B0  # u16, host: next knot slot it fills
-NURBS_OUTPTR = 0x3B2  # u16, card: next knot slot it reads
+CONTROL_RING = NURBS_CTRL  # 32 points x (X, Y, Z) float32
+CONTROL_SLOTS = NURBS_CTRL_POINTS
+WEIGHT_RING = NURBS_WEIGHT  # 32 float32
+WEIGHT_SLOTS = NURBS_CTRL_POINTS
+KNOT_RING = NURBS_KNOT  # 36 float32
+KNOT_SLOTS = NURBS_KNOTS
+# NURBS_INPTR (3B0h, u16, host: next knot slot it fills), NURBS_OUTPTR (3B2h, u16, card: next
+# knot slot it reads): vdevmaps.octavia
 KNOT_CAPACITY = KNOT_SLOTS - 1  # INPTR never catches OUTPTR [Ch9]
 SPAN_KNOTS = 2 * DEGREE + 2  # knots one span needs: the "at least 8" of Ch9
 
