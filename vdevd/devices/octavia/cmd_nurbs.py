@@ -6,9 +6,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from vdevmaps.octavia import DspStat1
+
 from vdevd.devices.octavia.nurbs import NurbsResult, NurbsState
 from vdevd.devices.octavia.state import Mode
-from vdevmaps.octavia import DspStat1
 
 if TYPE_CHECKING:
     from vdevd.devices.octavia.firmware import Firmware
