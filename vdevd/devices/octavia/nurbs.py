@@ -42,6 +42,7 @@ holds data: the manual's "at least 8 locations" rule [Ch9].
 from __future__ import annotations
 
 import enum
+import mmap
 import math
 import struct
 from bisect import bisect_right
@@ -172,7 +173,7 @@ class NurbsRings(Protocol):
 class DprRings:
     """`NurbsRings` over the DPR bytes at the addresses of [Ch9], little-endian."""
 
-    def __init__(self, dpr: bytearray | memoryview) -> None:
+    def __init__(self, dpr: bytearray | memoryview | mmap.mmap) -> None:
         self.dpr = dpr
 
     def knot(self, slot: int) -> float:
