@@ -42,8 +42,8 @@ holds data: the manual's "at least 8 locations" rule [Ch9].
 from __future__ import annotations
 
 import enum
-import mmap
 import math
+import mmap
 import struct
 from bisect import bisect_right
 from collections.abc import Sequence
