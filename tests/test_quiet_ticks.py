@@ -23,6 +23,7 @@ import pytest
 import vdevclient
 from vdevclient import core as client_core
 from vdevclient import galil, maxk, pcomm
+from vdevmaps import octavia
 from vdevmaps.oms import RING_SIZE, Shm
 from vdevmaps.pmac import HostIrq
 
@@ -255,9 +256,56 @@ def pmac_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None
         pcomm.ClosePmacDevice(0)
 
 
+def octavia_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
+    """RTCs through the DPR: gains, moves with motion complete, PARREAD's 5 ms echo, INT5MS
+    is off (standard firmware), an index search, reads after steps of odd lengths."""
+    dpr = rack.card("octavia0").region("dpr")
+
+    def rtc(name: str, head: dict[str, int], groups: list[dict[str, int]] | None = None) -> None:
+        r = octavia.BY_NAME[name]
+        assert dpr.wait_value(octavia.Dpr.RTC, 0, size=1, timeout_s=1.0) == 0
+        args = octavia.pack(r, head, groups or [])
+        if args:
+            dpr.write(octavia.Dpr.ARGMNTS, args)
+        dpr.write8(octavia.Dpr.RTC, r.code)
+        rec.add([name, dpr.wait_value(octavia.Dpr.RTC, 0, size=1, timeout_s=1.0)])
+
+    def state() -> None:
+        rec.add([dpr.read(0, 0x120), dpr.read(0x1FFE, 1), dpr.read(0x8B8, 0x60)])
+
+    gains = {"ki": 100, "kp": 4000, "kf": 3000, "kd": 2500}
+    rtc("CTRL", {"n": 0x0F}, [gains] * 4)
+    rtc("MAXACC", {"n": 0x0F}, [{"acc": 0x150}] * 4)
+    rtc("EN_MOTCP", {"n": 0x0F})
+    rtc("AXMOVE", {"n": 0x0B}, [{"acc": 0x150, "pos": p, "vel": 0x100000}
+                                for p in (20_000, -7_000, 3)])
+    for ns in (3 * MS + 17, 400 * MS, 2 * S + 123_457, 7, 3 * S):
+        rack.sim.step(ns=ns)
+        state()
+    dpr.write8(octavia.Dpr.PARACC, 0)
+    rtc("PARREAD", {"m": 0x10})
+    rec.add(dpr.wait_value(octavia.Dpr.PARACC, 0x10, size=1, timeout_s=1.0))
+    rack.control("octavia0", "set_index", axis=3, period=4096, phase=10)
+    rtc("EN_INDEX", {"n": 0x04})
+    rtc("VELMODE", {"n": 0x04}, [{"vel": 0x40000}])
+    rack.sim.step(seconds=1.1)
+    state()
+    rtc("VELMODE", {"n": 0x04}, [{"vel": 0}])
+    rack.sim.step(seconds=2.5)
+    state()
+    # a stop ends between two counts, where the integrator hunts for ever: a whole count
+    rtc("AXMOVE", {"n": 0x04}, [{"acc": 0x150, "pos": 30_000, "vel": 0x100000}])
+    rack.sim.step(seconds=9.0)  # the integrators settle the servos: the card rests
+    state()
+    rack.sim.step(ns=S + 13)
+    state()
+    rec.add(rack.card("octavia0").control("axis_state", axis=3))
+
+
 @pytest.mark.parametrize(("scenario", "card"), [
     (generic_scenario, "servo0"), (galil_scenario, "galil0"), (maxk_scenario, "maxk0"),
-    (pmac_scenario, "pmac0")], ids=["generic", "galil", "maxk", "pmac"])
+    (pmac_scenario, "pmac0"), (octavia_scenario, "octavia0")],
+    ids=["generic", "galil", "maxk", "pmac", "octavia"])
 def test_skipping_quiet_ticks_changes_no_reply(scenario: Callable[..., None], card: str,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
     both_ways(scenario, card, monkeypatch)
