@@ -51,6 +51,8 @@ log = logging.getLogger(__name__)
 TS = SAMPLE_NS / 1e9
 HOUSEKEEPING = 25  # samples in 5 ms [Ch5 INT5MS, Ch7 Table 7-1 SERVOCHK]
 _DONE = int(AxisFlag.DONE)
+#: Firmware.watch: the per-sample checks in use
+_WATCH_FE, _WATCH_ENCFLT, _WATCH_POSBRK, _WATCH_INDEX = 1, 2, 4, 8
 _RTC, _ARGS = int(Dpr.RTC), int(Dpr.ARGMNTS)
 #: DSPSTAT1 type bit -> its INTAXIS source byte (000h + bit number + 1) [Table 6-2]
 _SOURCE = {int(b): int(Dpr.DSPSTAT1) + 1 + int(b).bit_length() - 1 for b in DspStat1}
@@ -120,6 +122,8 @@ class Firmware:
         self.unknown: set[int] = set()  # opcodes met that the card does not know (logged once)
         self.rtc_count = 0
         self.refused = 0  # RTCs ignored for an argument out of range
+        self.watch = 0  # the per-sample checks in use (refresh_watch)
+        self.filtering = False
         self._prev_flags = np.zeros(n, dtype=np.int64)
         self._published = np.zeros((3, n), dtype=np.int64)
         self.reset()
@@ -149,6 +153,7 @@ class Firmware:
         self._deferred.clear()
         self.apply_gains()
         self.refresh_inputs()
+        self.refresh_watch()
         self.write_signatures()
         self.publish()
         self.mailbox.post(int(HostInt.RESET_DONE))
@@ -179,7 +184,7 @@ class Firmware:
             self.nurbs_sample()
         events = self.core.tick()
         out = self.core.axes.out
-        if self.filters.active:  # the law's output: DDAC's value bypasses it (spec §5.2)
+        if self.filtering:  # the law's output: DDAC's value bypasses it (spec §5.2)
             self.filters.apply(out, out)
         if self.any_open:
             np.copyto(out, self.open_dac, where=self.mode == Mode.OPEN)
@@ -189,15 +194,16 @@ class Firmware:
             self.calibrate_offset()
         if events:
             self.on_events()
-        p = self.params
-        if p.err_on.any() or p.errhlt_on.any():
-            self.check_following_error()
-        if p.encflt_on.any():
-            self.check_encoder_fault()
-        if p.posbrk_on.any():
-            self.check_breakpoints()
-        if self.index_period is not None:
-            self.check_index()
+        if self.watch:
+            w = self.watch
+            if w & _WATCH_FE:
+                self.check_following_error()
+            if w & _WATCH_ENCFLT:
+                self.check_encoder_fault()
+            if w & _WATCH_POSBRK:
+                self.check_breakpoints()
+            if w & _WATCH_INDEX:
+                self.check_index()
         if self.sample % HOUSEKEEPING == 0:
             self.housekeeping()
 
@@ -228,6 +234,17 @@ class Firmware:
                     handler(self, head, groups)
         if rtc is None or rtc.name != "RESET":  # RESET cleared the whole DPR
             buf[_RTC] = 0
+        self.refresh_watch()
+
+    def refresh_watch(self) -> None:
+        """Which per-sample checks have anything to check (after every RTC and change of the
+        enables): a sample looks at one int instead of four arrays."""
+        p, n = self.params, self.n
+        self.watch = ((_WATCH_FE if (p.err_on[:n].any() or p.errhlt_on[:n].any()) else 0)
+                      | (_WATCH_ENCFLT if p.encflt_on[:n].any() else 0)
+                      | (_WATCH_POSBRK if p.posbrk_on[:n].any() else 0)
+                      | (_WATCH_INDEX if self.index_period is not None else 0))
+        self.filtering = self.filters.active
 
     def on_events(self) -> None:
         """Profiles that ended: halting axes hold, motion complete where enabled [Ch5
@@ -289,6 +306,7 @@ class Firmware:
         if not hit.any():
             return
         p.posbrk_on[:n] &= ~hit
+        self.refresh_watch()
         for a in np.flatnonzero(hit).tolist():
             p.outputs_on |= int(p.posbrk_on_mask[a])
             p.outputs_on &= ~int(p.posbrk_off_mask[a])  # OFF after ON: OFF wins (spec §4.3)
@@ -302,6 +320,7 @@ class Firmware:
             self._index_from = self.core.physical()
         else:
             self.index_period = self.index_phase = None
+        self.refresh_watch()
 
     def arm_index(self) -> None:
         self._index_from = self.core.physical()
