@@ -2,14 +2,15 @@
 cost grows with the number of cards and axes.
 
 Goals (issue 17; the moving ones met with the compiled motion core, decision 0011): the
-embedded default rack (generic servo, Galil DMC-13X8, OMS MAXk, Turbo PMAC: 4 cards, 24 axes)
-all idle >= 200x real time and all axes moving >= 30x; four of each kind (16 cards, 96 axes)
-moving >= 8x.
+embedded default rack (generic servo, Galil DMC-13X8, OMS MAXk, Turbo PMAC; since issue 18 the
+Octavia too: 5 cards, 32 axes) all idle >= 200x real time and all axes moving >= 30x; four of
+each kind (16 cards then, 20 now) moving >= 8x.
 
 Method. `vdevd serve --clock lockstep` runs pinned to the server cpu with N sets of the default
 rack's cards (N = 1, 2, 4; the PMAC Ethernet ports off, they cost no tick). "Idle": every card as
 powered up. "Moving": through the vendor libraries, as an application does it, every axis of every
-card jogs (generic: COMMAND = JOG; Galil: JG, BG; MAXk: AA JG; PMAC: #nJ+/-), then after an untimed
+card jogs (generic: COMMAND = JOG; Galil: JG, BG; MAXk: AA JG; PMAC: #nJ+/-; Octavia: CTRL,
+MAXACC, VELMODE through its DPR), then after an untimed
 settling step `rack.sim.step(seconds=S)` is timed from this process (speed = S / wall). A moving
 run is valid only if every axis's position changed during it and no card rested (stats
 `quiet_ticks` unchanged); an idle run shows how much ran in closed form. Baseline of the same run:
@@ -33,6 +34,8 @@ from typing import Any
 if __package__ in (None, ""):  # run as a script: python bench/rack.py
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from vdevmaps.octavia import BY_NAME, Dpr, axis_offset, pack  # noqa: E402
+
 from bench.common import (  # noqa: E402
     AXIS_BASE,
     AXIS_STRIDE,
@@ -52,7 +55,7 @@ from bench.common import (  # noqa: E402
 GOAL_IDLE = 200.0
 GOAL_MOVING = 30.0
 GOAL_MOVING_16 = 8.0
-AXES_PER_SET = 4 + 4 + 8 + 8  # generic, Galil, MAXk, PMAC
+AXES_PER_SET = 4 + 4 + 8 + 8 + 8  # generic, Galil, MAXk, PMAC, Octavia
 
 
 def rack_config(sets: int) -> str:
@@ -65,6 +68,7 @@ def rack_config(sets: int) -> str:
         out.append(f'[[card]]\ntype = "oms-maxk"\nname = "maxk{k}"\nboard = {k + 1}\n')
         out.append(f'[[card]]\ntype = "pmac-turbo"\nname = "pmac{k}"\ndevice = {k}\n'
                    'ethernet = ""\n')
+        out.append(f'[[card]]\ntype = "dspcg-octavia"\nname = "octavia{k}"\ncard = {k + 1}\n')
     return "\n".join(out)
 
 
@@ -90,6 +94,7 @@ class Hosts:
                 raise RuntimeError(f"OpenPmacDevice({k}) failed")
             stack.callback(pcomm.ClosePmacDevice, k)
         self._buf = ctypes.create_string_buffer(4096)
+        self.dprs = [rack.card(f"octavia{k}").region("dpr") for k in range(sets)]
 
     def dmc_command(self, k: int, text: str) -> str:
         if self.galil.DMCCommand(self.dmc[k], text, self._buf, 4096):
@@ -107,6 +112,20 @@ class Hosts:
             self.dmc_command(k, "BG ABCD")
             self.maxk[k].send_string("AA JG20000,-25000,30000,-35000,20000,-25000,30000,-35000;")
             self.pmac(k, "".join(f"#{m}J{'+' if m % 2 else '-'}" for m in range(1, 9)))
+            gains = {"ki": 100, "kp": 4000, "kf": 3000, "kd": 2500}
+            self.octavia(k, "CTRL", {"n": 0xFF}, [gains] * 8)
+            self.octavia(k, "MAXACC", {"n": 0xFF}, [{"acc": 0x150}] * 8)
+            self.octavia(k, "VELMODE", {"n": 0xFF},
+                         [{"vel": (1 if a % 2 else -1) * (0x40000 + 0x8000 * a)} for a in range(8)])
+
+    def octavia(self, k: int, name: str, head: dict[str, int],
+                groups: list[dict[str, int]] | None = None) -> None:
+        """One RTC through the DPR [Ch6 Real-Time Commands], acknowledged."""
+        dpr, rtc = self.dprs[k], BY_NAME[name]
+        dpr.write(Dpr.ARGMNTS, pack(rtc, head, groups or []))
+        dpr.write8(Dpr.RTC, rtc.code)
+        if dpr.wait_value(Dpr.RTC, 0, size=1, timeout_s=1.0) is None:
+            raise RuntimeError(f"octavia{k}: {name} not taken")
 
     def positions(self) -> list[float]:
         out: list[float] = []
@@ -115,6 +134,7 @@ class Hosts:
             out += [float(v) for v in self.dmc_command(k, "TP").rstrip("\r\n:").split(",")]
             out += [float(v) for v in self.maxk[k].send_and_get_string("AA RP").split(",")]
             out += [float(v) for v in self.pmac(k, "".join(f"#{m}P" for m in range(1, 9))).split()]
+            out += [float(self.dprs[k].read32(axis_offset(Dpr.ACTPOS, a))) for a in range(1, 9)]
         return out
 
 
