@@ -208,3 +208,21 @@ def test_the_state_windows_are_not_updated_while_the_host_holds_them() -> None:
     host.run(1)
     assert host.position(1) == 300
     assert host.i32(axis_offset(Dpr.ACTPOS, 5)) == 0
+
+
+def test_analog_inputs_adc1_to_4_under_their_access_bytes() -> None:
+    """set_analog drives ADC1-4 (int16 at 502h.., 7FFFh = +10 V) [Table 6-10]; while the host
+    holds 501h the card does not update them."""
+    host = Host()
+    host.card.control("set_analog", {"channel": 2, "volts": 2.5})
+    host.run(1)
+    assert struct.unpack("<4h", host.read(Dpr.ADC, 8)) == (0, 8192, 0, 0)
+    host.write(Dpr.HOSTACC_ADC, b"\x01")
+    host.card.control("set_analog", {"channel": 4, "volts": -20.0})
+    host.run(2)
+    assert struct.unpack("<4h", host.read(Dpr.ADC, 8))[3] == 0
+    host.write(Dpr.HOSTACC_ADC, b"\x00")
+    host.run(1)
+    assert struct.unpack("<4h", host.read(Dpr.ADC, 8)) == (0, 8192, 0, -32768)
+    with pytest.raises(Exception, match="outside 1..4"):
+        host.card.control("set_analog", {"channel": 5, "volts": 1.0})

@@ -164,6 +164,14 @@ class OctaviaCard(Card):
         fw.levels = fw.levels | 1 << line if level else fw.levels & ~(1 << line)
         fw.refresh_inputs()
 
+    def drive_analog(self, channel: int, volts: float) -> None:
+        """ADC1..ADC4 of the ACC4000 analog option: int16 codes, 7FFFh = +10 V, at 502h.. under
+        the 500h/501h access bytes [Table 6-10]; beyond +-10 V the converter saturates."""
+        if isinstance(channel, bool) or not isinstance(channel, int) or not 1 <= channel <= 4:
+            raise ValueError(f"channel {channel!r} outside 1..4 (ADC1-ADC4)")
+        self.fw.adc[channel - 1] = int(np.clip(np.rint(volts * DAC_PER_VOLT), -32768, 32767))
+        self.fw.publish_adc()
+
     def drive_estop(self, active: bool) -> None:
         """*ESTOP (shared by all cards of the rack's sync chain)."""
         self.fw.set_estop(bool(active))

@@ -109,6 +109,7 @@ class Firmware:
         self.inputs = 0  # input levels after polarity: bit set = active (INPUT 094h)
         self.ext = 0  # *EXT1..4 active (bit 0 = EXT1)
         self.encstat = 0  # ENCSTAT (113h): encoder hardware failure bits
+        self.adc = np.zeros(4, dtype=np.int16)  # ADC1..4 (the ACC4000 option), codes
         #: index pulses (physical counts: phase + k * period; None: no encoder has any) and the
         #: physical positions at the last sample
         self.index_period: np.ndarray | None = None
@@ -396,6 +397,10 @@ class Firmware:
         self.windows.put_bytes(Window.ENC, Dpr.SERVOCHK, bytes((self.index_seen & 0xFF,)))
         self.index_seen = 0
 
+    def publish_adc(self) -> None:
+        """ADC1..4 at 502h.. unless the host holds 500h/501h [Table 6-10]."""
+        self.windows.put_bytes(Window.ADC, Dpr.ADC, self.adc.astype("<i2").tobytes())
+
     # -- NURBS [Ch9] -------------------------------------------------------------------------------
     def nurbs_count(self) -> int:
         return pending(self.nurbs_rings)
@@ -515,6 +520,8 @@ class Firmware:
         w.put(Window.ERROR, w.error, _int32(pub[1]), n)
         w.put(Window.ACTVEL, w.actvel, _int32(pub[2]), n)
         w.put_bytes(Window.ENC, Dpr.ENCSTAT, bytes((self.encstat & 0xFF,)))
+        if self.adc.any() or self.buf[Dpr.ADC:Dpr.ADC + 8] != bytes(8):
+            self.publish_adc()
         if self._deferred:
             self._deferred = [d for d in self._deferred if not w.put(d[1], d[0], d[2], n)]
         self.buf[Dpr.INPUT:Dpr.INPUT + 4] = (self.inputs & 0xFFFFFFFF).to_bytes(4, "little")
