@@ -209,3 +209,24 @@ def test_int5ms_every_25_samples_in_its_firmware_only() -> None:
     standard.raw_rtc(0x8E, b"\x01")
     standard.run(60)
     assert standard.u8(Dpr.DSPSTAT2) == 0 and standard.u8(Dpr.RTC) == 0
+
+
+def test_the_line_shows_in_the_pci_status_register_and_interrupt_disable_masks_it() -> None:
+    """INTA# as bit 3 (Interrupt Status) of the PCI status register; the command register's
+    Interrupt Disable (bit 10) keeps assertions from the host (no event) [PCI 2.3 §6.2]."""
+    from vdevmaps.pci import COMMAND, COMMAND_INTX_DISABLE, STATUS, STATUS_INTERRUPT
+
+    host = Host(plant="ideal")
+    config = host.card.regions["config"]
+    host.rtc("EN_MOTCP", {"n": 0x01})
+    move(host, 0x01, 100)
+    assert host.run_until(Dpr.INTAXIS_MOTCP, 0x01, 500) > 0
+    assert int.from_bytes(config.read(STATUS, 2), "little") & STATUS_INTERRUPT
+    host.u8(Dpr.HOSTINT1)
+    assert not int.from_bytes(config.read(STATUS, 2), "little") & STATUS_INTERRUPT
+    host.ack()
+    config.write(COMMAND, (COMMAND_INTX_DISABLE | 0x0002).to_bytes(2, "little"))
+    events = len(host.events)
+    move(host, 0x01, 0)
+    assert host.run_until(Dpr.INTAXIS_MOTCP, 0x01, 500) > 0
+    assert len(host.events) == events  # masked: nothing reaches the host
