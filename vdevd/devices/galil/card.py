@@ -196,6 +196,8 @@ class GalilCard(Card):
         core.set_inputs(amp_fault=w.amp_fault & ~servo, encoder_loss=w.encoder_loss)
         core.follow_jams(w.jammed)
         fw.set_abort(w.estop)
+        # sensed after every sample only while positions matter (switches placed, probes)
+        m.sense = self._sense if w.mechanical or self._probing else None
 
     def axis_index(self, axis: str | int) -> int:
         """X Y Z W, or A B C D (the manual's synonyms), any case; or 0..n-1."""
