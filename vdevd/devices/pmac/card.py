@@ -306,6 +306,7 @@ class PmacCard(Card):
         core = m.core.rest_state()
         if core is None:
             return None
+        fw.servo_ic.materialize()  # its counters as they read, not what they are computed from
         skip = self._COUNTERS
         return b"".join((core, state_bytes(self, self.irq, fw, m, m.pid, m.homing, fw.servo_ic, fw.gpio,
                                            fw.feedback, skip=skip),
