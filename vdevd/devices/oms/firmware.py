@@ -94,6 +94,7 @@ class Firmware:
         self.motion.servo.set_output_modes(self.servo_outputs)
         self.motion.set_travel_limits(self.travel_limits)
         self.queues = [AxisQueue() for _ in range(n)]
+        self._queued = [q.items for q in self.queues]  # the cycle looks whether any holds one
         self.mode = "single"  # "single" | "AA" | "AM"
         self.axis = 0
         self.done = np.zeros(n, dtype=bool)  # the D of QA/RA [spec §3.4]
@@ -151,9 +152,10 @@ class Firmware:
     # -- the update cycle ---------------------------------------------------------------------------
     def cycle(self) -> None:
         """One update period: queues, then the motion core, then the events it reported."""
-        for a, q in enumerate(self.queues):
-            if q.items:
-                q.advance(a)
+        if any(self._queued):  # most cycles no queue holds a command
+            for a, q in enumerate(self.queues):
+                if q.items:
+                    q.advance(a)
         if self.running_contours:
             self.advance_contours()
         events = self.motion.tick()

@@ -280,7 +280,7 @@ class OmsMotion:
             self.hold_whole_counts()
         self.servo.after_tick()
         enc = self.encoders
-        searching = np.count_nonzero(self.searching)
+        searching = b"\x01" in self.searching.tobytes()  # bools: bytes 0 and 1
         if enc.watching:
             enc.step_index(self.searching & self.home_index if searching else None)
         if self.home_edge_set:
