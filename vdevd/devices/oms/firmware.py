@@ -158,7 +158,11 @@ class Firmware:
                     q.advance(a)
         if self.running_contours:
             self.advance_contours()
-        events = self.motion.tick()
+        self.after_motion(self.motion.tick())
+
+    def after_motion(self, events: int) -> None:
+        """The rest of a cycle after its motion, which reported `events`: the world sensed, the
+        events, position capture."""
         if self.sense is not None:
             self.sense()
         if events:
@@ -166,6 +170,13 @@ class Firmware:
             self.on_motion_events(events)
         if self.capture.armed:
             self.capture.cycle(self)
+
+    def motion_only(self) -> bool:
+        """Whether a cycle whose motion reports no event is the motion core's tick alone: no
+        queued command, no running contour, no sensing, no armed capture, nothing after the
+        core's tick (OmsMotion.core_only); kept in step with `cycle` and `after_motion`."""
+        return (not any(self._queued) and not self.running_contours and self.sense is None
+                and not self.capture.armed and self.motion.core_only())
 
     def on_motion_events(self, events: int) -> None:
         """Over-travel: a limit stopped or refused a motion [spec §3.4, §5.6]."""
