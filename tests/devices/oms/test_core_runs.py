@@ -1,6 +1,6 @@
 """Update cycles that are the motion core's tick alone run as a loop of core ticks (card.py
-`MaxkCard.tick`, `_core_run`): a card doing so and one running every cycle through `step` (its
-`_core_run` says none may) end every batch alike, in memory, message unit, interrupts, time and
+`MaxkCard.run`, `_run_core`): a card doing so and one running every cycle through `step` (its
+`run` says none may) end every batch alike, in memory, message unit, interrupts, time and
 rest, through random commands, backdoor actions and batch lengths (spec oms.md §2.4-2.5)."""
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ CONTROLS: list[tuple[str, dict[str, Any]]] = [
 class OneByOne(MaxkCard):
     """Every update cycle through `step`, as Card.tick runs them."""
 
-    def _core_run(self, room: int) -> int:
+    def run(self, room: int) -> int:
         return 0
 
 

@@ -120,6 +120,7 @@ def _travel_limits(values: list[Any] | None, n: int) -> list[tuple[float, float]
 class MaxkCard(Card):
     type_name: ClassVar[str] = CARD_TYPE
     endian: ClassVar[str] = "big"
+    runs_ticks: ClassVar[bool] = True  # cycles of the motion core alone (`run`)
     options: ClassVar[Mapping[str, Option]] = {
         "board": Option(int, 1, min=1, max=8, help="board number (J5 jumpers, 1-8)"),
         "axes": Option(int, 8, min=1, max=10, help="1-10: MAXk-1000 ... MAXk-A000"),
@@ -414,48 +415,20 @@ class MaxkCard(Card):
         if fw.replies:
             self._post_reply()
 
-    def tick(self, n: int) -> int:
-        """Card.tick, but the update cycles that are the motion core's tick alone (`_core_run`)
-        run as a loop of core ticks, up to the next look for rest or change of period; a look,
-        a period change, a cycle with work and one after an interrupt between batches (`pause`)
-        run as Card.tick runs them."""
-        i = self.rest_enter(n)
-        while i < n:
-            run = self._core_run(n - i)
-            if run:
-                i += self._run_core(run)
-            else:
-                before = self.rest_before() if self.ticks >= self._rest_due else None
-                self.begin_tick()
-                self.step()
-                i += 1
-                if before is not None and not self.pause:
-                    i += self.rest_after(before, n - i)
-            if self.pause:
-                self.pause = False
-                self.batch_done()
-                return i
-        self.batch_done()
-        return n
-
-    def _core_run(self, room: int) -> int:
-        """How many of the next `room` cycles may run as the motion core's ticks alone: none
-        when the next looks for rest or starts a new period, or while the firmware has more to
-        do at a cycle than its motion's tick (Firmware.motion_only), decodes at the cycle,
-        has captures or replies for the host, or its application does not run."""
-        if self.skip_quiet:
-            room = min(room, self._rest_due - self.ticks)
-        if self.retimes:
-            room = min(room, self.retimes[0][0] - self.ticks - 1)
-        if room <= 0 or self.pause or not self.running or not self.decode_on_arrival:
+    def run(self, room: int) -> int:
+        """Update cycles that are the motion core's tick alone run as a loop of core ticks
+        (`_run_core`): not while the firmware has more to do at a cycle than its motion's tick
+        (Firmware.motion_only), decodes at the cycle, has captures or replies for the host, or
+        its application does not run."""
+        if not self.running or not self.decode_on_arrival:
             return 0
         fw = self.fw
         if fw.capture.pending or fw.replies or not fw.motion_only():
             return 0
-        return room
+        return self._run_core(room)
 
     def _run_core(self, room: int) -> int:
-        """Up to `room` cycles of the motion core's tick alone (`_core_run`); the first that
+        """Up to `room` cycles of the motion core's tick alone (`run`); the first that
         reports motion events runs the rest of its cycle and ends the run. The count run."""
         fw = self.fw
         core_tick = fw.motion.core.tick

@@ -300,7 +300,7 @@ class OmsMotion:
     def core_only(self) -> bool:
         """Whether `after_core` does nothing after a tick without events: no servo output set
         after the PID, no index watched, no home switch edge or search, no maintenance (kept in
-        step with `after_core`: MaxkCard.tick runs such ticks as the core's alone)."""
+        step with `after_core`: MaxkCard.run runs such ticks as the core's alone)."""
         enc = self.encoders
         return not (self.servo.acting or enc.watching or self.home_edge_set or enc.maintaining
                     or b"\x01" in self.searching.tobytes())
