@@ -56,6 +56,7 @@ class GalilCard(Card):
 
     #: the period comes from an option of the card's own (types, README)
     period_from: ClassVar[str | None] = "tm_us sets it"
+    runs_ticks: ClassVar[bool] = True  # samples with nothing to serve (`run`)
 
     @classmethod
     def check_options(cls, opts: CardOptions, where: str) -> None:
@@ -139,6 +140,16 @@ class GalilCard(Card):
     def step(self) -> None:
         """One sample of the firmware: motion, interrupts, commands, the data record."""
         self.firmware.step()
+
+    def run(self, room: int) -> int:
+        """Samples with nothing to serve nor record run in a loop of motion and ER checks
+        (Firmware.run_samples): not while the stage is sensed after each sample (a switch or
+        a probe it crosses may interrupt in the middle of one)."""
+        fw = self.firmware
+        if fw.motion.sense is not None:
+            return 0
+        room = fw.idle_samples(room)
+        return fw.run_samples(room, self.ticks_run) if room else 0
 
     def rest_state(self) -> bytes | None:
         return self.firmware.rest_state()

@@ -489,14 +489,18 @@ class GalilMotion:
             self.phase[a] = Phase.NONE
             self.stop_reason[a] = 0
 
+    def error_changed(self) -> bool:
+        """Whether |TE| > ER now differs from the last check on an axis (`check_error` acts)."""
+        np.abs(self.core.axes.ferr, self._tmp)
+        np.greater(self._tmp, self._er, self._over)
+        return self._over.tobytes() != self.error_over.tobytes()
+
     def check_error(self) -> np.ndarray | None:
         """|TE| > ER (ER -1 disables): the ERROR output; with OE1 the motor turns off (SC 8).
         Returns the mask of axes that newly exceeded the limit, None if none [M Ch2 Step 7a]."""
-        over, new = self._over, self._new
-        np.abs(self.core.axes.ferr, self._tmp)
-        np.greater(self._tmp, self._er, over)
-        if over.tobytes() == self.error_over.tobytes():  # no axis crossed ER either way
+        if not self.error_changed():  # no axis crossed ER either way
             return None
+        over, new = self._over, self._new
         np.greater(over, self.error_over, new)
         self.error_over[...] = over
         if not np.count_nonzero(new):
