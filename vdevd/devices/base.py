@@ -273,9 +273,10 @@ class Card(WorldBackdoor):
     def run(self, room: int) -> int:
         """Run up to `room` (> 0) of the next ticks at once when the card can (`runs_ticks`:
         ticks whose firmware does less than `step` checks for), leaving what `begin_tick` and
-        `step` would: count them with `ticks_run` (no look for rest and no change of period
-        falls among them) and stop after one that asserted an interrupt. The count run; 0: the
-        next tick runs through `step`. Override."""
+        `step` would: count them (`begin_tick` each, or `ticks_run`, with the time of a tick
+        set before anything of it may read it; no look for rest and no change of period falls
+        among them) and stop after one that asserted an interrupt. The count run; 0: the next
+        tick runs through `step`. Override."""
         return 0
 
     # -- rest (DESIGN.md "Time that costs nothing", decision 0008) ---------------------------------
