@@ -67,6 +67,8 @@ class Card(WorldBackdoor):
     #: quiet ticks run in closed form (`tick`); the rack turns it off to tick every period
     #: (`[clock] skip_quiet = false`: the equality tests compare both)
     skip_quiet: bool = True
+    #: the card runs stretches of its ticks itself between its looks for rest (`run`)
+    runs_ticks: ClassVar[bool] = False
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         """`config`: the card's options, as config loading checked them, or a plain mapping
@@ -190,9 +192,11 @@ class Card(WorldBackdoor):
 
     def begin_tick(self) -> None:
         """Count the tick about to run and set its time; a new period takes effect here."""
-        self.ticks += 1
-        self.now_ns = self._last_tick_ns = self.time_of_tick(self.ticks)
-        if self.retimes and self.retimes[0][0] == self.ticks:
+        k = self.ticks = self.ticks + 1
+        # time_of_tick(k), inlined: every tick of every card runs this
+        self.now_ns = self._last_tick_ns = (self._base_ns + (k - self._base_ticks)
+                                            * self._period_num // self._period_den)
+        if self.retimes and self.retimes[0][0] == k:
             self.period_changed(self.retimes.pop(0)[1])
 
     def ticks_run(self, k: int) -> None:
@@ -227,10 +231,21 @@ class Card(WorldBackdoor):
         its ticks in closed form (`rest_state`, `skip`; the steps of `rest_enter`,
         `rest_before`, `rest_after`, which an overriding card calls the same way).
         """
-        begin, step = self.begin_tick, self.step
+        begin, step, runs = self.begin_tick, self.step, self.runs_ticks
         i = self.rest_enter(n)
         while i < n:
-            before = self.rest_before()
+            if runs:
+                room = self._run_room(n - i)
+                k = self.run(room) if room else 0
+                if k:
+                    i += k
+                    if self.pause:
+                        self.pause = False
+                        self.batch_done()
+                        return i
+                    continue
+            # rest_before's first test inlined: a card looks only at some ticks (None between)
+            before = self.rest_before() if self.ticks >= self._rest_due else None
             begin()
             step()
             i += 1
@@ -242,6 +257,27 @@ class Card(WorldBackdoor):
                 i += self.rest_after(before, n - i)
         self.batch_done()
         return n
+
+    def _run_room(self, room: int) -> int:
+        """Of the next `room` ticks, those a `run` may take: none after an interrupt between
+        batches (`pause`: the next tick ends the batch), none from the next look for rest or
+        change of period on."""
+        if self.pause:
+            return 0
+        if self.skip_quiet:
+            room = min(room, self._rest_due - self.ticks)
+        if self.retimes:
+            room = min(room, self.retimes[0][0] - self.ticks - 1)
+        return max(room, 0)
+
+    def run(self, room: int) -> int:
+        """Run up to `room` (> 0) of the next ticks at once when the card can (`runs_ticks`:
+        ticks whose firmware does less than `step` checks for), leaving what `begin_tick` and
+        `step` would: count them (`begin_tick` each, or `ticks_run`, with the time of a tick
+        set before anything of it may read it; no look for rest and no change of period falls
+        among them) and stop after one that asserted an interrupt. The count run; 0: the next
+        tick runs through `step`. Override."""
+        return 0
 
     # -- rest (DESIGN.md "Time that costs nothing", decision 0008) ---------------------------------
     def touched(self) -> None:

@@ -56,6 +56,7 @@ class GalilCard(Card):
 
     #: the period comes from an option of the card's own (types, README)
     period_from: ClassVar[str | None] = "tm_us sets it"
+    runs_ticks: ClassVar[bool] = True  # samples with nothing to serve (`run`)
 
     @classmethod
     def check_options(cls, opts: CardOptions, where: str) -> None:
@@ -140,6 +141,16 @@ class GalilCard(Card):
         """One sample of the firmware: motion, interrupts, commands, the data record."""
         self.firmware.step()
 
+    def run(self, room: int) -> int:
+        """Samples with nothing to serve nor record run in a loop of motion and ER checks
+        (Firmware.run_samples): not while the stage is sensed after each sample (a switch or
+        a probe it crosses may interrupt in the middle of one)."""
+        fw = self.firmware
+        if fw.motion.sense is not None:
+            return 0
+        room = fw.idle_samples(room)
+        return fw.run_samples(room, self.ticks_run) if room else 0
+
     def rest_state(self) -> bytes | None:
         return self.firmware.rest_state()
 
@@ -196,6 +207,8 @@ class GalilCard(Card):
         core.set_inputs(amp_fault=w.amp_fault & ~servo, encoder_loss=w.encoder_loss)
         core.follow_jams(w.jammed)
         fw.set_abort(w.estop)
+        # sensed after every sample only while positions matter (switches placed, probes)
+        m.sense = self._sense if w.mechanical or self._probing else None
 
     def axis_index(self, axis: str | int) -> int:
         """X Y Z W, or A B C D (the manual's synonyms), any case; or 0..n-1."""

@@ -102,8 +102,11 @@ class Firmware:
     def step(self) -> None:
         """One sample: motion, interrupt conditions, the command interpreter, the data record."""
         self.ticks += 1
+        self._after_motion(self.motion.tick())
+
+    def _after_motion(self, done: np.ndarray | None) -> None:
+        """The rest of a sample after its motion, in which the axes of `done` completed."""
         motion = self.motion
-        done = motion.tick()
         if done is not None:
             self._motion_complete(done)
         over = motion.check_error()
@@ -115,6 +118,35 @@ class Firmware:
         rate = self.record_rate
         if rate and not (self.ticks - self.time_origin) % (1 << rate):
             self.bus.load_record(self.data_record())
+
+    # -- runs of samples (Card.run) -------------------------------------------------------------------
+    def idle_samples(self, room: int) -> int:
+        """Of the next `room` samples, how many are motion and the ER check alone while no axis
+        completes and none crosses ER: none while the interpreter has work (a reply to send, a
+        trippoint, commands), none from the next data record on."""
+        if self._out or self._trip is not None or self.bus.commands_waiting:
+            return 0
+        rate = self.record_rate
+        if rate:
+            room = min(room, ticks_before_multiple(self.ticks - self.time_origin, 1 << rate))
+        return room
+
+    def run_samples(self, room: int, advance: Callable[[int], None]) -> int:
+        """Up to `room` samples that `idle_samples` allowed, as `step` runs them; the first in
+        which an axis completes or crosses ER runs the rest of its sample (interrupts, the
+        interpreter) after `advance(k)`, the card's clock to it, and ends the run. `advance`
+        sees the count run at the end; returned too."""
+        motion = self.motion
+        tick, changed = motion.tick, motion.error_changed
+        for k in range(1, room + 1):
+            self.ticks += 1
+            done = tick()
+            if done is not None or changed():
+                advance(k)
+                self._after_motion(done)
+                return k
+        advance(room)
+        return room
 
     # -- rest (decision 0008) -----------------------------------------------------------------------
     def rest_state(self) -> bytes | None:

@@ -136,7 +136,11 @@ class GalilMotion:
         self.latch_armed = np.zeros(n, dtype=bool)
         self.latch_occurred = np.zeros(n, dtype=bool)
         self.latched = np.zeros(n)
-        self.tv = np.zeros(n)
+        #: TV (row 0) beside this sample's encoder change (row 1): one multiply by `_tv_coef`
+        #: (rows: keep, gain) scales both (`tick`)
+        self._tv_pair = np.zeros((2, n))
+        self.tv = self._tv_pair[0]
+        self._delta = self._tv_pair[1]
         self._enc_prev = np.zeros(n)
         self._tv_alpha = min(1.0, self.dt / TV_SECONDS)
         self._moving_prev = np.zeros(n, dtype=bool)
@@ -148,6 +152,7 @@ class GalilMotion:
         self._er = np.zeros(n)
         self._tv_gain = self._tv_alpha / self.dt
         self._tv_keep = 1.0 - self._tv_alpha
+        self._tv_coef = np.array([np.full(n, self._tv_keep), np.full(n, self._tv_gain)])
         self.apply_filter()
         self.apply_limits()
         self.core.servo_on(slice(None))
@@ -385,18 +390,21 @@ class GalilMotion:
             self.sense()
         if self._pl:
             self._low_pass(core.axes.out)
-        enc, tmp, tv = core.axes.fb, self._tmp, self.tv
-        np.subtract(enc, self._enc_prev, tmp)  # TV: a first-order average of the velocity
-        np.multiply(tmp, self._tv_gain, tmp)
-        np.multiply(tv, self._tv_keep, tv)
-        np.add(tv, tmp, tv)
+        enc, tv, delta = core.axes.fb, self.tv, self._delta
+        # TV: a first-order average of the velocity, tv = keep * tv + gain * (enc - enc_prev)
+        np.subtract(enc, self._enc_prev, delta)
+        np.multiply(self._tv_pair, self._tv_coef, self._tv_pair)
+        np.add(tv, delta, tv)
         if not core.profile.ticks & 63:
-            np.copyto(self.tv, 0.0, where=np.abs(self.tv) < TV_FLUSH)
+            np.copyto(tv, 0.0, where=np.abs(tv) < TV_FLUSH)
         if self._searching:
             self._search_step(enc)
         self._enc_prev[...] = enc
-        moving, done = core.profile.moving, self._done
-        np.greater(self._moving_prev, moving, done)
+        moving, prev = core.profile.moving, self._moving_prev
+        if moving.tobytes() == prev.tobytes():  # no axis stopped since the last sample
+            return None
+        done = self._done
+        np.greater(prev, moving, done)
         if not np.count_nonzero(done):
             return None
         self._moving_prev[...] = moving
@@ -481,12 +489,18 @@ class GalilMotion:
             self.phase[a] = Phase.NONE
             self.stop_reason[a] = 0
 
+    def error_changed(self) -> bool:
+        """Whether |TE| > ER now differs from the last check on an axis (`check_error` acts)."""
+        np.abs(self.core.axes.ferr, self._tmp)
+        np.greater(self._tmp, self._er, self._over)
+        return self._over.tobytes() != self.error_over.tobytes()
+
     def check_error(self) -> np.ndarray | None:
         """|TE| > ER (ER -1 disables): the ERROR output; with OE1 the motor turns off (SC 8).
         Returns the mask of axes that newly exceeded the limit, None if none [M Ch2 Step 7a]."""
+        if not self.error_changed():  # no axis crossed ER either way
+            return None
         over, new = self._over, self._new
-        np.abs(self.core.axes.ferr, self._tmp)
-        np.greater(self._tmp, self._er, over)
         np.greater(over, self.error_over, new)
         self.error_over[...] = over
         if not np.count_nonzero(new):

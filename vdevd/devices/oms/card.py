@@ -120,6 +120,7 @@ def _travel_limits(values: list[Any] | None, n: int) -> list[tuple[float, float]
 class MaxkCard(Card):
     type_name: ClassVar[str] = CARD_TYPE
     endian: ClassVar[str] = "big"
+    runs_ticks: ClassVar[bool] = True  # cycles of the motion core alone (`run`)
     options: ClassVar[Mapping[str, Option]] = {
         "board": Option(int, 1, min=1, max=8, help="board number (J5 jumpers, 1-8)"),
         "axes": Option(int, 8, min=1, max=10, help="1-10: MAXk-1000 ... MAXk-A000"),
@@ -404,10 +405,44 @@ class MaxkCard(Card):
         if not self.decode_on_arrival:
             self._serve()
         fw.cycle()
+        self._after_cycle()
+
+    def _after_cycle(self) -> None:
+        """Captures and a reply the cycle has for the host."""
+        fw = self.fw
         if fw.capture.pending:
             self._post_captures()
         if fw.replies:
             self._post_reply()
+
+    def run(self, room: int) -> int:
+        """Update cycles that are the motion core's tick alone run as a loop of core ticks
+        (`_run_core`): not while the firmware has more to do at a cycle than its motion's tick
+        (Firmware.motion_only), decodes at the cycle, has captures or replies for the host, or
+        its application does not run."""
+        if not self.running or not self.decode_on_arrival:
+            return 0
+        fw = self.fw
+        if fw.capture.pending or fw.replies or not fw.motion_only():
+            return 0
+        return self._run_core(room)
+
+    def _run_core(self, room: int) -> int:
+        """Up to `room` cycles of the motion core's tick alone (`run`); the first that
+        reports motion events runs the rest of its cycle and ends the run. The count run."""
+        fw = self.fw
+        core_tick = fw.motion.core.tick
+        for k in range(1, room + 1):
+            events = core_tick()
+            if events:
+                self.ticks_run(k)
+                fw.now_ns = self.now_ns
+                fw.after_motion(fw.motion.after_core(events))
+                self._after_cycle()
+                return k
+        self.ticks_run(room)
+        fw.now_ns = self.now_ns
+        return room
 
     def batch_done(self) -> None:
         """The host reads the cycle's words only between batches of ticks: they are published

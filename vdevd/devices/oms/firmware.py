@@ -94,6 +94,7 @@ class Firmware:
         self.motion.servo.set_output_modes(self.servo_outputs)
         self.motion.set_travel_limits(self.travel_limits)
         self.queues = [AxisQueue() for _ in range(n)]
+        self._queued = [q.items for q in self.queues]  # the cycle looks whether any holds one
         self.mode = "single"  # "single" | "AA" | "AM"
         self.axis = 0
         self.done = np.zeros(n, dtype=bool)  # the D of QA/RA [spec §3.4]
@@ -151,12 +152,17 @@ class Firmware:
     # -- the update cycle ---------------------------------------------------------------------------
     def cycle(self) -> None:
         """One update period: queues, then the motion core, then the events it reported."""
-        for a, q in enumerate(self.queues):
-            if q.items:
-                q.advance(a)
+        if any(self._queued):  # most cycles no queue holds a command
+            for a, q in enumerate(self.queues):
+                if q.items:
+                    q.advance(a)
         if self.running_contours:
             self.advance_contours()
-        events = self.motion.tick()
+        self.after_motion(self.motion.tick())
+
+    def after_motion(self, events: int) -> None:
+        """The rest of a cycle after its motion, which reported `events`: the world sensed, the
+        events, position capture."""
         if self.sense is not None:
             self.sense()
         if events:
@@ -164,6 +170,13 @@ class Firmware:
             self.on_motion_events(events)
         if self.capture.armed:
             self.capture.cycle(self)
+
+    def motion_only(self) -> bool:
+        """Whether a cycle whose motion reports no event is the motion core's tick alone: no
+        queued command, no running contour, no sensing, no armed capture, nothing after the
+        core's tick (OmsMotion.core_only); kept in step with `cycle` and `after_motion`."""
+        return (not any(self._queued) and not self.running_contours and self.sense is None
+                and not self.capture.armed and self.motion.core_only())
 
     def on_motion_events(self, events: int) -> None:
         """Over-travel: a limit stopped or refused a motion [spec §3.4, §5.6]."""

@@ -275,12 +275,17 @@ class OmsMotion:
         self.encoders.renumbered(a, shift)
 
     def tick(self) -> int:
-        events = self.core.tick()
+        return self.after_core(self.core.tick())
+
+    def after_core(self, events: int) -> int:
+        """The rest of a tick after the core's, which reported `events` (returned): whole-count
+        holds, the servo law's outputs, index pulses, home switch edges and searches, position
+        maintenance."""
         if events & _DONE:
             self.hold_whole_counts()
         self.servo.after_tick()
         enc = self.encoders
-        searching = np.count_nonzero(self.searching)
+        searching = b"\x01" in self.searching.tobytes()  # bools: bytes 0 and 1
         if enc.watching:
             enc.step_index(self.searching & self.home_index if searching else None)
         if self.home_edge_set:
@@ -291,6 +296,14 @@ class OmsMotion:
         if enc.maintaining:
             enc.maintain()
         return events
+
+    def core_only(self) -> bool:
+        """Whether `after_core` does nothing after a tick without events: no servo output set
+        after the PID, no index watched, no home switch edge or search, no maintenance (kept in
+        step with `after_core`: MaxkCard.run runs such ticks as the core's alone)."""
+        enc = self.encoders
+        return not (self.servo.acting or enc.watching or self.home_edge_set or enc.maintaining
+                    or b"\x01" in self.searching.tobytes())
 
     def hold_whole_counts(self) -> None:
         """Axes at rest under control (steppers, CL1 servos) hold a whole count, the one RP

@@ -65,6 +65,7 @@ class ServoLaw:
         self._kf = np.zeros(n)  # signed KF of closed-loop servo axes (0 elsewhere)
         self._any_fixed = False
         self._any_kf = False
+        self.acting = False  # `after_tick` sets an output (KF, KO, AO)
         self.unipolar_output = np.zeros(n, dtype=bool)  # card option servo_output, per axis
         self._unipolar = np.zeros(n, dtype=bool)  # ... on the axes that are servos now
         self._any_unipolar = False
@@ -97,6 +98,7 @@ class ServoLaw:
         self._fixed = ~closed
         self._fixed_value = np.where(servo, sign * v["KO"], self.analog_out)
         self._any_fixed = bool(self._fixed_value[self._fixed].any())
+        self.acting = self._any_kf or self._any_fixed
         np.copyto(self.core.axes.out, self._fixed_value, where=self._fixed)  # the DAC at once
         self._unipolar = self.unipolar_output & np.array([t == "M" for t in p.ptype])
         self._any_unipolar = bool(self._unipolar.any())

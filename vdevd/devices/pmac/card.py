@@ -175,6 +175,7 @@ class PmacCard(Card):
         action: {"motor": "axis"} for action in _AXIS_ACTIONS}
 
     period_from: ClassVar[str | None] = "I10's default, not configurable"
+    runs_ticks: ClassVar[bool] = True  # cycles that are the firmware's tick alone (`run`)
 
     @classmethod
     def check_options(cls, opts: CardOptions, where: str) -> None:
@@ -285,6 +286,24 @@ class PmacCard(Card):
         if self.irq.mask & _MOTOR_SOURCES:
             self._irq_sources()
 
+    def run(self, room: int) -> int:
+        """Servo cycles in which the card does nothing beside the firmware's tick run as a loop
+        of `begin_tick` and those ticks: not while the world is sensed or a motor interrupt
+        source is enabled, and up to the next cycle that looks whether a reporting buffer is
+        requested (a multiple of I47 with I48 = 1, of I50 with I49 = 1), as `step` looks."""
+        if self._sensing or self.irq.mask & _MOTOR_SOURCES:
+            return 0
+        cycle, iv = self.fw.servo_cycles, self.fw.ivars.values
+        if iv[48]:
+            room = min(room, ticks_before_multiple(cycle, max(int(iv[47]), 1)))
+        if iv[49]:
+            room = min(room, ticks_before_multiple(cycle, max(int(iv[50]), 1)))
+        begin, tick = self.begin_tick, self.fw.tick
+        for _ in range(room):
+            begin()
+            tick(self.now_ns)
+        return room
+
     # -- rest (decision 0008) -------------------------------------------------------------------------
     #: what changes at every cycle and `skip` advances in closed form, left out of rest_state
     _COUNTERS = ("now_ns", "ticks", "_last_tick_ns", "quiet_skipped", "pause", "servo_cycles",
@@ -306,6 +325,7 @@ class PmacCard(Card):
         core = m.core.rest_state()
         if core is None:
             return None
+        fw.servo_ic.materialize()  # its counters as they read, not what they are computed from
         skip = self._COUNTERS
         return b"".join((core, state_bytes(self, self.irq, fw, m, m.pid, m.homing, fw.servo_ic, fw.gpio,
                                            fw.feedback, skip=skip),

@@ -105,6 +105,9 @@ class ConversionTable:
         self.memory = memory
         self.ivars = ivars
         self.channels = channels
+        #: the setup lines I8000-I8191, a view (the I-variable array is never replaced): read
+        #: at every cycle
+        self._lines = ivars.values[FIRST_IVAR:FIRST_IVAR + LINES]
         memory.mount(TABLE, TABLE + LINES - 1, self)
         self.reset()
 
@@ -116,7 +119,7 @@ class ConversionTable:
 
     # -- the setup lines -------------------------------------------------------------------------
     def _setup(self) -> np.ndarray:
-        return self.ivars.values[FIRST_IVAR:FIRST_IVAR + LINES]
+        return self._lines
 
     def _parse(self) -> None:
         """Split the setup lines into entries up to the first $000000 [A L2551]; an entry whose

@@ -36,13 +36,12 @@ class FeedbackSelect:
         self.source = np.zeros(n, dtype=np.int64)  # the Ixx03 each motor tracks (0: own encoder)
         self.last = np.zeros(n, dtype=np.int64)  # the last 24-bit result read
         self.position = np.zeros(n)  # the extended result, counts
+        #: whether a motor tracks another result (`source` not all 0): looked at every cycle
+        self.active = False
 
     def reset(self) -> None:
         self.source[:] = 0
-
-    @property
-    def active(self) -> bool:
-        return bool(np.count_nonzero(self.source))
+        self.active = False
 
     def refresh(self, encoder: np.ndarray) -> None:
         """Ixx03 may have changed: motors that now read another result start from where their
@@ -54,6 +53,7 @@ class FeedbackSelect:
             if wanted[m]:
                 self.last[m] = self._read(int(wanted[m]))
                 self.position[m] = encoder[m]
+        self.active = bool(np.count_nonzero(self.source))
 
     def _read(self, addr: int) -> int:
         return _signed24(self.memory.read("X", addr))

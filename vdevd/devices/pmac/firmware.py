@@ -461,6 +461,12 @@ class _FineEncoders:
     def encoder_into(self, out: np.ndarray) -> None:
         self.reports.encoder_fine_into(out)
 
+    def keep_into(self, pos: np.ndarray, counter: np.ndarray) -> bool:
+        return self.reports.keep_fine(pos, counter)
+
+    def encoder_from(self, pos: np.ndarray, counter: np.ndarray, out: np.ndarray) -> None:
+        self.reports.fine_from(pos, counter, out)
+
 
 class _Env:
     """The expression environment of one port: variables and the addressed C.S.'s Q0."""

@@ -143,8 +143,10 @@ class GeneralIO:
         code to its I5061+k address (0 = $078800) and its two 12-bit values stored in bits 12-23
         of Y:$003400+2k (low converter) and Y:$003401+2k (high). I5080=0 disables [A L3257]."""
         v = self.ivars.values
+        if not v[I_ENABLE]:
+            return
         pairs = min(int(v[I_RING_SIZE]), 16)
-        if pairs <= 0 or not v[I_ENABLE]:
+        if pairs <= 0:
             return
         for _ in range(min(int(v[I_SERVO_DIVIDER]) + 1, pairs)):
             k = self._ring % pairs

@@ -37,6 +37,8 @@ class MotorReports:
         self._ix = 100 * np.arange(1, motors.n + 1)  # I-variable number of Ixx00 per motor
         self._tmp = np.zeros(motors.n)
         self._counts = np.zeros(motors.n, dtype=np.int64)
+        self._whole = np.zeros(motors.n)  # `_counts` as floats
+        self._mask = np.full(motors.n, ENCODER_MASK, dtype=np.int64)  # an array: no scalar
 
     def _iv(self, yy: int) -> np.ndarray:
         return self.motors.ivars.values[self._ix + yy]
@@ -100,18 +102,43 @@ class MotorReports:
         """`encoder_fine` written into `out` (one float per motor), with no allocation: the
         Servo ICs read it every cycle."""
         core = self.motors.core
-        pos, counts = core.axes.pos, self._counts
+        pos = core.axes.pos
+        if not (core.any_slip or core.encoder_loss.tobytes().count(1)):
+            self.fine_from(pos, core.axes.encoder, out)
+            return
+        counts = self._counts
         np.floor(pos, out)
         np.subtract(pos, out, out)
         if core.any_slip:
             np.copyto(counts, core.encoder_slip, casting="unsafe")
             np.add(counts, core.axes.encoder, counts)
-            np.bitwise_and(counts, ENCODER_MASK, counts)
+            np.bitwise_and(counts, self._mask, counts)
         else:
-            np.bitwise_and(core.axes.encoder, ENCODER_MASK, counts)
+            np.bitwise_and(core.axes.encoder, self._mask, counts)
         if core.encoder_loss.tobytes().count(1):
             out[core.encoder_loss] = 0.0
         np.add(counts, out, out)
+
+    def keep_fine(self, pos: np.ndarray, counter: np.ndarray) -> bool:
+        """Keep in `pos` and `counter` what `encoder_fine_into` computes from now, the motors'
+        positions and counters, for `fine_from` (the Servo ICs compute their counters when
+        read): True, or False (nothing kept) while a slip or a lost encoder adds to them."""
+        core = self.motors.core
+        if core.any_slip or core.encoder_loss.tobytes().count(1):
+            return False
+        pos[...] = core.axes.pos
+        counter[...] = core.axes.encoder
+        return True
+
+    def fine_from(self, pos: np.ndarray, counter: np.ndarray, out: np.ndarray) -> None:
+        """`encoder_fine_into` of motors at `pos` whose counters read `counter` (int64), with no
+        slip and no lost encoder: the 24-bit counter plus the sub-count position."""
+        counts, whole = self._counts, self._whole
+        np.floor(pos, out)
+        np.subtract(pos, out, out)
+        np.bitwise_and(counter, self._mask, counts)
+        whole[...] = counts  # the cast np.add(counts, out) makes, without its mixed-type loop
+        np.add(whole, out, out)
 
     def capture(self) -> np.ndarray:
         """The counter value latched by the last home trigger (X:b+3 low 24 bits, Mxx73)."""

@@ -29,6 +29,7 @@ power-up state) it can never change anything, so such channels cost nothing.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from enum import IntEnum
 from typing import Protocol
 
@@ -86,7 +87,11 @@ class Encoders(Protocol):
     def encoder(self) -> np.ndarray: ...
 
     # optional: `encoder_into(out)` writes `encoder()` into a float array, with no allocation
-    # (the IC reads the counters every cycle)
+    # (the IC reads the counters every cycle);
+    # `keep_into(pos, counter)` keeps what `encoder()` is computed from now (the motors'
+    # positions, floats, and counters, int64) and says whether it did, and
+    # `encoder_from(pos, counter, out)` computes `encoder_into` from what it kept: the IC then
+    # computes a cycle's counters only when they are looked at (`ServoIC.tick`)
 
 
 def _s24(v: np.ndarray) -> np.ndarray:
@@ -114,6 +119,7 @@ class ServoIC:
         self._first = np.array([4 * (c // 4) for c in range(self.n)])   # channel 1 of the same IC
         #: I7000.. up to the last IC's I7m49: watched for changes once per cycle
         self._cfg_span = slice(7000, 7000 + 100 * max(ics) + 50)
+        self._cfg_values = ivars.values[self._cfg_span]  # a view: the array is never replaced
         self._not_first = np.arange(self.n) % 4 != 0
         for m in ics:
             memory.mount(SERVO_IC_BASE[m], SERVO_IC_BASE[m] + 0x1F, self)
@@ -141,25 +147,42 @@ class ServoIC:
         self._pfm_phase = np.zeros(n)
         self._armed = np.zeros(n, dtype=bool)
         self._any_armed = False
+        self._motors = m = len(self.encoders.encoder())
+        self._wide = np.zeros(m)
+        self._into = getattr(self.encoders, "encoder_into", None)
         self._pos = self._read_encoders()
         self._prev = self._pos.copy()
-        self._motors = len(self.encoders.encoder())
-        self._wide = np.zeros(self._motors)
+        #: the readings of this cycle (`_pos`) and the last (`_prev`) are computed when looked
+        #: at (`materialize`): while stale, from the positions and counters kept at their cycle
+        #: (lists, not arrays: derived state, out of `rest_state`, which looks at the readings)
+        self._from = getattr(self.encoders, "encoder_from", None)
+        self._keep = getattr(self.encoders, "keep_into", None) if self._from else None
+        self._kept_pos: list[np.ndarray] = [np.zeros(m), np.zeros(m, dtype=np.int64)]
+        self._kept_prev: list[np.ndarray] = [np.zeros(m), np.zeros(m, dtype=np.int64)]
+        self._stale = [False, False]  # _pos, _prev
         self._cfg = b""
         self._mldt_ch = np.zeros(0, dtype=np.int64)
         self._cap_dirty = True
 
     # -- the servo cycle -------------------------------------------------------------------------
     def tick(self) -> None:
-        """One servo cycle: sample the counters, run compare, capture and the MLDT timers. Idle
+        """One servo cycle: sample the counters (what they are computed from, when the encoders
+        can keep it: computed when looked at), run compare, capture and the MLDT timers. Idle
         channels cost nothing: compare runs when armed, capture when its inputs, arming or
         I7mn2/I7mn3 changed (it is level-triggered), the MLDT model only for I7mn0 = 12."""
         old, new = self._pos, self._prev  # two buffers in turn: no allocation per cycle
-        self._read_encoders_into(new)
         self._prev, self._pos = old, new
+        kept, stale = self._kept_prev, self._stale
+        self._kept_prev, self._kept_pos = self._kept_pos, kept
+        stale[1] = stale[0]
+        keep = self._keep
+        stale[0] = keep is not None and keep(kept[0], kept[1])
+        if not stale[0]:
+            self._read_encoders_into(new)
         if self._any_armed:
+            self.materialize()
             self._compare(old, new)
-        cfg = self.ivars.values[self._cfg_span].tobytes()
+        cfg = self._cfg_values.tobytes()
         if cfg != self._cfg:
             self._cfg = cfg
             self._mldt_ch = np.flatnonzero(self.ivars.values[self._i7mn0] == 12)
@@ -170,12 +193,34 @@ class ServoIC:
         if self._mldt_ch.size:
             self._mldt(self._mldt_ch)
 
+    def materialize(self) -> None:
+        """The counters of this cycle and the last as they read: those still stale computed
+        from what was kept at their cycle (every reader calls it; `rest_state` too)."""
+        stale = self._stale
+        if stale[0]:
+            self._compute(self._pos, self._kept_pos)
+            stale[0] = False
+        if stale[1]:
+            self._compute(self._prev, self._kept_prev)
+            stale[1] = False
+
+    def _compute(self, out: np.ndarray, kept: list[np.ndarray]) -> None:
+        pos, counter = kept
+        encoder_from = self._from
+        assert encoder_from is not None  # kept only by encoders that compute from it
+        self._fill(out, lambda values: encoder_from(pos, counter, values))
+
     def _read_encoders_into(self, out: np.ndarray) -> None:
         """`_read_encoders` into `out` (channels without a motor read 0)."""
-        m, into = self._motors, getattr(self.encoders, "encoder_into", None)
-        if into is None:  # an Encoders without the fast path
+        if self._into is None:  # an Encoders without the fast path
             np.copyto(out, self._read_encoders())
-        elif m == self.n:
+        else:
+            self._fill(out, self._into)
+
+    def _fill(self, out: np.ndarray, into: Callable[[np.ndarray], None]) -> None:
+        """`into(values)` of the motors, onto the channels (channels without a motor read 0)."""
+        m = self._motors
+        if m == self.n:
             into(out)
         elif m < self.n:
             into(out[:m])
@@ -265,6 +310,7 @@ class ServoIC:
     def _capture(self) -> None:
         """Level-triggered capture of armed channels: I7mn2 bit 0 use index (CHC), bit 1 use the
         flag chosen by I7mn3, bits 2/3 invert them; neither used = immediate capture."""
+        self.materialize()
         idx = np.flatnonzero(self.cap_armed)
         ctl = self._ivar(2)[idx]
         sel = _CAPTURE_FLAG_SELECT[self._ivar(3)[idx] & 3]
@@ -300,6 +346,7 @@ class ServoIC:
         self.mldt_latch[ch[latch]] = lsb[latch].astype(np.int64)
 
     def _signed_count(self, ch: np.ndarray) -> np.ndarray:
+        self.materialize()
         p = np.floor(self._pos[ch])
         return (p + (1 << 23)) % (1 << 24) - (1 << 23)
 
@@ -327,12 +374,14 @@ class ServoIC:
         c = self._channel_of.get(addr)
         if c is None:
             return None
+        self.materialize()
         p = float(self._pos[c])
         if hardware != bool(self.ivars.values[self._i7mn0[c] + 9] == 1):
             return (math.floor(p) << bits) & WORD
         return math.floor(p * (1 << bits)) & WORD
 
     def counter(self, c: int) -> int:
+        self.materialize()
         return math.floor(float(self._pos[c])) & WORD
 
     def dac(self) -> np.ndarray:
@@ -382,6 +431,7 @@ class ServoIC:
         c, r = self._locate(addr)
         if c < 0:
             return self.plain.get((space, addr), 0)
+        self.materialize()  # the counter, the 1/T timers, the sub-count bits
         if space == "X":
             return self._read_x(c, r, addr)
         return self._read_y(c, r, addr)
