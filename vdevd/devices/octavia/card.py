@@ -76,6 +76,7 @@ class OctaviaCard(Card):
                            raise_line=self.inta.trigger)
         self.make_world(n)
         self._world_lines = 0  # the IN lines the axis world holds active (apply_world)
+        self._ran = False  # a sample ran since the last publish
         self._world_changed()
         self.inta.clear()  # power-up: the reset-finished bit is posted, the line starts low
 
@@ -98,9 +99,14 @@ class OctaviaCard(Card):
         if self.world.mechanical:
             self.sense_world()
         self.fw.cycle()
+        self._ran = True
 
     def batch_done(self) -> None:
-        self.fw.publish()
+        """Publish the windows after a batch that ran a sample (a batch skipped at rest changed
+        nothing; a host access to the DPR makes the next batch run, decision 0008)."""
+        if self._ran or self.fw._deferred:
+            self._ran = False
+            self.fw.publish()
 
     def reset(self) -> None:
         self.fw.reset()
