@@ -30,10 +30,13 @@ from vdevmaps.octavia import (
     unpack,
 )
 
-from vdevd.devices.octavia import cmd_control, cmd_interrupts, cmd_io, cmd_motion
+from vdevd.devices.octavia import cmd_contour, cmd_control, cmd_interrupts, cmd_io, cmd_motion
 from vdevd.devices.octavia.commands import COMMANDS
+from vdevd.devices.octavia.contour import RingContour
+from vdevd.devices.octavia.cubic_int import CubicInt
 from vdevd.devices.octavia.dpr import Mailbox, Memory, Windows, clear_dpr
 from vdevd.devices.octavia.law import PLANT_AMP_GAIN, pid_params
+from vdevd.devices.octavia.ram import BoardRam
 from vdevd.devices.octavia.state import HALTING, Mode, Params, axes_bits
 from vdevd.rt import AxisFlag, MotionCore, PlantKind
 
@@ -71,7 +74,7 @@ class Firmware:
         self.windows = Windows(buf)
         self.mailbox = Mailbox(buf, raise_line or (lambda status: None))
         self.rtcs: dict[int, Rtc] = table_for(option)
-        self.handlers = COMMANDS.bind(cmd_control, cmd_motion, cmd_interrupts, cmd_io)
+        self.handlers = COMMANDS.bind(cmd_control, cmd_motion, cmd_interrupts, cmd_io, cmd_contour)
         self.open_dac = np.zeros(n)  # DDAC output of open-loop axes (DAC codes)
         self.fault_open = np.zeros(n, dtype=bool)  # opened by an encoder fault (0 V)
         self.any_open = False
@@ -94,6 +97,10 @@ class Firmware:
         self.rtc_count = 0
         self._prev_flags = np.zeros(n, dtype=np.int64)
         self._published = np.zeros((3, n), dtype=np.int64)
+        self.ram = BoardRam()  # the on-board RAM: tables a reset keeps [Ch8]
+        # contouring: the ring buffer (contour.py) and the internal table (cubic_int.py)
+        self.contour = RingContour(self)
+        self.cubic = CubicInt(self)
         self.reset()
 
     # -- power-up / RESET [Ch7 Power-Up/Reset State; spec §1.5] --------------------------------
@@ -107,6 +114,8 @@ class Firmware:
         core.abort(slice(None))
         core.servo_on(slice(None))
         self.mode[:] = Mode.HOLD
+        self.contour.reset()
+        self.cubic.reset()
         self.open_dac[:] = 0
         self.fault_open[:] = False
         self.any_open = False
@@ -141,6 +150,10 @@ class Firmware:
             self.mailbox.flush()
         if buf[_RTC]:
             self.poll_rtc()
+        if self.contour.running:  # contouring: the next sample's commanded positions
+            self.contour.step()
+        if self.cubic.running:
+            self.cubic.step()
         events = self.core.tick()
         if self.any_open:
             out = self.core.axes.out
