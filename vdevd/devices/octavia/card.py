@@ -120,6 +120,8 @@ class OctaviaCard(Card):
             return None
         if fw.params.int5ms or fw.index_period is not None and fw.params.index_axis >= 0:
             return None
+        if fw.contour.running or fw.cubic.running:  # a contour (CUBIC_INT: its 5 ms start)
+            return None
         return (core + state_bytes(fw.params, fw, fw.filters, skip=("sample", "rtc_count"))
                 + bytes(self.dpr.buf) + bytes((self.inta.asserted,)))
 

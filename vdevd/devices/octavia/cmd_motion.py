@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from vdevmaps.octavia import DspStat1, acc_from_raw, vel_from_raw
 
-from vdevd.devices.octavia.state import Mode
+from vdevd.devices.octavia.state import CONTOURING, Mode
 
 if TYPE_CHECKING:
     from vdevd.devices.octavia.firmware import Firmware
@@ -68,7 +68,7 @@ def axmove(relative: str, shape: str, fw: Firmware, head: dict[str, Any], groups
     axis already moving re-targets from its present state (Example 3). Zero acceleration, or a
     zero slew velocity, leaves that axis where it is."""
     todo = fw.axes_of(groups)
-    if not todo or _refused(fw, [a for a, _ in todo], (Mode.CONTOUR,)):
+    if not todo or _refused(fw, [a for a, _ in todo], CONTOURING):
         return
     core = fw.core
     for a, g in todo:
@@ -145,7 +145,7 @@ def velmode(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:
     VELMODE]; ignored while MAXACC is 0 (Note); velocity 0 ends the mode (motion complete when
     the axis stops, spec §5.3)."""
     todo = [(a, g) for a, g in fw.axes_of(groups) if fw.params.maxacc[a] > 0]
-    if not todo or _refused(fw, [a for a, _ in todo], (Mode.CONTOUR,)):
+    if not todo or _refused(fw, [a for a, _ in todo], CONTOURING):
         return
     core = fw.core
     for a, g in todo:

@@ -58,9 +58,15 @@ COMMANDS = CommandTable([
     Command("NURBS", "nurbs", section="Ch9"),
     Command("NURBS_BUFBRK", "nurbs_bufbrk", section="Ch9"),
     Command("NURBS_FEEDRATE", "nurbs_feedrate", section="Ch9"),
+    # contouring [Ch5 Contouring; cmd_contour.py]
+    Command("BTRATE", "btrate", section="Ch5 BTRATE"),
+    Command("CUBIC_RATE", "cubic_rate", section="Ch5 CUBIC_RATE"),
+    Command("START", "start", section="Ch5 START"),
+    Command("VECCHG", "vecchg", section="Ch5 VECCHG"),
+    Command("CUBIC_SCALE", "cubic_scale", section="Ch5 CUBIC_SCALE"),
+    Command("CUBIC_INT", "cubic_int", section="Ch5 CUBIC_INT"),
 ], not_emulated={name: _LATER for name in (
-    "START", "VECCHG", "BTRATE", "CUBIC_RATE", "CUBIC_SCALE",
-    "CUBIC_INT", "LOAD_CUBIC_TABLE", "CLEAR_CUBIC_TABLE", "CAM", "CAM_POS", "CAM_PROBE",
+    "LOAD_CUBIC_TABLE", "CLEAR_CUBIC_TABLE", "CAM", "CAM_POS", "CAM_PROBE",
     "CAM_OFF", "CAM_OFF_ACC", "CAM_POINT", "LOAD_CAM_TABLE", "GEAR", "GEAR_POS", "GEAR_PROBE",
     "GEAR_OFF", "GEAR_OFF_ACC", "REL_AXMOVE_SLAVE", "TABLE_SEL", "LOAD_POS_TABLE",
     "LOAD_VEL_TABLE", "CLEAR_POS_TABLE", "CLEAR_VEL_TABLE", "START_DSPL", "STOP_DSPL",

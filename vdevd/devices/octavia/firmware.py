@@ -31,6 +31,7 @@ from vdevmaps.octavia import (
 )
 
 from vdevd.devices.octavia import (
+    cmd_contour,
     cmd_control,
     cmd_filters,
     cmd_interrupts,
@@ -39,10 +40,13 @@ from vdevd.devices.octavia import (
     cmd_nurbs,
 )
 from vdevd.devices.octavia.commands import COMMANDS
+from vdevd.devices.octavia.contour import RingContour
+from vdevd.devices.octavia.cubic_int import CubicInt
 from vdevd.devices.octavia.dpr import Mailbox, Memory, Windows, clear_dpr
 from vdevd.devices.octavia.filters import Biquads, Coeffs
 from vdevd.devices.octavia.law import DAC_PER_VOLT, PLANT_AMP_GAIN, pid_params
 from vdevd.devices.octavia.nurbs import DprRings, NurbsRun, NurbsState, pending
+from vdevd.devices.octavia.ram import BoardRam
 from vdevd.devices.octavia.state import HALTING, Mode, Params, axes_bits
 from vdevd.rt import AxisFlag, MotionCore, PlantKind
 
@@ -83,7 +87,7 @@ class Firmware:
         self.mailbox = Mailbox(buf, raise_line or (lambda status: None))
         self.rtcs: dict[int, Rtc] = table_for(option)
         self.handlers = COMMANDS.bind(cmd_control, cmd_motion, cmd_interrupts, cmd_io,
-                                      cmd_filters, cmd_nurbs)
+                                      cmd_filters, cmd_nurbs, cmd_contour)
         self.open_dac = np.zeros(n)  # DDAC output of open-loop axes (DAC codes)
         self.fault_open = np.zeros(n, dtype=bool)  # opened by an encoder fault (0 V)
         self.filters = Biquads(n)  # NOTCH or LOW_PASS at the controller output
@@ -127,6 +131,10 @@ class Firmware:
         self.filtering = False
         self._prev_flags = np.zeros(n, dtype=np.int64)
         self._published = np.zeros((3, n), dtype=np.int64)
+        self.ram = BoardRam()  # the on-board RAM: tables a reset keeps [Ch8]
+        # contouring: the ring buffer (contour.py) and the internal table (cubic_int.py)
+        self.contour = RingContour(self)
+        self.cubic = CubicInt(self)
         self.reset()
 
     # -- power-up / RESET [Ch7 Power-Up/Reset State; spec §1.5] --------------------------------
@@ -141,6 +149,8 @@ class Firmware:
         core.servo_on(slice(None))
         core.set_position(slice(None), 0)  # the position counters start at 0 (spec §1.5)
         self.mode[:] = Mode.HOLD
+        self.contour.reset()
+        self.cubic.reset()
         self.open_dac[:] = 0
         self.fault_open[:] = False
         self.nurbs.stop()
@@ -183,6 +193,10 @@ class Firmware:
             self.poll_rtc()
         if self.nurbs_axes:
             self.nurbs_sample()
+        if self.contour.running:  # contouring: the next sample's commanded positions
+            self.contour.step()
+        if self.cubic.running:
+            self.cubic.step()
         events = self.core.tick()
         out = self.core.axes.out
         if self.filtering:  # the law's output: DDAC's value bypasses it (spec §5.2)

@@ -34,6 +34,8 @@ class Mode(enum.IntEnum):
 #: the modes START, AXMOVE, REL_AXMOVE and VELMODE conflict with (Ch7 "Conflicting Commands")
 MOTION_MODES = (Mode.MOVE, Mode.VELMODE)
 HALTING = (Mode.STOP, Mode.ESTOP)
+#: the contouring modes: the ring buffer (START) and the internal table (CUBIC_INT)
+CONTOURING = (Mode.CONTOUR, Mode.CUBIC)
 
 
 class Params:
