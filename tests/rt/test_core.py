@@ -347,3 +347,26 @@ def test_track_runs_a_path_given_every_tick_and_hold_ends_it() -> None:
     assert not core.axes.flags[0] & AxisFlag.MOVING
     with pytest.raises(ValueError):
         core.track(0, float("nan"))
+
+
+def test_track_again_takes_the_cheap_step_and_equals_planning_every_tick() -> None:
+    """A path given every tick: the cheap step (nothing re-planned since the last call) leaves
+    the tracked axes exactly where re-planning them every tick does; another plan in between
+    (an idle axis's move) makes the next call plan again."""
+    def run(replan: bool) -> list[list[float]]:
+        core = core_with(PlantKind.SERVO, 3)
+        out = []
+        for k in range(1, 400):
+            if replan:
+                core.profile.plans += 1  # as if something had planned: the full path
+            s = max(k - 3, 0)  # three ticks at rest first: the path starts with no velocity
+            core.track([0, 2], [1000 * np.sin(s / 30), -2.5 * s])
+            if k == 200:
+                core.move_absolute(1, 500, 20_000, 200_000, 200_000)
+            core.tick()
+            out.append(core.axes.state[:, [0, 2]].ravel().tolist())
+        return out
+
+    fast = run(False)
+    assert fast == run(True)
+    assert fast[-1][0] == pytest.approx(1000 * np.sin(396 / 30)) and fast[-1][1] == -2.5 * 396

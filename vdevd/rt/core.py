@@ -73,6 +73,10 @@ class MotionCore:
         if compiled and self._kernel is None:
             raise RuntimeError("the compiled motion core is not available (numba)")
         self._ax_flags = np.zeros(n, dtype=np.int64)  # kernel.AX_* of each axis
+        #: the axes `track` set tracking (their key and indices) and the profile's plans then
+        self._track_key: Any = None
+        self._track_idx = np.zeros(0, dtype=np.intp)
+        self._track_plans = -1
         self._kmode = 0
         self.servo_on_mask = np.zeros(n, dtype=bool)
         self.amp_fault = np.zeros(n, dtype=bool)
@@ -617,7 +621,22 @@ class MotionCore:
         """The commanded positions of `axes` at the next tick, given by the caller every tick
         (a path sampled once a tick: contouring, cam and gear followers): each axis runs in a
         straight line to its position, MOVING, and on at that velocity until the next call;
-        end with `hold` (or stop, abort). No limit checks: the caller plans the path."""
+        end with `hold` (or stop, abort). No limit checks: the caller plans the path.
+
+        The same axes again with nothing re-planned in between (the path's every tick) take a
+        cheap step (`ProfileGenerator.retrack`): only their phase's start moves."""
+        prof = self.profile
+        key = (axes.tobytes() if isinstance(axes, np.ndarray)
+               else tuple(axes) if isinstance(axes, list | tuple) else None)
+        if key is not None and key == self._track_key and prof.plans == self._track_plans:
+            idx = self._track_idx
+            pos = np.asarray(positions, dtype=float)
+            if pos.shape != idx.shape:
+                pos = self._per_axis(pos, len(idx))
+            if not np.isfinite(pos).all():
+                raise ValueError("positions must be finite")
+            prof.retrack(idx, pos)
+            return
         idx = self._select(axes)
         if not len(idx):
             return
@@ -626,9 +645,10 @@ class MotionCore:
             raise ValueError("positions must be finite")
         self._begin(idx)
         self.target_valid[idx] = False
-        self.profile.reach_many(idx, np.asarray(pos, dtype=float))
+        prof.reach_many(idx, np.asarray(pos, dtype=float))
         self.axes.flags[idx] |= _MOVING
-        self.profile.commit()
+        prof.commit()
+        self._track_key, self._track_idx, self._track_plans = key, idx, prof.plans
 
     def hold(self, axes: Selector, positions: Any = None) -> None:
         """End a tracked path: the axes hold their commanded position now, or `positions`, the

@@ -190,6 +190,9 @@ class ProfileGenerator:
         self.next_t = INF
         self.active = False
         self.jerky = False
+        #: counts the phases entered (plans, boundaries): a tracked path may take the cheap step
+        #: while it is unchanged (`retrack`)
+        self.plans = 0
         # one tick of constant jerk: (pos, vel, acc) <- M @ (pos, vel, acc) + jstep, where jstep
         # is (j dt^3/6, j dt^2/2, j dt) of each axis's current phase
         self._jstep = np.zeros((3, n)) if jstep is None else jstep
@@ -207,6 +210,7 @@ class ProfileGenerator:
         """A new tick length from the next tick on (the card's period changed): the clock goes
         on from the present time, and plans keep their times."""
         self._t_base, self._ticks_base = self.t, self.ticks
+        self.plans += 1
         self._set_matrices(dt)
         self._jstep[:] = self._jcoef * self.j
 
@@ -258,6 +262,7 @@ class ProfileGenerator:
     def shift(self, axis: int, distance: float) -> None:
         """Move the axis's whole plan and its commanded position by `distance` (a redefinition
         of zero that keeps the motion: MotionCore.shift_position)."""
+        self.plans += 1
         self.pp0[axis, :] += distance
         self.p0[axis] += distance
         self.axes.cmd_pos[axis] += distance
@@ -273,6 +278,20 @@ class ProfileGenerator:
         tick and ends with `hold`."""
         here = float(self.axes.cmd_pos[axis])
         self.load(axis, [Phase(self.t, INF, here, (position - here) / self.dt, 0.0, 0.0)])
+
+    def retrack(self, idx: np.ndarray, positions: np.ndarray) -> None:
+        """`reach_many` again for axes that `reach_many` set tracking and nothing re-planned
+        since (`plans` unchanged): only their phase's start moves to now (what `reach_many`
+        then `commit` would leave for them, with no other axis re-evaluated)."""
+        ax = self.axes
+        here = ax.cmd_pos[idx]
+        v = (positions - here) / self.dt
+        self.t0[idx] = self.t
+        self.p0[idx] = here
+        self.v0[idx] = v
+        ax.cmd_vel[idx] = v
+        if not self.active and v.any():  # (stepping an axis with no velocity adds zeros)
+            self.active = True
 
     def reach_many(self, idx: np.ndarray, positions: np.ndarray) -> None:
         """`reach` for the axes `idx` at once (vectorised: a path every axis of which is
@@ -366,6 +385,7 @@ class ProfileGenerator:
 
     def _enter(self, idx: np.ndarray) -> None:
         """Make the current table column of axes `idx` their current phase."""
+        self.plans += 1
         k = self.k[idx]
         self.t0[idx] = self.pt0[idx, k]
         self.t_end[idx] = self.pend[idx, k]
