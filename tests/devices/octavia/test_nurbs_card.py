@@ -90,3 +90,32 @@ def test_a_nurbs_start_with_bad_arguments_is_ignored() -> None:
     host.rtc("AXMOVE", {"n": 1}, [{"acc": 0x100, "pos": 10_000, "vel": 0x10000}])
     host.rtc("NURBS", {"feed": 4.0, "rate": 3.0, "first": 0.0, "last": 3.0, "npts": 6.0})
     assert host.u8(Dpr.DSPSTAT1) & DspStat1.CONFLICT and host.u8(Dpr.INTAXIS_CONFLICT) == 1
+
+
+def test_a_nurbs_circle_on_the_card_keeps_its_radius_and_closes() -> None:
+    """A circle of radius 1000 (four rational quarter arcs raised to degree 3: 13 control
+    points, 17 knots) through the DPR rings: axes 1 and 2 stay on it (within a chord's sagitta
+    and the counts' rounding) and close it after ~2 pi 1000 / FeedRate samples [Ch9]."""
+    from tests.devices.octavia.test_nurbs import circle
+
+    ctrl, weights, knots = circle(1000.0)
+    host = Host(plant="ideal")
+    host.rtc("POS_PRESET", {"n": 0x01}, [{"pset": 1000}])  # start on the circle
+    host.write(NURBS_OUTPTR, b"\x00\x00")
+    for i, p in enumerate(ctrl):
+        host.write(NURBS_CTRL + 12 * i, struct.pack("<3f", *p))
+        host.write(NURBS_WEIGHT + 4 * i, struct.pack("<f", weights[i]))
+    for i, k in enumerate(knots):
+        host.write(NURBS_KNOT + 4 * i, struct.pack("<f", k))
+    host.write(NURBS_INPTR, struct.pack("<H", len(knots)))
+    host.rtc("NURBS", {"feed": 2.0, "rate": 2.0, "first": 0.0, "last": 4.0, "npts": 13.0})
+    radii, samples = [], 0
+    while host.card.fw.mode[0] == 4 and samples < 10_000:
+        host.run(1)
+        samples += 1
+        pos = host.card.fw.core.axes.cmd_pos[:2]
+        radii.append(float(np.hypot(*pos)))
+    assert abs(samples - 2 * np.pi * 1000 / 2.0) < 25
+    assert max(radii) <= 1000.0 + 0.01 and min(radii) >= 1000.0 - 20.0**2 / 8000 - 0.01
+    host.run(2)
+    assert [host.position(1), host.position(2)] == [1000, 0]
