@@ -630,11 +630,16 @@ class MotionCore:
         self.axes.flags[idx] |= _MOVING
         self.profile.commit()
 
-    def hold(self, axes: Selector) -> None:
-        """End a tracked path: the axes hold their commanded position now (DONE)."""
+    def hold(self, axes: Selector, positions: Any = None) -> None:
+        """End a tracked path: the axes hold their commanded position now, or `positions`
+        (where the path ends exactly, free of the rounding of its last straight piece) (DONE)."""
         idx = self._select(axes)
-        for a in idx.tolist():
-            self.profile.hold(a, float(self.axes.cmd_pos[a]))
+        at = (self.axes.cmd_pos[idx] if positions is None
+              else self._per_axis(positions, len(idx)))
+        if not np.isfinite(at).all():
+            raise ValueError("positions must be finite")
+        for a, p in zip(idx.tolist(), at.tolist(), strict=True):
+            self.profile.hold(a, p)
             self.done_bits[a] = 0
             self._after_plan(a)
         self.profile.commit()
