@@ -370,3 +370,21 @@ def test_track_again_takes_the_cheap_step_and_equals_planning_every_tick() -> No
     fast = run(False)
     assert fast == run(True)
     assert fast[-1][0] == pytest.approx(1000 * np.sin(396 / 30)) and fast[-1][1] == -2.5 * 396
+
+
+def test_hold_at_positions_ends_a_tracked_path_where_it_is_told() -> None:
+    """The last straight piece of a path reaches its point within the rounding of time (a
+    count boundary can fall a hair short); `hold` with positions stops on the path's points
+    themselves, whatever the commanded position shows."""
+    core = core_with(PlantKind.IDEAL, 2)
+    for k in range(1, 6):
+        core.track([0, 1], [7.0 * k, -3.0 * k])
+        core.tick()
+    core.hold([0, 1], [35.0, -14.5])
+    assert core.tick() & AxisFlag.DONE
+    core.tick()
+    assert core.axes.cmd_pos.tolist() == [35.0, -14.5]
+    assert core.axes.cmd_vel.tolist() == [0.0, 0.0]
+    assert core.axes.encoder.tolist() == [35, -15]
+    with pytest.raises(ValueError):
+        core.hold(0, float("inf"))

@@ -651,12 +651,14 @@ class MotionCore:
         self._track_key, self._track_idx, self._track_plans = key, idx, prof.plans
 
     def hold(self, axes: Selector, positions: Any = None) -> None:
-        """End a tracked path: the axes hold their commanded position now, or `positions`, the
-        path's last (DONE)."""
+        """End a tracked path: the axes hold their commanded position now, or `positions`
+        (where the path ends exactly, free of the rounding of its last straight piece) (DONE)."""
         idx = self._select(axes)
-        where = (self.axes.cmd_pos[idx] if positions is None
-                 else self._per_axis(positions, len(idx)))
-        for a, p in zip(idx.tolist(), where.tolist(), strict=True):
+        at = (self.axes.cmd_pos[idx] if positions is None
+              else self._per_axis(positions, len(idx)))
+        if not np.isfinite(at).all():
+            raise ValueError("positions must be finite")
+        for a, p in zip(idx.tolist(), at.tolist(), strict=True):
             self.profile.hold(a, p)
             self.done_bits[a] = 0
             self._after_plan(a)

@@ -8,6 +8,7 @@ publishes the DPR's state windows after the last sample of a batch.
 
 from __future__ import annotations
 
+import asyncio
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -26,6 +27,7 @@ from vdevmaps.octavia import (
 )
 
 from vdevd.devices.base import Card, CardContext, Option, control
+from vdevd.devices.octavia import battery, cmd_dspl
 from vdevd.devices.octavia.firmware import Firmware
 from vdevd.devices.octavia.law import DAC_PER_VOLT, dac_to_volts
 from vdevd.devices.rest import state_bytes
@@ -59,6 +61,15 @@ class OctaviaCard(Card):
                                 "LOW_PASS]"),
         "card": Option(int, 0, min=0, max=255,
                        help="card number the client opens (0: by configuration order)"),
+        "gear_ratio_bits": Option(int, 7, choices=(7, 12),
+                                  help="fraction bits of the GEAR ratios: 7 per the text (x128), "
+                                       "12 per the examples (2000h = 2.0) [Ch5 GEAR; spec Q-5]"),
+        "follow_master": Option(str, "actual", choices=("actual", "command"),
+                                help="the master position cam and gear slaves follow: its "
+                                     "encoder or its command [spec Q-21]"),
+        "battery_backup": Option(bool, True,
+                                 help="the battery-backed RAM option: tables, DSPL variables and "
+                                      "autostart kept in the state directory [Ch8]"),
     }
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
@@ -73,7 +84,15 @@ class OctaviaCard(Card):
         self.inta = self.add_irq("inta")
         self.pci = self.add_config_space(pci_identity(self.opts.card), self.inta)
         self.fw = Firmware(self.dpr.buf, n, self.opts.plant, self.opts.firmware,
-                           raise_line=self.inta.trigger)
+                           raise_line=self.inta.trigger,
+                           gear_ratio_bits=self.opts.gear_ratio_bits,
+                           follow_master=self.opts.follow_master)
+        # the battery-backed RAM across daemon restarts (battery.py, README "Battery-backed RAM")
+        store = ctx.nvram if self.opts.battery_backup else None
+        self._battery = battery.Writer(store, name) if store is not None else None
+        saved = store.load(name) if store is not None else None
+        if saved is not None:
+            battery.restore(self.fw, saved)
         self.make_world(n)
         self._world_lines = 0  # the IN lines the axis world holds active (apply_world)
         self._ran = False  # a sample ran since the last publish
@@ -103,10 +122,23 @@ class OctaviaCard(Card):
 
     def batch_done(self) -> None:
         """Publish the windows after a batch that ran a sample (a batch skipped at rest changed
-        nothing; a host access to the DPR makes the next batch run, decision 0008)."""
+        nothing; a host access to the DPR makes the next batch run, decision 0008); hand a
+        changed battery image to its writer."""
         if self._ran or self.fw._deferred:
             self._ran = False
             self.fw.publish()
+        if self.fw.nv_dirty:
+            self.fw.nv_dirty = False
+            if self._battery is not None:
+                self._battery.submit(battery.image(self.fw))
+
+    def nvram(self) -> dict[str, Any]:
+        return battery.image(self.fw)
+
+    async def close_services(self) -> None:
+        """The daemon stops: the last battery image is written before it exits."""
+        if self._battery is not None:
+            await asyncio.to_thread(self._battery.close)
 
     def reset(self) -> None:
         self.fw.reset()
@@ -122,7 +154,10 @@ class OctaviaCard(Card):
             return None
         if fw.contour.running or fw.cubic.running:  # a contour (CUBIC_INT: its 5 ms start)
             return None
+        if fw.dspl.stale:  # a DSPL window refresh is due at the next 5 ms
+            return None
         return (core + state_bytes(fw.params, fw, fw.filters, skip=("sample", "rtc_count"))
+                + state_bytes(fw.follow, fw.follow.cam, fw.follow.gears, fw.dspl)
                 + bytes(self.dpr.buf) + bytes((self.inta.asserted,)))
 
     def polled_state(self) -> bytes:
@@ -224,3 +259,50 @@ class OctaviaCard(Card):
         return {"cmd_pos": float(ax.cmd_pos[a]), "cmd_vel": float(ax.cmd_vel[a]),
                 "pos": float(ax.pos[a]), "vel": float(ax.vel[a]), "encoder": int(ax.encoder[a]),
                 "ferr": float(ax.ferr[a]), "out": float(ax.out[a]), "mode": int(self.fw.mode[a])}
+
+    # -- DSPL and the board RAM (cmd_dspl.py, ram.py; README "DSPL") -------------------------------
+    @control()
+    def get_dspl(self) -> dict[str, Any]:
+        """The DSPL program's state (autostart, loaded, running), SIGNAL_DSPLs received, the
+        monitor slots' variables, the status words' line numbers, each axis's TABLE_SEL."""
+        return cmd_dspl.report(self.fw)
+
+    @control()
+    def dspl_load(self, loaded: bool = True) -> None:
+        """Mark a DSPL program loaded into the battery-backed RAM (or not): the download path
+        the manual does not document."""
+        cmd_dspl.load(self.fw, bool(loaded))
+
+    @control()
+    def dspl_host_interrupt(self, value: int = 1) -> None:
+        """What a DSPL program's INT_HOST does: DSPSTAT2 b4, `value` (a byte) OR-ed into 00Eh,
+        1FFEh b6 and the interrupt [Table 6-2]."""
+        cmd_dspl.host_interrupt(self.fw, value)
+
+    @control()
+    def dspl_error(self, too_many: bool = False, not_found: bool = False) -> None:
+        """A DSPL program running error: DSPSTAT2 b5 with 00Fh b0 (more than 3 programs) and/or
+        b1 (cannot find the program to stop) [Table 6-2]."""
+        cmd_dspl.program_error(self.fw, bool(too_many), bool(not_found))
+
+    @control()
+    def dspl_status(self, prg1: int | None = None, prg2: int | None = None,
+                    plc: int | None = None) -> None:
+        """The line numbers PRG1STAT (07Eh), PRG2STAT (080h) and PLCSTAT (084h) show from the next
+        5 ms on [Table 6-3]."""
+        cmd_dspl.set_status(self.fw, {"prg1": prg1, "prg2": prg2, "plc": plc})
+
+    @control()
+    def dspl_var(self, var: int, value: int | None = None) -> int:
+        """VAR1..128's raw 48 bits (6 bytes, little-endian), set first to `value` if given, as a
+        DSPL program would."""
+        return cmd_dspl.variable(self.fw, var, value)
+
+    @control()
+    def read_ram(self, address: int, count: int = 1) -> list[int]:
+        """`count` 16-bit words of the board RAM from word `address` (tables at 2000h..5FFFh,
+        Ch8 Table 8-1)."""
+        words = self.fw.ram.words
+        if address < 0 or count < 0 or address + count > len(words):
+            raise ValueError(f"RAM words {address:#x}+{count} outside 0..{len(words):#x}")
+        return [int(w) for w in words[address:address + count]]

@@ -6,8 +6,6 @@ from __future__ import annotations
 
 from vdevd.devices.commands import Command, CommandTable
 
-_LATER = "issue 18: the card's next step (contouring, cubic splines, cam, gearing, tables, DSPL)"
-
 COMMANDS = CommandTable([
     # control law and initialization [Ch5 Control Law and Initialization]
     Command("CTRL", "ctrl", section="Ch5 CTRL"),
@@ -65,9 +63,34 @@ COMMANDS = CommandTable([
     Command("VECCHG", "vecchg", section="Ch5 VECCHG"),
     Command("CUBIC_SCALE", "cubic_scale", section="Ch5 CUBIC_SCALE"),
     Command("CUBIC_INT", "cubic_int", section="Ch5 CUBIC_INT"),
-], not_emulated={name: _LATER for name in (
-    "LOAD_CUBIC_TABLE", "CLEAR_CUBIC_TABLE", "CAM", "CAM_POS", "CAM_PROBE",
-    "CAM_OFF", "CAM_OFF_ACC", "CAM_POINT", "LOAD_CAM_TABLE", "GEAR", "GEAR_POS", "GEAR_PROBE",
-    "GEAR_OFF", "GEAR_OFF_ACC", "REL_AXMOVE_SLAVE", "TABLE_SEL", "LOAD_POS_TABLE",
-    "LOAD_VEL_TABLE", "CLEAR_POS_TABLE", "CLEAR_VEL_TABLE", "START_DSPL", "STOP_DSPL",
-    "SIGNAL_DSPL", "CLEAR_DSPL", "DSPL_AUTOSTART", "CHANGE_VAR", "MONITOR_VAR")})
+    # cam and gearing [Ch5 "Coordinated Motion - Cam", "- Gearing"]: cmd_cam, cmd_gear
+    Command("CAM", "cam", section="Ch5 CAM"),
+    Command("CAM_POS", "cam_pos", section="Ch5 CAM_POS"),
+    Command("CAM_PROBE", "cam_probe", section="Ch5 CAM_PROBE"),
+    Command("CAM_OFF", "cam_off", section="Ch5 CAM_OFF"),
+    Command("CAM_OFF_ACC", "cam_off_acc", section="Ch5 CAM_OFF_ACC"),
+    Command("CAM_POINT", "cam_point", section="Ch5 CAM_POINT"),
+    Command("LOAD_CAM_TABLE", "load_cam_table", section="Ch5 LOAD_CAM_TABLE"),
+    Command("GEAR", "gear", section="Ch5 GEAR"),
+    Command("GEAR_POS", "gear_pos", section="Ch5 GEAR_POS"),
+    Command("GEAR_PROBE", "gear_probe", section="Ch5 GEAR_PROBE"),
+    Command("GEAR_OFF", "gear_off", section="Ch5 GEAR_OFF"),
+    Command("GEAR_OFF_ACC", "gear_off_acc", section="Ch5 GEAR_OFF_ACC"),
+    Command("REL_AXMOVE_SLAVE", "rel_axmove_slave", section="Ch5 REL_AXMOVE_SLAVE"),
+    # tables [Ch5 "DSPL ... Table Related", LOAD_CUBIC_TABLE, CLEAR_CUBIC_TABLE; Ch8]: cmd_tables
+    Command("TABLE_SEL", "table_sel", section="Ch5 TABLE_SEL"),
+    Command("LOAD_POS_TABLE", "load_pos_table", section="Ch5 LOAD_POS_TABLE"),
+    Command("LOAD_VEL_TABLE", "load_vel_table", section="Ch5 LOAD_VEL_TABLE"),
+    Command("CLEAR_POS_TABLE", "clear_pos_table", section="Ch5 CLEAR_POS_TABLE"),
+    Command("CLEAR_VEL_TABLE", "clear_vel_table", section="Ch5 CLEAR_VEL_TABLE"),
+    Command("LOAD_CUBIC_TABLE", "load_cubic_table", section="Ch5 LOAD_CUBIC_TABLE"),
+    Command("CLEAR_CUBIC_TABLE", "clear_cubic_table", section="Ch5 CLEAR_CUBIC_TABLE"),
+    # DSPL [Ch5 "DSPL ... Variable Related", "Flagging"; spec §7]: cmd_dspl
+    Command("CHANGE_VAR", "change_var", section="Ch5 CHANGE_VAR"),
+    Command("MONITOR_VAR", "monitor_var", section="Ch5 MONITOR_VAR"),
+    Command("START_DSPL", "start_dspl", section="Ch5 START_DSPL"),
+    Command("STOP_DSPL", "stop_dspl", section="Ch5 STOP_DSPL"),
+    Command("SIGNAL_DSPL", "signal_dspl", section="Ch5 SIGNAL_DSPL"),
+    Command("CLEAR_DSPL", "clear_dspl", section="Ch5 CLEAR_DSPL"),
+    Command("DSPL_AUTOSTART", "dspl_autostart", section="Ch5 DSPL_AUTOSTART"),
+])

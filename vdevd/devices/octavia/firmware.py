@@ -31,19 +31,25 @@ from vdevmaps.octavia import (
 )
 
 from vdevd.devices.octavia import (
+    cmd_cam,
     cmd_contour,
     cmd_control,
+    cmd_dspl,
     cmd_filters,
+    cmd_gear,
     cmd_interrupts,
     cmd_io,
     cmd_motion,
     cmd_nurbs,
+    cmd_tables,
 )
 from vdevd.devices.octavia.commands import COMMANDS
 from vdevd.devices.octavia.contour import RingContour
 from vdevd.devices.octavia.cubic_int import CubicInt
 from vdevd.devices.octavia.dpr import Mailbox, Memory, Windows, clear_dpr
+from vdevd.devices.octavia.dspl import Dspl
 from vdevd.devices.octavia.filters import Biquads, Coeffs
+from vdevd.devices.octavia.follow import Following
 from vdevd.devices.octavia.law import DAC_PER_VOLT, PLANT_AMP_GAIN, pid_params
 from vdevd.devices.octavia.nurbs import DprRings, NurbsRun, NurbsState, pending
 from vdevd.devices.octavia.ram import BoardRam
@@ -75,8 +81,8 @@ class Firmware:
     """The card's firmware over its DPR memory `buf` (8 KiB) and `n` axes (5..8)."""
 
     def __init__(self, buf: Memory, n: int, plant: str = "servo",
-                 option: str = "standard", raise_line: Callable[[int], None] | None = None
-                 ) -> None:
+                 option: str = "standard", raise_line: Callable[[int], None] | None = None,
+                 gear_ratio_bits: int = 7, follow_master: str = "actual") -> None:
         self.buf, self.n, self.option = buf, n, option
         kind = PlantKind.SERVO if plant == "servo" else PlantKind.IDEAL
         self.core = MotionCore(n, SAMPLE_NS, kind)
@@ -87,7 +93,8 @@ class Firmware:
         self.mailbox = Mailbox(buf, raise_line or (lambda status: None))
         self.rtcs: dict[int, Rtc] = table_for(option)
         self.handlers = COMMANDS.bind(cmd_control, cmd_motion, cmd_interrupts, cmd_io,
-                                      cmd_filters, cmd_nurbs, cmd_contour)
+                                      cmd_filters, cmd_nurbs, cmd_contour, cmd_cam, cmd_gear,
+                                      cmd_tables, cmd_dspl)
         self.open_dac = np.zeros(n)  # DDAC output of open-loop axes (DAC codes)
         self.fault_open = np.zeros(n, dtype=bool)  # opened by an encoder fault (0 V)
         self.filters = Biquads(n)  # NOTCH or LOW_PASS at the controller output
@@ -131,7 +138,12 @@ class Firmware:
         self.filtering = False
         self._prev_flags = np.zeros(n, dtype=np.int64)
         self._published = np.zeros((3, n), dtype=np.int64)
+        # the battery-backed board RAM and DSPL surface (RESET keeps them) and the cam and gear
+        # slaves (follow.py); nv_dirty: the battery image changed since it was last taken
         self.ram = BoardRam()  # the on-board RAM: tables a reset keeps [Ch8]
+        self.dspl = Dspl()
+        self.follow = Following(self, gear_ratio_bits, follow_master)
+        self.nv_dirty = False
         # contouring: the ring buffer (contour.py) and the internal table (cubic_int.py)
         self.contour = RingContour(self)
         self.cubic = CubicInt(self)
@@ -162,6 +174,8 @@ class Firmware:
         self.parread = None
         self.index_seen = 0
         self._deferred.clear()
+        self.follow.reset()
+        self.dspl.power_up()
         self.apply_gains()
         self.refresh_inputs()
         self.refresh_watch()
@@ -197,6 +211,8 @@ class Firmware:
             self.contour.step()
         if self.cubic.running:
             self.cubic.step()
+        if self.follow.active:
+            self.follow.step()
         events = self.core.tick()
         out = self.core.axes.out
         if self.filtering:  # the law's output: DDAC's value bypasses it (spec §5.2)
@@ -379,6 +395,7 @@ class Firmware:
     def probe_edge(self, inputs: int) -> None:
         """*EXT1..4 went active (bits of `inputs`): EN_PROBE's input latches every axis's
         position to PRB and reports with its code (006h) [Ch5 EN_PROBE]; one-shot."""
+        inputs = self.follow.probe(inputs)  # CAM_PROBE / GEAR_PROBE take their edge first
         k = self.params.probe_input
         if k and inputs >> (k - 1) & 1:
             self.params.probe_input = 0
@@ -399,10 +416,11 @@ class Firmware:
         was, self.estop = self.estop, active
         if active and not was:
             self.mailbox.post(int(HostInt.ESTOP))
-            cmd_motion.halt(self, np.arange(self.n), estop=True)
+            # engaged cam and gear slaves follow their halting masters [Ch5 CAM Note]
+            cmd_motion.halt(self, self.follow.unfollowed(np.arange(self.n)), estop=True)
 
     def housekeeping(self) -> None:
-        """Every 5 ms: the PARREAD echo, INT5MS, SERVOCHK [spec §5.1 step 8]."""
+        """Every 5 ms: the PARREAD echo, INT5MS, SERVOCHK, the DSPL window [spec §5.1 step 8]."""
         if self.parread is not None:
             m, self.parread = self.parread, None
             self.buf[Dpr.PARACC] = m  # the data went first (cmd_io.parread)
@@ -410,6 +428,7 @@ class Firmware:
             self.post_stat2(DspStat2.INT5MS, -1, 0)
         self.windows.put_bytes(Window.ENC, Dpr.SERVOCHK, bytes((self.index_seen & 0xFF,)))
         self.index_seen = 0
+        self.dspl.refresh(self.windows)
 
     def publish_adc(self) -> None:
         """ADC1..4 at 502h.. unless the host holds 500h/501h [Table 6-10]."""
@@ -538,6 +557,7 @@ class Firmware:
             self.publish_adc()
         if self._deferred:
             self._deferred = [d for d in self._deferred if not w.put(d[1], d[0], d[2], n)]
+        self.follow.publish()
         self.buf[Dpr.INPUT:Dpr.INPUT + 4] = (self.inputs & 0xFFFFFFFF).to_bytes(4, "little")
 
 
