@@ -226,3 +226,21 @@ def test_analog_inputs_adc1_to_4_under_their_access_bytes() -> None:
     assert struct.unpack("<4h", host.read(Dpr.ADC, 8)) == (0, 8192, 0, -32768)
     with pytest.raises(Exception, match="outside 1..4"):
         host.card.control("set_analog", {"channel": 5, "volts": 1.0})
+
+
+def test_a_host_write_into_a_window_the_card_owns_is_overwritten_at_the_next_sample() -> None:
+    """The access codes are a convention the hardware does not enforce [Ch6 Communication
+    Protocols]: a host that writes ACTPOS or the signature stores its bytes, and the card
+    rewrites ACTPOS from its counters after its next sample (the signature only at RESET)."""
+    host = Host(plant="ideal")
+    host.rtc("POS_PRESET", {"n": 0x01}, [{"pset": 4321}])
+    host.run(3)
+    host.write(axis_offset(Dpr.ACTPOS, 1), b"\xff\xff\xff\x7f")
+    assert host.position(1) == 0x7FFFFFFF
+    host.run(1)
+    assert host.position(1) == 4321
+    host.run(500)  # at rest, skipping: nothing to rewrite
+    assert host.position(1) == 4321 and host.card.quiet_skipped > 0
+    host.write(axis_offset(Dpr.ACTPOS, 1), b"\x00\x00\x00\x00")
+    host.run(1)
+    assert host.position(1) == 4321
