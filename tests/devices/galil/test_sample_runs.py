@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 from vdevmaps.galil import IRQ_ENABLE_SEQUENCE, A16Reg
 
-from vdevd.devices.base import CardContext
+from tests.devices.twins import TwinCards
 from vdevd.devices.galil.card import GalilCard
 from vdevd.devices.rest import state_bytes
 
@@ -32,21 +32,11 @@ CONTROLS: list[tuple[str, dict[str, Any]]] = [
 ]
 
 
-class OneByOne(GalilCard):
-    """Every sample through `step`, as Card.tick runs them."""
 
-    def run(self, room: int) -> int:
-        return 0
-
-
-class Twin:
+class Twin(TwinCards):
     def __init__(self, skip_quiet: bool, plant: str, **options: Any) -> None:
-        self.events: list[list[str]] = [[], []]
-        config = {"plant": plant, **options}
-        self.cards = [cls("galil0", config, CardContext(emit=lambda e, seen=seen: seen.append(repr(e))))
-                      for cls, seen in zip((GalilCard, OneByOne), self.events, strict=True)]
+        super().__init__(GalilCard, "galil0", {"plant": plant, **options}, skip_quiet)
         for card in self.cards:
-            card.skip_quiet = skip_quiet
             for b in IRQ_ENABLE_SEQUENCE:  # the host enables the interrupt line
                 card.a16.write(A16Reg.CONTROL, bytes([b]))
 
@@ -54,17 +44,7 @@ class Twin:
         for card in self.cards:
             card.a16.write_rep(A16Reg.DATA, (line + "\r").encode())
 
-    def control(self, action: str, params: dict[str, Any]) -> None:
-        for card in self.cards:
-            card.control(action, params)
 
-    def tick(self, n: int) -> None:
-        """n samples, in batches that each card ends at an interrupt (alike on both)."""
-        done = 0
-        while done < n:
-            ran = [card.tick(n - done) for card in self.cards]
-            assert ran[0] == ran[1]
-            done += ran[0]
 
     def same(self, read: bool) -> None:
         """Alike; `read`: the host reads the replies, the record and an interrupt status."""

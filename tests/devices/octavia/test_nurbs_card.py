@@ -26,15 +26,16 @@ WEIGHTS = np.array([1, 1, 2, 1, 1, 1], dtype=float)
 KNOTS = np.array([0, 0, 0, 0, 1, 2, 3, 3, 3, 3], dtype=float)
 
 
-def fill(host: Host) -> None:
+def fill(host: Host, ctrl: np.ndarray = CTRL, weights: np.ndarray = WEIGHTS,
+         knots: np.ndarray = KNOTS) -> None:
     """The host zeroes the pointers, writes the rings, then INPTR [Ch9]."""
     host.write(NURBS_OUTPTR, b"\x00\x00")
-    for i, p in enumerate(CTRL):
+    for i, p in enumerate(ctrl):
         host.write(NURBS_CTRL + 12 * i, struct.pack("<3f", *p))
-        host.write(NURBS_WEIGHT + 4 * i, struct.pack("<f", WEIGHTS[i]))
-    for i, k in enumerate(KNOTS):
+        host.write(NURBS_WEIGHT + 4 * i, struct.pack("<f", weights[i]))
+    for i, k in enumerate(knots):
         host.write(NURBS_KNOT + 4 * i, struct.pack("<f", k))
-    host.write(NURBS_INPTR, struct.pack("<H", len(KNOTS)))
+    host.write(NURBS_INPTR, struct.pack("<H", len(knots)))
 
 
 def test_a_nurbs_curve_runs_on_axes_1_to_3_and_ends_on_its_last_point() -> None:
@@ -101,13 +102,7 @@ def test_a_nurbs_circle_on_the_card_keeps_its_radius_and_closes() -> None:
     ctrl, weights, knots = circle(1000.0)
     host = Host(plant="ideal")
     host.rtc("POS_PRESET", {"n": 0x01}, [{"pset": 1000}])  # start on the circle
-    host.write(NURBS_OUTPTR, b"\x00\x00")
-    for i, p in enumerate(ctrl):
-        host.write(NURBS_CTRL + 12 * i, struct.pack("<3f", *p))
-        host.write(NURBS_WEIGHT + 4 * i, struct.pack("<f", weights[i]))
-    for i, k in enumerate(knots):
-        host.write(NURBS_KNOT + 4 * i, struct.pack("<f", k))
-    host.write(NURBS_INPTR, struct.pack("<H", len(knots)))
+    fill(host, ctrl, weights, knots)
     host.rtc("NURBS", {"feed": 2.0, "rate": 2.0, "first": 0.0, "last": 4.0, "npts": 13.0})
     radii, samples = [], 0
     while host.card.fw.mode[0] == 4 and samples < 10_000:

@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 from vdevmaps.oms import RING_SIZE, Mu, Omisr, Shm
 
-from vdevd.devices.base import CardContext
+from tests.devices.twins import TwinCards
 from vdevd.devices.oms import rings
 from vdevd.devices.oms.card import MaxkCard
 from vdevd.devices.rest import state_bytes
@@ -35,20 +35,10 @@ CONTROLS: list[tuple[str, dict[str, Any]]] = [
 ]
 
 
-class OneByOne(MaxkCard):
-    """Every update cycle through `step`, as Card.tick runs them."""
 
-    def run(self, room: int) -> int:
-        return 0
-
-
-class Twin:
+class Twin(TwinCards):
     def __init__(self, skip_quiet: bool) -> None:
-        self.events: list[list[str]] = [[], []]
-        self.cards = [cls("maxk0", {"board": 1}, CardContext(emit=lambda e, seen=seen: seen.append(repr(e))))
-                      for cls, seen in zip((MaxkCard, OneByOne), self.events, strict=True)]
-        for card in self.cards:
-            card.skip_quiet = skip_quiet
+        super().__init__(MaxkCard, "maxk0", {"board": 1}, skip_quiet)
 
     def send(self, text: str) -> None:
         data = text.encode()
@@ -66,17 +56,7 @@ class Twin:
             card.mu_region.write(Mu.OMISR, int(Omisr.OM0I).to_bytes(4, "little"))
             card.shm.write(Shm.MESSAGE_SEMAPHORE, bytes(4))
 
-    def control(self, action: str, params: dict[str, Any]) -> None:
-        for card in self.cards:
-            card.control(action, params)
 
-    def tick(self, n: int) -> None:
-        """n cycles, in batches that each card ends at an interrupt (alike on both)."""
-        done = 0
-        while done < n:
-            ran = [card.tick(n - done) for card in self.cards]
-            assert ran[0] == ran[1]
-            done += ran[0]
 
     def same(self) -> None:
         fast, general = self.cards

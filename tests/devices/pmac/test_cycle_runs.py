@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 from vdevmaps.pmac import IR_MASK
 
-from vdevd.devices.base import CardContext
+from tests.devices.twins import TwinCards
 from vdevd.devices.pmac.card import PmacCard
 from vdevd.devices.rest import state_bytes
 
@@ -29,22 +29,11 @@ CONTROLS: list[tuple[str, dict[str, Any]]] = [
 ]
 
 
-class OneByOne(PmacCard):
-    """Every cycle through `step`, as Card.tick runs them."""
 
-    def run(self, room: int) -> int:
-        return 0
-
-
-class Twin:
+class Twin(TwinCards):
     def __init__(self, skip_quiet: bool, plant: str) -> None:
-        self.events: list[list[str]] = [[], []]
+        super().__init__(PmacCard, "pmac0", {"plant": plant, "ethernet": ""}, skip_quiet)
         self.replies: list[list[bytes]] = [[], []]
-        config = {"plant": plant, "ethernet": ""}
-        self.cards = [cls("pmac0", config, CardContext(emit=lambda e, seen=seen: seen.append(repr(e))))
-                      for cls, seen in zip((PmacCard, OneByOne), self.events, strict=True)]
-        for card in self.cards:
-            card.skip_quiet = skip_quiet
 
     def send(self, line: str) -> None:
         for card, replies in zip(self.cards, self.replies, strict=True):
@@ -59,16 +48,7 @@ class Twin:
         for card in self.cards:
             card.dpram.buf[offset] = value
 
-    def control(self, action: str, params: dict[str, Any]) -> None:
-        for card in self.cards:
-            card.control(action, params)
 
-    def tick(self, n: int) -> None:
-        done = 0
-        while done < n:
-            ran = [card.tick(n - done) for card in self.cards]
-            assert ran[0] == ran[1]
-            done += ran[0]
 
     def same(self) -> None:
         fast, general = self.cards
