@@ -18,13 +18,11 @@ from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
+from vdevmaps.octavia import LOW_PASS_HZ, NOTCH_MAX_HZ  # [Ch5 NOTCH, LOW_PASS table]
 
 SAMPLE_PERIOD_S = 200e-6
-NOTCH_MAX_HZ = 1544                       # [Ch5 NOTCH]
 NOTCH_Q = {0x00: 4.0, 0x01: 10.0}         # q code -> quality factor (ASSUMPTION, spec Q-25)
 LOW_PASS_ZETA = 0.6                       # [Ch5 LOW_PASS]
-#: LOW_PASS RTC index -> cut-off frequency in Hz; index 0 disables [Ch5 LOW_PASS table]
-LOW_PASS_HZ: tuple[int, ...] = (0, *range(50, 500, 25), *range(500, 1851, 50))
 LOW_PASS_MAX_HZ = LOW_PASS_HZ[-1]
 
 
