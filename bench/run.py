@@ -1,6 +1,6 @@
 """`make bench`: the figures of the issues' "Done when", each against a baseline of the same run.
 
-    python bench/run.py [--quick] [--only rtt,lockstep,...,shm,overload,rt-cpu,rt-behind,rack]
+    python bench/run.py [--quick] [--only rtt,lockstep,...,shm,overload,rt-cpu,rt-behind,rack,mx4]
                         [--pin split|same|none] [--json [FILE]]
 
 1. rtt       4-byte register read through vdevclient vs a raw pyzmq REQ/REP round trip
@@ -27,6 +27,9 @@
 11. rack     lockstep speed of sets of the default rack's four cards: one set idle >= 200x and
              all axes moving >= 30x, four sets (16 cards) moving >= 8x; the growth with cards and
              axes as a table and a PNG plot in bench/results/, bench/rack.py
+12. mx4      mx4.AXMOVE(h, ...) on a lockstep Mx4 Octavia vs a raw pyzmq REQ/REP round trip
+             (p50 <= 2.5x), and the lockstep speed of the 8-axis Octavia with every axis moving
+             at its 200 us sample (>= 20x real time), bench/mx4.py
 
 The defaults are the issue's (realtime, rt-cpu and rt-behind run 60 s each; the whole takes
 ~6 min); `--quick` shortens everything for a smoke run (~1 min). Placement (default split:
@@ -53,6 +56,7 @@ from bench import (  # noqa: E402
     galil,
     lockstep,
     maxk,
+    mx4,
     overload,
     pmac,
     rack,
@@ -63,7 +67,7 @@ from bench import (  # noqa: E402
 from bench.common import install_signal_handlers, machine_facts, table, verdict, write_json  # noqa: E402
 
 FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac", "shm", "overload", "rt-cpu",
-           "rt-behind", "rack")
+           "rt-behind", "rack", "mx4")
 
 
 def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]], dict[str, Any],
@@ -95,6 +99,9 @@ def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]]
                       default_rack.report_behind),
         "rack": (rack.run, {"seconds": 0.5 if q else 2.0, "repeats": 2 if q else 3,
                             "sets": (1, 4) if q else (1, 2, 4), "pin": a.pin}, rack.report),
+        "mx4": (mx4.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
+                          "warmup": 300 if q else 1000, "seconds": 2.0 if q else 5.0,
+                          "speed_repeats": 2 if q else 3, "pin": a.pin}, mx4.report),
     }
 
 
@@ -188,6 +195,20 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
                          f"{four['moving']:.1f}x" if four else "-",
                          f"{four['moving_core_ticks']:.0f} core ticks per sim s" if four else "-",
                          verdict(r["checks"]["moving_16"])])
+        elif name == "mx4":
+            rtt_r, speed = r["rtt"], r["speed"]
+            raw, cmd = rtt_r["series"][rtt.RAW], rtt_r["series"][mx4.AXMOVE]
+            ratio = rtt_r["ratios"][mx4.AXMOVE]["p50"]
+            trips = rtt_r["round_trips"][mx4.AXMOVE]["max"]
+            floor = rtt_r["series"][mx4.BARE]["p50"]
+            rows.append(["mx4 AXMOVE p50", f"<= {mx4.GOAL_P50}x raw", f"{cmd['p50']:.0f} us",
+                         f"raw {raw['p50']:.0f} us -> {ratio:.2f}x, {trips} round trip(s); bare RTC "
+                         f"batch {floor:.0f} us", verdict(ratio <= mx4.GOAL_P50)])
+            moving = speed["series"]["8 axes moving, sim step"]
+            idle = speed["series"]["baseline: idle, sim step"]["median"]
+            rows.append(["mx4 lockstep (8 axes moving)", f">= {mx4.GOAL_SPEED:.0f}x real time",
+                         f"{moving['median']:.1f}x", f"idle {idle:.1f}x, {moving['us_per_sample']:.1f} us "
+                         "per sample", verdict(speed["pass"])])
     return rows
 
 
