@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from vdevmaps.octavia import DPR, Dpr, HostInt, Window
+from vdevmaps.octavia import DPR, Dpr, DspStat1, DspStat2, HostInt, Window
 
 from vdevclient._mx4_codec import (
     REFUSED,
@@ -22,6 +22,7 @@ from vdevclient._mx4_codec import (
     Post,
     cleared,
     refused,
+    source_or_none,
 )
 from vdevclient.core import Rack
 
@@ -98,6 +99,11 @@ class Mx4:
 
     def unlock(self, window: Window) -> Op:
         return self.write(window.host_flag, _UNLOCK)
+
+    def fired(self, result: Any, what: str, timeout_ns: int) -> None:
+        """Mx4Timeout unless the wait whose result this is fired (None: it did not run)."""
+        if not result or not result["fired"]:
+            raise Mx4Timeout(f"{self.card}: no {what} within {timeout_ns // _NS_PER_MS} ms")
 
     def timeout_ns(self, timeout_ms: int | None = None) -> int:
         return (self.timeout_ms if timeout_ms is None else timeout_ms) * _NS_PER_MS
@@ -268,6 +274,26 @@ def acknowledged(hostint: int, stat1: int, stat2: int, sources: int | bool) -> C
         return IntStatus(bytes(raw), HostInt(h & 0xFF))
 
     return change
+
+
+def expect(known: IntStatus | None, hostint: int, stat1: int, stat2: int,
+           sources: int | bool) -> IntStatus | None:
+    """The registers as a report of these types would leave `known`: what an acknowledge
+    made in the batch that waits for the report guards on (None: not known)."""
+    if known is None or known.hostint is None:
+        return known
+    raw = bytearray(known.raw)
+    h = int(known.hostint) | hostint | (int(HostInt.STAT1) if stat1 else 0) | (
+        int(HostInt.STAT2) if stat2 else 0)
+    raw[0] |= stat1
+    raw[9] |= stat2
+    if isinstance(sources, int) and not isinstance(sources, bool):
+        for bit in [DspStat1(1 << b) for b in range(8) if stat1 >> b & 1] + \
+                [DspStat2(1 << b) for b in range(8) if stat2 >> b & 1]:
+            offset = source_or_none(bit)
+            if offset is not None:
+                raw[offset] |= sources
+    return IntStatus(bytes(raw), HostInt(h & 0xFF))
 
 
 def _names(posts: Sequence[Post]) -> str:

@@ -132,7 +132,8 @@ def source_offset(bit: DspStat1 | DspStat2) -> int:
     raise ValueError(f"{bit!r} is not one interrupt type with a source byte")
 
 
-def _source_or_none(bit: DspStat1 | DspStat2) -> int | None:
+def source_or_none(bit: DspStat1 | DspStat2) -> int | None:
+    """`source_offset`, None for a type without a source byte."""
     return int(bit).bit_length() if isinstance(bit, DspStat1) else _STAT2_SOURCE.get(bit)
 
 
@@ -146,7 +147,7 @@ def cleared(status: bytes, stat1: int, stat2: int, sources: int | bool) -> bytea
     types += [DspStat2(1 << b) for b in range(8) if stat2 >> b & 1]
     for bit in types:
         at = 0 if isinstance(bit, DspStat1) else 9
-        offset = _source_or_none(bit)
+        offset = source_or_none(bit)
         if offset is not None and sources is not False:
             out[offset] &= 0 if sources is True else ~int(sources) & 0xFF
             if out[offset] and sources is not True:
@@ -205,6 +206,15 @@ def dac_to_volts(raw: int) -> float:
     return _signed(raw, 16) * 10 / 32767
 
 
+def i32(value: int) -> int:
+    """A 32-bit DPR word as a signed int: two's complement patterns (FFFFE0C0h) taken too."""
+    return value - (1 << 32) if 1 << 31 <= value < 1 << 32 else value
+
+
+def i16(value: int) -> int:
+    return value - (1 << 16) if 1 << 15 <= value < 1 << 16 else value
+
+
 def _signed(value: int, bits: int) -> int:
     value &= (1 << bits) - 1
     return value - (1 << bits) if value >> (bits - 1) else value
@@ -222,7 +232,7 @@ class Post:
     stage: bytes = b""
 
 
-def encode(name: str, head: Mapping[str, int] | None = None, **per_axis: PerAxis) -> list[Post]:
+def encode(name: str, head: Mapping[str, Any] | None = None, **per_axis: PerAxis) -> list[Post]:
     """The posts of RTC `name`: the `head` fields, and for a multi-axis RTC one group per bit of
     its axis mask (the head field the layout names: `n`, or `m` for the slaves of CAM/GEAR), in
     increasing axis order, each group's fields taken from `per_axis` (a sequence indexed by axis

@@ -29,10 +29,10 @@ __all__ = [
     "EN_INDEX", "EN_MOTCP", "EN_POSBRK", "EN_PROBE", "ESTOP_ACC", "GEAR", "GEAR_OFF",
     "GEAR_OFF_ACC", "GEAR_POS", "GEAR_PROBE", "INP_STATE", "INT5MS", "KILIMIT", "LOAD_CAM_TABLE",
     "LOAD_CUBIC_TABLE", "LOAD_POS_TABLE", "LOAD_VEL_TABLE", "LOW_PASS", "MAXACC", "MONITOR_VAR",
-    "NOTCH", "OFFSET", "OUTGAIN", "OUTP_OFF", "OUTP_ON", "OVERRIDE", "POSBRK_OUT", "POS_PRESET",
-    "POS_SHIFT", "REL_AXMOVE", "REL_AXMOVE_S", "REL_AXMOVE_SLAVE", "REL_AXMOVE_T", "RESET",
-    "SIGNAL_DSPL", "START", "START_DSPL", "STEPPER_ON", "STOP", "STOP_DSPL", "SYNC", "TABLE_SEL",
-    "TRQ_LIMIT", "VECCHG", "VELMODE",
+    "NOTCH", "NURBS", "NURBS_BUFBRK", "NURBS_FEEDRATE", "OFFSET", "OUTGAIN", "OUTP_OFF", "OUTP_ON",
+    "OVERRIDE", "POSBRK_OUT", "POS_PRESET", "POS_SHIFT", "REL_AXMOVE", "REL_AXMOVE_S",
+    "REL_AXMOVE_SLAVE", "REL_AXMOVE_T", "RESET", "SIGNAL_DSPL", "START", "START_DSPL",
+    "STEPPER_ON", "STOP", "STOP_DSPL", "SYNC", "TABLE_SEL", "TRQ_LIMIT", "VECCHG", "VELMODE",
 ]
 
 
@@ -40,7 +40,7 @@ def _send(h: Mx4, posts: list[Post]) -> None:
     h.send(posts)
 
 
-def _one(h: Mx4, name: str, **head: int) -> None:
+def _one(h: Mx4, name: str, **head: float) -> None:
     h.send(encode(name, head))
 
 
@@ -445,3 +445,21 @@ def MONITOR_VAR(h: Mx4, slots: int, var: PerAxis) -> None:
     """B2h: map DSPL variables to the monitor slots of the mask (b0..b3 = 066h/06Ch/072h/078h),
     var indexed by slot [Ch5 MONITOR_VAR]."""
     h.send(encode("MONITOR_VAR", {"m": slots}, var=var))
+
+
+# -- NURBS [Ch9; codes and layouts vdevd's, spec Q-27: vdevmaps.octavia NURBS_RTCS] -----------------
+def NURBS(h: Mx4, feed: float, rate: float, first: float, last: float, npts: float) -> None:
+    """B8h: run the NURBS curve of the DPR rings: FeedRate (counts/sample), NURBSRate (ms),
+    first and last knot, the number of control points, all float32 [Ch9]."""
+    _one(h, "NURBS", feed=feed, rate=rate, first=first, last=last, npts=npts)
+
+
+def NURBS_BUFBRK(h: Mx4, threshold: int) -> None:
+    """B9h: interrupt (1FFEh b7) when fewer than threshold knots are pending [Ch9]."""
+    _one(h, "NURBS_BUFBRK", threshold=threshold)
+
+
+def NURBS_FEEDRATE(h: Mx4, feed: float) -> None:
+    """BAh: a new FeedRate (float32, counts/sample) from the next curve point [Ch9]."""
+    _one(h, "NURBS_FEEDRATE", feed=feed)
+

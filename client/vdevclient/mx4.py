@@ -14,7 +14,7 @@ helpers, and the host procedures of §8.1 (`power_up_init`, `contour`, `load_tab
         mx4.EN_MOTCP(h, 0x01)
         mx4.AXMOVE(h, 0x01, acc=0x150, pos=100_000, vel=mx4.vel_to_raw(32))
         mx4.wait_int(h, dspstat1=mx4.DspStat1.MOTCP, axes=0x01, timeout_ms=10_000)
-        mx4.read_axes(h, mx4.Window.ACTPOS)[0]    # 100000
+        mx4.read_axes(h, mx4.Window.ACTPOS)[0]    # 100154: the servo plant settles after
 
 Per-RTC functions take raw DPR units; per-axis arguments are sequences indexed by axis (index 0
 = axis 1) of which only the masked axes are sent. Every call is one `batch` (PROTOCOL.md) with
@@ -29,9 +29,7 @@ daemon's shared memory (decision 0010).
 from __future__ import annotations
 
 import struct
-from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 from vdevmaps.octavia import (
     ACTVEL_SCALE,
@@ -40,9 +38,8 @@ from vdevmaps.octavia import (
     BY_NAME,
     CARD_TYPE,
     DPR,
-    RING_SLOTS,
+    NURBS_RTCS,
     RTCS,
-    SLOT_BYTES,
     DisableBit,
     Dpr,
     DspStat1,
@@ -52,7 +49,7 @@ from vdevmaps.octavia import (
 )
 from vdevmaps.pci import SUBSYSTEM_ID
 
-from vdevclient._mx4_bus import DEFAULT_TIMEOUT_MS, Mx4, acknowledged
+from vdevclient._mx4_bus import DEFAULT_TIMEOUT_MS, Mx4, acknowledged, expect
 from vdevclient._mx4_codec import (
     IntStatus,
     Mx4Error,
@@ -69,22 +66,20 @@ from vdevclient._mx4_codec import (
     raw_to_ratio,
     raw_to_vel,
     source_offset,
+    source_or_none,
     vel_to_raw,
     volts_to_dac,
 )
+from vdevclient._mx4_ring import contour, load_table, ring_free, ring_put
 from vdevclient._mx4_rtc import *  # noqa: F403  (the per-RTC functions: their __all__)
 from vdevclient._mx4_rtc import __all__ as _RTC_FUNCTIONS
 from vdevclient.core import Rack, connect
 
 #: a reset takes 50 ms on the card (spec Q-29): its waits allow more
 RESET_TIMEOUT_MS = 1000
-_NAMES = {r.code: r.name for r in RTCS} | {0x8E: "INT5MS/NOTCH/LOW_PASS"}
+_NAMES = {r.code: r.name for r in (*RTCS, *NURBS_RTCS)} | {0x8E: "INT5MS/NOTCH/LOW_PASS"}
 _I32X8 = struct.Struct("<8i")
 _AXIS_WINDOWS = (Window.ACTPOS, Window.ACTVEL, Window.ERROR, Window.INDPOS, Window.PRB)
-#: the load RTCs and their chunks: entries per 672-byte staging area, entry format [Ch5 LOAD_*]
-_TABLES = {"cam": ("LOAD_CAM_TABLE", 67, "<iih"), "cubic": ("LOAD_CUBIC_TABLE", 168, "<i"),
-           "pos": ("LOAD_POS_TABLE", 336, "<H"), "vel": ("LOAD_VEL_TABLE", 336, "<H")}
-_TABLE_POSTS_PER_BATCH = 64  # 43 KB of staged data per round trip
 
 
 # -- opening ------------------------------------------------------------------------------------------
@@ -92,10 +87,10 @@ def open(card: int = 1, *, endpoint: str | None = None, name: str | None = None,
          timeout_ms: int = DEFAULT_TIMEOUT_MS, init: bool = True) -> Mx4:
     """Open Octavia `card` of the rack at `endpoint` ($VDEVD_ENDPOINT, else tcp://127.0.0.1:5555):
     the dspcg-octavia card whose card number (its `card` option, the PCI subsystem ID) is
-    `card`, else the card-th of those without a number, in configuration order; `name` opens a
-    card by name instead. With `init`, the power-up procedure runs (`power_up_init`: clear
-    "reset finished", check the signature, RESET on failure). `timeout_ms` is the default time
-    the card is given to answer (card time)."""
+    `card`, else the card-th Octavia of the configuration if it has no number (subsystem ID 0;
+    the card README's "card" key); `name` opens a card by name instead. With `init`, the
+    power-up procedure runs (`power_up_init`: clear "reset finished", check the signature, RESET
+    on failure). `timeout_ms` is the default time the card is given to answer (card time)."""
     rack = connect(endpoint)
     try:
         h = Mx4(rack, _find_card(rack, card, name), timeout_ms=timeout_ms, owns_rack=True)
@@ -123,8 +118,8 @@ def _find_card(rack: Rack, number: int, name: str | None) -> str:
         numbers = [int.from_bytes(r, "little") for r in rack.call({"op": "batch", "ops": ops})] \
             if cards else []
         found = [c for c, k in zip(cards, numbers, strict=True) if k == number]
-        if not found and number >= 1:
-            found = [c for c, k in zip(cards, numbers, strict=True) if k == 0][number - 1:number]
+        if not found and 1 <= number <= len(cards) and numbers[number - 1] == 0:
+            found = [cards[number - 1]]
     if not found:
         what = f"named {name!r}" if name is not None else f"number {number}"
         raise Mx4Error(f"no {CARD_TYPE} card {what} at {rack.endpoint} "
@@ -219,7 +214,7 @@ def wait_int(h: Mx4, *, hostint: int = 0, dspstat1: int = 0, dspstat2: int = 0, 
     t = h.timeout_ns(timeout_ms)
     stat1, stat2 = dspstat1 & 0xFF, dspstat2 & 0xFF
     types = DspStat1(stat1) if stat1 else DspStat2(stat2)
-    one = int(types).bit_count() == 1 and (isinstance(types, DspStat1) or types in _SOURCED2)
+    one = int(types).bit_count() == 1 and source_or_none(types) is not None
     sources: int | bool
     if hostint:
         wait = h.wait(Dpr.HOSTINT1, 0, t, mask=hostint & 0xFF, equal=False)
@@ -233,17 +228,14 @@ def wait_int(h: Mx4, *, hostint: int = 0, dspstat1: int = 0, dspstat2: int = 0, 
         what, sources = f"{type(types).__name__.upper()} {bits_text(types)}", True
     if not ack:
         res = h.batch([wait, *h.status_ops(t)], 2 * t)
-        _fired(h, res[0], what, t)
+        h.fired(res[0], what, t)
         return h.status_from(res, 1)
     change = acknowledged(hostint, stat1, stat2, sources)
-    h.status = _expect(h.status, hostint, stat1, stat2, sources)
+    h.status = expect(h.status, hostint, stat1, stat2, sources)
     res = h.batch([wait, *h.ack_ops(change, t)], 2 * t)
-    _fired(h, res[0], what, t)
+    h.fired(res[0], what, t)
     found, _ = h.ack_results(res, 1, change, (), t)
     return found
-
-
-_SOURCED2 = (DspStat2.ENCFLT, DspStat2.OFFSET, DspStat2.INP, DspStat2.DSPL_INT, DspStat2.DSPL_ERR)
 
 
 def wait_irq(h: Mx4, timeout_ms: int | None = None) -> IntStatus:
@@ -251,7 +243,7 @@ def wait_irq(h: Mx4, timeout_ms: int | None = None) -> IntStatus:
     one this handle returned (or after `open`), then read the status as `read_int` does."""
     t = h.timeout_ns(timeout_ms)
     res = h.batch([h.wait_irq(t), *h.status_ops(t)], 2 * t)
-    _fired(h, res[0], "interrupt", t)
+    h.fired(res[0], "interrupt", t)
     h.irq_seq = res[0]["event"]["seq"]
     return h.status_from(res, 1)
 
@@ -276,173 +268,6 @@ def parread(h: Mx4, m: int, *, timeout_ms: int | None = None) -> bytes:
 def PARREAD(h: Mx4, m: int) -> bytes:
     """5Eh: parameter readback, see `parread` [Ch5 PARREAD]."""
     return parread(h, m)
-
-
-# -- the ring buffer [Ch6 Contouring; spec §2.5.4] ------------------------------------------------------
-def ring_free(h: Mx4) -> int:
-    """Free slots of the contouring ring: 83 when empty (INPTR = OUTPTR; one slot stays empty)."""
-    inptr, outptr = h.dpr.read(Dpr.INPTR, 2)
-    return (outptr - inptr - 1) % RING_SLOTS
-
-
-def ring_put(h: Mx4, slots: Sequence[tuple[int, int, int]]) -> int:
-    """Append (axis, pos, vel) slots at INPTR, wrapping from 3BFh to 120h, then move INPTR past
-    them; as many as fit. The slots of one point go in increasing axis order [Ch6 Contouring
-    rules 2-5]: `axis` is only checked. Returns the number written."""
-    inptr, outptr = h.dpr.read(Dpr.INPTR, 2)
-    free = (outptr - inptr - 1) % RING_SLOTS
-    n = min(free, len(slots))
-    for axis, _, _ in slots[:n]:
-        if not 1 <= axis <= 8:
-            raise ValueError(f"ring_put: axis {axis} outside 1..8")
-    _write_ring(h, inptr, [(pos, vel) for _, pos, vel in slots[:n]], [])
-    return n
-
-
-def _ring_writes(h: Mx4, inptr: int, slots: Sequence[tuple[int, int]]) -> list[tuple[int, bytes]]:
-    """(offset, bytes) of `slots` from slot `inptr`, split where the ring wraps, and INPTR's."""
-    data = b"".join(struct.pack("<ii", _i32(p), _i32(v)) for p, v in slots)
-    first = min(len(slots), RING_SLOTS - inptr) * SLOT_BYTES
-    out = [(Dpr.RINGBUF + inptr * SLOT_BYTES, data[:first])]
-    if data[first:]:
-        out.append((int(Dpr.RINGBUF), data[first:]))
-    return [*(w for w in out if w[1]), (int(Dpr.INPTR), bytes(((inptr + len(slots)) % RING_SLOTS,)))]
-
-
-def _write_ring(h: Mx4, inptr: int, slots: Sequence[tuple[int, int]], ops: list[Any]) -> None:
-    """Write `slots` and INPTR: through shared memory when mapped, else as ops of one batch
-    (appended to `ops` and sent)."""
-    writes = _ring_writes(h, inptr, slots)
-    if all(h.dpr.is_mapped(offset, len(data)) for offset, data in writes):
-        for offset, data in writes:
-            h.dpr.write(offset, data)
-        if ops:
-            h.batch(ops)
-        return
-    h.batch([*ops, *(h.write(offset, data) for offset, data in writes)])
-
-
-def _i32(value: int) -> int:
-    """A slot word: two's complement patterns (a cubic velocity's axis-coding nibble) too."""
-    return value - (1 << 32) if 1 << 31 <= value < 1 << 32 else value
-
-
-def _signed16(value: int) -> int:
-    return value - (1 << 16) if 1 << 15 <= value < 1 << 16 else value
-
-
-def contour(h: Mx4, mask: int, points: Iterable[Sequence[tuple[int, int]]], *,
-            btrate: int | None = None, cubic_rate: int | None = None, bufbrk: int = 30,
-            timeout_ms: int = 10_000) -> int:
-    """Stream a contour [Ch6 Contouring, Fig. 6-5; spec §8.1]: each point holds (pos, vel) per
-    axis of `mask`, in increasing axis order. The ring (which must be empty) is preloaded from
-    OUTPTR, and BTRATE m (2nd order) or CUBIC_RATE m (cubic), EN_BUFBRK bufbrk and START(mask)
-    go in the same batch; then each refill is one batch: the ring filled as far as the card's
-    OUTPTR (as last read) allows, a server-side wait for the buffer-breakpoint interrupt (1FFEh
-    b0), the pointers read, the interrupt acknowledged. A data run-out (b5) or ESTOP (b2) raises
-    Mx4Error. Returns, with the number of points sent, once the card has read the last of them.
-    (The card's contouring is being emulated: this procedure is not tested against it yet.)"""
-    k = int(mask & 0xFF).bit_count()
-    if not k or (btrate is None) == (cubic_rate is None):
-        raise ValueError("contour: a mask and one of btrate, cubic_rate")
-    if not k <= bufbrk <= RING_SLOTS - 1 - k:
-        raise ValueError(f"contour: bufbrk {bufbrk} outside {k}..{RING_SLOTS - 1 - k} slots")
-    t, rtc_ns = h.timeout_ns(timeout_ms), h.timeout_ns()
-    inptr, outptr = h.dpr.read(Dpr.INPTR, 2)
-    if inptr != outptr:
-        raise Mx4Error(f"{h.card}: the ring is not empty (INPTR {inptr}, OUTPTR {outptr})")
-    feed = _Points(points, k)
-    first = feed.take((RING_SLOTS - 1) // k)
-    if btrate is not None:
-        rate = encode("BTRATE", {"m": btrate})
-    else:
-        assert cubic_rate is not None
-        rate = encode("CUBIC_RATE", {"m": cubic_rate})
-    posts = [*rate, *encode("EN_BUFBRK", {"buffbrk": bufbrk}), *encode("START", {"n": mask})]
-    preload = [h.write(offset, data) for offset, data in _ring_writes(h, inptr, first)]
-    start = h.post_ops(posts, rtc_ns)
-    res = h.batch([*preload, *start, *h.check_ops(rtc_ns)], rtc_ns * (len(posts) + 2))
-    h.acknowledged(res[len(preload):], posts)
-    h.checked(res, len(preload) + len(start), posts, rtc_ns)
-    inptr, sent = (inptr + len(first)) % RING_SLOTS, len(first) // k
-    change = acknowledged(int(HostInt.BUFBRK), 0, 0, True)
-    stop = int(HostInt.BUFBRK | HostInt.RUN_OUT | HostInt.ESTOP)
-    while True:
-        slots = feed.take(((outptr - inptr - 1) % RING_SLOTS) // k)
-        writes = [h.write(o, d) for o, d in _ring_writes(h, inptr, slots)] if slots else []
-        inptr, sent = (inptr + len(slots)) % RING_SLOTS, sent + len(slots) // k
-        if feed.done:
-            break
-        h.status = _expect(h.status, int(HostInt.BUFBRK), 0, 0, True)
-        res = h.batch([*writes, h.wait(Dpr.HOSTINT1, 0, t, mask=stop, equal=False),
-                       h.read(Dpr.INPTR, 2), *h.ack_ops(change, t)], 2 * t)
-        at = len(writes)
-        _fired(h, res[at], "buffer breakpoint (1FFEh b0)", t)
-        outptr = res[at + 1][1]
-        found, _ = h.ack_results(res, at + 2, change, (), t)
-        failed = int(found.hostint or 0) & (HostInt.RUN_OUT | HostInt.ESTOP)
-        if failed:
-            raise Mx4Error(f"{h.card}: contour stopped after {sent} points were sent: 1FFEh "
-                           f"{bits_text(HostInt(failed))}", status=found)
-    if not h.batch([*writes, h.wait(Dpr.OUTPTR, inptr, t)], t)[len(writes)]["fired"]:
-        raise Mx4Timeout(f"{h.card}: the card did not read the ring up to INPTR {inptr}")
-    return sent
-
-
-class _Points:
-    """The points of a contour, taken as ring slots as room comes, with a look-ahead of one
-    point so that the last batch knows it is the last."""
-
-    def __init__(self, points: Iterable[Sequence[tuple[int, int]]], k: int) -> None:
-        self._it, self._k = iter(points), k
-        self._next = next(self._it, None)
-
-    @property
-    def done(self) -> bool:
-        return self._next is None
-
-    def take(self, count: int) -> list[tuple[int, int]]:
-        """The slots of up to `count` points."""
-        out: list[tuple[int, int]] = []
-        for _ in range(count):
-            point = self._next
-            if point is None:
-                break
-            if len(point) != self._k:
-                raise ValueError(f"contour: a point of {len(point)} (pos, vel) pairs for {self._k} axes")
-            out += point
-            self._next = next(self._it, None)
-        return out
-
-
-# -- table download [Ch5 LOAD_CAM_TABLE, LOAD_CUBIC_TABLE, LOAD_POS/VEL_TABLE] --------------------------
-def load_table(h: Mx4, kind: str, index: int, data: Sequence[Any], *, table: int = 1,
-               timeout_ms: int | None = None) -> None:
-    """Download a table in chunks of at most 672 bytes staged at 120h, each followed by its LOAD
-    RTC; the card has copied a chunk out when it clears 3C2h, and the next is staged then. `kind`:
-    "cam" ((master, slave, ratio) points, ratio 1.8.7, 67 per chunk), "cubic" (int32 positions,
-    168), "pos" / "vel" (16-bit compensation entries of the tables of the mask `table`, 336).
-    Up to 64 chunks per round trip."""
-    if kind not in _TABLES:
-        raise ValueError(f"load_table: kind {kind!r} (one of {', '.join(_TABLES)})")
-    name, per_chunk, fmt = _TABLES[kind]
-    entry = struct.Struct(fmt)
-    posts = []
-    for start in range(0, len(data), per_chunk):
-        chunk = data[start:start + per_chunk]
-        if kind == "cam":
-            stage = b"".join(entry.pack(_i32(m), _i32(s), _signed16(r)) for m, s, r in chunk)
-            head = {"index": index + start, "numpts": len(chunk)}
-        elif kind == "cubic":
-            stage = b"".join(entry.pack(_i32(p)) for p in chunk)
-            head = {"index": index + start, "num": len(chunk)}
-        else:
-            stage = b"".join(entry.pack(e & 0xFFFF) for e in chunk)
-            head = {"table": table, "index": index + start, "num": len(chunk)}
-        post, = encode(name, head)
-        posts.append(Post(name, post.code, post.args, stage))
-    for i in range(0, len(posts), _TABLE_POSTS_PER_BATCH):
-        h.send(posts[i:i + _TABLE_POSTS_PER_BATCH], timeout_ms=timeout_ms, check=False)
 
 
 # -- reset and signatures [Ch6 Power-Up/Reset Software Initialization; Tables 6-4, 6-6] ---------------
@@ -499,7 +324,7 @@ def power_up_init(h: Mx4, *, wait_reset: bool = False, retries: int = 2,
     ops = [*wait, h.read(*_HW_SIG), h.read(*_SIG), *h.ack_ops(change, t)]
     res = h.batch(ops, 2 * t)
     if wait:
-        _fired(h, res[0], "reset finished (1FFEh b4)", t)
+        h.fired(res[0], "reset finished (1FFEh b4)", t)
     at = len(wait)
     h.ack_results(res, at + 2, change, (), t)
     if _signature(res[at], res[at + 1]) is None:
@@ -522,7 +347,7 @@ def reset(h: Mx4, *, retries: int = 2, timeout_ms: int = RESET_TIMEOUT_MS) -> Si
                h.read(*_HW_SIG), h.read(*_SIG), *h.ack_ops(change, t)]
         res = h.batch(ops, 4 * t)
         h.acknowledged(res, reset_post)
-        _fired(h, res[4], "reset finished (1FFEh b4)", t)
+        h.fired(res[4], "reset finished (1FFEh b4)", t)
         h.ack_results(res, 7, change, (), t)
         sig = res[6]
         found = _signature(res[5], sig)
@@ -547,12 +372,12 @@ def home_on_index(h: Mx4, axis: int, vel: int | None = None, *, position: int = 
     stop = encode("VELMODE", {"n": bit}, vel=0) if vel is not None else []
     rtc_ns = h.timeout_ns()
     change = acknowledged(0, int(DspStat1.INDEX), 0, bit)
-    h.status = _expect(h.status, 0, int(DspStat1.INDEX), 0, bit)
+    h.status = expect(h.status, 0, int(DspStat1.INDEX), 0, bit)
     head = [h.wait(source_offset(DspStat1.INDEX), bit, t, mask=bit), *h.post_ops(stop, rtc_ns),
             *h.lock(Window.INDPOS, rtc_ns), *(h.read(a, b - a) for a, b in Window.INDPOS.value[2]),
             h.unlock(Window.INDPOS)]
     res = h.batch([*head, *h.ack_ops(change, rtc_ns)], t + 4 * rtc_ns)
-    _fired(h, res[0], f"index pulse of axis {axis} (DSPSTAT1 b2, 003h)", t)
+    h.fired(res[0], f"index pulse of axis {axis} (DSPSTAT1 b2, 003h)", t)
     h.acknowledged(res[1:], stop)
     at = len(head) - 3
     indpos = _I32X8.unpack(res[at] + res[at + 1])
@@ -565,39 +390,13 @@ def home_on_index(h: Mx4, axis: int, vel: int | None = None, *, position: int = 
 def calibrate_offset(h: Mx4, axis: int, *, timeout_ms: int = 10_000) -> IntStatus:
     """Offset calibration of `axis` [Ch5 OFFSET]: (the axis at rest, closed loop with Ki != 0)
     clear a stale report, OFFSET, wait server side for "offset cancel finished" (DSPSTAT2 b2,
-    00Ch) and acknowledge it. (The card's OFFSET is being emulated: not tested against it yet.)"""
+    00Ch) and acknowledge it; the card gives an axis that cannot settle 10 s."""
     if not 1 <= axis <= 8:
         raise ValueError(f"axis {axis} outside 1..8")
     bit = 1 << (axis - 1)
     ack_int(h, dspstat2_bits=DspStat2.OFFSET, src_clear=bit)
     h.send(encode("OFFSET", {"n": bit}))
     return wait_int(h, dspstat2=DspStat2.OFFSET, axes=bit, timeout_ms=timeout_ms)
-
-
-# -- helpers ------------------------------------------------------------------------------------------
-def _fired(h: Mx4, result: Any, what: str, timeout_ns: int) -> None:
-    if not result or not result["fired"]:
-        raise Mx4Timeout(f"{h.card}: no {what} within {timeout_ns // 1_000_000} ms")
-
-
-def _expect(known: IntStatus | None, hostint: int, stat1: int, stat2: int,
-            sources: int | bool) -> IntStatus | None:
-    """The registers as a report of these types would leave `known` (an acknowledge's guess)."""
-    if known is None or known.hostint is None:
-        return known
-    raw = bytearray(known.raw)
-    h = int(known.hostint) | hostint
-    raw[0] |= stat1
-    raw[9] |= stat2
-    if stat1:
-        h |= int(HostInt.STAT1)
-    if stat2:
-        h |= int(HostInt.STAT2)
-    for bit in [DspStat1(1 << b) for b in range(8) if stat1 >> b & 1] + \
-            [DspStat2(1 << b) for b in range(8) if stat2 >> b & 1 and DspStat2(1 << b) in _SOURCED2]:
-        if isinstance(sources, int) and not isinstance(sources, bool):
-            raw[source_offset(bit)] |= sources
-    return IntStatus(bytes(raw), HostInt(h & 0xFF))
 
 
 __all__ = [

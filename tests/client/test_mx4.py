@@ -1,7 +1,8 @@
 """vdevclient.mx4, the Mx4 Octavia host library (spec octavia.md §8), against a real daemon holding
-dspcg-octavia cards, lockstep. The commands the card does not run yet (contouring START, cam,
-gearing, tables, DSPL, OFFSET: vdevd/devices/octavia/commands.py `not_emulated`) are checked only
-for what the client puts on the wire (test_mx4_codec.py, and the table download here)."""
+dspcg-octavia cards, lockstep. The commands the card does not run yet (contouring START, cubic
+splines, cam, gearing, tables, DSPL: vdevd/devices/octavia/commands.py `not_emulated`) are checked
+only for what the client puts on the wire (test_mx4_codec.py, and the table download and the
+ring here)."""
 
 from __future__ import annotations
 
@@ -16,7 +17,10 @@ from vdevclient import mx4
 from vdevmaps.octavia import RING_SLOTS, SAMPLE_NS, Dpr, DspStat1, HostInt, Window
 
 from tests.client.galil import card, rack_config, round_trips
-from vdevd.testing import DaemonThread
+from vdevd.devices.base import CardContext
+from vdevd.devices.octavia.card import OctaviaCard
+from vdevd.devices.octavia.firmware import Firmware
+from vdevd.testing import DaemonThread, rack_of
 
 OCT = "dspcg-octavia"
 MOVE_MS = 30_000  # long enough for the moves here (card time)
@@ -57,17 +61,21 @@ def closed_form(acc: int, dist: int, vel: int) -> float:
 
 
 # -- opening ---------------------------------------------------------------------------------------------
-def test_open_finds_a_card_by_its_number_else_by_its_place_among_the_unnumbered() -> None:
-    cfg = rack_config(octavia("oct0", card=3), card("generic-servo", "servo0"), octavia("oct1"),
+def test_open_finds_a_card_by_its_number_else_by_its_place() -> None:
+    """The card README's numbers: the `card` option (the PCI subsystem ID), else the place among
+    the configuration's Octavias: here 5, 2, 3 (the generic card does not count)."""
+    cfg = rack_config(octavia("oct0", card=5), card("generic-servo", "servo0"), octavia("oct1"),
                       octavia("oct2"))
     with DaemonThread(cfg) as d:
-        for number, name in ((3, "oct0"), (1, "oct1"), (2, "oct2")):
+        for number, name in ((5, "oct0"), (2, "oct1"), (3, "oct2")):
             with mx4.open(number, endpoint=d.endpoint) as h:
                 assert h.card == name
         with mx4.open(9, endpoint=d.endpoint, name="oct2") as h:  # a name wins
             assert h.card == "oct2"
-        with pytest.raises(mx4.Mx4Error, match="no dspcg-octavia card number 4 .*oct0, oct1, oct2"):
-            mx4.open(4, endpoint=d.endpoint)
+        for number in (1, 4):  # the first Octavia is number 5
+            with pytest.raises(mx4.Mx4Error,
+                               match=f"no dspcg-octavia card number {number} .*oct0, oct1, oct2"):
+                mx4.open(number, endpoint=d.endpoint)
 
 
 def test_open_takes_the_endpoint_from_VDEVD_ENDPOINT(daemon: DaemonThread,
@@ -388,6 +396,21 @@ def test_home_on_index_shifts_the_axis_so_the_index_reads_position(h: mx4.Mx4) -
     assert not status.dspstat1 & DspStat1.INDEX
 
 
+def test_calibrate_offset_cancels_the_amplifier_offset() -> None:
+    """[Ch5 OFFSET] on the servo plant: with +0.2 V at the amplifier's input (the backdoor's
+    set_amp_offset), the axis holding with Ki != 0, OFFSET reports "offset cancel finished"
+    (DSPSTAT2 b2, axis 1 in 00Ch) and the DAC then holds -0.2 V; the report is acknowledged."""
+    with DaemonThread(rack_config(octavia())) as d, mx4.open(1, endpoint=d.endpoint) as h:
+        h.rack.control(h.card, "set_amp_offset", axis=1, volts=0.2)
+        mx4.CTRL(h, 0x01, **GAINS)
+        h.rack.sim.step(seconds=0.5)
+        status = mx4.calibrate_offset(h, 1, timeout_ms=5_000)
+        assert status.dspstat2 & mx4.DspStat2.OFFSET and status.sources(mx4.DspStat2.OFFSET) == 0x01
+        assert h.rack.control(h.card, "get_outputs")["dac_volts"][0] == pytest.approx(-0.2, abs=0.01)
+        left = mx4.read_int(h)
+        assert not left.dspstat2 and not left.hostint
+
+
 def test_load_table_stages_672_byte_chunks_at_120h_each_before_its_rtc(
         h: mx4.Mx4, monkeypatch: pytest.MonkeyPatch) -> None:
     """[Ch5 LOAD_CUBIC_TABLE, LOAD_CAM_TABLE]: the client's side only (the card's tables are being
@@ -425,3 +448,69 @@ def test_ring_put_wraps_from_slot_83_to_0_and_moves_inptr(h: mx4.Mx4, rack: vdev
     assert got == [(pos, vel) for _, pos, vel in slots]
     assert mx4.ring_put(h, [(1, 0, 0)] * 100) == RING_SLOTS - 11  # as many as fit
     assert mx4.ring_free(h) == 0
+
+
+class RingReader(OctaviaCard):
+    """A stand-in for the card's ring-buffer contouring, which is being emulated (issue 18): from
+    START it reads one point (a slot per axis of the mask) every EVERY samples at OUTPTR as spec
+    §2.5.4 describes the card doing, posts the buffer breakpoint (1FFEh b0) each time the filled
+    slots fall below EN_BUFBRK's threshold, and stops on an empty ring. It moves no axis: the
+    test is of the client's streaming protocol, not of the card's interpolation."""
+
+    EVERY = 3
+
+    def __init__(self, name: str, ctx: CardContext) -> None:
+        super().__init__(name, {"plant": "ideal"}, ctx)
+        self.fw.handlers["START"] = self._start
+        self.k = self.countdown = 0
+        self.points: list[list[tuple[int, int]]] = []
+
+    def _start(self, fw: Firmware, head: dict[str, Any], groups: Any) -> None:
+        self.k, self.countdown = int(head["n"]).bit_count(), self.EVERY
+
+    def step(self) -> None:
+        super().step()
+        if not self.k:
+            return
+        self.countdown -= 1
+        if self.countdown:
+            return
+        self.countdown = self.EVERY
+        buf, p = self.fw.buf, self.fw.params
+        inptr, outptr = buf[Dpr.INPTR], buf[Dpr.OUTPTR]
+        filled = (inptr - outptr) % RING_SLOTS
+        if filled < self.k:
+            self.k = 0  # the contour ends
+            return
+        self.points.append([struct.unpack_from("<ii", buf, Dpr.RINGBUF + 8 * ((outptr + i) % RING_SLOTS))
+                            for i in range(self.k)])
+        buf[Dpr.OUTPTR] = (outptr + self.k) % RING_SLOTS
+        if p.bufbrk_on and filled >= p.bufbrk > filled - self.k:
+            self.fw.mailbox.post(int(HostInt.BUFBRK))
+
+    def rest_state(self) -> bytes | None:
+        return None if self.k else super().rest_state()
+
+
+def test_contour_streams_200_points_refilling_at_each_buffer_breakpoint(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """[Ch6 Contouring, Fig. 6-5] against RingReader (above): 200 points of axes 1 and 3 (400
+    slots, the ring wrapping almost five times), preloaded, then one batch per breakpoint; every
+    point read in order, and the breakpoints acknowledged."""
+    points = [[(10 * i, i), (-10 * i, -i)] for i in range(200)]
+    rack = rack_of(lambda ctx: RingReader("oct0", ctx))
+    reader = rack.cards["oct0"]
+    assert isinstance(reader, RingReader)
+    with DaemonThread(rack=rack) as d, mx4.open(1, endpoint=d.endpoint) as h:
+        with round_trips(monkeypatch) as trips:
+            assert mx4.contour(h, 0x05, points, btrate=0, bufbrk=20) == 200
+        assert reader.points == points
+        # the preload (41 points), a refill at each breakpoint (18 slots left: 32 points fit),
+        # the last points with the wait for the ring to drain
+        assert trips.count == 1 + 5 + 1
+        status = mx4.read_int(h)
+        assert not status.hostint & HostInt.BUFBRK
+        with pytest.raises(mx4.Mx4Error, match="not empty"):
+            h.dpr.write(Dpr.INPTR, b"\x05")
+            mx4.contour(h, 0x05, points, btrate=0)
+

@@ -5,6 +5,7 @@ status block's acknowledge. No daemon: each per-RTC function posts to a recorder
 from __future__ import annotations
 
 import random
+import struct
 from typing import Any
 
 import pytest
@@ -137,6 +138,8 @@ def test_encode_agrees_with_the_shared_layouts_for_every_rtc() -> None:
     def value(code: str) -> Any:
         if code == "6s":
             return rng.randbytes(6)
+        if code == "f":
+            return struct.unpack("<f", struct.pack("<f", rng.uniform(-1e4, 1e4)))[0]
         n = bits[code]
         return rng.randrange(-(1 << (n - 1)), 1 << (n - 1)) if code.islower() else rng.randrange(1 << n)
 
