@@ -9,7 +9,8 @@
    status lock 3FDh, wait 3FCh = 00h, read 000h..00Fh, a guard on DSPSTAT1 b6/b7, the release].
    Diagnostics: a one-op read of 1FFEh (a register with a hook: always a request; the vdevd
    round-trip floor), the call's batch sent through `Rack.call` without the library around it,
-   and a batch of the bare RTC protocol without the status check.
+   a batch of the bare RTC protocol without the status check, and EN_MOTCP through the library
+   (the same post and check around an RTC whose execution plans no move).
 2. Lockstep speed of an 8-axis Octavia (servo plant, the manual's CTRL gains) with every axis
    in VELMODE at its own velocity: simulated seconds per wall second of `rack.sim.step` (the
    card's 200 us samples, all of them run), against the same card idle. Goal: >= 20x. A
@@ -67,6 +68,7 @@ AXMOVE = "mx4.AXMOVE(h, 0x0A, ...) (Ch6 Example 2)"
 READ = "diag: Region.read of 1FFEh (one op)"
 REPLAY = "diag: AXMOVE's batch via Rack.call"
 BARE = "diag: the RTC protocol alone (no status check)"
+LIGHT = "diag: mx4.EN_MOTCP(h, 0x01) (an RTC that plans no move)"
 #: VELMODE per axis (counts/sample, 16.16): distinct, signed, within the card's 256 counts/sample
 VELOCITIES = [(4 + 3 * a) * (1 if a % 2 == 0 else -1) for a in range(8)]
 
@@ -106,7 +108,7 @@ def run_rtt(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5,
         fns: dict[str, Callable[[], Any]] = {
             RAW: raw_read, AXMOVE: axmove, READ: lambda: dpr.read(Dpr.HOSTINT1, 1),
             REPLAY: lambda: h.rack.call({"op": "batch", "ops": ops}, 1.0),
-            BARE: lambda: h.rack.call(bare, 1.0)}
+            BARE: lambda: h.rack.call(bare, 1.0), LIGHT: lambda: mx4.EN_MOTCP(h, 0x01)}
         series, counts, card_ns, stats = measure_commands(
             rack, Rack, fns, {AXMOVE: axmove}, n, repeats, warmup, block, seed)
     measured = ratios_to_raw(series, {"axmove": AXMOVE})
@@ -189,7 +191,8 @@ def report(r: dict[str, Any]) -> None:
     print(f"where the p50 goes: mx4 library {p50[AXMOVE] - p50[REPLAY]:+.1f} us (the call vs its "
           f"batch replayed), the status check {p50[REPLAY] - p50[BARE]:+.1f} us, the RTC's "
           f"{rtt['batch_ops'] - 5} ops and the card's sample {p50[BARE] - p50[READ]:+.1f} us "
-          f"(vs a one-op read), vdevd round trip {p50[READ] - p50[RAW]:+.1f} us (vs raw REQ/REP)")
+          f"(vs a one-op read), vdevd round trip {p50[READ] - p50[RAW]:+.1f} us (vs raw REQ/REP); "
+          f"AXMOVE's execution {p50[AXMOVE] - p50[LIGHT]:+.1f} us (vs EN_MOTCP)")
     report_ratio_goals(rtt, GOAL_P50)
     sp = speed["params"]
     rows = [[name, s["median"], s["min"], s["max"], s["us_per_sample"]]

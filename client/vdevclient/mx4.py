@@ -362,7 +362,8 @@ def home_on_index(h: Mx4, axis: int, vel: int | None = None, *, position: int = 
     """Home `axis` (1..8) on its encoder index: clear a stale index report, EN_INDEX (and, with
     `vel`, VELMODE at vel, 16.16, which needs MAXACC), wait server side for the index interrupt,
     stop (VELMODE 0), read INDPOS (all axes latched at the edge), then POS_SHIFT the axis so that
-    the index is at `position`. Returns the axis's INDPOS before the shift. Four round trips."""
+    the index is at `position`. Returns the axis's INDPOS before the shift. Four round trips.
+    Mx4Timeout (the axis stopped) when no index comes within `timeout_ms`."""
     if not 1 <= axis <= 8:
         raise ValueError(f"axis {axis} outside 1..8")
     bit, t = 1 << (axis - 1), h.timeout_ns(timeout_ms)
@@ -373,14 +374,21 @@ def home_on_index(h: Mx4, axis: int, vel: int | None = None, *, position: int = 
     rtc_ns = h.timeout_ns()
     change = acknowledged(0, int(DspStat1.INDEX), 0, bit)
     h.status = expect(h.status, 0, int(DspStat1.INDEX), 0, bit)
-    head = [h.wait(source_offset(DspStat1.INDEX), bit, t, mask=bit), *h.post_ops(stop, rtc_ns),
+    stop_ops = h.post_ops(stop, rtc_ns) if stop else []
+    lock_at = 1 + len(stop_ops)
+    head = [h.wait(source_offset(DspStat1.INDEX), bit, t, mask=bit), *stop_ops,
             *h.lock(Window.INDPOS, rtc_ns), *(h.read(a, b - a) for a, b in Window.INDPOS.value[2]),
             h.unlock(Window.INDPOS)]
     res = h.batch([*head, *h.ack_ops(change, rtc_ns)], t + 4 * rtc_ns)
+    if not res[0]["fired"] and stop:
+        h.send(stop)  # no index: the axis does not run on
     h.fired(res[0], f"index pulse of axis {axis} (DSPSTAT1 b2, 003h)", t)
-    h.acknowledged(res[1:], stop)
-    at = len(head) - 3
-    indpos = _I32X8.unpack(res[at] + res[at + 1])
+    if stop:
+        h.acknowledged(res[1:], stop)
+    if not res[lock_at + 1]["fired"]:
+        unlock(h, Window.INDPOS)
+        raise Mx4Timeout(f"{h.card}: the card held the INDPOS window")
+    indpos = _I32X8.unpack(res[lock_at + 2] + res[lock_at + 3])
     h.ack_results(res, len(head), change, (), rtc_ns)
     found = indpos[axis - 1]
     h.send(encode("POS_SHIFT", {"n": bit}, psft=position - found))

@@ -394,6 +394,12 @@ def test_home_on_index_shifts_the_axis_so_the_index_reads_position(h: mx4.Mx4) -
     assert mx4.home_on_index(h, 3, mx4.vel_to_raw(10)) == pytest.approx(4000, abs=1)
     status = mx4.read_int(h)
     assert not status.dspstat1 & DspStat1.INDEX
+    h.rack.control(h.card, "set_index", axis=4, period=0, phase=0)  # axis 4 has no index
+    mx4.MAXACC(h, 0x08, 0x4000)
+    with pytest.raises(mx4.Mx4Timeout, match="no index pulse of axis 4"):
+        mx4.home_on_index(h, 4, mx4.vel_to_raw(10), timeout_ms=100)
+    h.rack.sim.step(seconds=0.1)
+    assert mx4.read_axes(h, Window.ACTVEL)[3] == 0  # stopped, not running on
 
 
 def test_calibrate_offset_cancels_the_amplifier_offset() -> None:
