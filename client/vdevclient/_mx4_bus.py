@@ -34,8 +34,6 @@ Op = dict[str, Any] | list[Any]
 _RTC, _ARGS, _HOSTINT = int(Dpr.RTC), int(Dpr.ARGMNTS), int(Dpr.HOSTINT1)
 _LOCK, _UNLOCK = b"\x01", b"\x00"
 _ALL64 = (1 << 64) - 1
-#: the ops of `Mx4.ack_ops` when the registers were read before
-ACK_OPS = 10
 #: a change of the interrupt registers (see `acknowledged`)
 Change = Callable[[IntStatus], IntStatus]
 
@@ -151,12 +149,13 @@ class Mx4:
         if check:
             ops += self.check_ops(t)
         res = self.batch(ops, t * (len(posts) + 2))
-        self.acknowledged(res, posts)
+        self.taken(res, posts)
         if check:
             self.checked(res, n, posts, t)
 
-    def acknowledged(self, res: list[Any], posts: Sequence[Post]) -> None:
-        """Mx4Timeout if one of the post waits of `post_ops` (results from 0) ran out."""
+    def taken(self, res: list[Any], posts: Sequence[Post]) -> None:
+        """Mx4Timeout unless the card took every post: one of the waits of `post_ops` (results
+        from 0) ran out."""
         k = 0
         for r in res:
             if isinstance(r, dict) and "fired" in r:
@@ -199,6 +198,7 @@ class Mx4:
     def status_from(self, res: list[Any], at: int) -> IntStatus:
         """The IntStatus of `status_ops` whose results start at `at`."""
         if not res[at + 2]["fired"]:
+            self.batch([self.unlock(Window.STATUS)])
             raise Mx4Timeout(f"{self.card}: the card held the status window (3FCh)")
         self.status = IntStatus(res[at + 3], HostInt(res[at][0]))
         return self.status
@@ -206,17 +206,15 @@ class Mx4:
     def acknowledge(self, change: Change, timeout_ns: int) -> IntStatus:
         """Apply `change` (see `acknowledged`) to the interrupt registers: one round trip, two if
         they changed since they were last read (`ack_ops`). Returns them as found."""
-        found, _ = self.ack_results(self.batch(self.ack_ops(change, timeout_ns), timeout_ns), 0,
-                                    change, (), timeout_ns)
-        return found
+        return self.ack_results(self.batch(self.ack_ops(change, timeout_ns), timeout_ns), 0, change)
 
     def ack_ops(self, change: Change, timeout_ns: int) -> list[Op]:
         """A locked read-modify-write of the interrupt registers: the status lock (3FDh, 3FCh),
         a read of 000h..00Fh and of 1FFEh (which ends the interrupt), then, computed by `change`
         from the registers last read (`status`), guards that they still hold those values, the
         new values, the release. A guard that fails leaves the lock held and stops the batch:
-        `ack_results` then writes what `change` makes of the values read. ACK_OPS ops when the
-        registers were read before, 4 otherwise."""
+        `ack_results` then writes what `change` makes of the values read. The batch must end
+        with these ops."""
         ops: list[Op] = [*self.lock(Window.STATUS, timeout_ns),
                          self.read(Dpr.DSPSTAT1, STATUS_SIZE), self.read(_HOSTINT, 1)]
         known = self.status
@@ -227,21 +225,18 @@ class Mx4:
                     self.guard(_HOSTINT, int(known.hostint)), *self._writes(new)]
         return ops
 
-    def ack_results(self, res: list[Any], at: int, change: Change, then: Sequence[Op],
-                    timeout_ns: int) -> tuple[IntStatus, list[Any]]:
-        """Finish `ack_ops` (results from `at`), whose batch went on with `then`: the registers
-        as found, and the results of `then` (run in a second round trip, after the writes, when
-        the guards failed)."""
+    def ack_results(self, res: list[Any], at: int, change: Change) -> IntStatus:
+        """Finish `ack_ops` (results from `at`, the last ops of their batch): the registers as
+        found; when a guard failed, the second round trip writes the change of them."""
         if not res[at + 1]["fired"]:
             self.batch([self.unlock(Window.STATUS)])
             raise Mx4Timeout(f"{self.card}: the card held the status window (3FCh)")
         found = IntStatus(res[at + 2], HostInt(res[at + 3][0]))
         guards = res[at + 4:at + 7]
         self.status = change(found)
-        if len(guards) == 3 and all(isinstance(g, dict) and g["fired"] for g in guards):
-            return found, res[at + ACK_OPS:]
-        wait_ns = timeout_ns * sum(1 for op in then if isinstance(op, dict) and op["op"] == "wait")
-        return found, self.batch([*self._writes(self.status), *then], wait_ns)[3:]
+        if not (len(guards) == 3 and all(isinstance(g, dict) and g["fired"] for g in guards)):
+            self.batch(self._writes(self.status))
+        return found
 
     def _writes(self, new: IntStatus) -> list[Op]:
         return [self.write(Dpr.DSPSTAT1, new.raw), self.write(_HOSTINT, bytes((int(new.hostint or 0),))),

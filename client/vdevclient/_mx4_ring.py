@@ -86,7 +86,7 @@ def contour(h: Mx4, mask: int, points: Iterable[Sequence[tuple[int, int]]], *,
     preload = [h.write(offset, data) for offset, data in ring_writes(inptr, first)]
     start = h.post_ops(posts, rtc_ns)
     res = h.batch([*preload, *start, *h.check_ops(rtc_ns)], rtc_ns * (len(posts) + 2))
-    h.acknowledged(res[len(preload):], posts)
+    h.taken(res[len(preload):], posts)
     h.checked(res, len(preload) + len(start), posts, rtc_ns)
     inptr, sent = (inptr + len(first)) % RING_SLOTS, len(first) // k
     change = acknowledged(int(HostInt.BUFBRK), 0, 0, True)
@@ -103,7 +103,7 @@ def contour(h: Mx4, mask: int, points: Iterable[Sequence[tuple[int, int]]], *,
         at = len(writes)
         h.fired(res[at], "buffer breakpoint (1FFEh b0)", t)
         outptr = res[at + 1][1]
-        found, _ = h.ack_results(res, at + 2, change, (), t)
+        found = h.ack_results(res, at + 2, change)
         failed = int(found.hostint or 0) & (HostInt.RUN_OUT | HostInt.ESTOP)
         if failed:
             raise Mx4Error(f"{h.card}: contour stopped after {sent} points were sent: 1FFEh "
@@ -111,7 +111,7 @@ def contour(h: Mx4, mask: int, points: Iterable[Sequence[tuple[int, int]]], *,
     h.status = expect(h.status, int(HostInt.BUFBRK), 0, 0, True)
     res = h.batch([*writes, h.wait(Dpr.OUTPTR, inptr, t), *h.ack_ops(change, t)], 2 * t)
     h.fired(res[len(writes)], f"read of the ring up to INPTR {inptr}", t)
-    h.ack_results(res, len(writes) + 1, change, (), t)  # the breakpoints of the last points
+    h.ack_results(res, len(writes) + 1, change)  # the breakpoints of the last points
     return sent
 
 

@@ -231,11 +231,12 @@ def wait_int(h: Mx4, *, hostint: int = 0, dspstat1: int = 0, dspstat2: int = 0, 
         h.fired(res[0], what, t)
         return h.status_from(res, 1)
     change = acknowledged(hostint, stat1, stat2, sources)
-    h.status = expect(h.status, hostint, stat1, stat2, sources)
+    known, h.status = h.status, expect(h.status, hostint, stat1, stat2, sources)
     res = h.batch([wait, *h.ack_ops(change, t)], 2 * t)
+    if not res[0]["fired"]:
+        h.status = known  # nothing was reported: the registers as they were
     h.fired(res[0], what, t)
-    found, _ = h.ack_results(res, 1, change, (), t)
-    return found
+    return h.ack_results(res, 1, change)
 
 
 def wait_irq(h: Mx4, timeout_ms: int | None = None) -> IntStatus:
@@ -326,13 +327,13 @@ def power_up_init(h: Mx4, *, wait_reset: bool = False, retries: int = 2,
     if wait:
         h.fired(res[0], "reset finished (1FFEh b4)", t)
     at = len(wait)
-    h.ack_results(res, at + 2, change, (), t)
+    h.ack_results(res, at + 2, change)
     if _signature(res[at], res[at + 1]) is None:
         return reset(h, retries=retries, timeout_ms=timeout_ms)
     return check_signature(h)
 
 
-def reset(h: Mx4, *, retries: int = 2, timeout_ms: int = RESET_TIMEOUT_MS) -> Signature:
+def reset(h: Mx4, timeout_ms: int = RESET_TIMEOUT_MS, *, retries: int = 2) -> Signature:
     """RESET (72h AAh AAh) and the initialization after it in one batch: wait (server side) for
     the card to take it and report "reset finished" (1FFEh b4), clear b4 under the status lock,
     read the signatures; again while the signature is incomplete, `retries` more times."""
@@ -346,9 +347,9 @@ def reset(h: Mx4, *, retries: int = 2, timeout_ms: int = RESET_TIMEOUT_MS) -> Si
                h.wait(Dpr.HOSTINT1, 0, t, mask=int(HostInt.RESET_DONE), equal=False),
                h.read(*_HW_SIG), h.read(*_SIG), *h.ack_ops(change, t)]
         res = h.batch(ops, 4 * t)
-        h.acknowledged(res, reset_post)
+        h.taken(res, reset_post)
         h.fired(res[4], "reset finished (1FFEh b4)", t)
-        h.ack_results(res, 7, change, (), t)
+        h.ack_results(res, 7, change)
         sig = res[6]
         found = _signature(res[5], sig)
         if found is not None:
@@ -384,12 +385,12 @@ def home_on_index(h: Mx4, axis: int, vel: int | None = None, *, position: int = 
         h.send(stop)  # no index: the axis does not run on
     h.fired(res[0], f"index pulse of axis {axis} (DSPSTAT1 b2, 003h)", t)
     if stop:
-        h.acknowledged(res[1:], stop)
+        h.taken(res[1:], stop)
     if not res[lock_at + 1]["fired"]:
         unlock(h, Window.INDPOS)
         raise Mx4Timeout(f"{h.card}: the card held the INDPOS window")
     indpos = _I32X8.unpack(res[lock_at + 2] + res[lock_at + 3])
-    h.ack_results(res, len(head), change, (), rtc_ns)
+    h.ack_results(res, len(head), change)
     found = indpos[axis - 1]
     h.send(encode("POS_SHIFT", {"n": bit}, psft=position - found))
     return found
