@@ -67,8 +67,7 @@ def contour(h: Mx4, mask: int, points: Iterable[Sequence[tuple[int, int]]], *,
     OUTPTR (as last read) allows, a server-side wait for the buffer-breakpoint interrupt (1FFEh
     b0), the pointers read, the interrupt acknowledged. A data run-out (b5) or ESTOP (b2) raises
     Mx4Error. Returns, with the number of points sent, once the card has read the last of them
-    (and the breakpoints they caused are acknowledged). (The card's contouring is being
-    emulated: this procedure is tested against a stand-in that reads the ring, not the card.)"""
+    (and the breakpoints they caused are acknowledged); the last interval then runs."""
     k = int(mask & 0xFF).bit_count()
     if not k or (btrate is None) == (cubic_rate is None):
         raise ValueError("contour: a mask and one of btrate, cubic_rate")

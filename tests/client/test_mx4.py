@@ -1,8 +1,6 @@
 """vdevclient.mx4, the Mx4 Octavia host library (spec octavia.md §8), against a real daemon holding
-dspcg-octavia cards, lockstep. The commands the card does not run yet (contouring START, cubic
-splines, cam, gearing, tables, DSPL: vdevd/devices/octavia/commands.py `not_emulated`) are checked
-only for what the client puts on the wire (test_mx4_codec.py, and the table download and the
-ring here)."""
+dspcg-octavia cards, lockstep. Every RTC's bytes are checked in test_mx4_codec.py; here what the
+card does with them."""
 
 from __future__ import annotations
 
@@ -17,10 +15,7 @@ from vdevclient import mx4
 from vdevmaps.octavia import RING_SLOTS, SAMPLE_NS, Dpr, DspStat1, HostInt, Window
 
 from tests.client.galil import card, rack_config, round_trips
-from vdevd.devices.base import CardContext
-from vdevd.devices.octavia.card import OctaviaCard
-from vdevd.devices.octavia.firmware import Firmware
-from vdevd.testing import DaemonThread, rack_of
+from vdevd.testing import DaemonThread
 
 OCT = "dspcg-octavia"
 MOVE_MS = 30_000  # long enough for the moves here (card time)
@@ -175,10 +170,10 @@ def test_motion_commands_are_ignored_while_estop_is_active(h: mx4.Mx4) -> None:
     mx4.VELMODE(h, 0x03, mx4.vel_to_raw(1))  # taken again
 
 
-def test_a_conflict_report_names_bit_6_and_its_axes(h: mx4.Mx4, rack: vdevclient.Rack) -> None:
-    """The card reports "conflicting commands" for a motion command to a contouring axis, and
-    contouring (START) is not emulated yet: the report is written here as the card leaves it
-    (000h b6, the axes in 007h, 1FFEh b1) to check how the client reads and clears it."""
+def test_a_conflict_left_by_another_program_is_raised_on_the_next_rtc_and_cleared(
+        h: mx4.Mx4, rack: vdevclient.Rack) -> None:
+    """A "conflicting commands" report (000h b6, the axes in 007h) nobody cleared, written here
+    as the card leaves it: the next RTC raises it (decision 0012) and clears only it."""
     dpr = rack.card("oct0").region("dpr")
     dpr.write(Dpr.DSPSTAT1, bytes([DspStat1.CONFLICT | DspStat1.MOTCP, 0, 0, 0, 0, 0x01, 0, 0x06]))
     with pytest.raises(mx4.Mx4Error, match=r"b6 CONFLICT \(conflicting commands: the new motion "
@@ -417,20 +412,9 @@ def test_calibrate_offset_cancels_the_amplifier_offset() -> None:
         assert not left.dspstat2 and not left.hostint
 
 
-def test_load_table_stages_672_byte_chunks_at_120h_each_before_its_rtc(
+def test_load_table_stages_the_manual_cam_table_as_its_10_byte_points(
         h: mx4.Mx4, monkeypatch: pytest.MonkeyPatch) -> None:
-    """[Ch5 LOAD_CUBIC_TABLE, LOAD_CAM_TABLE]: the client's side only (the card's tables are being
-    emulated): 400 cubic points go as 168 + 168 + 64, each staged then loaded, in one batch."""
-    points = list(range(-200, 200))
-    with round_trips(monkeypatch) as trips:
-        mx4.load_table(h, "cubic", 100, points)
-    assert trips.count == 1
-    writes = [(op[3], op[4]) for op in trips.sent[0]["ops"] if isinstance(op, list) and op[0] == "w"]
-    assert writes == [
-        (0x120, struct.pack("<168i", *points[:168])), (0x3C3, struct.pack("<HH", 100, 168)), (0x3C2, b"\xaf"),
-        (0x120, struct.pack("<168i", *points[168:336])), (0x3C3, struct.pack("<HH", 268, 168)),
-        (0x3C2, b"\xaf"),
-        (0x120, struct.pack("<64i", *points[336:])), (0x3C3, struct.pack("<HH", 436, 64)), (0x3C2, b"\xaf")]
+    """[Ch5 LOAD_CAM_TABLE] master i32, slave i32, ratio i16 (x128), LSB first."""
     cam = [(0, 0, 0x100), (100, 200, 0x20), (500, 300, -26), (1000, 200, 0)]  # the manual's table
     with round_trips(monkeypatch) as trips:
         mx4.load_table(h, "cam", 0, cam)
@@ -440,9 +424,8 @@ def test_load_table_stages_672_byte_chunks_at_120h_each_before_its_rtc(
 
 
 def test_ring_put_wraps_from_slot_83_to_0_and_moves_inptr(h: mx4.Mx4, rack: vdevclient.Rack) -> None:
-    """[Ch6 Contouring] the ring's own protocol (START is being emulated: no contour runs here):
-    with both pointers at slot 80 (OUTPTR written as the card leaves it), ten slots go to 80..83
-    and 0..5, INPTR becomes 6."""
+    """[Ch6 Contouring] with both pointers at slot 80 (OUTPTR written as the card leaves it after
+    a contour), ten slots go to 80..83 and 0..5, INPTR becomes 6."""
     dpr = rack.card("oct0").region("dpr")
     dpr.write(Dpr.INPTR, bytes([80, 80]))
     assert mx4.ring_free(h) == RING_SLOTS - 1
@@ -456,67 +439,118 @@ def test_ring_put_wraps_from_slot_83_to_0_and_moves_inptr(h: mx4.Mx4, rack: vdev
     assert mx4.ring_free(h) == 0
 
 
-class RingReader(OctaviaCard):
-    """A stand-in for the card's ring-buffer contouring, which is being emulated (issue 18): from
-    START it reads one point (a slot per axis of the mask) every EVERY samples at OUTPTR as spec
-    §2.5.4 describes the card doing, posts the buffer breakpoint (1FFEh b0) each time the filled
-    slots fall below EN_BUFBRK's threshold, and stops on an empty ring. It moves no axis: the
-    test is of the client's streaming protocol, not of the card's interpolation."""
-
-    EVERY = 3
-
-    def __init__(self, name: str, ctx: CardContext) -> None:
-        super().__init__(name, {"plant": "ideal"}, ctx)
-        self.fw.handlers["START"] = self._start
-        self.k = self.countdown = 0
-        self.points: list[list[tuple[int, int]]] = []
-
-    def _start(self, fw: Firmware, head: dict[str, Any], groups: Any) -> None:
-        self.k, self.countdown = int(head["n"]).bit_count(), self.EVERY
-
-    def step(self) -> None:
-        super().step()
-        if not self.k:
-            return
-        self.countdown -= 1
-        if self.countdown:
-            return
-        self.countdown = self.EVERY
-        buf, p = self.fw.buf, self.fw.params
-        inptr, outptr = buf[Dpr.INPTR], buf[Dpr.OUTPTR]
-        filled = (inptr - outptr) % RING_SLOTS
-        if filled < self.k:
-            self.k = 0  # the contour ends
-            return
-        self.points.append([struct.unpack_from("<ii", buf, Dpr.RINGBUF + 8 * ((outptr + i) % RING_SLOTS))
-                            for i in range(self.k)])
-        buf[Dpr.OUTPTR] = (outptr + self.k) % RING_SLOTS
-        if p.bufbrk_on and filled >= p.bufbrk > filled - self.k:
-            self.fw.mailbox.post(int(HostInt.BUFBRK))
-
-    def rest_state(self) -> bytes | None:
-        return None if self.k else super().rest_state()
+# -- contouring, tables, cam, gearing, DSPL [Ch4-Ch6, Ch8; the card README] ------------------------------
+def second_order(v: float, n: int, points: int) -> list[int]:
+    """Positions of a 2nd-order contour (BTRATE 0: 25 samples an interval) that accelerates to v
+    counts/sample over the first interval, cruises, and stops over the last: each interval
+    covers N (V0 + V1) / 2 [spec §5.4]."""
+    step = n * v
+    return [round(step / 2 + step * (i - 1) + (step / 2 if i == points else 0))
+            for i in range(1, points + 1)]
 
 
 def test_contour_streams_200_points_refilling_at_each_buffer_breakpoint(
-        monkeypatch: pytest.MonkeyPatch) -> None:
-    """[Ch6 Contouring, Fig. 6-5] against RingReader (above): 200 points of axes 1 and 3 (400
-    slots, the ring wrapping almost five times), preloaded, then one batch per breakpoint; every
-    point read in order, and the breakpoints acknowledged."""
-    points = [[(10 * i, i), (-10 * i, -i)] for i in range(200)]
-    rack = rack_of(lambda ctx: RingReader("oct0", ctx))
-    reader = rack.cards["oct0"]
-    assert isinstance(reader, RingReader)
-    with DaemonThread(rack=rack) as d, mx4.open(1, endpoint=d.endpoint) as h:
-        with round_trips(monkeypatch) as trips:
-            assert mx4.contour(h, 0x05, points, btrate=0, bufbrk=20) == 200
-        assert reader.points == points
-        # the preload (41 points), a refill at each breakpoint (18 slots left: 32 points fit),
-        # the last points with the wait for the ring to drain
-        assert trips.count == 1 + 5 + 1
-        status = mx4.read_int(h)
-        assert not status.hostint & HostInt.BUFBRK
-        with pytest.raises(mx4.Mx4Error, match="not empty"):
-            h.dpr.write(Dpr.INPTR, b"\x05")
-            mx4.contour(h, 0x05, points, btrate=0)
+        h: mx4.Mx4, monkeypatch: pytest.MonkeyPatch) -> None:
+    """[Ch6 Contouring, Fig. 6-5] 2nd order, axes 1 and 3 (400 slots: the ring wraps almost five
+    times), EN_BUFBRK 20: preloaded with START in one batch, then one batch per buffer
+    breakpoint; the axes end on the last point, the breakpoints acknowledged."""
+    pos = second_order(2.0, 25, 200)
+    vel = [mx4.vel_to_raw(2.0)] * 199 + [0]
+    points = [[(p, v), (-p, -v & 0xFFFFFFFF)] for p, v in zip(pos, vel, strict=True)]
+    with round_trips(monkeypatch) as trips:
+        assert mx4.contour(h, 0x05, points, btrate=0, bufbrk=20) == 200
+    # the preload (41 points), a refill at each breakpoint (41 points read, 18 slots left: 32
+    # points fit), the last points with the wait for the ring to drain
+    assert trips.count == 1 + 5 + 1
+    h.rack.sim.step(ticks=30)  # the last interval
+    assert mx4.read_axes(h)[0] == pos[-1] == 10_000 and mx4.read_axes(h)[2] == -10_000
+    # the ring holds the last 84 slots written, the oldest at INPTR (400 mod 84 = 64)
+    slots = [slot for point in points for slot in point]
+    ring = h.dpr.read(Dpr.RINGBUF, RING_SLOTS * 8)
+    assert h.dpr.read(Dpr.INPTR, 2) == bytes([64, 64])
+    assert [struct.unpack_from("<ii", ring, 8 * ((64 + i) % RING_SLOTS)) for i in range(RING_SLOTS)] \
+        == [(p, v - (1 << 32) if v >= 1 << 31 else v) for p, v in slots[-RING_SLOTS:]]
+    assert mx4.read_int(h).hostint == 0
+    with pytest.raises(mx4.Mx4Error, match="not empty"):
+        h.dpr.write(Dpr.INPTR, b"\x05")
+        mx4.contour(h, 0x05, points, btrate=0)
+
+
+def test_a_move_for_a_contouring_axis_is_a_conflict(h: mx4.Mx4) -> None:
+    """[Ch6 Contouring, Ch7 Table 7-1] AXMOVE naming an axis that contours is discarded with
+    "conflicting commands" (000h b6, 007h); the contour goes on."""
+    pos = second_order(1.0, 25, 40)
+    mx4.ring_put(h, [(2, p, mx4.vel_to_raw(1.0) if i < 39 else 0) for i, p in enumerate(pos)])
+    mx4.BTRATE(h, 0)
+    mx4.START(h, 0x02)
+    with pytest.raises(mx4.Mx4Error, match=r"AXMOVE: .* b6 CONFLICT \(conflicting commands: the "
+                                           r"new motion command ignored\) on axis 2") as err:
+        mx4.AXMOVE(h, 0x03, 0x150, [0, 0], 0x10000)
+    assert err.value.conflict == 0x02
+    assert mx4.parread(h, 0x18)[3] == 0x02  # contouring
+    h.rack.sim.step(seconds=0.25)
+    assert mx4.read_axes(h)[1] == pos[-1]
+
+
+def test_load_table_stages_672_byte_chunks_and_cubic_int_runs_them(
+        h: mx4.Mx4, monkeypatch: pytest.MonkeyPatch) -> None:
+    """[Ch5 LOAD_CUBIC_TABLE] 400 points go as 168 + 168 + 64, each staged at 120h then loaded,
+    in one batch; CUBIC_INT over entries 350 and 351 (in the third chunk) ends axis 1 on
+    entry 351 [Ch5 CUBIC_INT]."""
+    points = [10 * i for i in range(400)]
+    with round_trips(monkeypatch) as trips:
+        mx4.load_table(h, "cubic", 0, points)
+    assert trips.count == 1
+    writes = [(op[3], op[4]) for op in trips.sent[0]["ops"] if isinstance(op, list) and op[0] == "w"]
+    assert writes == [
+        (0x120, struct.pack("<168i", *points[:168])), (0x3C3, struct.pack("<HH", 0, 168)), (0x3C2, b"\xaf"),
+        (0x120, struct.pack("<168i", *points[168:336])), (0x3C3, struct.pack("<HH", 168, 168)),
+        (0x3C2, b"\xaf"),
+        (0x120, struct.pack("<64i", *points[336:])), (0x3C3, struct.pack("<HH", 336, 64)), (0x3C2, b"\xaf")]
+    mx4.EN_MOTCP(h, 0x01)
+    mx4.CUBIC_RATE(h, 25)
+    mx4.CUBIC_INT(h, 2, 350, 1, 0x01)
+    mx4.wait_int(h, dspstat1=DspStat1.MOTCP, axes=0x01, timeout_ms=MOVE_MS)
+    assert mx4.read_axes(h)[0] == points[351]
+
+
+def test_a_cam_slave_follows_the_manual_table_loaded_with_load_table(h: mx4.Mx4) -> None:
+    """[Ch5 LOAD_CAM_TABLE] the manual's table (master 0, 100, 500, 1000; slave 0, 200, 300,
+    200), CAM with axis 1 as master and axis 2 as slave: the master at 500 puts the slave at
+    300 [Ch5 CAM]; CAM_OFF leaves it there."""
+    cam = [(0, 0, mx4.ratio_to_raw(2.0)), (100, 200, mx4.ratio_to_raw(0.25)),
+           (500, 300, mx4.ratio_to_raw(-0.2)), (1000, 200, 0)]
+    mx4.load_table(h, "cam", 0, cam)
+    mx4.CAM(h, 0x01, 0x02, 0, [0, 4])
+    mx4.EN_MOTCP(h, 0x01)
+    mx4.AXMOVE(h, 0x01, 0x4000, 500, mx4.vel_to_raw(10))
+    mx4.wait_int(h, dspstat1=DspStat1.MOTCP, axes=0x01, timeout_ms=MOVE_MS)
+    h.rack.sim.step(ticks=2)  # the slave follows one sample behind
+    assert mx4.read_axes(h)[:2] == (500, 300)
+    assert h.dpr.read(Dpr.CAMCOUNT + 2, 2) == b"\x02\x00"  # slave axis 2 in segment 2
+    mx4.CAM_OFF(h, 0x02)
+    mx4.AXMOVE(h, 0x01, 0x4000, 0, mx4.vel_to_raw(10))
+    mx4.wait_int(h, dspstat1=DspStat1.MOTCP, axes=0x01, timeout_ms=MOVE_MS)
+    assert mx4.read_axes(h)[:2] == (0, 300)
+
+
+def test_a_geared_follower_moves_at_its_ratio(h: mx4.Mx4) -> None:
+    """[Ch5 GEAR] axis 5 follows axis 1 at 2.0 (1.8.7, the card's default `gear_ratio_bits`)."""
+    mx4.GEAR(h, 0x01, 0x10, [0, 0, 0, 0, mx4.ratio_to_raw(2.0)])
+    mx4.EN_MOTCP(h, 0x01)
+    mx4.AXMOVE(h, 0x01, 0x4000, 1000, mx4.vel_to_raw(10))
+    mx4.wait_int(h, dspstat1=DspStat1.MOTCP, axes=0x01, timeout_ms=MOVE_MS)
+    h.rack.sim.step(ticks=2)
+    assert mx4.read_axes(h)[0] == 1000 and mx4.read_axes(h)[4] == 2000
+    mx4.GEAR_OFF(h, 0x10)
+
+
+def test_change_var_shows_in_its_monitor_slot(h: mx4.Mx4) -> None:
+    """[Ch5 CHANGE_VAR, MONITOR_VAR] VAR3's six bytes in the first monitor slot (066h, the DSPL
+    window read under 0C9h/0D1h)."""
+    mx4.CHANGE_VAR(h, [(3, b"\x01\x02\x03\x04\x05\x06"), (12, b"\xaa" * 6)])
+    mx4.MONITOR_VAR(h, 0x03, [3, 12])
+    h.rack.sim.step(seconds=0.01)
+    window = mx4.read_window(h, Window.DSPL)
+    assert window[:12] == b"\x01\x02\x03\x04\x05\x06" + b"\xaa" * 6
 
