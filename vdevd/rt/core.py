@@ -374,16 +374,39 @@ class MotionCore:
         self._begin(idx)
         for a, t, v, ac, de, j in zip(idx.tolist(), targets.tolist(), vs.tolist(), accs.tolist(),
                                       decs.tolist(), jerks.tolist(), strict=True):
-            here = float(self.axes.cmd_pos[a])
-            if self.limits.blocked(a, t - here):
-                self._refuse(a, 0)
-                continue
-            goal, bits = self.limits.soft_target(a, here, t)
-            if bits and goal == here:
-                self._refuse(a, bits)
-                continue
-            self._move(a, goal, bits, v, ac, de, j)
+            self._move_to(a, t, v, ac, de, j)
         self.profile.commit()
+
+    def move_one(self, axis: int, target: float, vmax: float, acc: float, dec: float,
+                 jerk: float = 0.0, commit: bool = True) -> None:
+        """`move_absolute` of one axis with plain numbers (a card's per-axis command, without
+        the broadcasting); `commit=False` leaves `profile.commit()` to the caller, who plans
+        several axes in a row."""
+        if not all(math.isfinite(x) and x > 0 for x in (vmax, acc, dec)):
+            raise ValueError("vmax, acc and dec must be positive and finite")
+        if not (math.isfinite(jerk) and jerk >= 0):
+            raise ValueError("jerk must be >= 0 and finite")
+        if not math.isfinite(target):
+            raise ValueError("targets must be finite")
+        a = int(axis)
+        self.axes.flags[a] &= ~int(MOTION_STICKY)
+        self.done_bits[a] = 0
+        self._move_to(a, float(round(target)), vmax, acc, dec, jerk)
+        if commit:
+            self.profile.commit()
+
+    def _move_to(self, a: int, t: float, vmax: float, acc: float, dec: float,
+                 jerk: float) -> None:
+        """Plan axis a's move to the whole count t within its limits (or refuse it)."""
+        here = float(self.axes.cmd_pos[a])
+        if self.limits.blocked(a, t - here):
+            self._refuse(a, 0)
+            return
+        goal, bits = self.limits.soft_target(a, here, t)
+        if bits and goal == here:
+            self._refuse(a, bits)
+            return
+        self._move(a, goal, bits, vmax, acc, dec, jerk)
 
     def _move(self, a: int, goal: float, bits: int, vmax: float, acc: float, dec: float,
               jerk: float) -> None:

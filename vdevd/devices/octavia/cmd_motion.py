@@ -84,11 +84,12 @@ def axmove(relative: str, shape: str, fw: Firmware, head: dict[str, Any], groups
         _closed(fw, a)
         a_s, v_s = acc / (TS * TS), vel / TS
         if shape == "s_curve":  # triangular acceleration pulses peaking at 2*acc [Ch5 AXMOVE_S]
-            core.move_absolute(a, target, v_s, 2 * a_s, 2 * a_s, 4 * a_s * a_s / v_s)
+            core.move_one(a, target, v_s, 2 * a_s, 2 * a_s, 4 * a_s * a_s / v_s, commit=False)
         else:
-            core.move_absolute(a, target, v_s, a_s, a_s)
+            core.move_one(a, target, v_s, a_s, a_s, commit=False)
         fw.mode[a] = Mode.MOVE
         fw._prev_flags[a] = 0
+    core.profile.commit()
 
 
 def ddac(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:

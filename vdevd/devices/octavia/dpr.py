@@ -38,6 +38,10 @@ class Windows:
         self.actvel = axis_window(buf, Dpr.ACTVEL)
         self.error = axis_window(buf, Dpr.ERROR)
         self.indpos = axis_window(buf, Dpr.INDPOS)
+        #: ACTPOS, ACTVEL and ERROR side by side (0D3h-102h, bank 2 +800h): a (3, 4) int32 view
+        #: per bank, rows in that order, for the publish that finds all three windows free
+        self.state = (np.ndarray((3, 4), "<i4", buffer=buf, offset=Dpr.ACTPOS),
+                      np.ndarray((3, 4), "<i4", buffer=buf, offset=Dpr.ACTPOS + BANK2))
         self.prb = axis_window(buf, Dpr.PRB)
         #: PARREAD data of both banks [Ch5 PARREAD]
         self.parrdbk = (np.ndarray((8,), np.uint8, buffer=buf, offset=Dpr.PARRDBK),

@@ -138,6 +138,7 @@ class Firmware:
         self.filtering = False
         self._prev_flags = np.zeros(n, dtype=np.int64)
         self._published = np.zeros((3, n), dtype=np.int64)
+        self._pub_tmp = np.zeros((2, n))
         # the battery-backed board RAM and DSPL surface (RESET keeps them) and the cam and gear
         # slaves (follow.py); nv_dirty: the battery image changed since it was last taken
         self.ram = BoardRam()  # the on-board RAM: tables a reset keeps [Ch8]
@@ -544,16 +545,29 @@ class Firmware:
     def publish(self) -> None:
         """ACTPOS, ACTVEL, ERROR, ENCSTAT and INPUT, each unless the host holds its window
         [Table 6-5; spec §2.5.1]."""
-        ax, n, w = self.core.axes, self.n, self.windows
-        pub = self._published
-        np.copyto(pub[0], ax.encoder)
-        pub[1] = np.rint(ax.ferr)
-        pub[2] = np.rint(ax.vel * TS * ACTVEL_SCALE)
-        w.put(Window.ACTPOS, w.actpos, _int32(pub[0]), n)
-        w.put(Window.ERROR, w.error, _int32(pub[1]), n)
-        w.put(Window.ACTVEL, w.actvel, _int32(pub[2]), n)
-        w.put_bytes(Window.ENC, Dpr.ENCSTAT, bytes((self.encstat & 0xFF,)))
-        if self.adc.any() or self.buf[Dpr.ADC:Dpr.ADC + 8] != bytes(8):
+        ax, n, w, buf = self.core.axes, self.n, self.windows, self.buf
+        pub, tmp = self._published, self._pub_tmp
+        pub[0] = ax.encoder  # ACTPOS, ACTVEL, ERROR: one (3, n) block in the DPR's row order
+        np.multiply(ax.vel, TS, out=tmp[0])
+        tmp[0] *= ACTVEL_SCALE
+        np.rint(tmp[0], out=tmp[0])
+        np.rint(ax.ferr, out=tmp[1])
+        pub[1:] = tmp  # counts as the card's int32 words: wrapping beyond 2^31 when stored
+        if (buf[Dpr.HOSTACC_ACTPOS] != 1 and buf[Dpr.HOSTACC_ACTVEL] != 1
+                and buf[Dpr.HOSTACC_ERROR] != 1):  # the usual case: one store a bank
+            buf[Dpr.M4ACC_ACTPOS] = buf[Dpr.M4ACC_ACTVEL] = buf[Dpr.M4ACC_ERROR] = 1
+            bank1, bank2 = w.state
+            bank1[:, :min(n, 4)] = pub[:, :4]
+            if n > 4:
+                bank2[:, :n - 4] = pub[:, 4:n]
+            buf[Dpr.M4ACC_ACTPOS] = buf[Dpr.M4ACC_ACTVEL] = buf[Dpr.M4ACC_ERROR] = 0
+        else:
+            w.put(Window.ACTPOS, w.actpos, pub[0].astype(np.int32), n)
+            w.put(Window.ACTVEL, w.actvel, pub[1].astype(np.int32), n)
+            w.put(Window.ERROR, w.error, pub[2].astype(np.int32), n)
+        if buf[Dpr.ENCSTAT] != self.encstat & 0xFF:
+            w.put_bytes(Window.ENC, Dpr.ENCSTAT, bytes((self.encstat & 0xFF,)))
+        if self.adc.any() or buf[Dpr.ADC:Dpr.ADC + 8] != bytes(8):
             self.publish_adc()
         if self._deferred:
             self._deferred = [d for d in self._deferred if not w.put(d[1], d[0], d[2], n)]
