@@ -21,7 +21,7 @@ from vdevmaps.octavia import STAGING_BYTES, Dpr, DspStat1
 
 from vdevd.devices.octavia.cam import EXT_CODES, place_cam_point, table_problem
 from vdevd.devices.octavia.ram import CAM_POINTS
-from vdevd.devices.octavia.state import Mode
+from vdevd.devices.octavia.state import CONTOURING, Mode
 
 if TYPE_CHECKING:
     from vdevd.devices.octavia.firmware import Firmware
@@ -32,7 +32,6 @@ Groups = list[tuple[int, dict[str, Any]]]
 CAM_POINT_BYTES = 10  # master i32, slave i32, ratio i16 [Ch5 LOAD_CAM_TABLE]
 MAX_CAM_LOAD = STAGING_BYTES // CAM_POINT_BYTES  # 67 points a download
 #: modes a slave cannot have: contouring from the ring buffer or the internal table
-CONTOURING = (Mode.CONTOUR, Mode.CUBIC)
 
 
 def master_axis(fw: Firmware, mask: int, name: str) -> int | None:
@@ -48,7 +47,8 @@ def master_axis(fw: Firmware, mask: int, name: str) -> int | None:
 
 def refused(fw: Firmware, slaves: list[int]) -> bool:
     """A slave that contours makes the command conflict (reported, discarded)."""
-    busy = [a for a in slaves if fw.mode[a] in CONTOURING]
+    modes = fw.mode.tolist()
+    busy = [a for a in slaves if modes[a] in CONTOURING]
     if busy:
         fw.post_stat1(DspStat1.CONFLICT, sum(1 << a for a in busy))
         return True

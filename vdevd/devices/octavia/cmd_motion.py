@@ -26,7 +26,7 @@ TS = 200e-6
 VMAX = 0xFFFFFF / 65536.0  # counts/sample: "maximum unsigned velocity 00FFFFFFh" [Ch5 AXMOVE]
 
 
-def _refused(fw: Firmware, axes: list[int], conflict_modes: tuple[Mode, ...]) -> bool:
+def _refused(fw: Firmware, axes: list[int], conflict_modes: tuple[int, ...]) -> bool:
     """Report and refuse a motion command for `axes` (0-based) that conflicts with the modes
     `conflict_modes` or names a halting axis; True when refused."""
     bits = sum(1 << a for a in axes)
@@ -34,7 +34,8 @@ def _refused(fw: Firmware, axes: list[int], conflict_modes: tuple[Mode, ...]) ->
     if halting:
         fw.post_stat1(DspStat1.IGNORED, sum(1 << a for a in halting))
         return True
-    conflict = [a for a in axes if fw.mode[a] in conflict_modes]
+    modes = fw.mode.tolist()
+    conflict = [a for a in axes if modes[a] in conflict_modes]
     if conflict:
         fw.post_stat1(DspStat1.CONFLICT, sum(1 << a for a in conflict))
         return True

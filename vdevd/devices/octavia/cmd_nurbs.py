@@ -26,7 +26,8 @@ def nurbs(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:
     if fw.halting(axes):
         fw.post_stat1(DspStat1.IGNORED, sum(1 << a for a in fw.halting(axes)))
         return
-    busy = [a for a in axes if fw.mode[a] in (Mode.MOVE, Mode.VELMODE, Mode.CONTOUR)]
+    modes = fw.mode.tolist()
+    busy = [a for a in axes if modes[a] in (Mode.MOVE, Mode.VELMODE, Mode.CONTOUR)]
     if busy:
         fw.post_stat1(DspStat1.CONFLICT, sum(1 << a for a in busy))
         return

@@ -539,7 +539,8 @@ class Firmware:
         """Of `axes`, those halting under STOP or ESTOP (or held by an active *ESTOP)."""
         if self.estop:
             return list(axes)
-        return [a for a in axes if self.mode[a] in HALTING]
+        modes = self.mode.tolist()
+        return [a for a in axes if modes[a] in HALTING]
 
     # -- the DPR ---------------------------------------------------------------------------------
     def publish(self) -> None:

@@ -32,10 +32,10 @@ class Mode(enum.IntEnum):
 
 
 #: the modes START, AXMOVE, REL_AXMOVE and VELMODE conflict with (Ch7 "Conflicting Commands")
-MOTION_MODES = (Mode.MOVE, Mode.VELMODE)
-HALTING = (Mode.STOP, Mode.ESTOP)
+MOTION_MODES = (int(Mode.MOVE), int(Mode.VELMODE))
+HALTING = (int(Mode.STOP), int(Mode.ESTOP))  # plain ints: `in` and np.isin, fast
 #: the contouring modes: the ring buffer (START) and the internal table (CUBIC_INT)
-CONTOURING = (Mode.CONTOUR, Mode.CUBIC)
+CONTOURING = (int(Mode.CONTOUR), int(Mode.CUBIC))
 
 
 class Params:
