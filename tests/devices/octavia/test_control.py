@@ -244,3 +244,17 @@ def test_a_host_write_into_a_window_the_card_owns_is_overwritten_at_the_next_sam
     host.write(axis_offset(Dpr.ACTPOS, 1), b"\x00\x00\x00\x00")
     host.run(1)
     assert host.position(1) == 4321
+
+
+def test_parread_18h_reports_an_axis_halting_under_estop_as_stopping() -> None:
+    """PARREAD 18h 0B9h: the axes halting, under STOP and under *ESTOP alike (both make motion
+    RTCs "ignored", [Ch5 STOP]); 0BAh the VELMODE axes."""
+    host = Host(plant="ideal")
+    host.rtc("MAXACC", {"n": 0x03}, [{"acc": 0x100}, {"acc": 0x100}])
+    host.rtc("ESTOP_ACC", {"n": 0x03}, [{"acc": 0x10}, {"acc": 0x10}])
+    host.rtc("VELMODE", {"n": 0x03}, [{"vel": 20 << 16}, {"vel": -(20 << 16)}])
+    host.run(2500)
+    assert parread(host, 0x18)[2] == 0x03
+    host.card.control("set_estop", {"active": True})
+    host.run(10)
+    assert parread(host, 0x18)[1] == 0x03

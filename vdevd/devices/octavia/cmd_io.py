@@ -9,7 +9,7 @@ import numpy as np
 from vdevmaps.octavia import BANK2, Dpr
 
 from vdevd.devices.octavia import cmd_interrupts
-from vdevd.devices.octavia.state import CONTOURING, Mode
+from vdevd.devices.octavia.state import CONTOURING, HALTING, Mode
 
 if TYPE_CHECKING:
     from vdevd.devices.octavia.firmware import Firmware
@@ -86,7 +86,9 @@ def parread_data(fw: Firmware, m: int) -> bytes:
         modes[:fw.n] = fw.mode
         out = bytearray(16)
         for i, mode in enumerate((Mode.MOVE, Mode.STOP, Mode.VELMODE, Mode.CONTOUR)):
-            on = np.isin(modes, CONTOURING) if mode == Mode.CONTOUR else modes == mode
+            on = (np.isin(modes, CONTOURING) if mode == Mode.CONTOUR  # ring and CUBIC_INT
+                  else np.isin(modes, HALTING) if mode == Mode.STOP  # STOP, *ESTOP, EN_ERRHLT
+                  else modes == mode)
             out[i] = sum(int(b) << k for k, b in enumerate(on[:4]))
             out[8 + i] = sum(int(b) << k for k, b in enumerate(on[4:]))
         return bytes(out)
