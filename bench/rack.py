@@ -261,7 +261,7 @@ def report(r: dict[str, Any]) -> None:
         print(f"plot: {r['plot']}")
     c = r["checks"]
     print(f"idle >= {GOAL_IDLE:.0f}x: {verdict(c['idle'])}; moving >= {GOAL_MOVING:.0f}x: "
-          f"{verdict(c['moving'])}; 16 cards moving >= {GOAL_MOVING_16:.0f}x: "
+          f"{verdict(c['moving'])}; four sets moving >= {GOAL_MOVING_16:.0f}x: "
           f"{verdict(c['moving_16'])}")
 
 
