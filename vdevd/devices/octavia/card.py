@@ -156,8 +156,9 @@ class OctaviaCard(Card):
             return None
         if fw.dspl.stale:  # a DSPL window refresh is due at the next 5 ms
             return None
-        return (core + state_bytes(fw.params, fw, fw.filters, skip=("sample", "rtc_count"))
-                + state_bytes(fw.follow, fw.follow.cam, fw.follow.gears, fw.dspl)
+        follow = fw.follow  # (its tables' copies are large: compared only while it follows)
+        return (core + state_bytes(fw.params, fw, fw.filters, fw.dspl, skip=("sample", "rtc_count"))
+                + (state_bytes(follow, follow.cam, follow.gears) if follow.active else b"")
                 + bytes(self.dpr.buf) + bytes((self.inta.asserted,)))
 
     def polled_state(self) -> bytes:
