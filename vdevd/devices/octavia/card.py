@@ -35,6 +35,7 @@ from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region, passive_except
 
 _HOSTINT = int(Dpr.HOSTINT1)
+_RTC = int(Dpr.RTC)
 #: IN lines the axis world drives (an assumption, README "Inputs"): axis k (1..8) has its
 #: positive limit on IN(3k-3), negative limit on IN(3k-2), home on IN(3k-1); amplifier faults
 #: on IN24..IN31
@@ -145,8 +146,11 @@ class OctaviaCard(Card):
 
     def rest_state(self) -> bytes | None:
         """The firmware's state and the core's (None while a profile runs), the DPR, the
-        line: all a sample may change but the counters."""
+        line: all a sample may change but the counters. None at once while an RTC waits at
+        3C2h (a command to serve: no state worth taking)."""
         fw = self.fw
+        if self.dpr.buf[_RTC]:
+            return None
         core = fw.core.rest_state()
         if core is None or fw.parread is not None or fw.mailbox.queue or fw._deferred:
             return None
