@@ -129,14 +129,12 @@ class Mx4:
         return ops
 
     def check_ops(self, timeout_ns: int) -> list[Op]:
-        """The report check after an RTC: under the status lock (3FDh/3FCh) read 000h..00Fh, and
-        release the lock only if DSPSTAT1 has neither "conflicting commands" (b6) nor "RTC
-        ignored" (b7); else the lock stays held for `checked` to clear them."""
+        """The report check after an RTC: a read of 000h..00Fh. No status lock: the ops of a batch
+        run atomically between two of the card's samples (PROTOCOL.md "batch"), so the card
+        cannot post between its bytes; the lock is taken only to clear a report (`checked`)."""
         ops = self._check_cache.get(timeout_ns)
         if ops is None:
-            ops = self._check_cache[timeout_ns] = [
-                *self.lock(Window.STATUS, timeout_ns), self.read(Dpr.DSPSTAT1, STATUS_SIZE),
-                self.guard(Dpr.DSPSTAT1, 0, mask=int(REFUSED)), self.unlock(Window.STATUS)]
+            ops = self._check_cache[timeout_ns] = [self.read(Dpr.DSPSTAT1, STATUS_SIZE)]
         return ops
 
     def send(self, posts: Sequence[Post], *, timeout_ms: int | None = None,
@@ -172,22 +170,33 @@ class Mx4:
     def checked(self, res: list[Any], at: int, posts: Sequence[Post], timeout_ns: int) -> None:
         """Interpret `check_ops` (results from `at`). The card ORs "conflicting commands" (b6) or
         "RTC ignored" (b7) into DSPSTAT1 and the axes into 007h/008h when it discards a motion
-        command [Ch7 Table 7-1]; it never clears them. The check read them under the lock and
-        left it held: clear those two types and their sources, release the lock (the second
-        round trip), and raise them as Mx4Error. The summary bit 1FFEh b1 stays for the host's
-        interrupt routine (the card asserted the line)."""
-        if not res[at + 1]["fired"]:
-            self.batch([self.unlock(Window.STATUS)])
-            raise Mx4Timeout(f"{self.card}: the card held the status window (3FCh) for "
-                             f"{timeout_ns // _NS_PER_MS} ms")
+        command [Ch7 Table 7-1]; it never clears them. Found set: under the status lock
+        (3FDh/3FCh), guarded by the bytes read (the card may have posted since), clear those two
+        types and their sources and release the lock (the second round trip; a third when the
+        guard found them changed), and raise them as Mx4Error. The summary bit 1FFEh b1 stays
+        for the host's interrupt routine (the card asserted the line)."""
         hostint = self.status.hostint if self.status is not None else None  # not read: kept
-        status = self.status = IntStatus(res[at + 2], hostint)
-        if res[at + 3]["fired"]:
+        status = self.status = IntStatus(res[at], hostint)
+        if not status.dspstat1 & REFUSED:
             return
-        new = cleared(status.raw, status.dspstat1 & REFUSED, 0, True)
-        self.batch([self.write(Dpr.DSPSTAT1, bytes(new[:9])), self.unlock(Window.STATUS)])
+        while True:
+            new = cleared(status.raw, status.dspstat1 & REFUSED, 0, True)
+            done = self.batch([
+                *self.lock(Window.STATUS, timeout_ns),
+                self.guard(0, int.from_bytes(status.raw[:8], "little"), mask=_ALL64, size=8),
+                self.guard(8, int.from_bytes(status.raw[8:], "little"), mask=_ALL64, size=8),
+                self.write(Dpr.DSPSTAT1, bytes(new[:9])), self.unlock(Window.STATUS),
+                self.read(Dpr.DSPSTAT1, STATUS_SIZE)], timeout_ns)
+            if not done[1]["fired"]:
+                self.batch([self.unlock(Window.STATUS)])
+                raise Mx4Timeout(f"{self.card}: the card held the status window (3FCh) for "
+                                 f"{timeout_ns // _NS_PER_MS} ms")
+            if done[2]["fired"] and done[3]["fired"]:
+                break
+            self.batch([self.unlock(Window.STATUS)])  # changed meanwhile: again, from now
+            status = IntStatus(self.batch([self.read(Dpr.DSPSTAT1, STATUS_SIZE)])[0], hostint)
         self.status = IntStatus(bytes(new), hostint)
-        raise refused(_names(posts), status)
+        raise refused(_names(posts), IntStatus(res[at], hostint))
 
     # -- the interrupt registers [Ch6 Handling Interrupts; spec §2.5.5] ---------------------------
     def status_ops(self, timeout_ns: int) -> list[Op]:
