@@ -104,20 +104,26 @@ def plan_move(p: float, v: float, target: float, vmax: float, acc: float, dec: f
     if dist == 0:
         return segs
     s, length, u = math.copysign(1.0, dist), abs(dist), abs(v)
+    trapezoid = jerk <= 0 or math.isinf(jerk)
 
     def over(vp: float) -> float:
+        if trapezoid:  # `ramp`'s one segment in closed form: the same operations, no lists
+            up = abs(vp - u) / (acc if vp > u else dec) if vp != u else 0.0
+            down = vp / dec if vp != 0 else 0.0
+            return (u + vp) / 2 * up + vp / 2 * down - length
         up = change_velocity(u, vp, acc, dec, jerk)
         return (u + vp) / 2 * sum(d for d, _, _ in up) + ramp_distance(vp, 0.0, dec, jerk) - length
 
     vp = vmax
-    if over(vmax) > 0 and (jerk <= 0 or math.isinf(jerk)) and u <= vmax:
+    over_vmax = over(vmax)
+    if over_vmax > 0 and trapezoid and u <= vmax:
         # trapezoid: (vp^2 - u^2)/(2 acc) + vp^2/(2 dec) = length, solved for the peak speed
         vp = min(vmax, math.sqrt((2 * acc * dec * length + dec * u * u) / (acc + dec)))
         for _ in range(4):  # undo rounding that would leave a negative cruise
             if over(vp) <= 0 or vp <= u:
                 break
             vp = math.nextafter(vp, 0.0)
-    elif over(vmax) > 0:
+    elif over_vmax > 0:
         lo, hi = (u, vmax) if u <= vmax else (vmax, u)
         for _ in range(80):
             mid = (lo + hi) / 2

@@ -44,7 +44,7 @@ def _refused(fw: Firmware, axes: list[int], conflict_modes: tuple[int, ...]) -> 
 
 def _closed(fw: Firmware, a: int) -> None:
     """An open-loop axis (DDAC) returns to closed loop with a motion command [Ch5 DDAC]."""
-    if fw.mode[a] == Mode.OPEN:
+    if int(fw.mode[a]) == Mode.OPEN:
         fw.core.servo_on(a)
         fw.mode[a] = Mode.HOLD
         fw.any_open = bool((fw.mode == Mode.OPEN).any())
