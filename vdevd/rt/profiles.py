@@ -108,9 +108,9 @@ def plan_move(p: float, v: float, target: float, vmax: float, acc: float, dec: f
 
     def over(vp: float) -> float:
         if trapezoid:  # `ramp`'s one segment in closed form: the same operations, no lists
-            up = abs(vp - u) / (acc if vp > u else dec) if vp != u else 0.0
-            down = vp / dec if vp != 0 else 0.0
-            return (u + vp) / 2 * up + vp / 2 * down - length
+            t_up = abs(vp - u) / (acc if vp > u else dec) if vp != u else 0.0
+            t_down = vp / dec if vp != 0 else 0.0
+            return (u + vp) / 2 * t_up + vp / 2 * t_down - length
         up = change_velocity(u, vp, acc, dec, jerk)
         return (u + vp) / 2 * sum(d for d, _, _ in up) + ramp_distance(vp, 0.0, dec, jerk) - length
 
