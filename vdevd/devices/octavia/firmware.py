@@ -568,7 +568,7 @@ class Firmware:
             w.put(Window.ERROR, w.error, pub[2].astype(np.int32), n)
         if buf[Dpr.ENCSTAT] != self.encstat & 0xFF:
             w.put_bytes(Window.ENC, Dpr.ENCSTAT, bytes((self.encstat & 0xFF,)))
-        if self.adc.any() or buf[Dpr.ADC:Dpr.ADC + 8] != bytes(8):
+        if buf[Dpr.ADC:Dpr.ADC + 8] != self.adc.astype("<i2").tobytes():
             self.publish_adc()
         if self._deferred:
             self._deferred = [d for d in self._deferred if not w.put(d[1], d[0], d[2], n)]

@@ -68,6 +68,7 @@ class Following:
         if master not in ("actual", "command"):
             raise ValueError(f"follow_master {master!r} (actual or command)")
         self.fw = fw
+        self._counts = np.zeros(MAX_AXES, dtype="<u2")  # CAMCOUNT1..8 as published
         self.gear_ratio_bits = gear_ratio_bits
         self.from_command = master == "command"
         self._clear()
@@ -344,6 +345,8 @@ class Following:
     def publish(self) -> None:
         """CAMCOUNT1..8 (484h..493h): each slave's absolute cam table index, under 480h/481h
         (spec Q-24) [Table 6-10]; deferred while the host holds the window."""
-        counts = np.zeros(MAX_AXES, dtype="<u2")
+        counts = self._counts
         counts[:self.fw.n] = self.cam.camcount & 0xFFFF
-        self.fw.windows.put_bytes(Window.COUNTERS, _CAMCOUNT, counts.tobytes())
+        data = counts.tobytes()
+        if self.fw.buf[_CAMCOUNT:_CAMCOUNT + len(data)] != data:  # (the same: nothing to do)
+            self.fw.windows.put_bytes(Window.COUNTERS, _CAMCOUNT, data)
