@@ -73,10 +73,12 @@ class Writer:
         self.saved = 0  # images written (tests, stats)
 
     def submit(self, image: dict[str, Any]) -> None:
-        """Save `image` soon; returns at once."""
+        """Save `image` soon; returns at once. Once closed (the daemon stopping), the image is
+        dropped with a warning: a tick must not raise for it."""
         with self._cond:
             if self._closed:
-                raise RuntimeError(f"{self.card}: the battery RAM writer is closed")
+                log.warning("%s: battery RAM changed after the writer closed: not saved", self.card)
+                return
             self._pending = image
             if self._thread is None:
                 self._thread = threading.Thread(target=self._run, daemon=True,

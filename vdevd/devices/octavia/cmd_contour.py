@@ -47,8 +47,8 @@ def cubic_rate(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:
 
 def start(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:
     """Start ring-buffer contouring on the axes of n together [Ch5 START]; ignored while
-    contouring is in progress (Note)."""
-    if fw.contour.running:
+    contouring is in progress (Note): the ring's, or CUBIC_INT's from the internal table."""
+    if fw.contour.running or fw.cubic.running:
         return
     axes = fw.mask(head["n"])
     if axes and not _refused(fw, axes, BUSY_MODES):

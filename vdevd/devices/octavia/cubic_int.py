@@ -17,6 +17,7 @@ import numpy as np
 from vdevmaps.octavia import Dpr, DspStat1, Window
 
 from vdevd.devices.octavia.contour import Segments
+from vdevd.devices.octavia.ram import CUBIC_POINTS
 from vdevd.devices.octavia.spline import cubic_scale, spline_velocities
 from vdevd.devices.octavia.state import Mode, axes_bits
 
@@ -56,6 +57,8 @@ class CubicInt(Segments):
         2000, fewer than the axes, or past the table's end."""
         if not 1 <= entries <= MAX_ENTRIES:
             raise ValueError(f"CUBIC_INT m={entries}: 1..{MAX_ENTRIES} table entries")
+        if first + entries > CUBIC_POINTS:
+            raise ValueError(f"CUBIC_INT si={first} m={entries}: past the {CUBIC_POINTS}-point table")
         k = len(axes)
         count = entries // k
         if not count:
@@ -74,6 +77,7 @@ class CubicInt(Segments):
         self.close(self.axes)
         fw.mode[self.axes] = Mode.CUBIC
         self.delay = INTERPRET_SAMPLES
+        self.count = None  # a count the last run could not publish is lost (README)
         self.running = True
 
     # -- the sample ------------------------------------------------------------------------------

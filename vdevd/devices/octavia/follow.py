@@ -115,14 +115,18 @@ class Following:
         """`axis` becomes a slave (armed or engaged) in `mode`: the loop closes if DDAC opened
         it, another engagement of the axis ends, and its transient starts afresh."""
         fw = self.fw
-        if fw.mode[axis] == Mode.OPEN:
+        if not self.active:  # the redefinitions made while nothing followed are no travel
+            self.zero = fw.core.zero.copy()
+        opened = int(fw.mode[axis]) == Mode.OPEN
+        if opened:
             fw.core.servo_on(axis)
-            fw.any_open = bool((fw.mode == Mode.OPEN).any())
         if mode == Mode.CAM:
             self.gears.disengage(axis)
         else:
             self.cam.disengage(axis)
         fw.mode[axis] = mode
+        if opened:
+            fw.any_open = bool((fw.mode == Mode.OPEN).any())
         self.seen[axis] = False
         self.off_moving[axis] = False
         self.offset[axis] = self.off_vel[axis] = 0.0
@@ -131,7 +135,10 @@ class Following:
     def cam_engage(self, axis: int, master: int, start: int, size: int, how: str,
                    arg: int = 0) -> None:
         """CAM (`how` "now"), CAM_POS ("at" master position `arg`), CAM_PROBE ("probe" on the
-        EXT code `arg`); ValueError for a table or an axis pair the card cannot run."""
+        EXT code `arg`); ValueError for a table or an axis pair the card cannot run, with the
+        slave's present engagement untouched."""
+        if axis == master:
+            raise ValueError("a slave cannot follow itself")
         cam = self.cam
         if how == "probe":
             cam.engage_on_probe(axis, master, start, size, arg)
@@ -144,6 +151,8 @@ class Following:
 
     def gear_engage(self, axis: int, leader: int, ratio: int, how: str, arg: int = 0) -> None:
         """GEAR, GEAR_POS (tp `arg`), GEAR_PROBE (EXT code `arg`), as `cam_engage`."""
+        if axis == leader:
+            raise ValueError("a follower cannot follow itself")
         gears = self.gears
         if how == "probe":
             gears.engage_on_probe(axis, leader, ratio, arg)

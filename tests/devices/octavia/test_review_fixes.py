@@ -1,0 +1,69 @@
+"""Defects a review found in the Octavia's cam, gear and CUBIC_INT paths, each fixed with a test
+that failed before the fix."""
+
+from __future__ import annotations
+
+import struct
+
+from vdevmaps.octavia import Dpr
+
+from tests.devices.octavia.host import Host
+
+
+def cam_table(host: Host) -> None:
+    """Ten points, master 0..900, slave 0..450 (ratio 0.5), at cam index 0 [Ch5 LOAD_CAM_TABLE]."""
+    pts = b"".join(struct.pack("<iih", 100 * i, 50 * i, 64) for i in range(10))
+    host.write(Dpr.RINGBUF, pts)
+    host.rtc("LOAD_CAM_TABLE", {"index": 0, "numpts": 10})
+
+
+def test_a_gear_engaged_after_a_position_preset_does_not_jump() -> None:
+    """POS_PRESET made while nothing follows is no travel: a GEAR engaged afterwards with its
+    leader at rest keeps the follower where the preset put it (README "Cam and gearing")."""
+    host = Host(plant="ideal")
+    host.rtc("POS_PRESET", {"n": 0x02}, [{"pset": 5000}])
+    host.run(5)
+    host.rtc("GEAR", {"n": 0x01, "m": 0x02}, [{"r": 128}])
+    host.run(50)
+    assert host.position(2) == 5000
+
+
+def test_a_cam_or_gear_naming_its_slave_as_master_leaves_the_running_one_alone() -> None:
+    """"A slave that is its own master ... is ignored" (README): the engagement it had runs on
+    unchanged (table, ratio)."""
+    host = Host(plant="ideal")
+    cam_table(host)
+    host.rtc("CAM", {"n": 0x01, "m": 0x02}, [{"tablestart": 0, "tablesize": 10}])
+    host.rtc("GEAR", {"n": 0x01, "m": 0x04}, [{"r": 128}])
+    host.run(2)
+    follow = host.card.fw.follow
+    before = (int(follow.cam.start[1]), int(follow.cam.size[1]), int(follow.gears.ratio[2]))
+    host.rtc("CAM", {"n": 0x02, "m": 0x02}, [{"tablestart": 500, "tablesize": 3}])
+    host.rtc("GEAR", {"n": 0x04, "m": 0x04}, [{"r": 1000}])
+    host.run(2)
+    assert (int(follow.cam.start[1]), int(follow.cam.size[1]), int(follow.gears.ratio[2])) == before
+
+
+def test_an_open_loop_axis_made_a_slave_leaves_no_open_axis_behind() -> None:
+    """DDAC then GEAR on that axis: the loop closes, and the card no longer overrides any DAC
+    every sample (`any_open` follows the modes)."""
+    host = Host(plant="ideal")
+    host.rtc("DDAC", {"n": 0x02}, [{"val": 1000}])
+    host.run(2)
+    assert host.card.fw.any_open
+    host.rtc("GEAR", {"n": 0x01, "m": 0x02}, [{"r": 128}])
+    host.run(2)
+    assert not host.card.fw.any_open
+
+
+def test_cubic_int_past_the_table_end_is_ignored_and_start_waits_for_it() -> None:
+    """CUBIC_INT with si + m past 4096 points is ignored (README "Internal table"); START while a
+    CUBIC_INT runs is ignored: "START will be ignored if contouring is in progress" [Ch5 START]."""
+    host = Host(plant="ideal")
+    host.rtc("CUBIC_RATE", {"m": 25})
+    host.rtc("CUBIC_INT", {"m": 3, "si": 4094, "n": 1, "ax": 0x03})
+    assert not host.card.fw.cubic.running
+    host.rtc("CUBIC_INT", {"m": 8, "si": 0, "n": 0, "ax": 0x01})
+    assert host.card.fw.cubic.running
+    host.rtc("START", {"n": 0x02})
+    assert not host.card.fw.contour.running
