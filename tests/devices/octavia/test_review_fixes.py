@@ -56,14 +56,12 @@ def test_an_open_loop_axis_made_a_slave_leaves_no_open_axis_behind() -> None:
     assert not host.card.fw.any_open
 
 
-def test_cubic_int_past_the_table_end_is_ignored_and_start_waits_for_it() -> None:
-    """CUBIC_INT with si + m past 4096 points is ignored (README "Internal table"); START while a
-    CUBIC_INT runs is ignored: "START will be ignored if contouring is in progress" [Ch5 START]."""
+def test_cubic_int_past_the_table_end_is_ignored() -> None:
+    """CUBIC_INT with si + m past 4096 points is ignored (README "Internal table"), even when
+    the entries a whole number of points per axis takes would fit."""
     host = Host(plant="ideal")
     host.rtc("CUBIC_RATE", {"m": 25})
     host.rtc("CUBIC_INT", {"m": 3, "si": 4094, "n": 1, "ax": 0x03})
     assert not host.card.fw.cubic.running
     host.rtc("CUBIC_INT", {"m": 8, "si": 0, "n": 0, "ax": 0x01})
     assert host.card.fw.cubic.running
-    host.rtc("START", {"n": 0x02})
-    assert not host.card.fw.contour.running

@@ -47,8 +47,9 @@ def cubic_rate(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:
 
 def start(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:
     """Start ring-buffer contouring on the axes of n together [Ch5 START]; ignored while
-    contouring is in progress (Note): the ring's, or CUBIC_INT's from the internal table."""
-    if fw.contour.running or fw.cubic.running:
+    contouring is in progress (Note): the ring's. A START naming an axis that runs CUBIC_INT
+    is a conflict (README "Ring buffer"), one naming other axes runs beside it."""
+    if fw.contour.running:
         return
     axes = fw.mask(head["n"])
     if axes and not _refused(fw, axes, BUSY_MODES):
