@@ -65,3 +65,25 @@ def test_cubic_int_past_the_table_end_is_ignored() -> None:
     assert not host.card.fw.cubic.running
     host.rtc("CUBIC_INT", {"m": 8, "si": 0, "n": 0, "ax": 0x01})
     assert host.card.fw.cubic.running
+
+
+def test_pos_shift_while_contouring_moves_the_path_with_the_counter() -> None:
+    """POS_SHIFT "without losing position integrity" [Ch5 POS_SHIFT]: a CUBIC_INT axis (and a
+    ring contour's) goes on where it was going physically; only its counter reads psft more."""
+    host = Host(plant="ideal")
+    host.write(Dpr.RINGBUF, b"".join(struct.pack("<i", v) for v in (0, 1000, 2000, 1000)))
+    host.rtc("LOAD_CUBIC_TABLE", {"index": 0, "num": 4})
+    host.rtc("CUBIC_INT", {"m": 4, "si": 0, "n": 0, "ax": 0x01})
+    twin = Host(plant="ideal")
+    twin.write(Dpr.RINGBUF, b"".join(struct.pack("<i", v) for v in (0, 1000, 2000, 1000)))
+    twin.rtc("LOAD_CUBIC_TABLE", {"index": 0, "num": 4})
+    twin.rtc("CUBIC_INT", {"m": 4, "si": 0, "n": 0, "ax": 0x01})
+    host.run(199)
+    twin.run(199)
+    host.rtc("POS_SHIFT", {"n": 0x01}, [{"psft": 100_000}])
+    twin.run(1)
+    for _ in range(60):
+        host.run(1)
+        twin.run(1)
+        assert host.card.fw.core.physical()[0] == twin.card.fw.core.physical()[0]
+        assert host.position(1) == twin.position(1) + 100_000

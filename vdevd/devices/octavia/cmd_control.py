@@ -90,6 +90,8 @@ def pos_shift(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:
     [Ch5 POS_SHIFT]."""
     for a, g in fw.axes_of(groups):
         fw.core.shift_position(a, int(g["psft"]))
+        fw.contour.redefined(a, int(g["psft"]))  # a contouring axis's path moves with it
+        fw.cubic.redefined(a, int(g["psft"]))
         fw.params.posbrk_on[a] = False
 
 

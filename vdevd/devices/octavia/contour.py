@@ -79,6 +79,16 @@ class Segments:
         self.path = np.zeros((0, 0))
         self.t = 0
 
+    def redefined(self, axis: int, shift: float) -> None:
+        """POS_SHIFT of `axis` while it contours: its path moves with its counter, so the motor
+        goes on where it was going ("without losing position integrity" [Ch5 POS_SHIFT])."""
+        if not self.running:
+            return
+        self.p_end[axis] += shift
+        cols = np.flatnonzero(self.axes == axis)
+        if len(cols) and self.path.size:
+            self.path[:, cols] += shift
+
     def close(self, axes: np.ndarray) -> None:
         """Open-loop (DDAC) axes of `axes` close their loop, as motion commands do [Ch5 DDAC]."""
         fw = self.fw

@@ -80,6 +80,13 @@ class CubicInt(Segments):
         self.count = None  # a count the last run could not publish is lost (README)
         self.running = True
 
+    def redefined(self, axis: int, shift: float) -> None:
+        """POS_SHIFT of a CUBIC_INT axis: its points and path move with its counter."""
+        super().redefined(axis, shift)
+        cols = np.flatnonzero(self.axes == axis)
+        if self.running and len(cols):
+            self.points[:, cols] += shift
+
     # -- the sample ------------------------------------------------------------------------------
     def step(self) -> None:
         """One sample while running (the firmware calls it before the core's tick)."""
