@@ -182,16 +182,18 @@ def raw_to_vel(raw: int) -> float:
     return vel_from_raw(raw & 0xFFFFFFFF)
 
 
-def ratio_to_raw(ratio: float) -> int:
-    """A gear or cam ratio as the 1.8.7 word: round(r * 128), -256 .. 255.99 (spec Q-5)."""
-    raw = round(ratio * 128)
+def ratio_to_raw(ratio: float, bits: int = 7) -> int:
+    """A gear or cam ratio as the 1.8.7 word: round(r * 2^bits), -256 .. 255.99 (spec Q-5);
+    `bits` 12 for a card whose `gear_ratio_bits` is 12 (the manual's GEAR examples: 2000h = 2.0;
+    cam ratios are always 1.8.7)."""
+    raw = round(ratio * (1 << bits))
     if not -0x8000 <= raw <= 0x7FFF:
-        raise ValueError(f"ratio {ratio} outside -256 .. 255.99")
+        raise ValueError(f"ratio {ratio} outside the signed 16-bit word at {bits} fraction bits")
     return raw
 
 
-def raw_to_ratio(raw: int) -> float:
-    return _signed(raw, 16) / 128
+def raw_to_ratio(raw: int, bits: int = 7) -> float:
+    return _signed(raw, 16) / (1 << bits)
 
 
 def volts_to_dac(volts: float) -> int:

@@ -240,3 +240,13 @@ def test_cleared_takes_sources_by_axis_and_the_type_once_empty() -> None:
     assert after[9] == 0 and after[12] == 0
     status = IntStatus(raw)
     assert status.sources(DspStat1.MOTCP) == 0x03 and status.sources(DspStat2.OFFSET) == 0x02
+
+
+def test_ratio_helpers_take_the_cards_gear_ratio_bits() -> None:
+    """1.8.7 by default (0.25 -> 0020h, the LOAD_CAM_TABLE example); 12 fraction bits as the
+    GEAR examples encode 2.0 (2000h) and 2.5 (2800h) [Ch5 GEAR; spec Q-5]."""
+    assert mx4.ratio_to_raw(0.25) == 0x20
+    assert mx4.ratio_to_raw(2.0, bits=12) == 0x2000 and mx4.ratio_to_raw(2.5, bits=12) == 0x2800
+    assert mx4.raw_to_ratio(0x2800, bits=12) == 2.5
+    with pytest.raises(ValueError):
+        mx4.ratio_to_raw(9.0, bits=12)
