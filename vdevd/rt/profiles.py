@@ -322,8 +322,10 @@ class ProfileGenerator:
         if len(phases) > MAX_PHASES:
             raise ValueError(f"a plan of {len(phases)} phases (at most {MAX_PHASES})")
         m = len(phases)
-        self.table[:, axis, :m] = np.array(
-            [(t0, t0 + dur, p0, v0, a0, j) for t0, dur, p0, v0, a0, j in phases]).T
+        rows = np.array(phases).T  # t0, dur, p0, v0, a0, j
+        tab = self.table[:, axis, :m]
+        tab[...] = rows
+        tab[1] += rows[0]  # the end of each phase: t0 + dur
         self.pend[axis, m - 1:] = INF
         self.k[axis] = 0
         self._enter_one(axis)

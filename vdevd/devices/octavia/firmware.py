@@ -63,6 +63,12 @@ HOUSEKEEPING = 25  # samples in 5 ms [Ch5 INT5MS, Ch7 Table 7-1 SERVOCHK]
 _DONE = int(AxisFlag.DONE)
 #: Firmware.watch: the per-sample checks in use
 _WATCH_FE, _WATCH_ENCFLT, _WATCH_POSBRK, _WATCH_INDEX = 1, 2, 4, 8
+#: the RTCs that change none of the enables the per-sample checks follow (the motion and gain
+#: commands a host sends most): `poll_rtc` leaves `watch` as it is after them
+_WATCH_KEPT = frozenset({
+    "AXMOVE", "AXMOVE_S", "AXMOVE_T", "REL_AXMOVE", "REL_AXMOVE_S", "REL_AXMOVE_T", "VELMODE",
+    "STOP", "DDAC", "MAXACC", "ESTOP_ACC", "CTRL", "CTRL_KA", "KILIMIT", "OUTGAIN",
+    "TRQ_LIMIT", "PARREAD", "OUTP_ON", "OUTP_OFF", "EN_MOTCP"})
 _RTC, _ARGS = int(Dpr.RTC), int(Dpr.ARGMNTS)
 #: DSPSTAT1 type bit -> its INTAXIS source byte (000h + bit number + 1) [Table 6-2]
 _SOURCE = {int(b): int(Dpr.DSPSTAT1) + 1 + int(b).bit_length() - 1 for b in DspStat1}
@@ -266,7 +272,8 @@ class Firmware:
                     handler(self, head, groups)
         if rtc is None or rtc.name != "RESET":  # RESET cleared the whole DPR
             buf[_RTC] = 0
-        self.refresh_watch()
+        if rtc is not None and rtc.name not in _WATCH_KEPT:
+            self.refresh_watch()
 
     def refresh_watch(self) -> None:
         """Which per-sample checks have anything to check (after every RTC and change of the
