@@ -87,3 +87,15 @@ def test_pos_shift_while_contouring_moves_the_path_with_the_counter() -> None:
         twin.run(1)
         assert host.card.fw.core.physical()[0] == twin.card.fw.core.physical()[0]
         assert host.position(1) == twin.position(1) + 100_000
+
+
+def test_dspl_variables_survive_reset_unless_the_option_clears_them() -> None:
+    """Spec Q-23 leaves it open whether RESET clears VAR1..128: they survive by default (the
+    battery RAM), `reset_clears_vars = true` clears them."""
+    for clears in (False, True):
+        host = Host(reset_clears_vars=clears)
+        host.rtc("CHANGE_VAR", {"m": 1}, [{"var": 3, "value": b"\x01\x02\x03\x04\x05\x06"}])
+        host.rtc("RESET", {"sig1": 0xAA, "sig2": 0xAA})
+        host.run(2)
+        expected = 0 if clears else 0x060504030201
+        assert host.card.control("dspl_var", {"var": 3}) == expected

@@ -71,6 +71,9 @@ class OctaviaCard(Card):
         "battery_backup": Option(bool, True,
                                  help="the battery-backed RAM option: tables, DSPL variables and "
                                       "autostart kept in the state directory [Ch8]"),
+        "reset_clears_vars": Option(bool, False,
+                                    help="RESET clears the DSPL variables too (default: they "
+                                         "survive it, in the battery RAM) [spec Q-23]"),
     }
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
@@ -87,7 +90,8 @@ class OctaviaCard(Card):
         self.fw = Firmware(self.dpr.buf, n, self.opts.plant, self.opts.firmware,
                            raise_line=self.inta.trigger,
                            gear_ratio_bits=self.opts.gear_ratio_bits,
-                           follow_master=self.opts.follow_master)
+                           follow_master=self.opts.follow_master,
+                           reset_clears_vars=self.opts.reset_clears_vars)
         # the battery-backed RAM across daemon restarts (battery.py, README "Battery-backed RAM")
         store = ctx.nvram if self.opts.battery_backup else None
         self._battery = battery.Writer(store, name) if store is not None else None

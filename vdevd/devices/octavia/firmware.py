@@ -88,8 +88,11 @@ class Firmware:
 
     def __init__(self, buf: Memory, n: int, plant: str = "servo",
                  option: str = "standard", raise_line: Callable[[int], None] | None = None,
-                 gear_ratio_bits: int = 7, follow_master: str = "actual") -> None:
+                 gear_ratio_bits: int = 7, follow_master: str = "actual",
+                 reset_clears_vars: bool = False) -> None:
         self.buf, self.n, self.option = buf, n, option
+        #: RESET clears the DSPL variables too (the card option; spec Q-23 leaves it open)
+        self.reset_clears_vars = reset_clears_vars
         kind = PlantKind.SERVO if plant == "servo" else PlantKind.IDEAL
         self.core = MotionCore(n, SAMPLE_NS, kind)
         self.core.plant.set(slice(None), amp_gain=PLANT_AMP_GAIN)
@@ -182,6 +185,9 @@ class Firmware:
         self.index_seen = 0
         self._deferred.clear()
         self.follow.reset()
+        if self.reset_clears_vars and self.dspl.vars.any():
+            self.dspl.vars[:] = 0
+            self.nv_dirty = True
         self.dspl.power_up()
         self.apply_gains()
         self.refresh_inputs()
