@@ -42,13 +42,6 @@ def _refused(fw: Firmware, axes: list[int], conflict_modes: tuple[int, ...]) -> 
     return not bits
 
 
-def _closed(fw: Firmware, a: int) -> None:
-    """An open-loop axis (DDAC) returns to closed loop with a motion command [Ch5 DDAC]."""
-    if int(fw.mode[a]) == Mode.OPEN:
-        fw.core.servo_on(a)
-        fw.mode[a] = Mode.HOLD
-        fw.any_open = bool((fw.mode == Mode.OPEN).any())
-
 
 def move_time_velocity(acc: float, dist: float, samples: float) -> float:
     """The slew velocity of a trapezoid covering `dist` counts in `samples` at `acc`
@@ -82,7 +75,7 @@ def axmove(relative: str, shape: str, fw: Firmware, head: dict[str, Any], groups
             vel = abs(vel_from_raw(g["vel"]))
         if acc <= 0 or vel <= 0:
             continue
-        _closed(fw, a)
+        fw.close_loop([a])
         a_s, v_s = acc / (TS * TS), vel / TS
         if shape == "s_curve":  # triangular acceleration pulses peaking at 2*acc [Ch5 AXMOVE_S]
             core.move_one(a, target, v_s, 2 * a_s, 2 * a_s, 4 * a_s * a_s / v_s, commit=False)
@@ -153,7 +146,7 @@ def velmode(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:
     for a, g in todo:
         vel = vel_from_raw(g["vel"])
         acc = acc_from_raw(int(fw.params.maxacc[a])) / (TS * TS)
-        _closed(fw, a)
+        fw.close_loop([a])
         core.jog(a, vel / TS, acc, acc)
         fw.mode[a] = Mode.VELMODE
         fw._prev_flags[a] = 0

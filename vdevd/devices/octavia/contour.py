@@ -89,19 +89,11 @@ class Segments:
         if len(cols) and self.path.size:
             self.path[:, cols] += shift
 
-    def close(self, axes: np.ndarray) -> None:
-        """Open-loop (DDAC) axes of `axes` close their loop, as motion commands do [Ch5 DDAC]."""
-        fw = self.fw
-        opened = axes[fw.mode[axes] == Mode.OPEN]
-        if len(opened):
-            fw.core.servo_on(opened)
-            fw.mode[opened] = Mode.HOLD
-            fw.any_open = bool((fw.mode == Mode.OPEN).any())
 
     def join(self, axes: np.ndarray) -> None:
         """`axes` start contouring from their present commanded state, at rest (spec §5.4)."""
         fw = self.fw
-        self.close(axes)
+        self.fw.close_loop(axes)
         self.p_end[axes] = fw.core.axes.cmd_pos[axes]
         self.v_end[axes] = 0.0
         fw.mode[axes] = self.mode

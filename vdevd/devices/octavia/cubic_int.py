@@ -74,7 +74,7 @@ class CubicInt(Segments):
         self.axes = np.array(axes, dtype=np.intp)
         self.path = np.zeros((0, k))
         self.t = 0
-        self.close(self.axes)
+        self.fw.close_loop(self.axes)
         fw.mode[self.axes] = Mode.CUBIC
         self.delay = INTERPRET_SAMPLES
         self.count = None  # a count the last run could not publish is lost (README)

@@ -548,6 +548,18 @@ class Firmware:
         """The 0-based axes of an axis mask that the card has."""
         return [a for a in range(self.n) if mask >> a & 1]
 
+    def close_loop(self, axes: list[int] | np.ndarray) -> None:
+        """Open-loop (DDAC) axes of `axes` close their loop and hold, as a motion command makes
+        them [Ch5 DDAC]."""
+        if not self.any_open:  # (the usual case: no axis is open)
+            return
+        idx = np.atleast_1d(np.asarray(axes, dtype=np.intp))
+        opened = idx[self.mode[idx] == Mode.OPEN]
+        if len(opened):
+            self.core.servo_on(opened)
+            self.mode[opened] = Mode.HOLD
+            self.any_open = bool((self.mode == Mode.OPEN).any())
+
     def halting(self, axes: list[int]) -> list[int]:
         """Of `axes`, those halting under STOP or ESTOP (or held by an active *ESTOP)."""
         if self.estop:

@@ -117,16 +117,12 @@ class Following:
         fw = self.fw
         if not self.active:  # the redefinitions made while nothing followed are no travel
             self.zero = fw.core.zero.copy()
-        opened = int(fw.mode[axis]) == Mode.OPEN
-        if opened:
-            fw.core.servo_on(axis)
+        fw.close_loop([axis])
         if mode == Mode.CAM:
             self.gears.disengage(axis)
         else:
             self.cam.disengage(axis)
         fw.mode[axis] = mode
-        if opened:
-            fw.any_open = bool((fw.mode == Mode.OPEN).any())
         self.seen[axis] = False
         self.off_moving[axis] = False
         self.offset[axis] = self.off_vel[axis] = 0.0
