@@ -17,7 +17,7 @@ import struct
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from vdevmaps.octavia import STAGING_BYTES, Dpr, DspStat1
+from vdevmaps.octavia import STAGING_BYTES, Dpr
 
 from vdevd.devices.octavia.cam import EXT_CODES, place_cam_point, table_problem
 from vdevd.devices.octavia.ram import CAM_POINTS
@@ -45,16 +45,6 @@ def master_axis(fw: Firmware, mask: int, name: str) -> int | None:
     return axes[0]
 
 
-def refused(fw: Firmware, slaves: list[int]) -> bool:
-    """A slave that contours makes the command conflict (reported, discarded)."""
-    modes = fw.mode.tolist()
-    busy = [a for a in slaves if modes[a] in CONTOURING]
-    if busy:
-        fw.post_stat1(DspStat1.CONFLICT, sum(1 << a for a in busy))
-        return True
-    return False
-
-
 def probe_code(fw: Firmware, q: int, name: str) -> bool:
     """q is one of the EXT bit codes 01h/02h/04h/08h [Ch5 CAM_PROBE, GEAR_PROBE] (the GEAR_PROBE
     example's 20h is a manual error, spec Q-30): else the command is ignored (logged)."""
@@ -67,7 +57,9 @@ def probe_code(fw: Firmware, q: int, name: str) -> bool:
 def _engage(fw: Firmware, head: dict[str, Any], groups: Groups, name: str, how: str) -> None:
     master = master_axis(fw, head["n"], name)
     slaves = fw.axes_of(groups)
-    if master is None or not slaves or refused(fw, [a for a, _ in slaves]):
+    if master is None or not slaves:
+        return
+    if fw.discarded([a for a, _ in slaves], CONTOURING, halting=False):
         return
     if how == "probe":
         if not probe_code(fw, head["q"], name):

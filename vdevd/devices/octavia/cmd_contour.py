@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING, Any
 
 from vdevmaps.octavia import RING_SLOTS
 
-from vdevd.devices.octavia.cmd_motion import _refused
 from vdevd.devices.octavia.contour import BUSY_MODES
 from vdevd.devices.octavia.state import Mode
 
@@ -52,7 +51,7 @@ def start(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:
     if fw.contour.running:
         return
     axes = fw.mask(head["n"])
-    if axes and not _refused(fw, axes, BUSY_MODES):
+    if axes and not fw.discarded(axes, BUSY_MODES):
         fw.contour.start(axes)
 
 
@@ -83,7 +82,7 @@ def cubic_int(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:
     if fw.cubic.running:
         log.warning("octavia: CUBIC_INT while one runs: ignored")
         return
-    if _refused(fw, axes, (Mode.MOVE, Mode.VELMODE, Mode.CONTOUR)):
+    if fw.discarded(axes, (int(Mode.MOVE), int(Mode.VELMODE), int(Mode.CONTOUR))):
         return
     try:
         fw.cubic.start(axes, int(head["m"]), int(head["si"]), int(head["n"]))

@@ -13,8 +13,8 @@ from typing import TYPE_CHECKING, Any
 
 from vdevmaps.octavia import DspStat1, acc_from_raw, vel_from_raw
 
-from vdevd.devices.octavia.cmd_cam import master_axis, probe_code, refused
-from vdevd.devices.octavia.state import Mode
+from vdevd.devices.octavia.cmd_cam import master_axis, probe_code
+from vdevd.devices.octavia.state import CONTOURING, Mode
 
 if TYPE_CHECKING:
     from vdevd.devices.octavia.firmware import Firmware
@@ -27,7 +27,9 @@ Groups = list[tuple[int, dict[str, Any]]]
 def _engage(fw: Firmware, head: dict[str, Any], groups: Groups, name: str, how: str) -> None:
     leader = master_axis(fw, head["n"], name)
     followers = fw.axes_of(groups)
-    if leader is None or not followers or refused(fw, [a for a, _ in followers]):
+    if leader is None or not followers:
+        return
+    if fw.discarded([a for a, _ in followers], CONTOURING, halting=False):
         return
     if how == "probe":
         if not probe_code(fw, head["q"], name):

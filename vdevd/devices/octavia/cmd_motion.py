@@ -14,7 +14,7 @@ import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from vdevmaps.octavia import DspStat1, acc_from_raw, vel_from_raw
+from vdevmaps.octavia import acc_from_raw, vel_from_raw
 
 from vdevd.devices.octavia.state import CONTOURING, Mode
 
@@ -24,23 +24,6 @@ if TYPE_CHECKING:
 Groups = list[tuple[int, dict[str, Any]]]
 TS = 200e-6
 VMAX = 0xFFFFFF / 65536.0  # counts/sample: "maximum unsigned velocity 00FFFFFFh" [Ch5 AXMOVE]
-
-
-def _refused(fw: Firmware, axes: list[int], conflict_modes: tuple[int, ...]) -> bool:
-    """Report and refuse a motion command for `axes` (0-based) that conflicts with the modes
-    `conflict_modes` or names a halting axis; True when refused."""
-    bits = sum(1 << a for a in axes)
-    halting = fw.halting(axes)
-    if halting:
-        fw.post_stat1(DspStat1.IGNORED, sum(1 << a for a in halting))
-        return True
-    modes = fw.mode.tolist()
-    conflict = [a for a in axes if modes[a] in conflict_modes]
-    if conflict:
-        fw.post_stat1(DspStat1.CONFLICT, sum(1 << a for a in conflict))
-        return True
-    return not bits
-
 
 
 def move_time_velocity(acc: float, dist: float, samples: float) -> float:
@@ -62,7 +45,7 @@ def axmove(relative: str, shape: str, fw: Firmware, head: dict[str, Any], groups
     axis already moving re-targets from its present state (Example 3). Zero acceleration, or a
     zero slew velocity, leaves that axis where it is."""
     todo = fw.axes_of(groups)
-    if not todo or _refused(fw, [a for a, _ in todo], CONTOURING):
+    if not todo or fw.discarded([a for a, _ in todo], CONTOURING):
         return
     core = fw.core
     for a, g in todo:
@@ -140,7 +123,7 @@ def velmode(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:
     VELMODE]; ignored while MAXACC is 0 (Note); velocity 0 ends the mode (motion complete when
     the axis stops, spec §5.3)."""
     todo = [(a, g) for a, g in fw.axes_of(groups) if fw.params.maxacc[a] > 0]
-    if not todo or _refused(fw, [a for a, _ in todo], CONTOURING):
+    if not todo or fw.discarded([a for a, _ in todo], CONTOURING):
         return
     core = fw.core
     for a, g in todo:

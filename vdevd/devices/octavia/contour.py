@@ -34,7 +34,7 @@ VECCHG_LEVELS = 3  # "Three buffer levels are used to implement this instruction
 _OUT, _IN = int(Dpr.OUTPTR), int(Dpr.INPTR)
 #: the modes whose axes START or a vector change cannot take (Ch7 "Conflicting Commands"; an
 #: axis running CUBIC_INT contours too)
-BUSY_MODES = (Mode.MOVE, Mode.VELMODE, Mode.CUBIC)
+BUSY_MODES = (int(Mode.MOVE), int(Mode.VELMODE), int(Mode.CUBIC))
 _NO_AXES = np.zeros(0, dtype=np.intp)
 
 

@@ -560,6 +560,24 @@ class Firmware:
             self.mode[opened] = Mode.HOLD
             self.any_open = bool((self.mode == Mode.OPEN).any())
 
+    def discarded(self, axes: list[int], conflicts: tuple[int, ...], halting: bool = True
+                  ) -> bool:
+        """Whether a motion command for `axes` (0-based) is discarded, reported as the card
+        reports it (Ch7 Table 7-1): "RTC ignored" (000h b7, 008h) for axes halting under STOP or
+        *ESTOP (with `halting`), else "conflicting commands" (b6, 007h) for axes in one of the
+        modes `conflicts`. No axis: discarded, unreported."""
+        if halting:
+            stopping = self.halting(axes)
+            if stopping:
+                self.post_stat1(DspStat1.IGNORED, sum(1 << a for a in stopping))
+                return True
+        modes = self.mode.tolist()
+        busy = [a for a in axes if modes[a] in conflicts]
+        if busy:
+            self.post_stat1(DspStat1.CONFLICT, sum(1 << a for a in busy))
+            return True
+        return not axes
+
     def halting(self, axes: list[int]) -> list[int]:
         """Of `axes`, those halting under STOP or ESTOP (or held by an active *ESTOP)."""
         if self.estop:
