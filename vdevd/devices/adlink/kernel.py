@@ -1,0 +1,540 @@
+"""The AMP-204C/208C motion kernel, sans-I/O [M ch. 4; spec adlink.md §2].
+
+One `cycle()` is one motion cycle in the order of the spec's emulation rule (§2.2): inputs
+(the card applies its axis world before), protections, trajectories (the units' paths, then the
+motion core's tick), the single-axis segment queue and completions, the units' after-motion work
+(compare, PWM, sampling), the status words, the interrupt factors. `execute()` runs a mailbox
+command at once (the host communication of §4.1.2.3) and republishes the status, so a status
+call right after a start never shows a stale "done" (spec §2.2, Q10).
+
+Units (interpolation groups, gearing, compare trigger, ... each in its own module) plug in as
+objects with `before_motion(t)`, `after_motion(t)`, `busy()` and `reset()`; an axis a unit
+drives is marked in `owned` and the unit keeps its status through `unit_moving` and `phase`.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import struct
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from vdevmaps.adlink import (
+    BY_CODE,
+    BY_NAME,
+    INT_ITEMS,
+    LAYOUT_VERSION,
+    MAGIC,
+    REPLY_MAX,
+    Bar,
+    CodecError,
+    decode,
+    encode,
+)
+
+from vdevmaps.aps_defs import (
+    ERR_FunctionNotAvailable,
+    ERR_ParametersInvalid,
+    MIO_ALM,
+    MIO_EMG,
+    MIO_EZ,
+    MIO_INP,
+    MIO_MEL,
+    MIO_ORG,
+    MIO_PEL,
+    MIO_SMEL,
+    MIO_SPEL,
+    MIO_SVON,
+    MTS_ACC,
+    MTS_ASTP,
+    MTS_BLD,
+    MTS_CSTP,
+    MTS_DEC,
+    MTS_DIR,
+    MTS_GER,
+    MTS_HMV,
+    MTS_JOG,
+    MTS_MDN,
+    MTS_POSTD,
+    MTS_PRED,
+    MTS_PTB,
+    MTS_VM,
+    MTS_WAIT,
+    STOP_ALM,
+    STOP_EMG,
+    STOP_ERROR_LEVEL,
+    STOP_MEL,
+    STOP_NORMAL,
+    STOP_PEL,
+    STOP_SMEL,
+    STOP_SPEL,
+    STOP_SVNO,
+)
+
+from vdevd.devices.adlink import cmd_system, home, jog, motion, profile
+from vdevd.devices.adlink import status as st
+from vdevd.devices.adlink.commands import COMMANDS
+from vdevd.devices.adlink.errors import ApsError
+from vdevd.devices.adlink.modes import HOME, IDLE, JOG, STOPPING, UNIT, VEL, Unit
+from vdevd.devices.adlink.params import AxisParams, BoardParams
+from vdevd.rt import MotionCore, PlantKind
+
+log = logging.getLogger(__name__)
+
+# interrupt items [M §4.11]
+ITEM_SYSTEM, ITEM_DI_RISE, ITEM_DI_FALL = 8, 9, 10
+SYS_IEMG = 1 << 0
+# the axis factors that follow status conditions (bit numbers of M §4.11)
+_I = {"IALM": 0, "IPEL": 1, "IMEL": 2, "IORG": 3, "IEZ": 4, "IINP": 5, "IEMG": 6, "ICSTP": 8,
+      "IVM": 9, "IACC": 10, "IDEC": 11, "IMDN": 12, "IASTP": 13, "ISPEL": 15, "ISMEL": 16,
+      "IPRED": 18, "IPOSTD": 19}
+
+_U32 = struct.Struct("<I")
+_ACK = struct.Struct("<IiII")
+
+
+class Kernel:
+    """The kernel of one card: parameters, the axes on a motion core, the status block."""
+
+    def __init__(self, buf: bytearray | memoryview, n: int, model: int, card_id: int,
+                 cycle_us: int, drive: str, raise_line: Callable[[], None],
+                 inp_window: float = 1.0) -> None:
+        self.buf = buf
+        self.n = n
+        self.model = model
+        self.card_id = card_id
+        self.drive = drive
+        self.raise_line = raise_line
+        self.inp_window = inp_window
+        self.dt = cycle_us / 1e6
+        self.cycle_us = cycle_us
+        self.core = MotionCore(n, cycle_us * 1000,
+                               PlantKind.SERVO if drive == "servo" else PlantKind.IDEAL)
+        self.core.servo_on(slice(None))  # the drive follows the pulses; SVON is `svon` (jams)
+        self.axis_params = AxisParams(n)
+        self.board_params = BoardParams()
+        self.records = st.axis_records(buf, n)
+        self.int_enable = st.u32_words(buf, Bar.INT_ENABLE, INT_ITEMS)
+        self.int_signal = st.u32_words(buf, Bar.INT_SIGNAL, INT_ITEMS)
+        self.units: list[Unit] = []
+        #: the mailbox handlers by command code
+        bound = COMMANDS.bind(cmd_system, motion, home, jog)
+        self.handlers: dict[int, Callable[..., Any]] = {
+            BY_NAME[name].code: fn for name, fn in bound.items()}
+        self.flash: dict[str, Any] | None = None  # the parameter image saved to flash
+        self.flash_dirty = False  # a new image for the card to write
+        self.params_changed = False
+        self.new_cycle_us: int | None = None  # PRB 8000h set: the card changes its period
+        #: LPSTS (0.01 % of the cycle) and the over-cycle count [M §4.1.2]
+        self.timing = [0, 0, 0, 0, 0]
+        self.power_up()
+
+    def parameter_image(self) -> dict[str, Any]:
+        """What APS_save_parameter_to_flash keeps: board and axis parameters, and the units'."""
+        units = {type(u).__name__: u.image() for u in self.units if hasattr(u, "image")}
+        return {"axis": self.axis_params.image(), "board": self.board_params.image(),
+                "units": units}
+
+    def restore_parameters(self, image: dict[str, Any]) -> None:
+        self.axis_params.restore(image.get("axis", {}))
+        self.board_params.restore(image.get("board", {}))
+        saved = image.get("units", {})
+        for u in self.units:
+            if hasattr(u, "restore") and type(u).__name__ in saved:
+                u.restore(saved[type(u).__name__])
+
+    # -- state -----------------------------------------------------------------------------------
+    def power_up(self) -> None:
+        n = self.n
+        self.cycles = 0
+        self.mode = np.zeros(n, dtype=np.int8)
+        self.svon = np.zeros(n, dtype=bool)
+        self.cmd_off = np.zeros(n)  # user offsets of APS_set_command_f / set_position_f
+        self.fb_off = np.zeros(n)
+        self.target = np.zeros(n)  # user units
+        self.stop_code = np.zeros(n, dtype=np.int32)
+        self.astp = np.zeros(n, dtype=bool)
+        self.mdn = np.ones(n, dtype=bool)
+        self.wait = np.zeros(n, dtype=bool)
+        self.direction = np.zeros(n, dtype=bool)  # DIR: 1 positive, held after a stop
+        self.pred = np.zeros(n, dtype=bool)
+        self.postd = np.zeros(n, dtype=bool)
+        self.pred_at = np.full(n, math.inf)  # times the pre/post-distance events fall due
+        self.postd_at = np.full(n, math.inf)
+        self.seg_end = np.full(n, math.inf)  # end of the running single-axis segment
+        self.owned = np.zeros(n, dtype=bool)  # a unit drives the axis
+        self.unit_moving = np.zeros(n, dtype=bool)
+        self.phase = np.zeros(n, dtype=np.int8)  # a unit's ACC 1 / VM 2 / DEC 3 of its axes
+        self.hmv = np.zeros(n, dtype=bool)
+        self.jog = np.zeros(n, dtype=bool)
+        self.ptb = np.zeros(n, dtype=bool)
+        self.bld = np.zeros(n, dtype=bool)
+        self.ger = np.zeros(n, dtype=bool)
+        self.gear_status = np.zeros(n, dtype=np.int32)
+        self.mq_usage = np.zeros(n, dtype=np.int32)
+        # inputs: raw levels (True = the signal is on at the connector), logic applied later
+        self.raw_alm = np.zeros(n, dtype=bool)
+        self.raw_pel = np.zeros(n, dtype=bool)
+        self.raw_mel = np.zeros(n, dtype=bool)
+        self.raw_org = np.zeros(n, dtype=bool)
+        self.raw_ez = np.zeros(n, dtype=bool)
+        self.inp_force = np.full(n, -1, dtype=np.int8)  # backdoor set_inp: -1 from the drive
+        self.raw_emg = False
+        self.di_raw = 0
+        self.do_word = 0
+        self.emg = False
+        self.alm = np.zeros(n, dtype=bool)
+        self.pel = np.zeros(n, dtype=bool)
+        self.mel = np.zeros(n, dtype=bool)
+        self.org = np.zeros(n, dtype=bool)
+        self.ez = np.zeros(n, dtype=bool)
+        self.inp = np.zeros(n, dtype=bool)
+        self.spel = np.zeros(n, dtype=bool)
+        self.smel = np.zeros(n, dtype=bool)
+        self.queue: list[list[Any]] = [[] for _ in range(n)]  # queued PTP segments per axis
+        self.seg_plan: list[Any] = [None] * n  # the running PTP segment
+        self.seg_vm = np.zeros(n)  # its Vm and Ve, and where it started (user units)
+        self.seg_ve = np.zeros(n)
+        self.seg_from = np.zeros(n)
+        self.pending_start = np.zeros(n, dtype=np.int8)  # what OPT_WAIT holds: PTP, VEL, UNIT
+        self.vel_pending: list[Any] = [None] * n
+        #: a unit's command waiting for APS_move_trigger, by axis (idempotent: every axis of a
+        #: group holds the same one)
+        self.unit_starts: dict[int, Callable[[], None]] = {}
+        #: the next step of a home or jog sequence when the axis's profile ends (True: it
+        #: planned another profile)
+        self.sequences: dict[int, Callable[[], bool]] = {}
+        self.int_main = False
+        self.int_enable[:] = 0
+        self.int_signal[:] = 0
+        self.prev_axis_cond = np.zeros(n, dtype=np.int64)
+        self.prev_sys = 0
+        self.prev_di = 0
+        self.sys_events = 0  # system factors a unit raised this cycle (compare ends)
+        self.ack_seq = 0
+        self.msts = np.zeros(n, dtype=np.int64)
+        self.mio = np.zeros(n, dtype=np.int64)
+        for u in self.units:
+            u.reset()
+        self.write_identity()
+
+    def write_identity(self) -> None:
+        buf = self.buf
+        for off, v in ((Bar.MAGIC, MAGIC), (Bar.LAYOUT, LAYOUT_VERSION), (Bar.MODEL, self.model),
+                       (Bar.AXES, self.n), (Bar.CARD_ID, self.card_id),
+                       (Bar.CYCLE_US, self.cycle_us)):
+            _U32.pack_into(buf, off, v)
+
+    # -- units and parameters ----------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        """The kernel's clock, seconds (the motion core's profile clock)."""
+        return self.core.profile.t
+
+    def p(self, no: int) -> np.ndarray:
+        """An axis parameter's row (F64 per axis)."""
+        return self.axis_params.row(no)
+
+    def factor(self, a: int) -> float:
+        return float(self.axis_params.row(0x86)[a])
+
+    def user_cmd(self) -> np.ndarray:
+        return self.core.axes.cmd_pos / self.axis_params.row(0x86) + self.cmd_off
+
+    def user_fbk(self) -> np.ndarray:
+        return self.core.axes.fb / self.axis_params.row(0x86) + self.fb_off
+
+    def to_counts(self, a: int, user: float) -> float:
+        return (user - float(self.cmd_off[a])) * self.factor(a)
+
+    def check_axis(self, a: int) -> None:
+        if isinstance(a, bool) or not 0 <= a < self.n:
+            raise ApsError(ERR_ParametersInvalid, f"axis {a} outside 0..{self.n - 1}")
+
+    # -- the mailbox -------------------------------------------------------------------------------
+    def execute(self, seq: int, code: int, args: bytes) -> None:
+        """Run one posted command and leave its acknowledgement (seq, rc, reply)."""
+        call = BY_CODE.get(code)
+        handler = self.handlers.get(code)
+        reply = b""
+        if call is None or handler is None:
+            rc = ERR_FunctionNotAvailable
+        else:
+            try:
+                values = decode(call.args, args)
+                out = handler(self, *values)
+                rc = 0
+                if call.reply:
+                    reply = encode(call.reply, out if isinstance(out, list | tuple) else [out])
+                    if len(reply) > REPLY_MAX:
+                        raise ApsError(ERR_ParametersInvalid, "reply too long")
+            except CodecError:
+                rc, reply = ERR_ParametersInvalid, b""
+            except ApsError as exc:
+                rc, reply = exc.code, b""
+            except (ValueError, OverflowError, struct.error) as exc:
+                log.debug("adlink: %s refused: %s", call.name, exc)
+                rc, reply = ERR_ParametersInvalid, b""
+        self.ack_seq = seq
+        _ACK.pack_into(self.buf, Bar.ACK_SEQ, seq & 0xFFFFFFFF, rc, len(reply), code & 0xFFFFFFFF)
+        self.buf[Bar.REPLY:Bar.REPLY + len(reply)] = reply
+        self.publish()
+
+    # -- the cycle ---------------------------------------------------------------------------------
+    def cycle(self) -> None:
+        """One motion cycle (spec §2.2's order)."""
+        self.cycles += 1
+        core = self.core
+        t_next = core.profile.t + self.dt
+        self.logic()
+        self.protect()
+        if (self.seg_end <= t_next + 1e-12).any():
+            self.segment_ends(t_next)
+        for u in self.units:
+            u.before_motion(t_next)
+        core.tick()
+        self.completions()
+        for u in self.units:
+            u.after_motion(core.profile.t)
+        self.events()
+
+    def logic(self) -> None:
+        """The logical (post-inversion) signals from the raw levels [M §4.1.1.4]."""
+        p = self.p
+        self.emg = bool(self.raw_emg) != bool(self.board_params.values[0x00])
+        el = p(0x00) != 0
+        self.pel = self.raw_pel != el
+        self.mel = self.raw_mel != el
+        self.org = self.raw_org != (p(0x01) != 0)
+        self.alm = self.raw_alm != (p(0x04) != 0)
+        self.ez = self.raw_ez != (p(0x06) != 0)
+        ax = self.core.axes
+        settled = (np.abs(ax.cmd_pos - ax.fb) <= self.inp_window) & ~self.moving() & self.svon
+        inp = np.where(self.inp_force >= 0, self.inp_force == 1, settled)
+        self.inp = inp != (p(0x05) != 0)
+        cmd = self.user_cmd()
+        self.spel = (p(0x08) != 0) & (cmd >= p(0x0A))
+        self.smel = (p(0x09) != 0) & (cmd <= p(0x0B))
+
+    def moving(self) -> np.ndarray:
+        return self.core.profile.moving | self.unit_moving
+
+    def protect(self) -> None:
+        """EMG, ALM, hard and soft limits, position-error protection [M §4.10]."""
+        moving = self.moving()
+        if not moving.any() and not self.svon.any():
+            return
+        vel = self.core.axes.cmd_vel
+        if self.emg and moving.any():
+            self.abnormal(np.flatnonzero(moving), STOP_EMG, immediate=True)
+            moving = self.moving()
+        hit = moving & self.alm
+        if hit.any():
+            self.abnormal(np.flatnonzero(hit), STOP_ALM, immediate=True)
+        decel = self.p(0x02) != 0
+        for cond, sign, code in ((self.pel, 1, STOP_PEL), (self.mel, -1, STOP_MEL),
+                                 (self.spel, 1, STOP_SPEL), (self.smel, -1, STOP_SMEL)):
+            hit = self.moving() & cond & (vel * sign > 0) & (self.mode != STOPPING)
+            if hit.any():
+                for a in np.flatnonzero(hit).tolist():
+                    self.abnormal(np.array([a]), code, immediate=not decel[a])
+        level = self.p(0x124)
+        ax = self.core.axes
+        over = (level > 0) & (np.abs(ax.cmd_pos - ax.fb) > level * self.axis_params.row(0x86))
+        over &= self.svon
+        if over.any():
+            idx = np.flatnonzero(over)
+            self.abnormal(idx, STOP_ERROR_LEVEL, immediate=True)
+            self.servo(idx, False)
+
+    # -- stops -------------------------------------------------------------------------------------
+    def abnormal(self, idx: np.ndarray, code: int, immediate: bool) -> None:
+        """An abnormal stop of axes `idx` (and of the groups they are in): ASTP and the code
+        [M §4.10]; immediate, or at PRA_SD_DEC."""
+        self.stop_axes(idx, code, immediate=immediate, astp=True)
+
+    def stop_axes(self, idx: np.ndarray, code: int, immediate: bool, astp: bool) -> None:
+        """Stop axes `idx`: the queue cleared, WAIT cancelled; the code and ASTP recorded."""
+        for a in idx.tolist():
+            for u in self.units:
+                stop = getattr(u, "stop_axis", None)
+                if stop is not None:
+                    stop(a, code, immediate)
+        core = self.core
+        for a in idx.tolist():
+            self.queue[a].clear()
+            self.seg_end[a] = math.inf
+            self.stop_code[a] = code
+            self.astp[a] = astp
+            self.wait[a] = False
+            if self.mode[a] in (HOME, JOG):
+                self.hmv[a] = self.jog[a] = False
+            if not core.profile.moving[a]:
+                if self.mode[a] != UNIT:
+                    self.mode[a] = IDLE
+                    self.mdn[a] = True
+                continue
+            if immediate:
+                core.profile.hold(a, float(core.axes.cmd_pos[a]))
+                self.mode[a] = IDLE
+                self.mdn[a] = True
+            else:
+                self.stop_profile(a, float(self.p(0x07)[a]), float(self.p(0x20)[a]))
+                self.mode[a] = STOPPING
+        core.profile.commit()
+
+    def stop_profile(self, a: int, dec_user: float, sf: float) -> None:
+        """Decelerate axis a to rest at `dec_user` (user units/s^2) with S-factor sf."""
+        core = self.core
+        p, v, _ = core.profile.state(a)
+        f = self.factor(a)
+        sign = 1.0 if v >= 0 else -1.0
+        plan = profile.plan_stop(abs(v), dec_user * f, sf)
+        core.profile.load(a, profile.to_core_phases(plan, core.profile.t, p, sign, None))
+
+    def servo(self, idx: np.ndarray, on: bool) -> None:
+        """SVON of axes `idx` [M §4.1.1.4]: off, the drive no longer follows the pulses (the
+        stage holds: a jam of the motion core); a moving axis stops at once (code 3)."""
+        if not on:
+            moving = idx[self.moving()[idx]]
+            if len(moving):
+                self.stop_axes(moving, STOP_SVNO, immediate=True, astp=True)
+        self.svon[idx] = on
+        self.follow_drive()
+
+    def follow_drive(self, world_jams: np.ndarray | None = None) -> None:
+        if world_jams is not None:
+            self._world_jams = world_jams
+        jams = getattr(self, "_world_jams", None)
+        blocked = ~self.svon if jams is None else (~self.svon | jams)
+        self.core.follow_jams(blocked)
+
+    # -- segment queue and completions ---------------------------------------------------------------
+    def segment_ends(self, t_next: float) -> None:
+        """Single-axis segments ending by the next tick: the next queued one starts at the end
+        of the last, from its end velocity [M §4.6.4]."""
+        for a in np.flatnonzero(self.seg_end <= t_next + 1e-12).tolist():
+            motion.next_segment(self, a)
+
+    def completions(self) -> None:
+        """Single-axis motions whose profile ended: MDN, the stop code, the home and jog
+        sequences' next steps."""
+        done = (self.mode != IDLE) & (self.mode != UNIT) & ~self.core.profile.moving
+        if not done.any():
+            return
+        for a in np.flatnonzero(done).tolist():
+            motion.profile_ended(self, a)
+
+    def finish(self, a: int, code: int = STOP_NORMAL) -> None:
+        """Axis a's motion is complete."""
+        if self.mode[a] != STOPPING:
+            self.stop_code[a] = code
+        self.mode[a] = IDLE
+        self.mdn[a] = True
+        self.seg_end[a] = math.inf
+        self.hmv[a] = self.jog[a] = False
+
+    # -- status and interrupts ---------------------------------------------------------------------
+    def status_words(self) -> None:
+        """The motion status and motion I/O words of every axis [M §4.8.1, §4.1.1.4]."""
+        ax = self.core.axes
+        v, acc = ax.cmd_vel, ax.cmd_acc
+        moving = self.moving()
+        own = self.phase
+        speeding = moving & (((acc * v) > 0) | ((v == 0) & (acc != 0)))
+        slowing = moving & ((acc * v) < 0)
+        ph_acc = np.where(own > 0, own == 1, speeding)
+        ph_dec = np.where(own > 0, own == 3, slowing)
+        ph_vm = np.where(own > 0, own == 2, moving & ~speeding & ~slowing)
+        self.direction = np.where(moving & (v != 0), v > 0, self.direction)
+        cstp = ~moving
+        msts = (st.bit(cstp, MTS_CSTP) | st.bit(ph_vm & moving, MTS_VM)
+                | st.bit(ph_acc & moving, MTS_ACC) | st.bit(ph_dec & moving, MTS_DEC)
+                | st.bit(self.direction, MTS_DIR) | st.bit(self.mdn, MTS_MDN)
+                | st.bit(self.hmv, MTS_HMV) | st.bit(self.wait, MTS_WAIT)
+                | st.bit(self.ptb, MTS_PTB) | st.bit(self.jog, MTS_JOG)
+                | st.bit(self.astp, MTS_ASTP) | st.bit(self.bld, MTS_BLD)
+                | st.bit(self.pred, MTS_PRED) | st.bit(self.postd, MTS_POSTD)
+                | st.bit(self.ger, MTS_GER))
+        mio = (st.bit(self.alm, MIO_ALM) | st.bit(self.pel, MIO_PEL)
+               | st.bit(self.mel, MIO_MEL) | st.bit(self.org, MIO_ORG)
+               | st.bit(np.full(self.n, self.emg), MIO_EMG) | st.bit(self.ez, MIO_EZ)
+               | st.bit(self.inp, MIO_INP) | st.bit(self.svon, MIO_SVON)
+               | st.bit(self.spel, MIO_SPEL) | st.bit(self.smel, MIO_SMEL))
+        self.msts, self.mio = msts, mio
+
+    def events(self) -> None:
+        """Pre/post-distance events, the status words, then the interrupt factors: a factor
+        fires on the rising edge of its condition [M §4.11; spec §2.23]."""
+        t = self.core.profile.t
+        self.pred |= self.pred_at <= t + 1e-12
+        self.postd |= self.postd_at <= t + 1e-12
+        self.status_words()
+        msts, mio = self.msts, self.mio
+        cond = ((mio & 0x7F)  # IALM..IINP, IEMG: the MIO bits 0-6 in the same places
+                | ((msts >> MTS_CSTP) & 1) << 8 | ((msts >> MTS_VM) & 1) << 9
+                | ((msts >> MTS_ACC) & 1) << 10 | ((msts >> MTS_DEC) & 1) << 11
+                | ((msts >> MTS_MDN) & 1) << 12 | ((msts >> MTS_ASTP) & 1) << 13
+                | ((mio >> MIO_SPEL) & 1) << 15 | ((mio >> MIO_SMEL) & 1) << 16
+                | ((msts >> MTS_PRED) & 1) << 18 | ((msts >> MTS_POSTD) & 1) << 19)
+        rising = cond & ~self.prev_axis_cond
+        self.prev_axis_cond = cond
+        sys_cond = SYS_IEMG if self.emg else 0
+        sys_rise = (sys_cond & ~self.prev_sys) | self.sys_events
+        self.prev_sys, self.sys_events = sys_cond, 0
+        di = self.di_word()
+        di_rise, di_fall = di & ~self.prev_di, ~di & self.prev_di & 0xFFFFFF
+        self.prev_di = di
+        if not self.int_main or not (rising.any() or sys_rise or di_rise or di_fall):
+            return
+        fired = False
+        en = self.int_enable
+        for item, bits in enumerate(rising.tolist()):
+            hit = bits & int(en[item])
+            if hit:
+                self.int_signal[item] |= hit
+                fired = True
+        for item, bits in ((ITEM_SYSTEM, sys_rise), (ITEM_DI_RISE, di_rise),
+                           (ITEM_DI_FALL, di_fall)):
+            hit = bits & int(en[item])
+            if hit:
+                self.int_signal[item] |= hit
+                fired = True
+        if fired:
+            self.raise_line()
+
+    def di_word(self) -> int:
+        """The DI word after PRB_DI_LOGIC: bits 0-7 EDI, 8-23 TDI (spec §2.18)."""
+        mask = (1 << 24) - 1 if self.n == 8 else 0xFFFF0F
+        word = self.di_raw & mask
+        return word ^ mask if self.board_params.values[0x15] else word
+
+    def publish(self) -> None:
+        """The status block: every axis record and the card words."""
+        self.status_words()
+        rec, ax = self.records, self.core.axes
+        f = self.axis_params.row(0x86)
+        rec["msts"] = self.msts
+        rec["mio"] = self.mio
+        rec["stop_code"] = self.stop_code
+        rec["cmd_counter"] = st.wrap_i32(np.rint(ax.cmd_pos))
+        rec["encoder"] = st.wrap_i32(ax.encoder)
+        rec["mq_usage"] = self.mq_usage
+        rec["gear"] = self.gear_status
+        rec["servo"] = self.svon
+        cmd = ax.cmd_pos / f + self.cmd_off
+        fbk = ax.fb / f + self.fb_off
+        rec["cmd_pos"] = cmd
+        rec["fbk_pos"] = fbk
+        rec["target"] = np.where(self.mode == VEL, cmd, self.target)
+        rec["err_pos"] = cmd - fbk
+        rec["cmd_vel"] = ax.cmd_vel / f
+        rec["fbk_vel"] = (ax.vel if self.drive == "servo" else ax.cmd_vel * self.svon) / f
+        buf = self.buf
+        _U32.pack_into(buf, Bar.CYCLE_COUNT, self.cycles & 0xFFFFFFFF)
+        _U32.pack_into(buf, Bar.EMG, int(self.emg))
+        _U32.pack_into(buf, Bar.DI, self.di_word())
+        _U32.pack_into(buf, Bar.DO, self.do_word & 0xFFFFFF)
+        _U32.pack_into(buf, Bar.INT_MAIN, int(self.int_main))
