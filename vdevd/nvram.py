@@ -9,6 +9,8 @@ from __future__ import annotations
 import logging
 import os
 import tempfile
+import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -69,3 +71,82 @@ class NvramStore:
                     "kept as %s", path, image if isinstance(image, Exception) else "not a map",
                     card, kept.name)
         return None
+
+
+#: seconds a writer waits for more images of a burst before it writes the last
+COALESCE_S = 0.05
+
+
+class NvramWriter:
+    """Saves a card's images on a thread of its own, the last one submitted winning (a
+    card's flash or battery RAM written off the event loop)."""
+
+    def __init__(self, store: NvramStore, card: str, coalesce_s: float = COALESCE_S) -> None:
+        self.store, self.card, self.coalesce_s = store, card, coalesce_s
+        self._cond = threading.Condition()
+        self._pending: dict[str, Any] | None = None
+        self._writing = False
+        self._closed = False
+        self._hurry = False  # a flush waits: write without coalescing
+        self._thread: threading.Thread | None = None
+        self.saved = 0  # images written (tests, stats)
+
+    def submit(self, image: dict[str, Any]) -> None:
+        """Save `image` soon; returns at once. Once closed (the daemon stopping), the image is
+        dropped with a warning: a tick must not raise for it."""
+        with self._cond:
+            if self._closed:
+                log.warning("%s: non-volatile state changed after the writer closed: not saved",
+                            self.card)
+                return
+            self._pending = image
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._run, daemon=True,
+                                                name=f"vdevd-nvram-{self.card}")
+                self._thread.start()
+            self._cond.notify_all()
+
+    def _run(self) -> None:
+        cond = self._cond
+        while True:
+            with cond:
+                while self._pending is None and not self._closed:
+                    cond.wait()
+                if self._pending is None:
+                    return
+                deadline = time.monotonic() + self.coalesce_s
+                while not (self._closed or self._hurry):  # a burst of downloads: one write
+                    left = deadline - time.monotonic()
+                    if left <= 0:
+                        break
+                    cond.wait(left)
+                image, self._pending, self._writing = self._pending, None, True
+            try:
+                self.store.save(self.card, image)
+            except Exception:  # a full or read-only disk must not stop the card
+                log.exception("%s: saving its non-volatile state", self.card)
+            with cond:
+                self._writing = False
+                self.saved += 1
+                cond.notify_all()
+
+    def flush(self, timeout: float | None = None) -> bool:
+        """Wait until every image submitted is written; False on timeout."""
+        with self._cond:
+            if self._thread is None:
+                return True
+            self._hurry = True
+            self._cond.notify_all()
+            done = self._cond.wait_for(lambda: self._pending is None and not self._writing,
+                                       timeout)
+            self._hurry = False
+            return done
+
+    def close(self, timeout: float | None = 10.0) -> None:
+        """Write what is pending and end the thread (the daemon stops)."""
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+            thread = self._thread
+        if thread is not None:
+            thread.join(timeout)

@@ -13,6 +13,7 @@ CARD_TYPES: dict[str, str] = {
     "oms-maxk": "vdevd.devices.oms.card:MaxkCard",
     "pmac-turbo": "vdevd.devices.pmac.card:PmacCard",
     "dspcg-octavia": "vdevd.devices.octavia.card:OctaviaCard",
+    "adlink-amp20xc": "vdevd.devices.adlink.card:AdlinkCard",
 }
 
 #: the prefix of the default name of each type in the embedded default rack
@@ -22,6 +23,7 @@ DEFAULT_NAMES: dict[str, str] = {
     "oms-maxk": "maxk",
     "pmac-turbo": "pmac",
     "dspcg-octavia": "octavia",
+    "adlink-amp20xc": "adlink",
 }
 
 

@@ -14,15 +14,13 @@ the last one before it exits. A daemon killed outright loses at most the changes
 from __future__ import annotations
 
 import logging
-import threading
-import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from vdevd.devices.octavia.dspl import VAR_BYTES, VARIABLES
 from vdevd.devices.octavia.ram import RAM_WORDS
-from vdevd.nvram import NvramStore
+from vdevd.nvram import NvramWriter as Writer  # noqa: F401  (the card's writer)
 
 if TYPE_CHECKING:
     from vdevd.devices.octavia.firmware import Firmware
@@ -30,10 +28,6 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 IMAGE_FORMAT = "octavia-battery-1"
-#: how long the writer lets further images arrive before it writes (seconds, wall time)
-COALESCE_S = 0.05
-
-
 def image(fw: Firmware) -> dict[str, Any]:
     """The battery-backed state of the firmware, as the state file holds it."""
     return {"format": IMAGE_FORMAT, "ram": fw.ram.to_bytes(), "vars": fw.dspl.vars.tobytes(),
@@ -59,74 +53,3 @@ def restore(fw: Firmware, saved: dict[str, Any]) -> bool:
     return True
 
 
-class Writer:
-    """Saves a card's images on a thread of its own, the last one submitted winning."""
-
-    def __init__(self, store: NvramStore, card: str, coalesce_s: float = COALESCE_S) -> None:
-        self.store, self.card, self.coalesce_s = store, card, coalesce_s
-        self._cond = threading.Condition()
-        self._pending: dict[str, Any] | None = None
-        self._writing = False
-        self._closed = False
-        self._hurry = False  # a flush waits: write without coalescing
-        self._thread: threading.Thread | None = None
-        self.saved = 0  # images written (tests, stats)
-
-    def submit(self, image: dict[str, Any]) -> None:
-        """Save `image` soon; returns at once. Once closed (the daemon stopping), the image is
-        dropped with a warning: a tick must not raise for it."""
-        with self._cond:
-            if self._closed:
-                log.warning("%s: battery RAM changed after the writer closed: not saved", self.card)
-                return
-            self._pending = image
-            if self._thread is None:
-                self._thread = threading.Thread(target=self._run, daemon=True,
-                                                name=f"vdevd-battery-{self.card}")
-                self._thread.start()
-            self._cond.notify_all()
-
-    def _run(self) -> None:
-        cond = self._cond
-        while True:
-            with cond:
-                while self._pending is None and not self._closed:
-                    cond.wait()
-                if self._pending is None:
-                    return
-                deadline = time.monotonic() + self.coalesce_s
-                while not (self._closed or self._hurry):  # a burst of downloads: one write
-                    left = deadline - time.monotonic()
-                    if left <= 0:
-                        break
-                    cond.wait(left)
-                image, self._pending, self._writing = self._pending, None, True
-            try:
-                self.store.save(self.card, image)
-            except Exception:  # a full or read-only disk must not stop the card
-                log.exception("%s: saving the battery-backed RAM", self.card)
-            with cond:
-                self._writing = False
-                self.saved += 1
-                cond.notify_all()
-
-    def flush(self, timeout: float | None = None) -> bool:
-        """Wait until every image submitted is written; False on timeout."""
-        with self._cond:
-            if self._thread is None:
-                return True
-            self._hurry = True
-            self._cond.notify_all()
-            done = self._cond.wait_for(lambda: self._pending is None and not self._writing,
-                                       timeout)
-            self._hurry = False
-            return done
-
-    def close(self, timeout: float | None = 10.0) -> None:
-        """Write what is pending and end the thread (the daemon stops)."""
-        with self._cond:
-            self._closed = True
-            self._cond.notify_all()
-            thread = self._thread
-        if thread is not None:
-            thread.join(timeout)

@@ -1,0 +1,142 @@
+"""The APS library's link to the virtual AMP-204C/208C cards: the session `APS_initial` opens
+(the boards of the rack, the global axis IDs), a kernel command posted through the BAR0 mailbox
+in one round trip, and the status block's reads (vdevmaps.adlink).
+
+A post is one batch: the command's code, length and arguments, the doorbell with a sequence
+number (the kernel runs the command there and then), and the acknowledgement with the return
+code and the reply values. A status read is one read of the status block, served from the
+daemon's shared memory when the client maps it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import struct
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from vdevmaps.adlink import (
+    ACK_BYTES,
+    BAR,
+    BY_NAME,
+    CARD_TYPE,
+    REPLY_MAX,
+    ARGS_MAX,
+    Axis,
+    Bar,
+    axis_offset,
+    decode,
+    encode,
+)
+from vdevmaps.aps_defs import ERR_ParametersInvalid
+
+from vdevclient.core import Rack
+
+_HEAD = struct.Struct("<II")  # code, length
+_ACK = struct.Struct("<IiII")  # seq, rc, length, code
+_SEQ = struct.Struct("<I")
+_I32 = struct.Struct("<i")
+_F64 = struct.Struct("<d")
+#: reply bytes read with the acknowledgement when the reply's size is not fixed
+_FIRST_READ = 256
+_FIXED = {"i": 4, "d": 8}
+
+
+def reply_size(spec: Sequence[str]) -> int | None:
+    """The reply's bytes when every field has a fixed size, else None."""
+    total = 0
+    for kind in spec:
+        if kind not in _FIXED:
+            return None
+        total += _FIXED[kind]
+    return total
+
+
+@dataclass
+class Board:
+    """One AMP card of the session: board ID, its card in the rack, its axes."""
+
+    rack: Rack
+    card: str
+    board_id: int
+    first_axis: int
+    axes: int
+    card_id: int
+    model: int
+    bar: Any = field(init=False)
+    _ops: dict[str, tuple[list[Any], int | None]] = field(init=False, default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.bar = self.rack.card(self.card).region(BAR)
+        self._seq = itertools.count(1)
+
+    def post(self, name: str, *values: Any) -> tuple[int, list[Any]]:
+        """Run kernel command `name` with `values`: (return code, reply values)."""
+        call = BY_NAME[name]
+        try:
+            args = encode(call.args, values)
+        except (struct.error, TypeError, ValueError, OverflowError):
+            return ERR_ParametersInvalid, []
+        if len(args) > ARGS_MAX:
+            return ERR_ParametersInvalid, []
+        seq = next(self._seq) & 0xFFFFFFFF
+        size = reply_size(call.reply)
+        want = ACK_BYTES + (size if size is not None else _FIRST_READ)
+        card = self.card
+        ops: list[Any] = [
+            ["w", card, BAR, int(Bar.CODE), _HEAD.pack(call.code, len(args)) + args],
+            ["w", card, BAR, int(Bar.DOORBELL), _SEQ.pack(seq)],
+            ["r", card, BAR, int(Bar.ACK_SEQ), want]]
+        ack = self.rack.call({"op": "batch", "ops": ops})[2]
+        got_seq, rc, length, _ = _ACK.unpack_from(ack)
+        if got_seq != seq:
+            raise RuntimeError(f"{card}: the mailbox acknowledged {got_seq}, not {seq}")
+        if rc < 0 or not call.reply:
+            return rc, []
+        data = bytes(ack[ACK_BYTES:ACK_BYTES + length])
+        if length > len(data):
+            data += self.bar.read(Bar.REPLY + len(data), min(length, REPLY_MAX) - len(data))
+        return rc, decode(call.reply, data)
+
+    # -- the status block ------------------------------------------------------------------------
+    def read_i32(self, axis: int, fld: Axis) -> int:
+        return _I32.unpack(self.bar.read(axis_offset(axis, fld), 4))[0]
+
+    def read_f64(self, axis: int, fld: Axis) -> float:
+        return _F64.unpack(self.bar.read(axis_offset(axis, fld), 8))[0]
+
+    def read_u32(self, offset: int) -> int:
+        return _SEQ.unpack(self.bar.read(offset, 4))[0]
+
+
+@dataclass
+class Session:
+    """What APS_initial opened: the rack, the boards by board ID, the global axis IDs."""
+
+    rack: Rack
+    boards: dict[int, Board]
+    axes: list[tuple[Board, int]]  # global axis ID -> (board, local axis)
+
+    def axis(self, axis_id: int) -> tuple[Board, int] | None:
+        if isinstance(axis_id, bool) or not isinstance(axis_id, int):
+            return None
+        if 0 <= axis_id < len(self.axes):
+            return self.axes[axis_id]
+        return None
+
+    def close(self) -> None:
+        self.rack.close()
+
+
+def find_cards(rack: Rack) -> list[tuple[str, int, int, int]]:
+    """The rack's AMP cards in configuration order: (name, card ID, axes, model code)."""
+    names = [c["name"] for c in rack.info["cards"] if c["type"] == CARD_TYPE]
+    if not names:
+        return []
+    ops = [["r", n, BAR, int(Bar.MODEL), 12] for n in names]
+    found = []
+    for name, raw in zip(names, rack.call({"op": "batch", "ops": ops}), strict=True):
+        model, axes, card_id = struct.unpack("<III", raw)
+        found.append((name, card_id, axes, model))
+    return found
