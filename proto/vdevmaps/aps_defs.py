@@ -134,6 +134,8 @@ PRA_SPEL_EN = 0x08
 PRA_SMEL_EN = 0x09
 PRA_SPEL_POS = 0x0A
 PRA_SMEL_POS = 0x0B
+PRA_SPEL_POS0 = PRA_SPEL_POS  # the manual's misprint [M §4.10.2.1]
+PRA_SMEL_POS1 = PRA_SMEL_POS  # the manual's misprint
 # -- homing [M §4.3] --
 PRA_HOME_MODE = 0x10
 PRA_HOME_DIR = 0x11
@@ -349,6 +351,30 @@ MTS_BLD_V = 1 << MTS_BLD
 MTS_PRED_V = 1 << MTS_PRED
 MTS_POSTD_V = 1 << MTS_POSTD
 MTS_GER_V = 1 << MTS_GER
+
+# the general [X2] block for other cards (PCI-8253/56, ...): the same bits mean other things there;
+# listed so that code ported from other cards resolves, never set by the AMP (spec §2.14 Notes)
+MTS_SMV = 7  # single-axis move
+MTS_LIP = 8  # linear interpolation
+MTS_CIP = 9  # circular interpolation
+MTS_VS = 10  # at start velocity (AMP: MTS_WAIT)
+MTS_PMV = 11  # point-table move (AMP: MTS_PTB)
+MTS_PDW = 12
+MTS_PPS = 13
+MTS_SLV = 14
+MTS_SVONS = 17  # (AMP: MTS_BLD)
+MTS_EMGS = 18  # (AMP: MTS_PRED)
+MTS_ALMS = 19  # (AMP: MTS_POSTD)
+MTS_WANS = 20
+MTS_PELS = 21
+MTS_MELS = 22
+MTS_ECES = 23
+MTS_SPELS = 24
+MTS_SMELS = 25
+MTS_STPOA = 26
+MTS_GDCES = 27
+MTS_GTM = 28  # (AMP: MTS_GER)
+MTS_PAPB = 29
 
 # =====================================================================================================
 # Motion I/O bits, APS_motion_io_status [X2], spec §2.1. Bits 8-10 and 13-17 are other cards' and
@@ -658,6 +684,13 @@ GEAR_GANTRY = 2
 # Point table [X3], [M §4.9.6], spec §2.21
 # =====================================================================================================
 MAX_PT_DIM = 6  # [X3]
+# array sizes of the type_def.h structures [X3]
+MAXARC2 = 2  # PTA2CA / PTA2CE axes
+MAXARC3 = 3  # PTA3CA / PTA3CE axes
+MAXHEXLIX = 3  # PTHCA / PTHCE axes (ADLINK's spelling)
+MAX_SAMPL_CH = 8  # SAMP_PARAM.sourceByCh channels
+MAX_SAMPL_SRC = 2  # SAMP_PARAM.sourceByCh[ch]: [0] source, [1] axis
+VAO_DATA_MAX_POINTS = 32  # VAO_DATA.mappingDataArr (vdevd name)
 PT_TABLE_COUNT = 2  # vdevd name; 2 tables x 50 points (spec Q5)
 PT_BUFFER_POINTS = 50  # vdevd name
 # PTSTS.BitSts bits [X3], [M §4.9.6.2]; the names are vdevd choices
