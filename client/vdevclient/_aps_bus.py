@@ -18,11 +18,11 @@ from typing import Any
 
 from vdevmaps.adlink import (
     ACK_BYTES,
+    ARGS_MAX,
     BAR,
     BY_NAME,
     CARD_TYPE,
     REPLY_MAX,
-    ARGS_MAX,
     Axis,
     Bar,
     axis_offset,

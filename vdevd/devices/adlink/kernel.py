@@ -33,10 +33,7 @@ from vdevmaps.adlink import (
     decode,
     encode,
 )
-
 from vdevmaps.aps_defs import (
-    ERR_FunctionNotAvailable,
-    ERR_ParametersInvalid,
     MIO_ALM,
     MIO_EMG,
     MIO_EZ,
@@ -71,6 +68,8 @@ from vdevmaps.aps_defs import (
     STOP_SMEL,
     STOP_SPEL,
     STOP_SVNO,
+    ERR_FunctionNotAvailable,
+    ERR_ParametersInvalid,
 )
 
 from vdevd.devices.adlink import cmd_system, home, jog, motion, profile
@@ -79,6 +78,7 @@ from vdevd.devices.adlink.commands import COMMANDS
 from vdevd.devices.adlink.errors import ApsError
 from vdevd.devices.adlink.modes import HOME, IDLE, JOG, STOPPING, UNIT, VEL, Unit
 from vdevd.devices.adlink.params import AxisParams, BoardParams
+from vdevd.region import Memory
 from vdevd.rt import MotionCore, PlantKind
 
 log = logging.getLogger(__name__)
@@ -98,7 +98,7 @@ _ACK = struct.Struct("<IiII")
 class Kernel:
     """The kernel of one card: parameters, the axes on a motion core, the status block."""
 
-    def __init__(self, buf: bytearray | memoryview, n: int, model: int, card_id: int,
+    def __init__(self, buf: Memory, n: int, model: int, card_id: int,
                  cycle_us: int, drive: str, raise_line: Callable[[], None],
                  inp_window: float = 1.0) -> None:
         self.buf = buf
@@ -180,6 +180,7 @@ class Kernel:
         self.raw_mel = np.zeros(n, dtype=bool)
         self.raw_org = np.zeros(n, dtype=bool)
         self.raw_ez = np.zeros(n, dtype=bool)
+        self.ez_mark = np.zeros(n)  # where the index mark last crossed is (counts, physical)
         self.inp_force = np.full(n, -1, dtype=np.int8)  # backdoor set_inp: -1 from the drive
         self.raw_emg = False
         self.di_raw = 0
@@ -448,7 +449,8 @@ class Kernel:
         ph_acc = np.where(own > 0, own == 1, speeding)
         ph_dec = np.where(own > 0, own == 3, slowing)
         ph_vm = np.where(own > 0, own == 2, moving & ~speeding & ~slowing)
-        self.direction = np.where(moving & (v != 0), v > 0, self.direction)
+        self.direction = np.where(moving & (v != 0), v > 0,
+                                  np.where(moving & (acc != 0), acc > 0, self.direction))
         cstp = ~moving
         msts = (st.bit(cstp, MTS_CSTP) | st.bit(ph_vm & moving, MTS_VM)
                 | st.bit(ph_acc & moving, MTS_ACC) | st.bit(ph_dec & moving, MTS_DEC)

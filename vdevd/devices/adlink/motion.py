@@ -16,9 +16,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from vdevmaps.aps_defs import (
-    ERR_CommandInProcess,
-    ERR_DistantNotEnough,
-    ERR_ParametersInvalid,
     OPT_RELATIVE,
     OPT_WAIT,
     PTP_OPT_ABORTING,
@@ -35,6 +32,9 @@ from vdevmaps.aps_defs import (
     STOP_SPEL,
     STOP_USER,
     STOP_USER_EMG,
+    ERR_CommandInProcess,
+    ERR_DistantNotEnough,
+    ERR_ParametersInvalid,
 )
 
 from vdevd.devices.adlink import profile
@@ -126,10 +126,9 @@ def ptp(k: Kernel, a: int, option: int, pos: float, vs: float, vm: float, ve: fl
     values = profile_values(k, a, vs, vm, ve, acc, dec, sf)
     busy = k.mode[a] in (PTP, VEL, STOPPING) and k.core.profile.moving[a]
     queued = busy and mode != PTP_OPT_ABORTING and k.mode[a] == PTP
-    if queued:
+    base = float(k.user_cmd()[a])  # aborting: relative to the command position now
+    if queued:  # buffered: to the end of the last queued segment
         base = k.queue[a][-1].target if k.queue[a] else float(k.target[a])
-    else:
-        base = float(k.user_cmd()[a])
     target = base + pos if option & OPT_RELATIVE else pos
     seg = Segment(target, *values, mode)
     if queued:

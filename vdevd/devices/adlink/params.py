@@ -118,7 +118,7 @@ BOARD_PARAMS: tuple[Param, ...] = (
     _p(0x111, "PRB_PWM1_MAP_DO", False, -1, 0x1FF, -1),
     _p(0x112, "PRB_PWM2_MAP_DO", False, -1, 0x1FF, -1),
     _p(0x113, "PRB_PWM3_MAP_DO", False, -1, 0x1FF, -1),
-    _p(0x8000, "PRB_VDEVD_CYCLE_US", False, 500, 2000, 1000),
+    _p(0x8000, "PRB_VDEVD_MOTION_CYCLE", False, 500, 2000, 1000),
 )
 
 AXIS_BY_NO: dict[int, Param] = {p.no: p for p in AXIS_PARAMS}

@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 from vdevmaps.adlink import AXIS_STRIDE, Axis, Bar
 
+from vdevd.region import Memory
+
 #: the axis record, field by field at the offsets of `vdevmaps.adlink.Axis`
 AXIS_DTYPE = np.dtype({
     "names": ["msts", "mio", "stop_code", "cmd_counter", "encoder", "mq_usage", "gear", "servo",
@@ -23,12 +25,12 @@ AXIS_DTYPE = np.dtype({
 
 
 
-def axis_records(buf: bytearray | memoryview, n: int) -> np.ndarray:
+def axis_records(buf: Memory, n: int) -> np.ndarray:
     """The n axis records of the bar, as a structured array sharing its memory."""
     return np.ndarray((n,), dtype=AXIS_DTYPE, buffer=buf, offset=int(Bar.AXIS))
 
 
-def u32_words(buf: bytearray | memoryview, offset: int, count: int) -> np.ndarray:
+def u32_words(buf: Memory, offset: int, count: int) -> np.ndarray:
     return np.ndarray((count,), dtype="<u4", buffer=buf, offset=offset)
 
 
