@@ -1,0 +1,1 @@
+"""ADLINK AMP-204C / AMP-208C (work in progress): interpolation geometry and group motion."""
