@@ -61,6 +61,8 @@ class StubPlan:
 
 
 def plan_ptp(distance: float, vs: float, vm: float, ve: float, acc: float, dec: float, sf: float) -> StubPlan:
+    if distance <= 0.0:
+        return StubPlan(vs, 0.0, ve, [])
     a1 = acc if vm >= vs else -dec
     d1 = (vm * vm - vs * vs) / (2 * a1)
     d3 = (vm * vm - ve * ve) / (2 * dec)

@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tests.devices.adlink.stub_profile import StubPlan, plan_ptp, plan_stop
 from vdevd.devices.adlink.group import (
@@ -243,3 +245,41 @@ def test_events_happen_at_their_times_whatever_the_tick_rate() -> None:
 def test_transition_from_option_bits() -> None:
     assert Transition.from_option(0x6001) is Transition.BLEND_RES_DIST_PERCENT
     assert Transition.from_option(0x0001) is Transition.ABORT_BLEND
+
+
+QUEUED = [
+    Transition.BUFFERED,
+    Transition.BLEND_DEC_EVENT,
+    Transition.BLEND_RES_DIST,
+    Transition.BLEND_RES_DIST_PERCENT,
+]
+
+
+@settings(derandomize=True, max_examples=40, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.floats(-500, 500),
+            st.floats(-500, 500),
+            st.sampled_from(QUEUED),
+            st.floats(0, 100),
+        ),
+        min_size=1,
+        max_size=5,
+    )
+)
+def test_queued_chains_are_continuous_bounded_and_end_exactly(
+    moves: list[tuple[float, float, Transition, float]],
+) -> None:
+    g = group()
+    here = np.zeros(2)
+    for dx, dy, mode, para in moves:
+        end = here + [dx, dy]
+        assert g.submit(line(here, end), factory(), mode, para, 0.0) == 0
+        here = end
+    dt = 1e-3
+    _, pts = run(g, 0.0, 10.0, dt)
+    steps = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    assert steps.max(initial=0.0) <= len(moves) * VM * dt * (1 + 1e-9)  # 100 % residue: all overlap
+    assert np.array_equal(pts[-1], here)
+    assert g.positions(10.0) is None
