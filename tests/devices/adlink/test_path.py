@@ -225,3 +225,11 @@ def test_spiral_invariants(r0: float, angle: float, dh: float, rf: float, normal
     numeric = (p.at(mid + ds) - p.at(mid - ds)) / (2 * ds)
     assert np.allclose(numeric, t[1:-1], atol=1e-4)
     assert np.array_equal(p.at(0.0), p.start)
+
+
+def test_scalar_and_vectorised_evaluation_agree_on_a_conic_spiral() -> None:
+    p = spiral_ca([1, 0, 0], [0, 0, 0], [0, 0, 1], 30.0, 5.0, 40.0)
+    s = np.linspace(0.0, p.length, 257)
+    one_by_one = np.array([p.at(float(x)) for x in s])
+    assert np.allclose(p.at(s), one_by_one, rtol=0, atol=1e-9)
+    assert np.allclose(p.tangent_at(s), np.array([p.tangent_at(float(x)) for x in s]), atol=1e-12)

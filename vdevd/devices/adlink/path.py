@@ -167,10 +167,23 @@ class Arc:
         if not self._conic:
             return sc / self._speed
         phi = np.interp(sc, self._s_grid, self._phi_grid)
+        if sc.ndim == 0:
+            return np.asarray(self._phi_scalar(float(sc), float(phi)))
         for _ in range(3):  # Newton on s(phi) - s; ds/dphi = sqrt(a^2 + r^2) > 0
             r = self.radius + self._k * phi
             phi = phi - (self._arc_length(phi) - sc) / np.sqrt(self._a2 + r * r)
         return np.clip(phi, 0.0, self._span)
+
+    def _phi_scalar(self, s: float, phi: float) -> float:
+        """`_phi` for one s in plain floats (the per-tick case)."""
+        a2, k, r0 = self._a2, self._k, self.radius
+        a = math.sqrt(a2)
+        f0 = 0.5 * (r0 * math.sqrt(a2 + r0 * r0) + a2 * math.asinh(r0 / a))
+        for _ in range(3):
+            r = r0 + k * phi
+            root = math.sqrt(a2 + r * r)
+            phi -= ((0.5 * (r * root + a2 * math.asinh(r / a)) - f0) / k - s) / root
+        return min(max(phi, 0.0), self._span)
 
     def _point(self, phi: npt.NDArray[np.float64]) -> Vector:
         psi = self._sign * phi
