@@ -1,0 +1,1 @@
+"""Tests of the ADLINK AMP-204C / AMP-208C modules."""
