@@ -118,9 +118,31 @@ class Kernel:
         self.records = st.axis_records(buf, n)
         self.int_enable = st.u32_words(buf, Bar.INT_ENABLE, INT_ITEMS)
         self.int_signal = st.u32_words(buf, Bar.INT_SIGNAL, INT_ITEMS)
+        #: the kernel's units, in the order of their cycle work (spec §2.2: trajectories,
+        #: gearing, compare/PWM/VAO, sampling); each appends itself on its own line
         self.units: list[Unit] = []
+        # -- units: interpolation
+        # -- units: gearing
+        # -- units: trigger
+        # -- units: pwm/vao
+        # -- units: point table
+        # -- units: safety
+        # -- units: sampling
         #: the mailbox handlers by command code
-        bound = COMMANDS.bind(cmd_system, motion, home, jog)
+        bound = COMMANDS.bind(
+            cmd_system,
+            motion,
+            home,
+            jog,
+            # -- handlers: interpolation
+            # -- handlers: gearing
+            # -- handlers: trigger
+            # -- handlers: pwm/vao, digital I/O
+            # -- handlers: interrupts
+            # -- handlers: sampling
+            # -- handlers: point table
+            # -- handlers: safety
+        )
         self.handlers: dict[int, Callable[..., Any]] = {
             BY_NAME[name].code: fn for name, fn in bound.items()}
         self.flash: dict[str, Any] | None = None  # the parameter image saved to flash
@@ -534,6 +556,10 @@ class Kernel:
         rec["err_pos"] = cmd - fbk
         rec["cmd_vel"] = ax.cmd_vel / f
         rec["fbk_vel"] = (ax.vel if self.drive == "servo" else ax.cmd_vel * self.svon) / f
+        for u in self.units:
+            publish = getattr(u, "publish", None)
+            if publish is not None:
+                publish()
         buf = self.buf
         _U32.pack_into(buf, Bar.CYCLE_COUNT, self.cycles & 0xFFFFFFFF)
         _U32.pack_into(buf, Bar.EMG, int(self.emg))

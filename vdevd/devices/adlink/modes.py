@@ -13,7 +13,8 @@ class Unit(Protocol):
     `before_motion(t)` before the motion core's tick to time t (s), `after_motion(t)` after it,
     `busy()` while a tick moves it on (no rest), `reset()` at power-up. It may also define
     `stop_axis(axis, code, immediate)` (the kernel stops an axis it drives) and `image()`/
-    `restore(image)` for what it keeps in flash."""
+    `restore(image)` for what it keeps in flash, and `publish()` to write its part of the status
+    block (the kernel's `publish` calls it after every cycle batch and command)."""
 
     def before_motion(self, t: float) -> None: ...
     def after_motion(self, t: float) -> None: ...
