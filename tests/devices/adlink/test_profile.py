@@ -26,7 +26,8 @@ from vdevd.devices.adlink.profile import (
     s_ramp,
     to_core_phases,
 )
-from vdevd.rt.profiles import to_phases
+from vdevd.rt import MotionCore, PlantKind
+from vdevd.rt.profiles import Phase, to_phases
 
 PROPS = settings(derandomize=True, max_examples=200, deadline=None)
 REL = 1e-9
@@ -301,6 +302,34 @@ def test_a_plan_built_by_hand_gets_its_phases_from_velocity_and_acceleration() -
     plan = Plan(((1.0, 0.0, 2.0), (1.0, 0.0, 0.0), (1.0, 0.0, -2.0)), 0.0, 4.0)
     assert plan.tags == (ProfilePhase.ACC, ProfilePhase.VM, ProfilePhase.DEC)
     assert plan.decel_start() == 2.0 and plan.time_at(2.0) == pytest.approx(1.5)
+
+
+@pytest.mark.parametrize(("start", "goal", "vs", "ve", "sf"), [
+    (1234, 101_234, 0, 0, 0.0), (1234, -48_766, 300, 0, 0.5), (0, 1777, 100, 50, 1.0), (5, 4, 0, 0, 0.3)])
+def test_the_motion_core_runs_a_ptp_plan_to_the_exact_count(start: int, goal: int, vs: float,
+                                                            ve: float, sf: float) -> None:
+    """Through MotionCore.move_planned (a card's own profile shape): the commanded position ends
+    exactly on the target count, the first tick starts at Vs, no tick is faster than Vm."""
+    dt, vm = 1e-3, 20_000.0
+    core = MotionCore(1, 1_000_000, PlantKind.IDEAL)
+    core.servo_on(slice(None))
+    core.set_position(0, start)
+
+    def planner(t: float, p: float, v: float, target: float) -> list[Phase]:
+        sign = 1.0 if target >= p else -1.0
+        plan = plan_ptp(abs(target - p), vs, vm, ve, 200_000, 100_000, sf)
+        return to_core_phases(plan, t, p, sign, hold=target)
+
+    core.move_planned(0, goal, planner, dec=100_000)
+    trace = [float(core.axes.cmd_pos[0])]
+    while core.profile.moving.any() and len(trace) < 100_000:
+        core.tick()
+        trace.append(float(core.axes.cmd_pos[0]))
+    assert trace[-1] == goal
+    steps = [abs(b - a) for a, b in zip(trace, trace[1:], strict=False)]
+    assert max(steps) <= vm * dt * (1 + 1e-9)
+    if abs(goal - start) > vm * dt:
+        assert steps[0] >= vs * dt * (1 - 1e-9)
 
 
 def test_s_ramp_zero_factor_is_one_segment() -> None:

@@ -200,14 +200,8 @@ class Plan:
 
     def __post_init__(self) -> None:
         t, s, v = [0.0], [0.0], [self.v0]
-        tags: list[ProfilePhase] = []
         for seg in self.segs:
             ds, v1, _ = _advance(v[-1], seg, seg[0])
-            vmid, amid = _advance(v[-1], seg, seg[0] / 2)[1:]
-            if amid == 0:
-                tags.append(ProfilePhase.VM)
-            else:
-                tags.append(ProfilePhase.ACC if vmid * amid > 0 else ProfilePhase.DEC)
             t.append(t[-1] + seg[0])
             s.append(s[-1] + ds)
             v.append(v1)
@@ -215,7 +209,15 @@ class Plan:
         object.__setattr__(self, "_s", tuple(s))
         object.__setattr__(self, "_v", tuple(v))
         if len(self.tags) != len(self.segs):
-            object.__setattr__(self, "tags", tuple(tags))
+            object.__setattr__(self, "tags", tuple(self._guess_tag(k) for k in range(len(self.segs))))
+
+    def _guess_tag(self, k: int) -> ProfilePhase:
+        """VM without acceleration, else ACC when velocity and acceleration agree mid-segment."""
+        seg = self.segs[k]
+        _, v, a = _advance(self._v[k], seg, seg[0] / 2)
+        if a == 0:
+            return ProfilePhase.VM
+        return ProfilePhase.ACC if v * a > 0 else ProfilePhase.DEC
 
     def duration(self) -> float:
         """The time of the segments; inf for an endless plan."""
@@ -307,7 +309,7 @@ def plan_ptp(distance: float, vs: float, vm: float, ve: float, acc: float, dec: 
     leg = _leg(vs, distance, vm, ve, acc, dec, sf)
     v0 = vs if leg.travelled > 0 else 0.0
     return _plan(leg.segs, v0, leg.travelled, end_velocity=leg.end_velocity,
-                ve_reached=leg.ve_reached and leg.travelled > 0, vm=leg.peak)
+                 ve_reached=leg.ve_reached and leg.travelled > 0, vm=leg.peak)
 
 
 def plan_from(v0: float, distance: float, vm: float, ve: float, acc: float, dec: float,
@@ -337,7 +339,7 @@ def plan_from(v0: float, distance: float, vm: float, ve: float, acc: float, dec:
         travelled = dist if complete else stop + turn * leg.travelled
         v_end = turn * leg.end_velocity
     return _plan(_mirror(segs, sign), v0, sign * travelled + 0.0, end_velocity=sign * v_end + 0.0,
-                ve_reached=leg.ve_reached, vm=max(abs(v0), leg.peak))
+                 ve_reached=leg.ve_reached, vm=max(abs(v0), leg.peak))
 
 
 def plan_velocity(v0: float, v1: float, acc: float, dec: float, sf: float, vs: float = 0.0) -> Plan:
@@ -353,8 +355,7 @@ def plan_velocity(v0: float, v1: float, acc: float, dec: float, sf: float, vs: f
     else:
         peak = acc if abs(v1) > abs(v0) else dec
         segs, travel = _ramp(v0, v1, peak, sf), _ramp_distance(v0, v1, peak, sf)
-    return _plan(segs, v0, travel, endless=v1 != 0, end_velocity=v1,
-                vm=max(abs(v0), abs(v1)))
+    return _plan(segs, v0, travel, endless=v1 != 0, end_velocity=v1, vm=max(abs(v0), abs(v1)))
 
 
 def plan_stop(v0: float, dec: float, sf: float) -> Plan:
