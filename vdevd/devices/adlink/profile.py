@@ -105,15 +105,26 @@ def _solve(v: float, seg: Segment, target: float) -> float:
     return hi
 
 
-def _cut(segs: list[Segment], v: float, dist: float) -> tuple[list[Segment], float]:
+#: segments with what each does (ACC, VM or DEC): known where they are built, not guessed from the
+#: sign of a velocity that rounding may leave at -1e-16 at the end of a stop
+_Tagged = list[tuple[Segment, ProfilePhase]]
+
+
+def _ramp(v_from: float, v_to: float, peak: float, sf: float) -> _Tagged:
+    """`s_ramp`, each segment tagged ACC when the speed grows, DEC when it falls."""
+    tag = ProfilePhase.ACC if abs(v_to) > abs(v_from) else ProfilePhase.DEC
+    return [(seg, tag) for seg in s_ramp(v_from, v_to, peak, sf)]
+
+
+def _cut(segs: _Tagged, v: float, dist: float) -> tuple[_Tagged, float]:
     """`segs` (from velocity v, moving forward) cut where their distance reaches `dist`, and the
     velocity there."""
     s = 0.0
-    for k, seg in enumerate(segs):
+    for k, (seg, tag) in enumerate(segs):
         ds, v1, _ = _advance(v, seg, seg[0])
         if s + ds >= dist:
             tau = _solve(v, seg, dist - s)
-            out = segs[:k] + ([(tau, seg[1], seg[2])] if tau > 0 else [])
+            out = segs[:k] + ([((tau, seg[1], seg[2]), tag)] if tau > 0 else [])
             return out, _advance(v, seg, tau)[1]
         s, v = s + ds, v1
     return segs, v
@@ -121,7 +132,7 @@ def _cut(segs: list[Segment], v: float, dist: float) -> tuple[list[Segment], flo
 
 @dataclass(frozen=True)
 class _Leg:
-    segs: list[Segment]
+    segs: _Tagged
     peak: float
     end_velocity: float
     ve_reached: bool
@@ -138,9 +149,9 @@ def _leg(u: float, dist: float, vm: float, ve: float, acc: float, dec: float, sf
         return _Leg([], 0.0, u if dist <= 0 else 0.0, reached and u == ve, 0.0)
     lo = max(u, ve_eff) if u <= vm else vm  # the lowest peak: no cruise, a single ramp or two
 
-    def ramps(vp: float) -> tuple[list[Segment], list[Segment], float]:
-        up = s_ramp(u, vp, acc if vp > u else dec, sf)
-        down = s_ramp(vp, ve_eff, dec, sf)
+    def ramps(vp: float) -> tuple[_Tagged, _Tagged, float]:
+        up = _ramp(u, vp, acc if vp > u else dec, sf)
+        down = _ramp(vp, ve_eff, dec, sf)
         travel = _ramp_distance(u, vp, acc if vp > u else dec, sf) + _ramp_distance(vp, ve_eff, dec, sf)
         return up, down, travel
 
@@ -157,7 +168,7 @@ def _leg(u: float, dist: float, vm: float, ve: float, acc: float, dec: float, sf
     if vp <= 0:  # Vm 0 on the fly: it can only stop
         return _Leg(up, 0.0, 0.0, reached and ve == 0, travel)
     cruise = (dist - travel) / vp  # none for a rounding's worth of distance
-    body = up + ([(cruise, 0.0, 0.0)] if dist - travel > dist * _REL else []) + down
+    body = up + ([((cruise, 0.0, 0.0), ProfilePhase.VM)] if dist - travel > dist * _REL else []) + down
     return _Leg(body, vp, ve_eff, reached, dist)
 
 
@@ -170,7 +181,9 @@ class Plan:
     `endless`: a velocity move, whose velocity stays `end_velocity` after the last segment; its
     `distance` is the travel at the end of the segments. `ve_reached` is False when the end
     velocity asked for could not be reached (too short, or above Vm): the caller's -22. `vm` is the
-    peak speed planned (Vm, or Vm' when lowered). Immutable; evaluation is closed form.
+    peak speed planned (Vm, or Vm' when lowered). `tags`: what each segment does (ACC, VM, DEC),
+    as the planners know it; a plan built by hand without them gets them from the sign of velocity
+    times acceleration. Immutable; evaluation is closed form.
     """
 
     segs: tuple[Segment, ...]
@@ -180,28 +193,31 @@ class Plan:
     end_velocity: float = 0.0
     ve_reached: bool = True
     vm: float = 0.0
+    tags: tuple[ProfilePhase, ...] = ()
     _t: tuple[float, ...] = field(init=False, repr=False, compare=False)
     _s: tuple[float, ...] = field(init=False, repr=False, compare=False)
     _v: tuple[float, ...] = field(init=False, repr=False, compare=False)
-    _tags: tuple[ProfilePhase, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         t, s, v = [0.0], [0.0], [self.v0]
-        tags: list[ProfilePhase] = []
         for seg in self.segs:
             ds, v1, _ = _advance(v[-1], seg, seg[0])
-            vmid, amid = _advance(v[-1], seg, seg[0] / 2)[1:]
-            if amid == 0:
-                tags.append(ProfilePhase.VM)
-            else:
-                tags.append(ProfilePhase.ACC if vmid * amid > 0 else ProfilePhase.DEC)
             t.append(t[-1] + seg[0])
             s.append(s[-1] + ds)
             v.append(v1)
         object.__setattr__(self, "_t", tuple(t))
         object.__setattr__(self, "_s", tuple(s))
         object.__setattr__(self, "_v", tuple(v))
-        object.__setattr__(self, "_tags", tuple(tags))
+        if len(self.tags) != len(self.segs):
+            object.__setattr__(self, "tags", tuple(self._guess_tag(k) for k in range(len(self.segs))))
+
+    def _guess_tag(self, k: int) -> ProfilePhase:
+        """VM without acceleration, else ACC when velocity and acceleration agree mid-segment."""
+        seg = self.segs[k]
+        _, v, a = _advance(self._v[k], seg, seg[0] / 2)
+        if a == 0:
+            return ProfilePhase.VM
+        return ProfilePhase.ACC if v * a > 0 else ProfilePhase.DEC
 
     def duration(self) -> float:
         """The time of the segments; inf for an endless plan."""
@@ -224,7 +240,7 @@ class Plan:
         event"): the start of the trailing run of decelerating segments, else the end of the
         segments (inf for an endless plan that does not end decelerating)."""
         k = len(self.segs)
-        while k > 0 and self._tags[k - 1] == ProfilePhase.DEC:
+        while k > 0 and self.tags[k - 1] == ProfilePhase.DEC:
             k -= 1
         if k == len(self.segs) and self.endless:
             return INF
@@ -236,12 +252,13 @@ class Plan:
         if t >= self._t[-1]:
             moving = self.endless and self.end_velocity != 0
             return ProfilePhase.VM if moving else ProfilePhase.IDLE
-        return self._tags[max(0, bisect.bisect_right(self._t, t) - 1)]
+        return self.tags[max(0, bisect.bisect_right(self._t, t) - 1)]
 
     def time_at(self, s: float) -> float:
         """The first time the travelled (signed) distance reaches s (pre-distance event; a blend at
         residual distance r is time_at(distance - r)). Not reached: 0 if s is behind the start
-        (opposite the plan's direction), else the end (inf for an endless plan that stops short)."""
+        (opposite the plan's direction: its end velocity for an endless plan), else the end of the
+        segments (inf for an endless plan)."""
         if s == 0:
             return 0.0
         n = len(self.segs)
@@ -251,18 +268,25 @@ class Plan:
         for k in range(n):
             if min(ends[k], ends[k + 1]) <= s <= max(ends[k], ends[k + 1]):
                 return self._t[k] + _solve(self._v[k], self.segs[k], s - self._s[k])
-        direction = self.distance or self.end_velocity or self.v0
+        if self.endless:
+            beyond = (s - self.distance) / self.end_velocity if self.end_velocity else -1.0
+            if beyond >= 0:
+                return self._t[n] + beyond
+        direction = self.end_velocity if self.endless else self.distance or self.v0
         if s * direction < 0:
             return 0.0
-        if self.endless:
-            beyond = (s - self.distance) / self.end_velocity if self.end_velocity else INF
-            return self._t[n] + beyond if beyond >= 0 else INF
-        return self._t[n]
+        return INF if self.endless else self._t[n]
 
 
-def _mirror(segs: list[Segment], sign: float) -> list[Segment]:
-    """`segs` with jerk and acceleration times `sign` (-1: the other direction)."""
-    return segs if sign == 1 else [(d, sign * j + 0.0, sign * a + 0.0) for d, j, a in segs]  # no -0.0
+def _mirror(segs: _Tagged, sign: float) -> _Tagged:
+    """`segs` with jerk and acceleration times `sign` (-1: the other direction; + 0.0: no -0.0)."""
+    return segs if sign == 1 else [((d, sign * j + 0.0, sign * a + 0.0), tag) for (d, j, a), tag in segs]
+
+
+def _plan(segs: _Tagged, v0: float, distance: float, *, endless: bool = False,
+          end_velocity: float = 0.0, ve_reached: bool = True, vm: float = 0.0) -> Plan:
+    return Plan(tuple(seg for seg, _ in segs), v0, distance, endless, end_velocity, ve_reached, vm,
+                tuple(tag for _, tag in segs))
 
 
 def _clamp_sf(sf: float) -> float:
@@ -284,8 +308,8 @@ def plan_ptp(distance: float, vs: float, vm: float, ve: float, acc: float, dec: 
         return Plan((), 0.0, 0.0, ve_reached=ve == 0)
     leg = _leg(vs, distance, vm, ve, acc, dec, sf)
     v0 = vs if leg.travelled > 0 else 0.0
-    return Plan(tuple(leg.segs), v0, leg.travelled, end_velocity=leg.end_velocity,
-                ve_reached=leg.ve_reached and leg.travelled > 0, vm=leg.peak)
+    return _plan(leg.segs, v0, leg.travelled, end_velocity=leg.end_velocity,
+                 ve_reached=leg.ve_reached and leg.travelled > 0, vm=leg.peak)
 
 
 def plan_from(v0: float, distance: float, vm: float, ve: float, acc: float, dec: float,
@@ -310,12 +334,12 @@ def plan_from(v0: float, distance: float, vm: float, ve: float, acc: float, dec:
         rest = dist - stop
         turn = 1.0 if rest >= 0 else -1.0
         leg = _leg(0.0, abs(rest), vm, ve, acc, dec, sf)
-        segs = s_ramp(u, 0.0, dec, sf) + _mirror(leg.segs, turn)
+        segs = _ramp(u, 0.0, dec, sf) + _mirror(leg.segs, turn)
         complete = leg.travelled == abs(rest)  # then exactly `distance`, not stop + rest rounded
         travelled = dist if complete else stop + turn * leg.travelled
         v_end = turn * leg.end_velocity
-    return Plan(tuple(_mirror(segs, sign)), v0, sign * travelled + 0.0, end_velocity=sign * v_end + 0.0,
-                ve_reached=leg.ve_reached, vm=max(abs(v0), leg.peak))
+    return _plan(_mirror(segs, sign), v0, sign * travelled + 0.0, end_velocity=sign * v_end + 0.0,
+                 ve_reached=leg.ve_reached, vm=max(abs(v0), leg.peak))
 
 
 def plan_velocity(v0: float, v1: float, acc: float, dec: float, sf: float, vs: float = 0.0) -> Plan:
@@ -326,19 +350,18 @@ def plan_velocity(v0: float, v1: float, acc: float, dec: float, sf: float, vs: f
     if v0 == 0 and v1 != 0 and vs > 0:
         v0 = math.copysign(min(vs, abs(v1)), v1)
     if v0 != 0 and v1 != 0 and (v0 > 0) != (v1 > 0):
-        segs = s_ramp(v0, 0.0, dec, sf) + s_ramp(0.0, v1, acc, sf)
+        segs = _ramp(v0, 0.0, dec, sf) + _ramp(0.0, v1, acc, sf)
         travel = _ramp_distance(v0, 0.0, dec, sf) + _ramp_distance(0.0, v1, acc, sf)
     else:
         peak = acc if abs(v1) > abs(v0) else dec
-        segs, travel = s_ramp(v0, v1, peak, sf), _ramp_distance(v0, v1, peak, sf)
-    return Plan(tuple(segs), v0, travel, endless=v1 != 0, end_velocity=v1,
-                vm=max(abs(v0), abs(v1)))
+        segs, travel = _ramp(v0, v1, peak, sf), _ramp_distance(v0, v1, peak, sf)
+    return _plan(segs, v0, travel, endless=v1 != 0, end_velocity=v1, vm=max(abs(v0), abs(v1)))
 
 
 def plan_stop(v0: float, dec: float, sf: float) -> Plan:
     """A deceleration stop from v0 (signed) with Dec and the S-factor (`APS_stop_move`, spec §2.7)."""
     sf = _clamp_sf(sf)
-    return Plan(tuple(s_ramp(v0, 0.0, dec, sf)), v0, _ramp_distance(v0, 0.0, dec, sf), vm=abs(v0))
+    return _plan(_ramp(v0, 0.0, dec, sf), v0, _ramp_distance(v0, 0.0, dec, sf), vm=abs(v0))
 
 
 def to_core_phases(plan: Plan, t0: float, p0: float, sign: float, hold: float | None) -> list[Phase]:
@@ -346,7 +369,7 @@ def to_core_phases(plan: Plan, t0: float, p0: float, sign: float, hold: float | 
     absolute times from t0. The last phase holds `hold` if given (a plan ending at Ve > 0 then stops
     with a velocity step, as a pulse card does), else runs on at the end velocity from the exact end
     position (a velocity move, or a buffered segment until the next plan is loaded)."""
-    segs = _mirror(list(plan.segs), sign)
+    segs = [(d, sign * j, sign * a) for d, j, a in plan.segs]
     phases = to_phases(t0, p0, sign * plan.v0, segs[0][2] if segs else 0.0, segs, hold)
     if hold is None:
         end = phases[-1]
