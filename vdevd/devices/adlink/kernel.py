@@ -415,7 +415,23 @@ class Kernel:
         f = self.factor(a)
         sign = 1.0 if v >= 0 else -1.0
         plan = profile.plan_stop(abs(v), dec_user * f, sf)
-        core.profile.load(a, profile.to_core_phases(plan, core.profile.t, p, sign, None))
+        self.load(a, plan, p, sign, None)
+
+    def load(self, a: int, plan: profile.Plan, p0: float, sign: float, hold: float | None,
+             endless: bool = False) -> None:
+        """Give axis a the profile `plan` from now, from p0 in direction `sign` (counts): its
+        end, when within 1 ns of a cycle boundary, lands on it (so a move that lasts a whole
+        number of cycles ends in that cycle, not one later by a rounding)."""
+        core = self.core
+        t0 = core.profile.t
+        phases = profile.to_core_phases(plan, t0, p0, sign, hold)
+        if len(phases) >= 2:
+            end = phases[-1].t0
+            grid = round(end / self.dt) * self.dt
+            if end != grid and abs(end - grid) < 1e-9 and grid > phases[-2].t0:
+                phases[-2] = phases[-2]._replace(dur=grid - phases[-2].t0)
+                phases[-1] = phases[-1]._replace(t0=grid)
+        core.profile.load(a, phases, endless=endless)
 
     def servo(self, idx: np.ndarray, on: bool) -> None:
         """SVON of axes `idx` [M §4.1.1.4]: off, the drive no longer follows the pulses (the

@@ -196,7 +196,7 @@ def start_ptp(k: Kernel, a: int, seg: Segment) -> int:
                                 seg.dec * f, seg.sf)
     t0 = core.profile.t
     hold = goal if seg.ve == 0 else None
-    core.profile.load(a, profile.to_core_phases(plan, t0, p, sign, hold))
+    k.load(a, plan, p, sign, hold)
     core.profile.commit()
     begin(k, a, PTP, seg.target)
     k.seg_end[a] = t0 + plan.duration() if seg.ve > 0 else math.inf
@@ -289,7 +289,7 @@ def start_vel(k: Kernel, a: int, vm: float, vs: float, acc: float, dec: float, s
     moving = bool(core.profile.moving[a])
     v0 = v if moving else math.copysign(min(vs, abs(vm)), vm) * f
     plan = profile.plan_velocity(v0, vm * f, acc * f, dec * f, sf)
-    core.profile.load(a, profile.to_core_phases(plan, core.profile.t, p, 1.0, None), endless=True)
+    k.load(a, plan, p, 1.0, None, endless=True)
     core.profile.commit()
     k.queue[a].clear()
     k.seg_end[a] = math.inf
