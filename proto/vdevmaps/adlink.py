@@ -69,9 +69,9 @@ class Bar(enum.IntEnum):
     PT_STATUS = 0x0C0  # 2 x 16: PTSTS {U16 BitSts, Free, Usage, pad; U32 RunningCnt} + U32
     # the mailbox
     DOORBELL = 0x100  # U32 (hook): the host writes its sequence number; the kernel runs the command
-    CODE = 0x104  # U32 the command's code
-    LENGTH = 0x108  # U32 the argument bytes
-    ARGS = 0x10C  # the arguments, up to ARGS_END
+    CODE = 0x108  # U32 the command's code (CODE and LENGTH: one aligned 8-byte field)
+    LENGTH = 0x10C  # U32 the argument bytes
+    ARGS = 0x110  # the arguments, up to ARGS_END
     ARGS_END = 0x1000
     ACK_SEQ = 0x1000  # U32 the sequence number of the last command run
     ACK_RC = 0x1004  # I32 its return code
@@ -206,6 +206,8 @@ CALLS: tuple[Call, ...] = _calls([
     (0x0A, "load_parameter_from_default", "", "", "X1"),
     (0x0B, "get_timing", "i", "i", "M 4.1.2"),
     (0x0C, "reset_timing", "i", "", "M 4.1.2"),
+    (0x0D, "get_axis_param_table", "i", "i* d*", "X1 APS_save_param_to_file"),
+    (0x0E, "get_board_param_table", "", "i* d*", "X1 APS_save_param_to_file"),
     # position, counters, servo [M §4.2.1, §4.1.1.4]
     (0x10, "set_servo_on", "i i", "", "M 4.1.1.4"),
     (0x11, "set_command_f", "i d", "", "M 4.2.1"),

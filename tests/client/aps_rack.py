@@ -15,6 +15,7 @@ from tests.client.galil import card, rack_config
 from vdevd.testing import DaemonThread
 
 AMP = "adlink-amp20xc"
+_LAST: dict[str, str] = {}
 CYCLE_NS = 1_000_000
 
 
@@ -32,12 +33,18 @@ def aps_session(*cards: Any, mode: int = 0, state_dir: str | None = None
         cfg = dataclasses.replace(cfg, state_dir=state_dir)
     with DaemonThread(cfg) as d, \
             vdevclient.connect(d.endpoint, d.events) as rack:
+        _LAST["endpoint"] = d.endpoint
         bits = c_int32()
         assert aps.APS_initial(byref(bits), mode, endpoint=d.endpoint) == aps.ERR_NoError
         try:
             yield d, rack
         finally:
             aps.APS_close()
+
+
+def _last_endpoint() -> str:
+    """The endpoint of the daemon `aps_session` started last."""
+    return _LAST["endpoint"]
 
 
 def step_ms(rack: vdevclient.Rack, ms: float) -> None:
