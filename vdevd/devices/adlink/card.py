@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import math
 import struct
+import time
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -111,7 +112,9 @@ class AdlinkCard(Card):
             args = b"\xff"
         else:
             args = bytes(buf[Bar.ARGS:Bar.ARGS + length])
+        t0 = time.perf_counter_ns()
         self.kernel.execute(seq, code, args)
+        self.kernel.measure_host(time.perf_counter_ns() - t0)
         self._after_command()
 
     def _peek(self, offset: int, size: int) -> bytes:
@@ -135,13 +138,19 @@ class AdlinkCard(Card):
         if self.world.mechanical:
             self.sense_world()
         self._index_pulses()
+        t0 = time.perf_counter_ns()
         self.kernel.cycle()
+        self.kernel.measure_motion(time.perf_counter_ns() - t0)
         self._ran = True
 
     def batch_done(self) -> None:
+        """The status block after a batch that ran a cycle; after cycles skipped at rest only
+        the cycle counter changed."""
         if self._ran:
             self._ran = False
             self.kernel.publish()
+        else:
+            self.kernel.publish_cycles()
 
     def nvram(self) -> dict[str, Any]:
         return {"flash": self.kernel.flash} if self.kernel.flash is not None else {}

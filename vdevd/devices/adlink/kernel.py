@@ -85,7 +85,7 @@ log = logging.getLogger(__name__)
 
 # interrupt items [M §4.11]
 ITEM_SYSTEM, ITEM_DI_RISE, ITEM_DI_FALL = 8, 9, 10
-SYS_IEMG = 1 << 0
+SYS_IEMG, SYS_IMOV, SYS_IHOV = 1 << 0, 1 << 5, 1 << 6
 # the axis factors that follow status conditions (bit numbers of M §4.11)
 _I = {"IALM": 0, "IPEL": 1, "IMEL": 2, "IORG": 3, "IEZ": 4, "IINP": 5, "IEMG": 6, "ICSTP": 8,
       "IVM": 9, "IACC": 10, "IDEC": 11, "IMDN": 12, "IASTP": 13, "ISPEL": 15, "ISMEL": 16,
@@ -275,6 +275,26 @@ class Kernel:
     def check_axis(self, a: int) -> None:
         if isinstance(a, bool) or not 0 <= a < self.n:
             raise ApsError(ERR_ParametersInvalid, f"axis {a} outside 0..{self.n - 1}")
+
+    # -- CPU load [M §4.1.2] --------------------------------------------------------------------------
+    def measure_motion(self, ns: int) -> None:
+        """A motion cycle's work took `ns` (wall): its load in 0.01 % of the cycle, the maximum,
+        and an over-cycle (system factor IMOV) when it took longer than the cycle."""
+        load = ns * 10_000 // (self.cycle_us * 1000)
+        t = self.timing
+        t[0], t[2] = load, max(t[2], load)
+        if load > 10_000:
+            t[4] += 1
+            self.sys_events |= SYS_IMOV
+
+    def measure_host(self, ns: int) -> None:
+        """A host command took `ns`: the host loop's load (of its 2 ms cycle [M §4.1.2.3])."""
+        load = ns * 10_000 // 2_000_000
+        t = self.timing
+        t[1], t[3] = load, max(t[3], load)
+        if load > 10_000:
+            t[4] += 1
+            self.sys_events |= SYS_IHOV
 
     # -- the mailbox -------------------------------------------------------------------------------
     def execute(self, seq: int, code: int, args: bytes) -> None:
@@ -550,6 +570,9 @@ class Kernel:
         mask = (1 << 24) - 1 if self.n == 8 else 0xFFFF0F
         word = self.di_raw & mask
         return word ^ mask if self.board_params.values[0x15] else word
+
+    def publish_cycles(self) -> None:
+        _U32.pack_into(self.buf, Bar.CYCLE_COUNT, self.cycles & 0xFFFFFFFF)
 
     def publish(self) -> None:
         """The status block: every axis record and the card words."""
