@@ -27,9 +27,9 @@ from typing import Any
 
 from vdevmaps.aps_defs import (
     ERR_FILE_FORMAT,
-    ERR_NoError,
     PRA_NAMES,
     PRB_NAMES,
+    ERR_NoError,
 )
 
 from vdevclient._aps_session import ApsArgError, guarded, session

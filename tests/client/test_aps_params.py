@@ -41,9 +41,8 @@ def test_initial_assigns_ids_in_order_and_reports_the_bits() -> None:
 
 
 def test_duplicate_card_ids_are_refused() -> None:
-    with pytest.raises(AssertionError):
-        with aps_session(amp("a"), amp("b"), mode=aps.INIT_MANUAL_ID):
-            pass
+    with pytest.raises(AssertionError), aps_session(amp("a"), amp("b"), mode=aps.INIT_MANUAL_ID):
+        pass
     assert aps.APS_close() == 0
 
 
