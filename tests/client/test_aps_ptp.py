@@ -335,3 +335,21 @@ def test_asyncall_gets_the_return_code(rack: vdevclient.Rack) -> None:
     wait.i32_ret = 99
     assert aps.APS_ptp(0, 0, 10.0, byref(wait)) == 0
     assert wait.i32_ret == 0
+
+
+def test_mdn_waits_for_inp_and_the_mdn_delay(rack: vdevclient.Rack) -> None:
+    """PRA_MDM_CONDI 1: MDN rises with INP; PRA_MDN_DELAY: that many cycles after (spec §2.14)."""
+    assert aps.APS_set_axis_param(0, aps.PRA_MDM_CONDI, 1) == 0
+    rack.card("amp0").control("set_inp", axis=0, active=False)
+    assert move(0, 25.0) == 0
+    step_ms(rack, 150)
+    assert "CSTP" in status(0) and "MDN" not in status(0)
+    rack.card("amp0").control("set_inp", axis=0, active=True)
+    step_ms(rack, 1)
+    assert "MDN" in status(0)
+    assert aps.APS_set_axis_param(1, aps.PRA_MDN_DELAY, 5) == 0
+    assert move(1, 25.0) == 0
+    step_ms(rack, 100 + 4)
+    assert "MDN" not in status(1)
+    step_ms(rack, 1)
+    assert "MDN" in status(1)

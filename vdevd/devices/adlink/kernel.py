@@ -229,6 +229,7 @@ class Kernel:
         #: the next step of a home or jog sequence when the axis's profile ends (True: it
         #: planned another profile)
         self.sequences: dict[int, Callable[[], bool]] = {}
+        self.mdn_due: dict[int, int] = {}  # the cycle MDN rises at (PRA_MDN_DELAY)
         self.int_main = False
         self.int_enable[:] = 0
         self.int_signal[:] = 0

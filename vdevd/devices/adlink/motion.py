@@ -48,7 +48,7 @@ QUEUE = 10  # commands in an axis's motion buffer [M §4.6.4]
 _MODE_MASK = 0xF000
 # axis parameters [spec §3.2]
 SD_DEC, SF, ACC, DEC, VS, VM, VE = 0x07, 0x20, 0x21, 0x22, 0x23, 0x24, 0x25
-PRE_DIST, POST_DIST, UNIT_FACTOR, MDM_CONDI = 0x2A, 0x2B, 0x86, 0x03
+PRE_DIST, POST_DIST, UNIT_FACTOR, MDM_CONDI, MDN_DELAY = 0x2A, 0x2B, 0x86, 0x03, 0x50
 
 
 @dataclass(slots=True)
@@ -255,7 +255,13 @@ def profile_ended(k: Kernel, a: int) -> None:
         if step is not None and step():
             return
     if k.p(MDM_CONDI)[a] and not k.inp[a] and mode != STOPPING:
-        return  # MDN waits for INP (PRA_MDM_CONDI)
+        return  # MDN waits for INP (PRA_MDM_CONDI, spec §2.14 Q10)
+    delay = int(k.p(MDN_DELAY)[a])
+    if delay and mode != STOPPING:  # and PRA_MDN_DELAY cycles after the profile's end
+        due = k.mdn_due.setdefault(a, k.cycles + delay)
+        if k.cycles < due:
+            return
+    k.mdn_due.pop(a, None)
     k.mq_usage[a] = 0
     k.seg_plan[a] = None
     k.finish(a)
