@@ -68,6 +68,7 @@ from vdevmaps.aps_defs import (
     STOP_SMEL,
     STOP_SPEL,
     STOP_SVNO,
+    ERR_FirmwareError,
     ERR_FunctionNotAvailable,
     ERR_ParametersInvalid,
 )
@@ -321,6 +322,9 @@ class Kernel:
             except (ValueError, OverflowError, struct.error) as exc:
                 log.debug("adlink: %s refused: %s", call.name, exc)
                 rc, reply = ERR_ParametersInvalid, b""
+            except Exception:  # a kernel bug: the command fails, the card and daemon go on
+                log.exception("adlink: %s failed", call.name)
+                rc, reply = ERR_FirmwareError, b""
         self.ack_seq = seq
         _ACK.pack_into(self.buf, Bar.ACK_SEQ, seq & 0xFFFFFFFF, rc, len(reply), code & 0xFFFFFFFF)
         self.buf[Bar.REPLY:Bar.REPLY + len(reply)] = reply
