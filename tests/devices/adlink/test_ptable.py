@@ -36,9 +36,12 @@ def test_an_arc_on_columns_2_and_0_of_a_3_axis_table_leaves_column_1() -> None:
 def test_a_point_blended_after_a_dwell_starts_when_the_dwell_ends() -> None:
     g = Group((0, 1), plan_stop=plan_stop)
     here = np.zeros(2)
-    assert g.submit(path.line(here, here), lambda d, v: DwellPlan(0.25), int(Transition.BUFFERED), 0.0, 0.0) == 0
-    factory = lambda d, v: plan_ptp(d, 0.0, 10.0, 0.0, 100.0, 100.0, 0.0)  # noqa: E731
-    assert g.submit(path.line(here, [1.0, 0.0]), factory, int(Transition.BLEND_RES_DIST), 5.0, 0.0) == 0
-    assert np.allclose(g.positions(0.2499), 0.0) and g.flags(0.2).moving
-    assert not g.flags(0.2).accelerating and g.queued == 1
-    assert g.queued == 1 and g.flags(0.26).accelerating and g.queued == 0
+    dwell = lambda d, v: DwellPlan(0.25)  # noqa: E731
+    move = lambda d, v: plan_ptp(d, 0.0, 10.0, 0.0, 100.0, 100.0, 0.0)  # noqa: E731
+    assert g.submit(path.line(here, here), dwell, int(Transition.BUFFERED), 0.0, 0.0) == 0
+    # a residual distance longer than the dwell's (zero) travel: still its end
+    assert g.submit(path.line(here, [1.0, 0.0]), move, int(Transition.BLEND_RES_DIST), 5.0, 0.0) == 0
+    assert np.allclose(g.positions(0.2499), 0.0)
+    flags = g.flags(0.2499)
+    assert flags.moving and not flags.accelerating and g.queued == 1
+    assert g.flags(0.26).accelerating and g.queued == 0
