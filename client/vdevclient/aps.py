@@ -15,5 +15,6 @@ from vdevmaps.aps_defs import *  # noqa: F403  (ADLINK's constants under their o
 
 from vdevclient._aps_motion import *  # noqa: F403
 from vdevclient._aps_params_file import *  # noqa: F403
+from vdevclient._aps_ptable import *  # noqa: F403
 from vdevclient._aps_system import *  # noqa: F403
 from vdevclient._aps_types import *  # noqa: F403

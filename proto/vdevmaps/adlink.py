@@ -237,6 +237,31 @@ CALLS: tuple[Call, ...] = _calls([
     # data sampling 0xA0-0xAF [M §4.9.4]
     # -- end of sampling
     # point table 0xB0-0xCF [M §4.9.6]
+    (0xB0, "pt_enable", "i i*", "", "M 4.9.6.2"),  # ptb, axes
+    (0xB1, "pt_disable", "i", "", "M 4.9.6.2"),
+    (0xB2, "pt_get_info", "i", "i i*", "X1"),  # -> dimension, axes
+    (0xB3, "pt_start", "i", "", "M 4.9.6.2"),
+    (0xB4, "pt_stop", "i", "", "M 4.9.6.2"),
+    (0xB5, "pt_set_relative", "i i", "", "M 4.9.6.1"),  # ptb, 0 absolute / 1 relative
+    (0xB6, "pt_set_profile", "i i d", "", "M 4.9.6.1"),  # ptb, PRA_VS/VM/VE/ACC/DEC/SF, value
+    (0xB7, "pt_set_acc_dec", "i d", "", "M 4.9.6.1"),
+    (0xB8, "pt_get_profile", "i i", "d", "X1"),  # ptb, PRA_* -> value
+    (0xB9, "pt_set_trans", "i i d", "", "M 4.9.6.1"),  # ptb, ITP_OPT_BUFFERED/BLEND_*, Bp
+    (0xBA, "pt_set_trans_inp", "i", "", "M 4.9.6.1"),
+    (0xBB, "pt_ext_set_do_ch", "i i i", "", "M 4.9.6.1"),  # ptb, channel, OnOff
+    (0xBC, "pt_ext_set_table_no", "i i i", "", "M 4.9.6.1"),  # ptb, CtrlNo, TableNo
+    # the pushes answer the table's PTSTS: BitSts, free, usage, RunningCnt
+    (0xBD, "pt_line", "i i d*", "i i i i", "M 4.9.6.1"),  # ptb, Dim, Pos
+    (0xBE, "pt_arc2_ca", "i i* d*", "i i i i", "M 4.9.6.1"),  # ptb, Index, Center Angle
+    (0xBF, "pt_arc2_ce", "i i* d* i", "i i i i", "M 4.9.6.1"),  # ptb, Index, Center End, Dir
+    (0xC0, "pt_arc3_ca", "i i* d*", "i i i i", "M 4.9.6.1"),  # Center Normal Angle
+    (0xC1, "pt_arc3_ce", "i i* d* i", "i i i i", "M 4.9.6.1"),  # Center End, Dir
+    (0xC2, "pt_spiral_ca", "i i* d*", "i i i i", "M 4.9.6.1"),  # Center Normal Angle DeltaH FinalR
+    (0xC3, "pt_spiral_ce", "i i* d* i", "i i i i", "M 4.9.6.1"),  # Center Normal End, Dir
+    (0xC4, "pt_dwell", "i d", "i i i i", "M 4.9.6.1"),  # ptb, DwTime ms
+    (0xC5, "reset_pt_buffer", "i", "", "X1"),
+    (0xC6, "pt_roll_back", "i d", "", "X1"),  # ptb, Max_Speed
+    (0xC7, "pt_get_error", "i", "i", "X1"),
     # -- end of point table
     # safety and watchdog 0xD0-0xDF [M §4.10]
     # -- end of safety

@@ -50,6 +50,30 @@ COMMANDS = CommandTable([
     # data sampling [M §4.9.4]
     # -- end of sampling
     # point table [M §4.9.6]
+    Command("pt_enable", "pt_enable", section="M 4.9.6.2"),
+    Command("pt_disable", "pt_disable", section="M 4.9.6.2"),
+    Command("pt_get_info", "pt_get_info", section="X1"),
+    Command("pt_start", "pt_start", section="M 4.9.6.2"),
+    Command("pt_stop", "pt_stop", section="M 4.9.6.2"),
+    Command("pt_set_relative", "pt_set_relative", section="M 4.9.6.1"),
+    Command("pt_set_profile", "pt_set_profile", section="M 4.9.6.1"),
+    Command("pt_set_acc_dec", "pt_set_acc_dec", section="M 4.9.6.1"),
+    Command("pt_get_profile", "pt_get_profile", section="X1"),
+    Command("pt_set_trans", "pt_set_trans", section="M 4.9.6.1"),
+    Command("pt_set_trans_inp", "pt_set_trans_inp", section="M 4.9.6.1"),
+    Command("pt_ext_set_do_ch", "pt_ext_set_do_ch", section="M 4.9.6.1"),
+    Command("pt_ext_set_table_no", "pt_ext_set_table_no", section="M 4.9.6.1"),
+    Command("pt_line", "pt_line", section="M 4.9.6.1"),
+    Command("pt_arc2_ca", "pt_arc2_ca", section="M 4.9.6.1"),
+    Command("pt_arc2_ce", "pt_arc2_ce", section="M 4.9.6.1"),
+    Command("pt_arc3_ca", "pt_arc3_ca", section="M 4.9.6.1"),
+    Command("pt_arc3_ce", "pt_arc3_ce", section="M 4.9.6.1"),
+    Command("pt_spiral_ca", "pt_spiral_ca", section="M 4.9.6.1"),
+    Command("pt_spiral_ce", "pt_spiral_ce", section="M 4.9.6.1"),
+    Command("pt_dwell", "pt_dwell", section="M 4.9.6.1"),
+    Command("reset_pt_buffer", "reset_pt_buffer", section="X1"),
+    Command("pt_roll_back", "pt_roll_back", section="X1"),
+    Command("pt_get_error", "pt_get_error", section="X1"),
     # -- end of point table
     # safety and watchdog [M §4.10]
     # -- end of safety

@@ -73,12 +73,13 @@ from vdevmaps.aps_defs import (
     ERR_ParametersInvalid,
 )
 
-from vdevd.devices.adlink import cmd_system, home, jog, motion, profile
+from vdevd.devices.adlink import cmd_ptable, cmd_system, home, jog, motion, profile
 from vdevd.devices.adlink import status as st
 from vdevd.devices.adlink.commands import COMMANDS
 from vdevd.devices.adlink.errors import ApsError
 from vdevd.devices.adlink.modes import HOME, IDLE, JOG, STOPPING, UNIT, VEL, Unit
 from vdevd.devices.adlink.params import AxisParams, BoardParams
+from vdevd.devices.adlink.ptable import PointTables
 from vdevd.region import Memory
 from vdevd.rt import MotionCore, PlantKind
 
@@ -126,7 +127,7 @@ class Kernel:
         # -- units: gearing
         # -- units: trigger
         # -- units: pwm/vao
-        # -- units: point table
+        self.units.append(PointTables(self))
         # -- units: safety
         # -- units: sampling
         #: the mailbox handlers by command code
@@ -141,7 +142,7 @@ class Kernel:
             # -- handlers: pwm/vao, digital I/O
             # -- handlers: interrupts
             # -- handlers: sampling
-            # -- handlers: point table
+            cmd_ptable,
             # -- handlers: safety
         )
         self.handlers: dict[int, Callable[..., Any]] = {
