@@ -329,6 +329,7 @@ class Kernel:
         self.ack_seq = seq
         _ACK.pack_into(self.buf, Bar.ACK_SEQ, seq & 0xFFFFFFFF, rc, len(reply), code & 0xFFFFFFFF)
         self.buf[Bar.REPLY:Bar.REPLY + len(reply)] = reply
+        self.logic()  # a command may change what the signals show (SVON and INP, logic, limits)
         self.publish()
 
     # -- the cycle ---------------------------------------------------------------------------------
