@@ -92,10 +92,6 @@ class Entry:
     dec: float = 0.0  # the running command's Dec and SF: the aborting transitions' stop
     sf: float = 0.0
 
-    @property
-    def waiting(self) -> bool:
-        return bool(self.pending)
-
 
 class Interpolation:
     """The kernel unit of the interpolation groups (modes.Unit)."""
