@@ -223,6 +223,22 @@ CALLS: tuple[Call, ...] = _calls([
     (0x27, "ptp_counts", "i i d d", "", "M 4.6.1"),  # axis, relative, counts, counts/s
     (0x28, "velocity_counts", "i d", "", "M 4.4"),
     # interpolation 0x30-0x4F [M §4.7]
+    # dimension, axes, option, positions, TransPara, PROFILE
+    (0x30, "line", "i i* i d* d d d d d d d", "", "M 4.7.1"),
+    # axes, option, centre, angle, TransPara, PROFILE
+    (0x31, "arc2_ca", "i* i d* d d d d d d d d", "", "M 4.7.2.2"),
+    # axes, option, centre, end, Dir, TransPara, PROFILE
+    (0x32, "arc2_ce", "i* i d* d* i d d d d d d d", "", "M 4.7.2.2"),
+    # axes, option, centre, normal, angle, TransPara, PROFILE
+    (0x33, "arc3_ca", "i* i d* d* d d d d d d d d", "", "M 4.7.2.1"),
+    # axes, option, centre, end, Dir, TransPara, PROFILE
+    (0x34, "arc3_ce", "i* i d* d* i d d d d d d d", "", "M 4.7.2.1"),
+    # axes, option, centre, normal, angle, DeltaH, FinalR, TransPara, PROFILE
+    (0x35, "spiral_ca", "i* i d* d* d d d d d d d d d d", "", "M 4.7.2.3"),
+    # axes, option, centre, normal, end, Dir, TransPara, PROFILE
+    (0x36, "spiral_ce", "i* i d* d* d* i d d d d d d d", "", "M 4.7.2.3"),
+    # dimension, axes, relative, pulses, pulses/s (APS_absolute/relative_linear_move)
+    (0x37, "linear_counts", "i i* i i* d", "", "M 4.7.1"),
     # -- end of interpolation
     # gearing and gantry 0x50-0x57 [M §4.9.1]
     # -- end of gearing

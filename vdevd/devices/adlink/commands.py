@@ -36,6 +36,14 @@ COMMANDS = CommandTable([
     Command("ptp_counts", "ptp_counts", section="M 4.6.1"),
     Command("velocity_counts", "velocity_counts", section="M 4.4"),
     # interpolation [M §4.7]
+    Command("line", "line", section="M 4.7.1"),
+    Command("arc2_ca", "arc2_ca", section="M 4.7.2.2"),
+    Command("arc2_ce", "arc2_ce", section="M 4.7.2.2"),
+    Command("arc3_ca", "arc3_ca", section="M 4.7.2.1"),
+    Command("arc3_ce", "arc3_ce", section="M 4.7.2.1"),
+    Command("spiral_ca", "spiral_ca", section="M 4.7.2.3"),
+    Command("spiral_ce", "spiral_ce", section="M 4.7.2.3"),
+    Command("linear_counts", "linear_counts", section="M 4.7.1"),
     # -- end of interpolation
     # gearing and gantry [M §4.9.1]
     # -- end of gearing

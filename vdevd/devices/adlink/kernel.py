@@ -73,10 +73,11 @@ from vdevmaps.aps_defs import (
     ERR_ParametersInvalid,
 )
 
-from vdevd.devices.adlink import cmd_ptable, cmd_system, home, jog, motion, profile
+from vdevd.devices.adlink import cmd_interp, cmd_ptable, cmd_system, home, jog, motion, profile
 from vdevd.devices.adlink import status as st
 from vdevd.devices.adlink.commands import COMMANDS
 from vdevd.devices.adlink.errors import ApsError
+from vdevd.devices.adlink.interp import Interpolation
 from vdevd.devices.adlink.modes import HOME, IDLE, JOG, STOPPING, UNIT, VEL, Unit
 from vdevd.devices.adlink.params import AxisParams, BoardParams
 from vdevd.devices.adlink.ptable import PointTables
@@ -123,7 +124,7 @@ class Kernel:
         #: the kernel's units, in the order of their cycle work (spec §2.2: trajectories,
         #: gearing, compare/PWM/VAO, sampling); each appends itself on its own line
         self.units: list[Unit] = []
-        # -- units: interpolation
+        self.units.append(Interpolation(self))
         # -- units: gearing
         # -- units: trigger
         # -- units: pwm/vao
@@ -136,7 +137,7 @@ class Kernel:
             motion,
             home,
             jog,
-            # -- handlers: interpolation
+            cmd_interp,
             # -- handlers: gearing
             # -- handlers: trigger
             # -- handlers: pwm/vao, digital I/O
