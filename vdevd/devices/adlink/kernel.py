@@ -72,7 +72,7 @@ from vdevmaps.aps_defs import (
     ERR_ParametersInvalid,
 )
 
-from vdevd.devices.adlink import cmd_system, home, jog, motion, profile
+from vdevd.devices.adlink import cmd_io, cmd_system, home, jog, motion, profile, pwm, trigger
 from vdevd.devices.adlink import status as st
 from vdevd.devices.adlink.commands import COMMANDS
 from vdevd.devices.adlink.errors import ApsError
@@ -123,8 +123,8 @@ class Kernel:
         self.units: list[Unit] = []
         # -- units: interpolation
         # -- units: gearing
-        # -- units: trigger
-        # -- units: pwm/vao
+        self.units.append(trigger.TriggerUnit(self))
+        self.units.append(pwm.PwmUnit(self))
         # -- units: point table
         # -- units: safety
         # -- units: sampling
@@ -136,8 +136,9 @@ class Kernel:
             jog,
             # -- handlers: interpolation
             # -- handlers: gearing
-            # -- handlers: trigger
-            # -- handlers: pwm/vao, digital I/O
+            trigger,
+            pwm,
+            cmd_io,
             # -- handlers: interrupts
             # -- handlers: sampling
             # -- handlers: point table
