@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from vdevmaps.aps_defs import ERR_NoError, ERR_ParametersInvalid, VAO_DATA_MAX_POINTS
+from vdevmaps.aps_defs import VAO_DATA_MAX_POINTS, ERR_NoError, ERR_ParametersInvalid
 
 from vdevclient._aps_session import as_int, board, guarded, ints, put
 from vdevclient._cargs import target
