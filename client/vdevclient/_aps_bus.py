@@ -84,11 +84,16 @@ class Board:
         size = reply_size(call.reply)
         want = ACK_BYTES + (size if size is not None else _FIRST_READ)
         card = self.card
+        head = _HEAD.pack(call.code, len(args))
+        # code and length alone are one 8-byte access, which BAR0 wants 8-aligned: two words
+        writes = ([["w", card, BAR, int(Bar.CODE), head + args]] if args else
+                  [["w", card, BAR, int(Bar.CODE), head[:4]],
+                   ["w", card, BAR, int(Bar.LENGTH), head[4:]]])
         ops: list[Any] = [
-            ["w", card, BAR, int(Bar.CODE), _HEAD.pack(call.code, len(args)) + args],
+            *writes,
             ["w", card, BAR, int(Bar.DOORBELL), _SEQ.pack(seq)],
             ["r", card, BAR, int(Bar.ACK_SEQ), want]]
-        ack = self.rack.call({"op": "batch", "ops": ops})[2]
+        ack = self.rack.call({"op": "batch", "ops": ops})[-1]
         got_seq, rc, length, _ = _ACK.unpack_from(ack)
         if got_seq != seq:
             raise RuntimeError(f"{card}: the mailbox acknowledged {got_seq}, not {seq}")
