@@ -243,10 +243,46 @@ CALLS: tuple[Call, ...] = _calls([
     # gearing and gantry 0x50-0x57 [M §4.9.1]
     # -- end of gearing
     # compare trigger and timer 0x60-0x7F [M §4.9.2]
+    (0x60, "set_trigger_param", "i i", "", "M 4.9.2"),
+    (0x61, "get_trigger_param", "i", "i", "M 4.9.2"),
+    (0x62, "set_trigger_manual", "i", "", "M 4.9.2.1"),  # TRG channels as a bit mask
+    (0x63, "set_trigger_linear", "i i i i", "", "M 4.9.2.2.1"),  # LCmpCh, start, repeat, interval
+    # TCmpCh, flags (1 first part: a new table, 2 last part: arm it), points (spec §2.16)
+    (0x64, "set_trigger_table", "i i i*", "", "M 4.9.2.2.2"),
+    (0x65, "get_trigger_linear_cmp", "i", "i", "X1"),
+    (0x66, "get_trigger_table_cmp", "i", "i", "X1"),
+    (0x67, "get_trigger_count", "i", "i", "X1"),
+    (0x68, "reset_trigger_count", "i", "", "X1"),
+    (0x69, "enable_trigger_fifo_cmp", "i i", "", "X1"),
+    (0x6A, "get_trigger_fifo_status", "i", "i", "X1"),
+    (0x6B, "set_trigger_fifo_data", "i i i*", "", "X1"),  # FCmpCh, ShiftFlag, points
+    (0x6C, "get_timer_counter", "i", "i", "M 4.9.2"),
+    (0x6D, "set_timer_counter", "i i", "", "M 4.9.2"),
+    (0x6E, "start_timer", "i i", "", "X1"),
     # -- end of trigger
     # PWM and VAO 0x80-0x8F [M §4.9.3]
+    (0x80, "set_vao_param", "i i", "", "M 4.9.3.5"),
+    (0x81, "get_vao_param", "i", "i", "M 4.9.3.5"),
+    (0x82, "set_vao_table", "i i i i*", "", "M 4.9.3.7"),  # table, MinVelocity, VelInterval, data
+    (0x83, "switch_vao_table", "i", "", "M 4.9.3.7"),
+    (0x84, "start_vao", "i i", "", "M 4.9.3.4"),  # Output_Ch bit mask (spec Q17), Enable
+    (0x85, "get_vao_status", "", "i", "X1"),
+    (0x86, "check_vao_param", "i", "i", "X1"),
+    # table, output type, input type, config, source mask, MinVelocity, VelInterval, data
+    (0x87, "set_vao_param_ex", "i i i i i i i i*", "", "X1"),
+    (0x88, "get_vao_param_ex", "i", "i i i i i i i*", "X1"),
+    (0x89, "set_pwm_frequency", "i i", "", "X5"),
+    (0x8A, "get_pwm_frequency", "i", "i", "X5"),
+    (0x8B, "set_pwm_width", "i i", "", "X5"),
+    (0x8C, "get_pwm_width", "i", "i", "X5"),
+    (0x8D, "set_pwm_on", "i i", "", "X5"),
     # -- end of PWM/VAO
     # digital I/O 0x90-0x97 (spec §2.18)
+    (0x90, "read_d_input", "i", "i", "spec 2.18"),
+    (0x91, "write_d_output", "i i", "", "spec 2.18"),
+    (0x92, "read_d_output", "i", "i", "spec 2.18"),
+    (0x93, "write_d_channel_output", "i i i", "", "spec 2.18"),
+    (0x94, "read_d_channel_output", "i i", "i", "spec 2.18"),
     # -- end of digital I/O
     # interrupts 0x98-0x9F [M §4.11]
     # -- end of interrupts

@@ -30,6 +30,7 @@ from vdevmaps.adlink import (
     Bar,
 )
 
+from vdevd.devices.adlink import cmd_io, pwm, trigger
 from vdevd.devices.adlink.kernel import Kernel
 from vdevd.devices.adlink.modes import IDLE
 from vdevd.devices.base import Card, CardContext, Option, control
@@ -275,3 +276,15 @@ class AdlinkCard(Card):
         core.slip_encoder([a], self._feedback_offset[a] - counts)
         self._feedback_offset[a] = counts
         self.kernel.publish()
+
+    @control()
+    def get_outputs(self) -> dict[str, Any]:
+        """What the card outputs (read-only): the DO word at the connector (`do`, after
+        PRB_DO_LOGIC; `do_written` as the application wrote it), the DI word, the TRG outputs
+        (`trg_count`, `trg_level`, `trg_width_ns`, `trg_last_s`), timer 0, the PWM channels
+        (on, frequency Hz, width ns, duty %) and the VAO controller [M §4.9.2-4.9.3]."""
+        k = self.kernel
+        pwm_unit = pwm.unit(k)
+        pwm_unit.refresh()
+        return ({"do": cmd_io.do_pins(k), "do_written": cmd_io.read_d_output(k, 0),
+                 "di": k.di_word()} | trigger.unit(k).outputs() | pwm_unit.outputs())

@@ -48,10 +48,44 @@ COMMANDS = CommandTable([
     # gearing and gantry [M §4.9.1]
     # -- end of gearing
     # compare trigger and timer [M §4.9.2]
+    Command("set_trigger_param", "set_trigger_param", section="M 4.9.2"),
+    Command("get_trigger_param", "get_trigger_param", section="M 4.9.2"),
+    Command("set_trigger_manual", "set_trigger_manual", section="M 4.9.2.1"),
+    Command("set_trigger_linear", "set_trigger_linear", section="M 4.9.2.2.1"),
+    Command("set_trigger_table", "set_trigger_table", section="M 4.9.2.2.2"),
+    Command("get_trigger_linear_cmp", "get_trigger_linear_cmp", section="X1"),
+    Command("get_trigger_table_cmp", "get_trigger_table_cmp", section="X1"),
+    Command("get_trigger_count", "get_trigger_count", section="X1"),
+    Command("reset_trigger_count", "reset_trigger_count", section="X1"),
+    Command("enable_trigger_fifo_cmp", "enable_trigger_fifo_cmp", section="X1"),
+    Command("get_trigger_fifo_status", "get_trigger_fifo_status", section="X1"),
+    Command("set_trigger_fifo_data", "set_trigger_fifo_data", section="X1"),
+    Command("get_timer_counter", "get_timer_counter", section="M 4.9.2"),
+    Command("set_timer_counter", "set_timer_counter", section="M 4.9.2"),
+    Command("start_timer", "start_timer", section="X1"),
     # -- end of trigger
     # PWM and VAO [M §4.9.3]
+    Command("set_vao_param", "set_vao_param", section="M 4.9.3.5"),
+    Command("get_vao_param", "get_vao_param", section="M 4.9.3.5"),
+    Command("set_vao_table", "set_vao_table", section="M 4.9.3.7"),
+    Command("switch_vao_table", "switch_vao_table", section="M 4.9.3.7"),
+    Command("start_vao", "start_vao", section="M 4.9.3.4"),
+    Command("get_vao_status", "get_vao_status", section="X1"),
+    Command("check_vao_param", "check_vao_param", section="X1"),
+    Command("set_vao_param_ex", "set_vao_param_ex", section="X1"),
+    Command("get_vao_param_ex", "get_vao_param_ex", section="X1"),
+    Command("set_pwm_frequency", "set_pwm_frequency", section="X5"),
+    Command("get_pwm_frequency", "get_pwm_frequency", section="X5"),
+    Command("set_pwm_width", "set_pwm_width", section="X5"),
+    Command("get_pwm_width", "get_pwm_width", section="X5"),
+    Command("set_pwm_on", "set_pwm_on", section="X5"),
     # -- end of PWM/VAO
     # digital I/O (spec §2.18)
+    Command("read_d_input", "read_d_input", section="spec 2.18"),
+    Command("write_d_output", "write_d_output", section="spec 2.18"),
+    Command("read_d_output", "read_d_output", section="spec 2.18"),
+    Command("write_d_channel_output", "write_d_channel_output", section="spec 2.18"),
+    Command("read_d_channel_output", "read_d_channel_output", section="spec 2.18"),
     # -- end of digital I/O
     # interrupts [M §4.11]
     # -- end of interrupts

@@ -73,7 +73,18 @@ from vdevmaps.aps_defs import (
     ERR_ParametersInvalid,
 )
 
-from vdevd.devices.adlink import cmd_interp, cmd_ptable, cmd_system, home, jog, motion, profile
+from vdevd.devices.adlink import (
+    cmd_interp,
+    cmd_io,
+    cmd_ptable,
+    cmd_system,
+    home,
+    jog,
+    motion,
+    profile,
+    pwm,
+    trigger,
+)
 from vdevd.devices.adlink import status as st
 from vdevd.devices.adlink.commands import COMMANDS
 from vdevd.devices.adlink.errors import ApsError
@@ -125,10 +136,10 @@ class Kernel:
         #: gearing, compare/PWM/VAO, sampling); each appends itself on its own line
         self.units: list[Unit] = []
         self.units.append(Interpolation(self))
-        # -- units: gearing
-        # -- units: trigger
-        # -- units: pwm/vao
         self.units.append(PointTables(self))
+        # -- units: gearing
+        self.units.append(trigger.TriggerUnit(self))
+        self.units.append(pwm.PwmUnit(self))
         # -- units: safety
         # -- units: sampling
         #: the mailbox handlers by command code
@@ -139,8 +150,9 @@ class Kernel:
             jog,
             cmd_interp,
             # -- handlers: gearing
-            # -- handlers: trigger
-            # -- handlers: pwm/vao, digital I/O
+            trigger,
+            pwm,
+            cmd_io,
             # -- handlers: interrupts
             # -- handlers: sampling
             cmd_ptable,
