@@ -121,6 +121,8 @@ class Kernel:
         #: the kernel's units, in the order of their cycle work (spec §2.2: trajectories,
         #: gearing, compare/PWM/VAO, sampling); each appends itself on its own line
         self.units: list[Unit] = []
+        self.units.append(home.Homing(self))
+        self.units.append(jog.Jogging(self))
         # -- units: interpolation
         # -- units: gearing
         # -- units: trigger
