@@ -128,10 +128,10 @@ class Jogging:
             k.finish(a)
         elif run.phase == "run":
             run.phase = "stopping"
-            dec, sf = float(k.p(PRA_JG_DEC)[a]), float(k.p(PRA_JG_SF)[a])
             if run.step:
-                self._stop_on_multiple(a, run, dec, sf)
+                self._stop_on_multiple(a, run)
             else:
+                _, _, dec, sf = self._profile(a)
                 moves.decelerate(k, a, dec, sf)
 
     # -- the moves ---------------------------------------------------------------------------------
@@ -147,18 +147,23 @@ class Jogging:
 
     def _step(self, a: int, run: _Jog, goal: float) -> None:
         vm, acc, dec, sf = self._profile(a)
+        self._target(a, goal)
         moves.go_to(self.k, a, goal, 0.0, vm, acc, dec, sf)
 
-    def _stop_on_multiple(self, a: int, run: _Jog, dec: float, sf: float) -> None:
+    def _target(self, a: int, counts: float) -> None:
+        k = self.k
+        k.target[a] = counts / k.factor(a) + float(k.cmd_off[a])
+
+    def _stop_on_multiple(self, a: int, run: _Jog) -> None:
         """Step mode's continuous run ends on a whole number of JG_OFFSET from the origin: the
         first one the deceleration can reach (spec §2.8 ASSUMPTION)."""
         k = self.k
         off = float(k.p(PRA_JG_OFFSET)[a]) * k.factor(a)
         here = float(k.core.axes.cmd_pos[a])
+        _, _, dec, sf = self._profile(a)
         reach = run.d * (here - run.origin) + moves.stop_distance(k, a, dec, sf)
         n = max(1, math.ceil(reach / off - 1e-9))
-        vm, acc, _, _ = self._profile(a)
-        moves.go_to(k, a, run.origin + run.d * n * off, 0.0, vm, acc, dec, sf)
+        self._step(a, run, run.origin + run.d * n * off)
 
     def ended(self, a: int) -> bool:
         """The axis's profile ended: a step done (wait, run on or end), or the final stop."""
@@ -197,11 +202,13 @@ class Jogging:
         for a, run in list(self.runs.items()):
             if run.phase == "wait" and k.t >= run.wait_until - 1e-9:
                 self._run(a, run)
-            if run.phase in ("run", "stopping"):
-                k.target[a] = float(k.user_cmd()[a])  # the target tracks the command [M §4.5]
 
     def after_motion(self, t: float) -> None:
-        """Nothing after the trajectories: the jog's work is before them."""
+        """The target tracks the command while the jog runs continuously [M §4.5]."""
+        k = self.k
+        for a, run in self.runs.items():
+            if run.phase == "run" or (run.phase == "stopping" and not run.step):
+                k.target[a] = float(k.user_cmd()[a])
 
     def stop_axis(self, a: int, code: int, immediate: bool) -> None:
         """EMG, ALM, a limit or a stop command ends the jog (the kernel stops the axis)."""
