@@ -52,16 +52,21 @@ def move_to(rack: vdevclient.Rack, pos: float) -> None:
     assert bit(status(), aps.MTS_MDN)
 
 
-def home(rack: vdevclient.Rack, limit_ms: int = 6000) -> int:
+def home(rack: vdevclient.Rack, limit_ms: int = 6000, every_ms: int = 10) -> int:
     """APS_home_move, then the manual's wait loop (with MDN's sense as §4.8.1 gives it, spec
-    MANUAL-DEFECT): HMV 1 and MDN 0 on every look until done. The time it took (ms)."""
+    MANUAL-DEFECT) looking every `every_ms`: HMV 1 and MDN 0 on every look until done. The time
+    it took (ms)."""
     assert aps.APS_home_move(0) == aps.ERR_NoError
+    return wait_home(rack, limit_ms, every_ms)
+
+
+def wait_home(rack: vdevclient.Rack, limit_ms: int = 6000, every_ms: int = 10) -> int:
     ms = 0
     while not bit(status(), aps.MTS_MDN):
         assert bit(status(), aps.MTS_HMV)
         assert ms < limit_ms
-        step_ms(rack, 10)
-        ms += 10
+        step_ms(rack, every_ms)
+        ms += every_ms
     return ms
 
 
@@ -104,7 +109,7 @@ def test_m43_sample_values_mode0_dir1_stop_at_the_right_edge_of_org() -> None:
                PRA_HOME_VM=1e5, PRA_HOME_VO=5e4, PRA_HOME_EZA=0, PRA_HOME_SHIFT=0,
                PRA_HOME_POS=0) as rack:
         move_to(rack, -10_000)
-        home(rack)
+        home(rack, every_ms=1)  # HMV 1, MDN 0 in every cycle, across the turn at MEL
         assert_homed()
         assert i32(aps.APS_get_encoder, 0) == 0 and i32(aps.APS_get_command_counter, 0) == 0
         assert HIGH - VO_CYCLE <= physical(rack) <= HIGH
@@ -163,7 +168,19 @@ def test_m431_el_decelerate_mode_turns_the_search_without_astp() -> None:
     back and still homes, no ASTP and no stop code (spec Q8)."""
     with stage(PRA_EL_MODE=1, PRA_SD_DEC=1e7) as rack:
         move_to(rack, 40_000)
-        home(rack)
+        home(rack, every_ms=1)
+        assert_homed()
+        assert LOW <= physical(rack) <= LOW + VO_CYCLE
+
+
+def test_m423_s_curve_home_profile_with_start_velocity() -> None:
+    """PRA_HOME_CURVE 1 (pure S-curve [M §4.2.3.2]) and PRA_HOME_VS: the same edge; the search
+    starts at VS (the first cycle's speed is VS, not a ramp from 0)."""
+    with stage(PRA_HOME_CURVE=1, PRA_HOME_VS=2e4) as rack:
+        assert aps.APS_home_move(0) == 0
+        step_ms(rack, 1)
+        assert f64(aps.APS_get_command_velocity_f, 0) >= 2e4
+        wait_home(rack)
         assert_homed()
         assert LOW <= physical(rack) <= LOW + VO_CYCLE
 
