@@ -226,6 +226,19 @@ def test_m433_single_ez_homing_stops_on_the_mark(direction: int, start: int) -> 
         assert physical(rack) == 5000
 
 
+@pytest.mark.parametrize("mode", [0, 2])
+def test_m43_homing_again_from_home_finds_the_same_place(mode: int) -> None:
+    """A second home move from the home position (on ORG, on the mark: the coordinates redefined
+    by the first) ends where the first did, on the mark (EZA in mode 0)."""
+    with stage(PRA_HOME_MODE=mode, PRA_HOME_EZA=1, PRA_HOME_POS=50) as rack:
+        rack.card("amp0").control("set_index", axis=0, period=1_000_000, phase=25_000)
+        home(rack)
+        assert_homed(50)
+        home(rack)
+        assert_homed(50)
+        assert physical(rack) == 25_000
+
+
 # -- aborts [X8 stop codes 20-23] ------------------------------------------------------------------
 
 def test_q8_no_org_between_the_limits_aborts_with_stop_no_org() -> None:
