@@ -135,6 +135,8 @@ class Kernel:
         #: the kernel's units, in the order of their cycle work (spec §2.2: trajectories,
         #: gearing, compare/PWM/VAO, sampling); each appends itself on its own line
         self.units: list[Unit] = []
+        self.units.append(home.Homing(self))
+        self.units.append(jog.Jogging(self))
         self.units.append(Interpolation(self))
         self.units.append(PointTables(self))
         # -- units: gearing
