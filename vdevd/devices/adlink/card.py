@@ -194,6 +194,7 @@ class AdlinkCard(Card):
         """PEL/MEL from the limits, ORG from the home switch, ALM from the amplifier fault (or
         set_alarm), jams and lost encoders on the motion core."""
         w, k = self.world, self.kernel
+        k.settle_conditions()  # edges against the last cycle's conditions
         k.raw_pel = w.limit_pos.copy()
         k.raw_mel = w.limit_neg.copy()
         k.raw_org = w.home.copy()
