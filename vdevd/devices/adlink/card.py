@@ -212,7 +212,7 @@ class AdlinkCard(Card):
     def _index_pulses(self) -> None:
         """EZ: on in the cycle the stage crosses an index mark (or sits on one) [M §4.3]."""
         w = self.world
-        if not w.index_period.any():
+        if not np.count_nonzero(w.index_period):
             return
         k = self.kernel
         phys = self.physical_positions()
