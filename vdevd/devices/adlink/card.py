@@ -195,6 +195,7 @@ class AdlinkCard(Card):
         """PEL/MEL from the limits, ORG from the home switch, ALM from the amplifier fault (or
         set_alarm), jams and lost encoders on the motion core."""
         w, k = self.world, self.kernel
+        k.settle_conditions()  # edges against the last cycle's conditions
         k.raw_pel = w.limit_pos.copy()
         k.raw_mel = w.limit_neg.copy()
         k.raw_org = w.home.copy()
@@ -212,7 +213,7 @@ class AdlinkCard(Card):
     def _index_pulses(self) -> None:
         """EZ: on in the cycle the stage crosses an index mark (or sits on one) [M §4.3]."""
         w = self.world
-        if not w.index_period.any():
+        if not np.count_nonzero(w.index_period):
             return
         k = self.kernel
         phys = self.physical_positions()
