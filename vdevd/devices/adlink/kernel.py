@@ -72,7 +72,7 @@ from vdevmaps.aps_defs import (
     ERR_ParametersInvalid,
 )
 
-from vdevd.devices.adlink import cmd_system, home, jog, motion, profile
+from vdevd.devices.adlink import cmd_system, home, interrupts, jog, motion, profile, sampling
 from vdevd.devices.adlink import status as st
 from vdevd.devices.adlink.commands import COMMANDS
 from vdevd.devices.adlink.errors import ApsError
@@ -91,6 +91,15 @@ _I = {"IALM": 0, "IPEL": 1, "IMEL": 2, "IORG": 3, "IEZ": 4, "IINP": 5, "IEMG": 6
       "IVM": 9, "IACC": 10, "IDEC": 11, "IMDN": 12, "IASTP": 13, "ISPEL": 15, "ISMEL": 16,
       "IPRED": 18, "IPOSTD": 19}
 
+#: the axis factors and the status bits they follow: (word 0 MSTS / 1 MIO, bit, factor bit)
+_AXIS_FACTORS = (
+    (1, MIO_ALM, _I["IALM"]), (1, MIO_PEL, _I["IPEL"]), (1, MIO_MEL, _I["IMEL"]),
+    (1, MIO_ORG, _I["IORG"]), (1, MIO_EZ, _I["IEZ"]), (1, MIO_INP, _I["IINP"]),
+    (1, MIO_EMG, _I["IEMG"]), (0, MTS_CSTP, _I["ICSTP"]), (0, MTS_VM, _I["IVM"]),
+    (0, MTS_ACC, _I["IACC"]), (0, MTS_DEC, _I["IDEC"]), (0, MTS_MDN, _I["IMDN"]),
+    (0, MTS_ASTP, _I["IASTP"]), (1, MIO_SPEL, _I["ISPEL"]), (1, MIO_SMEL, _I["ISMEL"]),
+    (0, MTS_PRED, _I["IPRED"]), (0, MTS_POSTD, _I["IPOSTD"]))
+
 _U32 = struct.Struct("<I")
 _ACK = struct.Struct("<IiII")
 
@@ -100,13 +109,15 @@ class Kernel:
 
     def __init__(self, buf: Memory, n: int, model: int, card_id: int,
                  cycle_us: int, drive: str, raise_line: Callable[[], None],
-                 inp_window: float = 1.0) -> None:
+                 inp_window: float = 1.0,
+                 clear_line: Callable[[], None] = lambda: None) -> None:
         self.buf = buf
         self.n = n
         self.model = model
         self.card_id = card_id
         self.drive = drive
         self.raise_line = raise_line
+        self.clear_line = clear_line
         self.inp_window = inp_window
         self.dt = cycle_us / 1e6
         self.cycle_us = cycle_us
@@ -127,7 +138,8 @@ class Kernel:
         # -- units: pwm/vao
         # -- units: point table
         # -- units: safety
-        # -- units: sampling
+        self.sampling = sampling.Sampling(self)
+        self.units.append(self.sampling)
         #: the mailbox handlers by command code
         bound = COMMANDS.bind(
             cmd_system,
@@ -138,8 +150,8 @@ class Kernel:
             # -- handlers: gearing
             # -- handlers: trigger
             # -- handlers: pwm/vao, digital I/O
-            # -- handlers: interrupts
-            # -- handlers: sampling
+            interrupts,
+            sampling,
             # -- handlers: point table
             # -- handlers: safety
         )
@@ -232,6 +244,7 @@ class Kernel:
         self.int_main = False
         self.int_enable[:] = 0
         self.int_signal[:] = 0
+        self.clear_line()
         self.prev_axis_cond = np.zeros(n, dtype=np.int64)
         self.prev_sys = 0
         self.prev_di = 0
@@ -304,6 +317,7 @@ class Kernel:
         _ACK.pack_into(self.buf, Bar.ACK_SEQ, seq & 0xFFFFFFFF, rc, len(reply), code & 0xFFFFFFFF)
         self.buf[Bar.REPLY:Bar.REPLY + len(reply)] = reply
         self.publish()
+        self.command_edges()
 
     # -- the cycle ---------------------------------------------------------------------------------
     def cycle(self) -> None:
@@ -496,13 +510,7 @@ class Kernel:
         self.pred |= self.pred_at <= t + 1e-12
         self.postd |= self.postd_at <= t + 1e-12
         self.status_words()
-        msts, mio = self.msts, self.mio
-        cond = ((mio & 0x7F)  # IALM..IINP, IEMG: the MIO bits 0-6 in the same places
-                | ((msts >> MTS_CSTP) & 1) << 8 | ((msts >> MTS_VM) & 1) << 9
-                | ((msts >> MTS_ACC) & 1) << 10 | ((msts >> MTS_DEC) & 1) << 11
-                | ((msts >> MTS_MDN) & 1) << 12 | ((msts >> MTS_ASTP) & 1) << 13
-                | ((mio >> MIO_SPEL) & 1) << 15 | ((mio >> MIO_SMEL) & 1) << 16
-                | ((msts >> MTS_PRED) & 1) << 18 | ((msts >> MTS_POSTD) & 1) << 19)
+        cond = self.axis_conditions()
         rising = cond & ~self.prev_axis_cond
         self.prev_axis_cond = cond
         sys_cond = SYS_IEMG if self.emg else 0
@@ -513,21 +521,42 @@ class Kernel:
         self.prev_di = di
         if not self.int_main or not (rising.any() or sys_rise or di_rise or di_fall):
             return
-        fired = False
         en = self.int_enable
-        for item, bits in enumerate(rising.tolist()):
-            hit = bits & int(en[item])
-            if hit:
-                self.int_signal[item] |= hit
-                fired = True
-        for item, bits in ((ITEM_SYSTEM, sys_rise), (ITEM_DI_RISE, di_rise),
-                           (ITEM_DI_FALL, di_fall)):
-            hit = bits & int(en[item])
-            if hit:
-                self.int_signal[item] |= hit
-                fired = True
+        hits = [(item, bits & int(en[item])) for item, bits in enumerate(rising.tolist())]
+        hits += [(item, bits & int(en[item])) for item, bits in (
+            (ITEM_SYSTEM, sys_rise), (ITEM_DI_RISE, di_rise), (ITEM_DI_FALL, di_fall))]
+        fired = [(item, hit) for item, hit in hits if hit]
         if fired:
+            for item, hit in fired:
+                self.int_signal[item] |= hit
             self.raise_line()
+
+    def axis_conditions(self) -> np.ndarray:
+        """The conditions of the axis factors (items 0-7) by factor bit [M §4.11, L3355], from
+        the status words. The MIO word orders its bits otherwise (EMG 4, EZ 5, INP 6 against
+        the factors IEZ 4, IINP 5, IEMG 6), so every bit is moved by name."""
+        msts, mio = self.msts, self.mio
+        cond = np.zeros(self.n, dtype=np.int64)
+        for word, src, factor in _AXIS_FACTORS:
+            cond |= (((mio if word else msts) >> src) & 1) << factor
+        return cond
+
+    def command_edges(self) -> None:
+        """After a mailbox command (its status words published): a condition it cleared counts
+        as low, so a rise in the next cycle (a move of one cycle: MDN 1 -> 0 -> 1) is still an
+        edge [spec §2.23]."""
+        self.prev_axis_cond &= self.axis_conditions()
+
+    def signal(self, item: int, bits: int) -> None:
+        """Set signaled flags of `item` and assert `inta` (APS_set_int, a factor's event)."""
+        self.int_signal[item] |= bits
+        self.raise_line()
+
+    def reset_signal(self, item: int, bits: int) -> None:
+        """APS_reset_int: back to non-signaled; the line drops when nothing is signaled."""
+        self.int_signal[item] &= ~bits & 0xFFFFFFFF
+        if not self.int_signal.any():
+            self.clear_line()
 
     def di_word(self) -> int:
         """The DI word after PRB_DI_LOGIC: bits 0-7 EDI, 8-23 TDI (spec §2.18)."""
