@@ -103,6 +103,13 @@ SAMP_WORDS = 9
 
 ARGS_MAX = Bar.ARGS_END - Bar.ARGS
 REPLY_MAX = Bar.REPLY_END - Bar.REPLY
+
+
+def samp_records_per_reply(channels: int) -> int:
+    """Sampling records (tick + `channels` I32) one mailbox reply carries, after an I32 status
+    and an array's count."""
+    return (REPLY_MAX - 8) // 4 // (1 + channels)
+
 AXIS_STRIDE = 0x80
 ACK_BYTES = Bar.REPLY - Bar.ACK_SEQ
 

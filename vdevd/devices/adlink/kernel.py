@@ -254,6 +254,12 @@ class Kernel:
         self.mio = np.zeros(n, dtype=np.int64)
         for u in self.units:
             u.reset()
+        # the conditions as they stand are no edges (MDN is 1 at power-up) [spec §2.23]
+        self.logic()
+        self.status_words()
+        self.prev_axis_cond = self.axis_conditions()
+        self.prev_sys = SYS_IEMG if self.emg else 0
+        self.prev_di = self.di_word()
         self.write_identity()
 
     def write_identity(self) -> None:

@@ -19,7 +19,7 @@ import struct
 from typing import TYPE_CHECKING
 
 import numpy as np
-from vdevmaps.adlink import REPLY_MAX, SAMP_RING, SAMP_WORDS, Bar, SampState
+from vdevmaps.adlink import SAMP_RING, SAMP_WORDS, Bar, SampState, samp_records_per_reply
 from vdevmaps.aps_defs import (
     MAX_SAMPL_CH,
     MIO_EZ,
@@ -100,14 +100,6 @@ _BITS = {SAMP_MSTS_ACC: (0, MTS_ACC), SAMP_MSTS_MV: (0, MTS_VM), SAMP_MSTS_DEC: 
 _STATUS = frozenset({SAMP_MIO, SAMP_MSTS, *_BITS})
 _D = struct.Struct("<d")
 _LOHI = struct.Struct("<ii")
-_MAX_WORDS = (REPLY_MAX - 8) // 4  # the reply's I32 words after a status and a count
-
-
-def max_records(channels: int) -> int:
-    """Records one mailbox reply carries (vdevmaps.adlink REPLY_MAX)."""
-    return _MAX_WORDS // (1 + channels)
-
-
 def _i32(v: float) -> int:
     """A value as the I32 the card records: rounded, wrapping at 2^32 like its counters (Q20)."""
     return (int(round(v)) + 2**31) % 2**32 - 2**31
@@ -374,7 +366,7 @@ def read_sampling(k: Kernel, first: int, count: int, channels: int) -> list[int]
     s = unit(k)
     _channels(channels)
     held = s.head - s.tail if s.state & SampState.ARMED else 0
-    if first < 0 or count < 0 or first + count > held or count > max_records(channels):
+    if first < 0 or count < 0 or first + count > held or count > samp_records_per_reply(channels):
         raise invalid(f"records {first}+{count} of {held}")
     return _rows(s, s.tail + first, count, channels)
 
@@ -388,7 +380,7 @@ def take_sampling(k: Kernel, count: int, channels: int) -> tuple[int, list[int]]
         raise invalid(f"Length {count}")
     if s.state & SampState.ARMED:
         raise busy("the ring holds a trigger capture")
-    n = min(count, s.head - s.tail, max_records(channels))
+    n = min(count, s.head - s.tail, samp_records_per_reply(channels))
     rows = _rows(s, s.tail, n, channels)
     s.tail += n
     status = int(s.state)
