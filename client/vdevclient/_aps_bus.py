@@ -34,6 +34,7 @@ from vdevmaps.aps_defs import ERR_ParametersInvalid
 from vdevclient.core import Rack
 
 _HEAD = struct.Struct("<II")  # code, length
+_PAD = bytes(4)
 _ACK = struct.Struct("<IiII")  # seq, rc, length, code
 _SEQ = struct.Struct("<I")
 _I32 = struct.Struct("<i")
@@ -85,7 +86,9 @@ class Board:
         want = ACK_BYTES + (size if size is not None else _FIRST_READ)
         card = self.card
         ops: list[Any] = [
-            ["w", card, BAR, int(Bar.CODE), _HEAD.pack(call.code, len(args)) + args],
+            # 4 bytes of padding after a command without arguments: an 8-byte write at CODE
+            # would be a single misaligned access
+            ["w", card, BAR, int(Bar.CODE), _HEAD.pack(call.code, len(args)) + (args or _PAD)],
             ["w", card, BAR, int(Bar.DOORBELL), _SEQ.pack(seq)],
             ["r", card, BAR, int(Bar.ACK_SEQ), want]]
         ack = self.rack.call({"op": "batch", "ops": ops})[2]

@@ -108,9 +108,10 @@ def _i32(v: float) -> int:
 class Sampling:
     """The sampling unit of one card (a kernel unit, kernel.py)."""
 
-    def __init__(self, k: Kernel) -> None:
+    def __init__(self, k: Kernel, size: int = SAMP_RING) -> None:
         self.k = k
-        self.ring = np.zeros((SAMP_RING, SAMP_WORDS), dtype=np.int32)
+        self.size = size  # records the ring holds
+        self.ring = np.zeros((size, SAMP_WORDS), dtype=np.int32)
         self.reset()
 
     def reset(self) -> None:
@@ -142,8 +143,8 @@ class Sampling:
         values = self.record()
         if self.state & SampState.AUTO:
             self.head += 1
-            if self.head - self.tail > SAMP_RING:
-                self.tail = self.head - SAMP_RING
+            if self.head - self.tail > self.size:
+                self.tail = self.head - self.size
                 self.state |= SampState.LOST
             return
         now = values[self.trig_ch]
@@ -170,7 +171,7 @@ class Sampling:
         k = self.k
         if any(src in _STATUS for src, _ in self.sources):
             k.status_words()  # this cycle's, not the last one's (the kernel's events() follow)
-        row = self.ring[self.head % SAMP_RING]
+        row = self.ring[self.head % self.size]
         row[0] = _i32(k.cycles)
         values: list[float] = [0.0] * MAX_SAMPL_CH
         ch = 0
@@ -315,8 +316,8 @@ def start_trigger_sampling(k: Kernel, length: int, pre: int) -> None:
     s = unit(k)
     if s.busy():
         raise busy("sampling runs")
-    if not 1 <= length <= SAMP_RING:
-        raise invalid(f"Length {length} outside 1..{SAMP_RING}")
+    if not 1 <= length <= s.size:
+        raise invalid(f"Length {length} outside 1..{s.size}")
     if not 0 <= pre < length:
         raise invalid(f"PreTrgLen {pre} outside 0..Length-1")
     s.head = s.tail = s.since = s.seen = 0
@@ -351,7 +352,7 @@ def auto_sampling(k: Kernel, start: int) -> None:
 
 
 def _rows(s: Sampling, first: int, count: int, channels: int) -> list[int]:
-    idx = (np.arange(first, first + count) % SAMP_RING)
+    idx = np.arange(first, first + count) % s.size
     return s.ring[idx, :1 + channels].ravel().tolist()
 
 
@@ -360,7 +361,7 @@ def _channels(channels: int) -> None:
         raise invalid(f"records of {channels} channels (4CH or 8CH)")
 
 
-def read_sampling(k: Kernel, first: int, count: int, channels: int) -> list[int]:
+def read_sampling(k: Kernel, first: int, count: int, channels: int) -> tuple[list[int]]:
     """Records first..first+count-1 of the capture (tick, data[channels] each), as many as one
     reply carries; the capture keeps them."""
     s = unit(k)
@@ -368,7 +369,7 @@ def read_sampling(k: Kernel, first: int, count: int, channels: int) -> list[int]
     held = s.head - s.tail if s.state & SampState.ARMED else 0
     if first < 0 or count < 0 or first + count > held or count > samp_records_per_reply(channels):
         raise invalid(f"records {first}+{count} of {held}")
-    return _rows(s, s.tail + first, count, channels)
+    return (_rows(s, s.tail + first, count, channels),)  # the reply's one field
 
 
 def take_sampling(k: Kernel, count: int, channels: int) -> tuple[int, list[int]]:
