@@ -140,6 +140,11 @@ class Sampling:
         self.since += 1
         if self.since % self.rate:
             return
+        self.sample()
+        self.publish()  # at once: the host's wait on Bar.SAMP_STATUS sees this very cycle
+
+    def sample(self) -> None:
+        """Take one record: into the auto ring, or the capture's pre-trigger or post part."""
         values = self.record()
         if self.state & SampState.AUTO:
             self.head += 1
