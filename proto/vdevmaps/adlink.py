@@ -67,6 +67,8 @@ class Bar(enum.IntEnum):
     INT_ENABLE = 0x060  # U32 x 11: the factors enabled per item
     INT_SIGNAL = 0x090  # U32 x 11: the factors signaled per item (until APS_reset_int)
     PT_STATUS = 0x0C0  # 2 x 16: PTSTS {U16 BitSts, Free, Usage, pad; U32 RunningCnt} + U32
+    SAMP_STATUS = 0x0F0  # U32 the sampling state (SampState bits)
+    SAMP_COUNT = 0x0F4  # U32 records held: of the capture, or not yet read in auto sampling
     # the mailbox
     DOORBELL = 0x100  # U32 (hook): the host writes its sequence number; the kernel runs the command
     CODE = 0x108  # U32 the command's code (CODE and LENGTH: one aligned 8-byte field)
@@ -83,8 +85,31 @@ class Bar(enum.IntEnum):
     AXIS_END = 0x2400
 
 
+class SampState(enum.IntFlag):
+    """Bits of Bar.SAMP_STATUS (vdevd's; spec §2.19, Q28)."""
+
+    ARMED = 0x01  # a trigger capture runs (APS_wait_trigger_sampling)
+    TRIGGERED = 0x02  # its trigger came
+    DONE = 0x04  # it holds its Length records
+    AUTO = 0x08  # APS_auto_sampling runs
+    LOST = 0x10  # auto sampling overwrote records not yet read (the ring is full)
+
+
+#: records the card's sampling ring holds (a capture's Length at most)
+SAMP_RING = 65536
+#: I32 words of one record: tick + 8 channels
+SAMP_WORDS = 9
+
+
 ARGS_MAX = Bar.ARGS_END - Bar.ARGS
 REPLY_MAX = Bar.REPLY_END - Bar.REPLY
+
+
+def samp_records_per_reply(channels: int) -> int:
+    """Sampling records (tick + `channels` I32) one mailbox reply carries, after an I32 status
+    and an array's count."""
+    return (REPLY_MAX - 8) // 4 // (1 + channels)
+
 AXIS_STRIDE = 0x80
 ACK_BYTES = Bar.REPLY - Bar.ACK_SEQ
 
@@ -285,8 +310,22 @@ CALLS: tuple[Call, ...] = _calls([
     (0x94, "read_d_channel_output", "i i", "i", "spec 2.18"),
     # -- end of digital I/O
     # interrupts 0x98-0x9F [M §4.11]
+    (0x98, "int_enable", "i", "", "M 4.11"),  # main switch
+    (0x99, "set_int_factor", "i i i", "", "M 4.11"),  # item, factor, enable
+    (0x9A, "get_int_factor", "i i", "i", "M 4.11"),
+    (0x9B, "reset_int", "i i", "", "M 4.11"),  # item, factor
+    (0x9C, "set_int", "i i", "", "M 4.11"),
     # -- end of interrupts
     # data sampling 0xA0-0xAF [M §4.9.4]
+    (0xA0, "set_sampling_param", "i i", "", "M 4.9.4"),  # ParaNum, ParaDat
+    (0xA1, "get_sampling_param", "i", "i", "M 4.9.4"),
+    (0xA2, "set_sampling_param_ex", "i i i i i*", "", "X3"),  # rate, edge, level, trigCh, 8x2
+    (0xA3, "get_sampling_param_ex", "", "i i i i i*", "X3"),
+    (0xA4, "start_trigger_sampling", "i i", "", "X1"),  # Length, PreTrgLen
+    (0xA5, "stop_sampling", "", "", "X1"),
+    (0xA6, "auto_sampling", "i", "", "X1"),  # StartStop
+    (0xA7, "read_sampling", "i i i", "i*", "X1"),  # first record, count, channels: records
+    (0xA8, "take_sampling", "i i", "i i*", "X1"),  # count, channels: status, records
     # -- end of sampling
     # point table 0xB0-0xCF [M §4.9.6]
     (0xB0, "pt_enable", "i i*", "", "M 4.9.6.2"),  # ptb, axes

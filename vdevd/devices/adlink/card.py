@@ -86,7 +86,8 @@ class AdlinkCard(Card):
             class_code=PCI_CLASS_CODE, subsystem_vendor=PCI_VENDOR_ID, subsystem=opts.card_id,
             bars=(PciBar(BAR_SIZE),)), self.inta)
         self.kernel = Kernel(self.bar.buf, n, model_code, opts.card_id, opts.cycle_us,
-                             opts.drive, self.inta.trigger, inp_window=opts.inp_window)
+                             opts.drive, self.inta.trigger, inp_window=opts.inp_window,
+                             clear_line=self.inta.clear)
         store = ctx.nvram
         self._writer = NvramWriter(store, name) if store is not None else None
         saved = store.load(name) if store is not None else None

@@ -88,8 +88,22 @@ COMMANDS = CommandTable([
     Command("read_d_channel_output", "read_d_channel_output", section="spec 2.18"),
     # -- end of digital I/O
     # interrupts [M §4.11]
+    Command("int_enable", "int_enable", section="M 4.11"),
+    Command("set_int_factor", "set_int_factor", section="M 4.11"),
+    Command("get_int_factor", "get_int_factor", section="M 4.11"),
+    Command("reset_int", "reset_int", section="M 4.11"),
+    Command("set_int", "set_int", section="M 4.11"),
     # -- end of interrupts
     # data sampling [M §4.9.4]
+    Command("set_sampling_param", "set_sampling_param", section="M 4.9.4"),
+    Command("get_sampling_param", "get_sampling_param", section="M 4.9.4"),
+    Command("set_sampling_param_ex", "set_sampling_param_ex", section="X3"),
+    Command("get_sampling_param_ex", "get_sampling_param_ex", section="X3"),
+    Command("start_trigger_sampling", "start_trigger_sampling", section="X1"),
+    Command("stop_sampling", "stop_sampling", section="X1"),
+    Command("auto_sampling", "auto_sampling", section="X1"),
+    Command("read_sampling", "read_sampling", section="X1"),
+    Command("take_sampling", "take_sampling", section="X1"),
     # -- end of sampling
     # point table [M §4.9.6]
     Command("pt_enable", "pt_enable", section="M 4.9.6.2"),

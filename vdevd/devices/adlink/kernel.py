@@ -79,10 +79,12 @@ from vdevd.devices.adlink import (
     cmd_ptable,
     cmd_system,
     home,
+    interrupts,
     jog,
     motion,
     profile,
     pwm,
+    sampling,
     trigger,
 )
 from vdevd.devices.adlink import status as st
@@ -105,6 +107,15 @@ _I = {"IALM": 0, "IPEL": 1, "IMEL": 2, "IORG": 3, "IEZ": 4, "IINP": 5, "IEMG": 6
       "IVM": 9, "IACC": 10, "IDEC": 11, "IMDN": 12, "IASTP": 13, "ISPEL": 15, "ISMEL": 16,
       "IPRED": 18, "IPOSTD": 19}
 
+#: the axis factors and the status bits they follow: (word 0 MSTS / 1 MIO, bit, factor bit)
+_AXIS_FACTORS = (
+    (1, MIO_ALM, _I["IALM"]), (1, MIO_PEL, _I["IPEL"]), (1, MIO_MEL, _I["IMEL"]),
+    (1, MIO_ORG, _I["IORG"]), (1, MIO_EZ, _I["IEZ"]), (1, MIO_INP, _I["IINP"]),
+    (1, MIO_EMG, _I["IEMG"]), (0, MTS_CSTP, _I["ICSTP"]), (0, MTS_VM, _I["IVM"]),
+    (0, MTS_ACC, _I["IACC"]), (0, MTS_DEC, _I["IDEC"]), (0, MTS_MDN, _I["IMDN"]),
+    (0, MTS_ASTP, _I["IASTP"]), (1, MIO_SPEL, _I["ISPEL"]), (1, MIO_SMEL, _I["ISMEL"]),
+    (0, MTS_PRED, _I["IPRED"]), (0, MTS_POSTD, _I["IPOSTD"]))
+
 _U32 = struct.Struct("<I")
 _ACK = struct.Struct("<IiII")
 
@@ -114,11 +125,10 @@ _ROWS = ((MTS_CSTP, None), (MTS_VM, None), (MTS_ACC, None), (MTS_DEC, None), (MT
          (MTS_ASTP, None), (MTS_BLD, None), (MTS_PRED, None), (MTS_POSTD, None), (MTS_GER, None),
          (None, MIO_ALM), (None, MIO_PEL), (None, MIO_MEL), (None, MIO_ORG), (None, MIO_EMG),
          (None, MIO_EZ), (None, MIO_INP), (None, MIO_SVON), (None, MIO_SPEL), (None, MIO_SMEL))
-#: the interrupt condition bits [M §4.11] of the MSTS and MIO bits that raise them: IALM..IINP
-#: and IEMG are the MIO bits 0-6 in the same places
-_COND_OF_MSTS = {MTS_CSTP: 8, MTS_VM: 9, MTS_ACC: 10, MTS_DEC: 11, MTS_MDN: 12, MTS_ASTP: 13,
-                 MTS_PRED: 18, MTS_POSTD: 19}
-_COND_OF_MIO = {**{b: b for b in range(7)}, MIO_SPEL: 15, MIO_SMEL: 16}
+#: the interrupt condition bits [M §4.11] of the MSTS and MIO bits that raise them (the MIO
+#: word orders EMG 4, EZ 5, INP 6 where the factors are IEZ 4, IINP 5, IEMG 6: by name)
+_COND_OF_MSTS = {src: factor for word, src, factor in _AXIS_FACTORS if not word}
+_COND_OF_MIO = {src: factor for word, src, factor in _AXIS_FACTORS if word}
 
 
 def _weights() -> np.ndarray:
@@ -144,13 +154,15 @@ class Kernel:
 
     def __init__(self, buf: Memory, n: int, model: int, card_id: int,
                  cycle_us: int, drive: str, raise_line: Callable[[], None],
-                 inp_window: float = 1.0) -> None:
+                 inp_window: float = 1.0,
+                 clear_line: Callable[[], None] = lambda: None) -> None:
         self.buf = buf
         self.n = n
         self.model = model
         self.card_id = card_id
         self.drive = drive
         self.raise_line = raise_line
+        self.clear_line = clear_line
         self.inp_window = inp_window
         self.dt = cycle_us / 1e6
         self.cycle_us = cycle_us
@@ -175,7 +187,8 @@ class Kernel:
         self.units.append(trigger.TriggerUnit(self))
         self.units.append(pwm.PwmUnit(self))
         # -- units: safety
-        # -- units: sampling
+        self.sampling = sampling.Sampling(self)
+        self.units.append(self.sampling)
         #: the mailbox handlers by command code
         bound = COMMANDS.bind(
             cmd_system,
@@ -187,8 +200,8 @@ class Kernel:
             trigger,
             pwm,
             cmd_io,
-            # -- handlers: interrupts
-            # -- handlers: sampling
+            interrupts,
+            sampling,
             cmd_ptable,
             # -- handlers: safety
         )
@@ -282,6 +295,7 @@ class Kernel:
         self.int_main = False
         self.int_enable[:] = 0
         self.int_signal[:] = 0
+        self.clear_line()
         self.prev_axis_cond = np.zeros(n, dtype=np.int64)
         self.prev_sys = 0
         self.prev_di = 0
@@ -294,6 +308,12 @@ class Kernel:
         self._true, self._false = np.ones(n, dtype=bool), np.zeros(n, dtype=bool)
         for u in self.units:
             u.reset()
+        # the conditions as they stand are no edges (MDN is 1 at power-up) [spec §2.23]
+        self.logic()
+        self.status_words()
+        self.prev_axis_cond = self.axis_conditions()
+        self.prev_sys = SYS_IEMG if self.emg else 0
+        self.prev_di = self.di_word()
         self.write_identity()
 
     def write_identity(self) -> None:
@@ -382,6 +402,7 @@ class Kernel:
         self.buf[Bar.REPLY:Bar.REPLY + len(reply)] = reply
         self.logic()  # a command may change what the signals show (SVON and INP, logic, limits)
         self.publish()
+        self.command_edges()
 
     # -- the cycle ---------------------------------------------------------------------------------
     def cycle(self) -> None:
@@ -634,21 +655,37 @@ class Kernel:
         self.prev_axis_cond = cond
         if not (np.count_nonzero(rising) or sys_rise or di_rise or di_fall):
             return
-        fired = False
         en = self.int_enable
-        for item, bits in enumerate(rising.tolist()):
-            hit = bits & int(en[item])
-            if hit:
-                self.int_signal[item] |= hit
-                fired = True
-        for item, bits in ((ITEM_SYSTEM, sys_rise), (ITEM_DI_RISE, di_rise),
-                           (ITEM_DI_FALL, di_fall)):
-            hit = bits & int(en[item])
-            if hit:
-                self.int_signal[item] |= hit
-                fired = True
+        hits = [(item, bits & int(en[item])) for item, bits in enumerate(rising.tolist())]
+        hits += [(item, bits & int(en[item])) for item, bits in (
+            (ITEM_SYSTEM, sys_rise), (ITEM_DI_RISE, di_rise), (ITEM_DI_FALL, di_fall))]
+        fired = [(item, hit) for item, hit in hits if hit]
         if fired:
+            for item, hit in fired:
+                self.int_signal[item] |= hit
             self.raise_line()
+
+    def axis_conditions(self) -> np.ndarray:
+        """The conditions of the axis factors (items 0-7) by factor bit [M §4.11, L3355], as
+        `status_words` left them."""
+        return self.axis_cond
+
+    def command_edges(self) -> None:
+        """After a mailbox command (its status words published): a condition it cleared counts
+        as low, so a rise in the next cycle (a move of one cycle: MDN 1 -> 0 -> 1) is still an
+        edge [spec §2.23]."""
+        self.prev_axis_cond &= self.axis_conditions()
+
+    def signal(self, item: int, bits: int) -> None:
+        """Set signaled flags of `item` and assert `inta` (APS_set_int, a factor's event)."""
+        self.int_signal[item] |= bits
+        self.raise_line()
+
+    def reset_signal(self, item: int, bits: int) -> None:
+        """APS_reset_int: back to non-signaled; the line drops when nothing is signaled."""
+        self.int_signal[item] &= ~bits & 0xFFFFFFFF
+        if not self.int_signal.any():
+            self.clear_line()
 
     def di_word(self) -> int:
         """The DI word after PRB_DI_LOGIC: bits 0-7 EDI, 8-23 TDI (spec §2.18)."""
