@@ -80,7 +80,9 @@ def reference(k: Kernel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     mio = (bit(k.alm, MIO_ALM) | bit(k.pel, MIO_PEL) | bit(k.mel, MIO_MEL) | bit(k.org, MIO_ORG)
            | bit(np.full(k.n, k.emg), MIO_EMG) | bit(k.ez, MIO_EZ) | bit(k.inp, MIO_INP)
            | bit(k.svon, MIO_SVON) | bit(k.spel, MIO_SPEL) | bit(k.smel, MIO_SMEL))
-    cond = ((mio & 0x7F)
+    # the factors of M §4.11 (L3355): IALM 0, IPEL 1, IMEL 2, IORG 3, IEZ 4, IINP 5, IEMG 6
+    cond = (bit(k.alm, 0) | bit(k.pel, 1) | bit(k.mel, 2) | bit(k.org, 3) | bit(k.ez, 4)
+            | bit(k.inp, 5) | bit(np.full(k.n, k.emg), 6)
             | ((msts >> MTS_CSTP) & 1) << 8 | ((msts >> MTS_VM) & 1) << 9
             | ((msts >> MTS_ACC) & 1) << 10 | ((msts >> MTS_DEC) & 1) << 11
             | ((msts >> MTS_MDN) & 1) << 12 | ((msts >> MTS_ASTP) & 1) << 13
