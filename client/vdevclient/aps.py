@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from vdevmaps.aps_defs import *  # noqa: F403  (ADLINK's constants under their own names)
 
+from vdevclient._aps_gear import *  # noqa: F403
 from vdevclient._aps_motion import *  # noqa: F403
 from vdevclient._aps_system import *  # noqa: F403
 from vdevclient._aps_types import *  # noqa: F403
+from vdevclient._aps_wdt import *  # noqa: F403

@@ -223,6 +223,7 @@ CALLS: tuple[Call, ...] = _calls([
     # interpolation 0x30-0x4F [M §4.7]
     # -- end of interpolation
     # gearing and gantry 0x50-0x57 [M §4.9.1]
+    (0x50, "start_gear", "i i", "", "M 4.9.1"),  # slave, mode 0 off / 1 standard / 2 gantry
     # -- end of gearing
     # compare trigger and timer 0x60-0x7F [M §4.9.2]
     # -- end of trigger
@@ -237,6 +238,12 @@ CALLS: tuple[Call, ...] = _calls([
     # point table 0xB0-0xCF [M §4.9.6]
     # -- end of point table
     # safety and watchdog 0xD0-0xDF [M §4.10]
+    (0xD0, "wdt_start", "i i", "", "M 4.10.2.3"),  # timer, timeout ms
+    (0xD1, "wdt_get_timeout_period", "i", "i", "M 4.10.2.3"),
+    (0xD2, "wdt_reset_counter", "i", "", "M 4.10.2.3"),
+    (0xD3, "wdt_get_counter", "i", "i", "X1"),
+    (0xD4, "wdt_set_action_event", "i i", "", "M 4.10.2.3"),
+    (0xD5, "wdt_get_action_event", "i", "i", "M 4.10.2.3"),
     # -- end of safety
 ])
 
