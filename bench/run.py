@@ -1,6 +1,7 @@
 """`make bench`: the figures of the issues' "Done when", each against a baseline of the same run.
 
-    python bench/run.py [--quick] [--only rtt,lockstep,...,shm,overload,rt-cpu,rt-behind,rack,mx4]
+    python bench/run.py [--quick] [--only rtt,lockstep,...,shm,overload,rt-cpu,rt-behind,rack,mx4,
+                        aps]
                         [--pin split|same|none] [--json [FILE]]
 
 1. rtt       4-byte register read through vdevclient vs a raw pyzmq REQ/REP round trip
@@ -30,6 +31,10 @@
 12. mx4      mx4.AXMOVE(h, ...) on a lockstep Mx4 Octavia vs a raw pyzmq REQ/REP round trip
              (p50 <= 2.5x), and the lockstep speed of the 8-axis Octavia with every axis moving
              at its 200 us sample (>= 20x real time), bench/mx4.py
+13. aps      vdevclient.aps APS_get_position_f(0, &pos) (p50 <= 1.5x) and APS_ptp(0, OPT_RELATIVE,
+             ...) (p50 <= 2.5x) on a lockstep ADLINK AMP-208C vs a raw pyzmq REQ/REP round trip,
+             and the lockstep speed of the 8-axis card with every axis in a velocity move at its
+             1 ms cycle (>= 50x real time), bench/aps.py
 
 The defaults are the issue's (realtime, rt-cpu and rt-behind run 60 s each; the whole takes
 ~6 min); `--quick` shortens everything for a smoke run (~1 min). Placement (default split:
@@ -52,6 +57,7 @@ if __package__ in (None, ""):  # run as a script: python bench/run.py
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench import (  # noqa: E402
+    aps,
     default_rack,
     galil,
     lockstep,
@@ -67,7 +73,7 @@ from bench import (  # noqa: E402
 from bench.common import install_signal_handlers, machine_facts, table, verdict, write_json  # noqa: E402
 
 FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac", "shm", "overload", "rt-cpu",
-           "rt-behind", "rack", "mx4")
+           "rt-behind", "rack", "mx4", "aps")
 
 
 def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]], dict[str, Any],
@@ -102,6 +108,9 @@ def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]]
         "mx4": (mx4.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
                           "warmup": 300 if q else 1000, "seconds": 2.0 if q else 5.0,
                           "speed_repeats": 2 if q else 3, "pin": a.pin}, mx4.report),
+        "aps": (aps.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
+                          "warmup": 300 if q else 1000, "seconds": 2.0 if q else 5.0,
+                          "speed_repeats": 2 if q else 3, "pin": a.pin}, aps.report),
     }
 
 
@@ -210,6 +219,29 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
             rows.append(["mx4 lockstep (8 axes moving)", f">= {mx4.GOAL_SPEED:.0f}x real time",
                          f"{moving['median']:.1f}x", f"idle {idle:.1f}x, {moving['us_per_sample']:.1f} us "
                          "per sample", verdict(speed["pass"])])
+        elif name == "aps":
+            rows.extend(aps_rows(r))
+    return rows
+
+
+def aps_rows(r: dict[str, Any]) -> list[list[Any]]:
+    """The ADLINK figure's summary rows: the two calls against raw REQ/REP, the lockstep speed."""
+    rtt_r, speed = r["rtt"], r["speed"]
+    raw = rtt_r["series"][rtt.RAW]
+    rows: list[list[Any]] = []
+    for series, goal in aps.GOALS.items():
+        ratio = rtt_r["ratios"][series]["p50"]
+        trips = rtt_r["round_trips"][series]["max"]
+        how = ", shared memory" if series == aps.POSITION and rtt_r["position_mapped"] else ""
+        label = "aps APS_get_position_f p50" if series == aps.POSITION else "aps APS_ptp p50"
+        rows.append([label, f"<= {goal}x raw", f"{rtt_r['series'][series]['p50']:.1f} us",
+                     f"raw {raw['p50']:.0f} us -> {ratio:.2f}x, {trips} round trip(s){how}",
+                     verdict(ratio <= goal)])
+    moving = speed["series"][aps.MOVING]
+    idle = speed["series"][aps.IDLE]["median"]
+    rows.append(["aps lockstep (8 axes moving)", f">= {aps.GOAL_SPEED:.0f}x real time",
+                 f"{moving['median']:.1f}x", f"idle {idle:.0f}x, {moving['us_per_cycle']:.1f} us "
+                 "per cycle", verdict(speed["pass"])])
     return rows
 
 

@@ -302,10 +302,49 @@ def octavia_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> N
     rec.add(rack.card("octavia0").control("axis_state", axis=3))
 
 
+def adlink_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
+    """APS calls: servo on, T- and S-curve moves, a buffered queue, a velocity move and its
+    stop, the status block after steps of odd lengths, an index mark crossed, a limit set at a
+    scheduled time."""
+    from vdevclient import aps
+
+    bits = ctypes.c_int32()
+    assert aps.APS_initial(ctypes.byref(bits), 0, endpoint=d.endpoint) == 0
+    bar = rack.card("adlink0").region("bar0")
+    try:
+        def state() -> None:
+            rec.add([bar.read(0, 0x100), bar.read(0x2000, 0x400)])
+
+        for a in range(8):
+            rec.add(aps.APS_set_servo_on(a, 1))
+        rec.add(aps.APS_ptp_all(0, 0, 20_000.0, 0, 5000, 0, 1e5, 1e5, 0, None))
+        rec.add(aps.APS_ptp_all(1, 0, -7_000.0, 100, 3000, 0, 5e4, 2e5, 0.7, None))
+        rec.add(aps.APS_ptp(2, aps.PTP_OPT_BUFFERED, 300.0, None))
+        rec.add(aps.APS_ptp(2, aps.PTP_OPT_BLEND_HIGH, 900.0, None))
+        for ns in (3 * MS + 17, 400 * MS, 2 * S + 123_457, 7, 3 * S):
+            rack.sim.step(ns=ns)
+            state()
+        rack.control("adlink0", "set_index", axis=3, period=4096, phase=10)
+        rec.add(aps.APS_vel(3, 0, 20_000.0, None))
+        rack.control("adlink0", "set_limit", after_ns=700 * MS, axis=3, side="positive")
+        rack.sim.step(seconds=1.1)
+        state()
+        rack.control("adlink0", "set_limit", axis=3, side="positive", active=False)
+        rec.add(aps.APS_vel(3, 0, -5_000.0, None))
+        rack.sim.step(seconds=0.5)
+        rec.add(aps.APS_stop_move(3))
+        rack.sim.step(seconds=2.5)
+        state()
+        rack.sim.step(ns=S + 13)
+        state()
+    finally:
+        aps.APS_close()
+
+
 @pytest.mark.parametrize(("scenario", "card"), [
     (generic_scenario, "servo0"), (galil_scenario, "galil0"), (maxk_scenario, "maxk0"),
-    (pmac_scenario, "pmac0"), (octavia_scenario, "octavia0")],
-    ids=["generic", "galil", "maxk", "pmac", "octavia"])
+    (pmac_scenario, "pmac0"), (octavia_scenario, "octavia0"), (adlink_scenario, "adlink0")],
+    ids=["generic", "galil", "maxk", "pmac", "octavia", "adlink"])
 def test_skipping_quiet_ticks_changes_no_reply(scenario: Callable[..., None], card: str,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
     both_ways(scenario, card, monkeypatch)

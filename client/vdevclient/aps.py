@@ -13,8 +13,14 @@ from __future__ import annotations
 
 from vdevmaps.aps_defs import *  # noqa: F403  (ADLINK's constants under their own names)
 
+from vdevclient._aps_dio import *  # noqa: F403
 from vdevclient._aps_gear import *  # noqa: F403
+from vdevclient._aps_interp import *  # noqa: F403
 from vdevclient._aps_motion import *  # noqa: F403
+from vdevclient._aps_params_file import *  # noqa: F403
+from vdevclient._aps_ptable import *  # noqa: F403
+from vdevclient._aps_pwm import *  # noqa: F403
 from vdevclient._aps_system import *  # noqa: F403
+from vdevclient._aps_trigger import *  # noqa: F403
 from vdevclient._aps_types import *  # noqa: F403
 from vdevclient._aps_wdt import *  # noqa: F403

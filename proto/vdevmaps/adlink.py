@@ -69,9 +69,9 @@ class Bar(enum.IntEnum):
     PT_STATUS = 0x0C0  # 2 x 16: PTSTS {U16 BitSts, Free, Usage, pad; U32 RunningCnt} + U32
     # the mailbox
     DOORBELL = 0x100  # U32 (hook): the host writes its sequence number; the kernel runs the command
-    CODE = 0x104  # U32 the command's code
-    LENGTH = 0x108  # U32 the argument bytes
-    ARGS = 0x10C  # the arguments, up to ARGS_END
+    CODE = 0x108  # U32 the command's code (CODE and LENGTH: one aligned 8-byte field)
+    LENGTH = 0x10C  # U32 the argument bytes
+    ARGS = 0x110  # the arguments, up to ARGS_END
     ARGS_END = 0x1000
     ACK_SEQ = 0x1000  # U32 the sequence number of the last command run
     ACK_RC = 0x1004  # I32 its return code
@@ -206,6 +206,8 @@ CALLS: tuple[Call, ...] = _calls([
     (0x0A, "load_parameter_from_default", "", "", "X1"),
     (0x0B, "get_timing", "i", "i", "M 4.1.2"),
     (0x0C, "reset_timing", "i", "", "M 4.1.2"),
+    (0x0D, "get_axis_param_table", "i", "i* d*", "X1 APS_save_param_to_file"),
+    (0x0E, "get_board_param_table", "", "i* d*", "X1 APS_save_param_to_file"),
     # position, counters, servo [M §4.2.1, §4.1.1.4]
     (0x10, "set_servo_on", "i i", "", "M 4.1.1.4"),
     (0x11, "set_command_f", "i d", "", "M 4.2.1"),
@@ -221,21 +223,98 @@ CALLS: tuple[Call, ...] = _calls([
     (0x27, "ptp_counts", "i i d d", "", "M 4.6.1"),  # axis, relative, counts, counts/s
     (0x28, "velocity_counts", "i d", "", "M 4.4"),
     # interpolation 0x30-0x4F [M §4.7]
+    # dimension, axes, option, positions, TransPara, PROFILE
+    (0x30, "line", "i i* i d* d d d d d d d", "", "M 4.7.1"),
+    # axes, option, centre, angle, TransPara, PROFILE
+    (0x31, "arc2_ca", "i* i d* d d d d d d d d", "", "M 4.7.2.2"),
+    # axes, option, centre, end, Dir, TransPara, PROFILE
+    (0x32, "arc2_ce", "i* i d* d* i d d d d d d d", "", "M 4.7.2.2"),
+    # axes, option, centre, normal, angle, TransPara, PROFILE
+    (0x33, "arc3_ca", "i* i d* d* d d d d d d d d", "", "M 4.7.2.1"),
+    # axes, option, centre, end, Dir, TransPara, PROFILE
+    (0x34, "arc3_ce", "i* i d* d* i d d d d d d d", "", "M 4.7.2.1"),
+    # axes, option, centre, normal, angle, DeltaH, FinalR, TransPara, PROFILE
+    (0x35, "spiral_ca", "i* i d* d* d d d d d d d d d d", "", "M 4.7.2.3"),
+    # axes, option, centre, normal, end, Dir, TransPara, PROFILE
+    (0x36, "spiral_ce", "i* i d* d* d* i d d d d d d d", "", "M 4.7.2.3"),
+    # dimension, axes, relative, pulses, pulses/s (APS_absolute/relative_linear_move)
+    (0x37, "linear_counts", "i i* i i* d", "", "M 4.7.1"),
     # -- end of interpolation
     # gearing and gantry 0x50-0x57 [M §4.9.1]
     (0x50, "start_gear", "i i", "", "M 4.9.1"),  # slave, mode 0 off / 1 standard / 2 gantry
     # -- end of gearing
     # compare trigger and timer 0x60-0x7F [M §4.9.2]
+    (0x60, "set_trigger_param", "i i", "", "M 4.9.2"),
+    (0x61, "get_trigger_param", "i", "i", "M 4.9.2"),
+    (0x62, "set_trigger_manual", "i", "", "M 4.9.2.1"),  # TRG channels as a bit mask
+    (0x63, "set_trigger_linear", "i i i i", "", "M 4.9.2.2.1"),  # LCmpCh, start, repeat, interval
+    # TCmpCh, flags (1 first part: a new table, 2 last part: arm it), points (spec §2.16)
+    (0x64, "set_trigger_table", "i i i*", "", "M 4.9.2.2.2"),
+    (0x65, "get_trigger_linear_cmp", "i", "i", "X1"),
+    (0x66, "get_trigger_table_cmp", "i", "i", "X1"),
+    (0x67, "get_trigger_count", "i", "i", "X1"),
+    (0x68, "reset_trigger_count", "i", "", "X1"),
+    (0x69, "enable_trigger_fifo_cmp", "i i", "", "X1"),
+    (0x6A, "get_trigger_fifo_status", "i", "i", "X1"),
+    (0x6B, "set_trigger_fifo_data", "i i i*", "", "X1"),  # FCmpCh, ShiftFlag, points
+    (0x6C, "get_timer_counter", "i", "i", "M 4.9.2"),
+    (0x6D, "set_timer_counter", "i i", "", "M 4.9.2"),
+    (0x6E, "start_timer", "i i", "", "X1"),
     # -- end of trigger
     # PWM and VAO 0x80-0x8F [M §4.9.3]
+    (0x80, "set_vao_param", "i i", "", "M 4.9.3.5"),
+    (0x81, "get_vao_param", "i", "i", "M 4.9.3.5"),
+    (0x82, "set_vao_table", "i i i i*", "", "M 4.9.3.7"),  # table, MinVelocity, VelInterval, data
+    (0x83, "switch_vao_table", "i", "", "M 4.9.3.7"),
+    (0x84, "start_vao", "i i", "", "M 4.9.3.4"),  # Output_Ch bit mask (spec Q17), Enable
+    (0x85, "get_vao_status", "", "i", "X1"),
+    (0x86, "check_vao_param", "i", "i", "X1"),
+    # table, output type, input type, config, source mask, MinVelocity, VelInterval, data
+    (0x87, "set_vao_param_ex", "i i i i i i i i*", "", "X1"),
+    (0x88, "get_vao_param_ex", "i", "i i i i i i i*", "X1"),
+    (0x89, "set_pwm_frequency", "i i", "", "X5"),
+    (0x8A, "get_pwm_frequency", "i", "i", "X5"),
+    (0x8B, "set_pwm_width", "i i", "", "X5"),
+    (0x8C, "get_pwm_width", "i", "i", "X5"),
+    (0x8D, "set_pwm_on", "i i", "", "X5"),
     # -- end of PWM/VAO
     # digital I/O 0x90-0x97 (spec §2.18)
+    (0x90, "read_d_input", "i", "i", "spec 2.18"),
+    (0x91, "write_d_output", "i i", "", "spec 2.18"),
+    (0x92, "read_d_output", "i", "i", "spec 2.18"),
+    (0x93, "write_d_channel_output", "i i i", "", "spec 2.18"),
+    (0x94, "read_d_channel_output", "i i", "i", "spec 2.18"),
     # -- end of digital I/O
     # interrupts 0x98-0x9F [M §4.11]
     # -- end of interrupts
     # data sampling 0xA0-0xAF [M §4.9.4]
     # -- end of sampling
     # point table 0xB0-0xCF [M §4.9.6]
+    (0xB0, "pt_enable", "i i*", "", "M 4.9.6.2"),  # ptb, axes
+    (0xB1, "pt_disable", "i", "", "M 4.9.6.2"),
+    (0xB2, "pt_get_info", "i", "i i*", "X1"),  # -> dimension, axes
+    (0xB3, "pt_start", "i", "", "M 4.9.6.2"),
+    (0xB4, "pt_stop", "i", "", "M 4.9.6.2"),
+    (0xB5, "pt_set_relative", "i i", "", "M 4.9.6.1"),  # ptb, 0 absolute / 1 relative
+    (0xB6, "pt_set_profile", "i i d", "", "M 4.9.6.1"),  # ptb, PRA_VS/VM/VE/ACC/DEC/SF, value
+    (0xB7, "pt_set_acc_dec", "i d", "", "M 4.9.6.1"),
+    (0xB8, "pt_get_profile", "i i", "d", "X1"),  # ptb, PRA_* -> value
+    (0xB9, "pt_set_trans", "i i d", "", "M 4.9.6.1"),  # ptb, ITP_OPT_BUFFERED/BLEND_*, Bp
+    (0xBA, "pt_set_trans_inp", "i", "", "M 4.9.6.1"),
+    (0xBB, "pt_ext_set_do_ch", "i i i", "", "M 4.9.6.1"),  # ptb, channel, OnOff
+    (0xBC, "pt_ext_set_table_no", "i i i", "", "M 4.9.6.1"),  # ptb, CtrlNo, TableNo
+    # the pushes answer the table's PTSTS: BitSts, free, usage, RunningCnt
+    (0xBD, "pt_line", "i i d*", "i i i i", "M 4.9.6.1"),  # ptb, Dim, Pos
+    (0xBE, "pt_arc2_ca", "i i* d*", "i i i i", "M 4.9.6.1"),  # ptb, Index, Center Angle
+    (0xBF, "pt_arc2_ce", "i i* d* i", "i i i i", "M 4.9.6.1"),  # ptb, Index, Center End, Dir
+    (0xC0, "pt_arc3_ca", "i i* d*", "i i i i", "M 4.9.6.1"),  # Center Normal Angle
+    (0xC1, "pt_arc3_ce", "i i* d* i", "i i i i", "M 4.9.6.1"),  # Center End, Dir
+    (0xC2, "pt_spiral_ca", "i i* d*", "i i i i", "M 4.9.6.1"),  # Center Normal Angle DeltaH FinalR
+    (0xC3, "pt_spiral_ce", "i i* d* i", "i i i i", "M 4.9.6.1"),  # Center Normal End, Dir
+    (0xC4, "pt_dwell", "i d", "i i i i", "M 4.9.6.1"),  # ptb, DwTime ms
+    (0xC5, "reset_pt_buffer", "i", "", "X1"),
+    (0xC6, "pt_roll_back", "i d", "", "X1"),  # ptb, Max_Speed
+    (0xC7, "pt_get_error", "i", "i", "X1"),
     # -- end of point table
     # safety and watchdog 0xD0-0xDF [M §4.10]
     (0xD0, "wdt_start", "i i", "", "M 4.10.2.3"),  # timer, timeout ms

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 from collections.abc import Iterator
 from ctypes import byref, c_int32
 from typing import Any
@@ -14,6 +15,7 @@ from tests.client.galil import card, rack_config
 from vdevd.testing import DaemonThread
 
 AMP = "adlink-amp20xc"
+_LAST: dict[str, str] = {}
 CYCLE_NS = 1_000_000
 
 
@@ -22,17 +24,27 @@ def amp(name: str = "amp0", **options: Any) -> Any:
 
 
 @contextlib.contextmanager
-def aps_session(*cards: Any, mode: int = 0) -> Iterator[tuple[DaemonThread, vdevclient.Rack]]:
+def aps_session(*cards: Any, mode: int = 0, state_dir: str | None = None
+                ) -> Iterator[tuple[DaemonThread, vdevclient.Rack]]:
     """A daemon with `cards` (one AMP-208C by default), APS_initial on it, and a rack client
     (for `sim.step` and the backdoor); APS_close at the end."""
-    with DaemonThread(rack_config(*(cards or (amp(),)))) as d, \
+    cfg = rack_config(*(cards or (amp(),)))
+    if state_dir is not None:
+        cfg = dataclasses.replace(cfg, state_dir=state_dir)
+    with DaemonThread(cfg) as d, \
             vdevclient.connect(d.endpoint, d.events) as rack:
+        _LAST["endpoint"] = d.endpoint
         bits = c_int32()
         assert aps.APS_initial(byref(bits), mode, endpoint=d.endpoint) == aps.ERR_NoError
         try:
             yield d, rack
         finally:
             aps.APS_close()
+
+
+def _last_endpoint() -> str:
+    """The endpoint of the daemon `aps_session` started last."""
+    return _LAST["endpoint"]
 
 
 def step_ms(rack: vdevclient.Rack, ms: float) -> None:

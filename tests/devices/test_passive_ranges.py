@@ -21,7 +21,7 @@ VARIANTS: list[tuple[str, dict[str, Any]]] = [
 ]
 #: the regions that have passive ranges; every other region is all hooks or has none
 SHARED = {("generic-servo", "bar0"), ("oms-maxk", "shm"), ("pmac-turbo", "dpram"),
-          ("dspcg-octavia", "dpr")}
+          ("dspcg-octavia", "dpr"), ("adlink-amp20xc", "bar0")}
 
 
 class Pages:

@@ -115,6 +115,23 @@ def test_residual_distance_blend_of_a_1000_line_starts_at_900(mode: Transition, 
     assert np.array_equal(g.positions(5.0), [1000.0, 1000.0])
 
 
+def test_a_blend_behind_a_finished_zero_length_command_starts_then_not_in_the_past() -> None:
+    """The blend follows the previous command; when that one (zero length) has already ended,
+    the next starts at its end, not at a trigger time computed on an older overlapping run."""
+    def chain() -> Group:
+        g = group()
+        moving_x(g)
+        assert g.submit(line([1000, 0], [1000, 0]), factory(), Transition.BLEND_DEC_EVENT, 0.0, 0.1) == 0
+        assert g.submit(line([1000, 0], [0, 0]), factory(), Transition.BLEND_RES_DIST_PERCENT, 50.0, 0.1) == 0
+        return g
+
+    _, pts = run(chain(), 0.0, 3.0)
+    assert (np.abs(np.diff(pts[:, 0])) <= 2 * VM * 1e-3 + 1e-9).all()  # no jump
+    g, td = chain(), plan_of(1000.0).decel_start()
+    assert g.positions(td - 1e-3) is not None and not g.flags(td - 1e-3).blending
+    assert g.flags(td + 1e-3).blending
+
+
 def test_blend_superposes_the_remaining_and_the_new_displacements() -> None:
     g = group()
     moving_x(g)

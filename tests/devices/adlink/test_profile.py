@@ -428,7 +428,7 @@ def test_ptp_takes_the_time_of_its_peak_and_lowers_vm_only_when_short(m: dict[st
     if vp < m["vm"]:
         closed = math.sqrt((2 * d * acc * dec / k + dec * vs * vs + acc * ve * ve) / (acc + dec))
         assert vp == pytest.approx(max(closed, vs, ve), rel=1e-9)
-        assert all(j or a for _, j, a in plan.segs)  # no cruise
+        assert all(j or a or d < 1e-12 for d, j, a in plan.segs)  # no cruise (but a rounding)
 
 
 @st.composite

@@ -1,5 +1,5 @@
 """The watchdog's actions on the kernel alone, no daemon [M §4.10.2.3; spec §2.22, Q27]: the
-DO word and the PWM unit's hook, which the client cannot reach before their own units exist."""
+DO word and the PWM outputs."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import numpy as np
 from vdevmaps.adlink import BAR_SIZE
 from vdevmaps.aps_defs import MTS_ASTP, STOP_SVNO
 
-from vdevd.devices.adlink import motion, safety
+from vdevd.devices.adlink import motion, pwm, safety
 from vdevd.devices.adlink.kernel import Kernel
 
 
@@ -24,30 +24,32 @@ def run(k: Kernel, ms: int) -> None:
 
 def test_do_and_pwm_off_run_once_at_the_timeout() -> None:
     k = kernel()
-    calls: list[int] = []
-    k.pwm_off = lambda: calls.append(1)  # type: ignore[attr-defined]  # the PWM unit's hook
+    outputs = pwm.unit(k).out
+    pwm.set_pwm_on(k, 1, 1)
     k.do_word = 0xFF00FF
     safety.wdt_set_action_event(k, 0, safety.WDT_DO_OFF | safety.WDT_PWM_OFF)
     safety.wdt_start(k, 0, 5)  # odd: the 2 ms host cycle checks it at 6 ms
     run(k, 5)
-    assert k.do_word == 0xFF00FF and not calls
+    assert k.do_word == 0xFF00FF and outputs[1].on
     run(k, 1)
-    assert k.do_word == 0 and calls == [1] and k.svon.all()
+    assert k.do_word == 0 and not outputs[1].on and k.svon.all()
     k.do_word = 0x1
+    pwm.set_pwm_on(k, 1, 1)
     run(k, 20)
-    assert k.do_word == 0x1 and calls == [1]  # once, until a kick
+    assert k.do_word == 0x1 and outputs[1].on  # once, until a kick
     safety.wdt_reset_counter(k, 0)
     run(k, 6)
-    assert k.do_word == 0 and calls == [1, 1]
+    assert k.do_word == 0 and not outputs[1].on
 
 
-def test_pwm_off_without_a_pwm_unit_is_skipped_and_servo_off_stops_moving_axes() -> None:
+def test_servo_off_stops_moving_axes_and_leaves_idle_ones_alone() -> None:
     k = kernel()
     motion.vel(k, 1, 0, 1000.0, *[float("nan")] * 5)
     safety.wdt_set_action_event(k, 0, 0b111)
     safety.wdt_start(k, 0, 4)
     run(k, 4)
     assert not k.svon.any() and not k.moving().any()
+    k.status_words()
     assert k.stop_code[1] == STOP_SVNO and k.msts[1] >> MTS_ASTP & 1
     assert k.stop_code[0] == 0
 

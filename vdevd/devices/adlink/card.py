@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import math
 import struct
+import time
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -29,6 +30,7 @@ from vdevmaps.adlink import (
     Bar,
 )
 
+from vdevd.devices.adlink import cmd_io, pwm, trigger
 from vdevd.devices.adlink.kernel import Kernel
 from vdevd.devices.adlink.modes import IDLE
 from vdevd.devices.base import Card, CardContext, Option, control
@@ -115,7 +117,9 @@ class AdlinkCard(Card):
             args = b"\xff"
         else:
             args = bytes(buf[Bar.ARGS:Bar.ARGS + length])
+        t0 = time.perf_counter_ns()
         self.kernel.execute(seq, code, args)
+        self.kernel.measure_host(time.perf_counter_ns() - t0)
         self._after_command()
 
     def _peek(self, offset: int, size: int) -> bytes:
@@ -139,13 +143,19 @@ class AdlinkCard(Card):
         if self.world.mechanical:
             self.sense_world()
         self._index_pulses()
+        t0 = time.perf_counter_ns()
         self.kernel.cycle()
+        self.kernel.measure_motion(time.perf_counter_ns() - t0)
         self._ran = True
 
     def batch_done(self) -> None:
+        """The status block after a batch that ran a cycle; after cycles skipped at rest only
+        the cycle counter changed."""
         if self._ran:
             self._ran = False
             self.kernel.publish()
+        else:
+            self.kernel.publish_cycles()
 
     def nvram(self) -> dict[str, Any]:
         return {"flash": self.kernel.flash} if self.kernel.flash is not None else {}
@@ -189,6 +199,7 @@ class AdlinkCard(Card):
         """PEL/MEL from the limits, ORG from the home switch, ALM from the amplifier fault (or
         set_alarm), jams and lost encoders on the motion core."""
         w, k = self.world, self.kernel
+        k.settle_conditions()  # edges against the last cycle's conditions
         k.raw_pel = w.limit_pos.copy()
         k.raw_mel = w.limit_neg.copy()
         k.raw_org = w.home.copy()
@@ -206,7 +217,7 @@ class AdlinkCard(Card):
     def _index_pulses(self) -> None:
         """EZ: on in the cycle the stage crosses an index mark (or sits on one) [M §4.3]."""
         w = self.world
-        if not w.index_period.any():
+        if not np.count_nonzero(w.index_period):
             return
         k = self.kernel
         phys = self.physical_positions()
@@ -270,3 +281,15 @@ class AdlinkCard(Card):
         core.slip_encoder([a], self._feedback_offset[a] - counts)
         self._feedback_offset[a] = counts
         self.kernel.publish()
+
+    @control()
+    def get_outputs(self) -> dict[str, Any]:
+        """What the card outputs (read-only): the DO word at the connector (`do`, after
+        PRB_DO_LOGIC; `do_written` as the application wrote it), the DI word, the TRG outputs
+        (`trg_count`, `trg_level`, `trg_width_ns`, `trg_last_s`), timer 0, the PWM channels
+        (on, frequency Hz, width ns, duty %) and the VAO controller [M §4.9.2-4.9.3]."""
+        k = self.kernel
+        pwm_unit = pwm.unit(k)
+        pwm_unit.refresh()
+        return ({"do": cmd_io.do_pins(k), "do_written": cmd_io.read_d_output(k, 0),
+                 "di": k.di_word()} | trigger.unit(k).outputs() | pwm_unit.outputs())

@@ -83,6 +83,18 @@ def get_axis_param_f(k: Kernel, a: int, no: int) -> float:
     return _get(k, a, no)
 
 
+def get_axis_param_table(k: Kernel, a: int) -> list[list[float] | list[int]]:
+    """Every axis parameter of axis a: (numbers, values), for APS_save_param_to_file."""
+    k.check_axis(a)
+    p = k.axis_params
+    return [list(p.numbers), p.values[:, a].tolist()]
+
+
+def get_board_param_table(k: Kernel) -> list[list[float] | list[int]]:
+    values = k.board_params.values
+    return [list(values), list(values.values())]
+
+
 def save_parameter_to_flash(k: Kernel) -> None:
     """APS_save_parameter_to_flash: the card writes the image atomically (card.py)."""
     k.flash = k.parameter_image()

@@ -138,6 +138,7 @@ class Group:
         self.sd_sf = 0.0
         self._plan_stop = plan_stop
         self._runs: list[_Run] = []
+        self._newest: _Run | None = None  # the last command started: what a blend follows
         self._queue: deque[_Pending] = deque()
         self._base: Vector | None = None
         self._snap: Vector | None = None  # where the motion rests once every run is over
@@ -300,7 +301,8 @@ class Group:
         return vel
 
     def _start(self, path: Path, plan: Plan, t0: float) -> None:
-        self._runs.append(_Run.begin(path, plan, t0))
+        self._newest = _Run.begin(path, plan, t0)
+        self._runs.append(self._newest)
         self._snap = path.end
         self._reported = False
         self._schedule()
@@ -333,9 +335,13 @@ class Group:
         head = self._queue[0]
         if not self._runs:
             return max(head.t_submit, self._t_idle)
-        prev = self._runs[-1]
+        prev = self._newest
         if head.mode is Transition.BUFFERED:
             t = max(r.t_end for r in self._runs)
+        elif prev is None or not any(r is prev for r in self._runs):
+            # the previous command already ended (a zero-length one, say) while older runs
+            # overlap on: the blend starts now, never at a trigger time of an older run
+            t = max(r.t0 for r in self._runs) if prev is None else prev.t_end
         elif head.mode is Transition.BLEND_DEC_EVENT:
             t = prev.t0 + prev.plan.decel_start()
         else:

@@ -68,16 +68,32 @@ from vdevmaps.aps_defs import (
     STOP_SMEL,
     STOP_SPEL,
     STOP_SVNO,
+    ERR_FirmwareError,
     ERR_FunctionNotAvailable,
     ERR_ParametersInvalid,
 )
 
-from vdevd.devices.adlink import cmd_system, gear, home, jog, motion, profile, safety
+from vdevd.devices.adlink import (
+    cmd_interp,
+    cmd_io,
+    cmd_ptable,
+    cmd_system,
+    gear,
+    home,
+    jog,
+    motion,
+    profile,
+    pwm,
+    safety,
+    trigger,
+)
 from vdevd.devices.adlink import status as st
 from vdevd.devices.adlink.commands import COMMANDS
 from vdevd.devices.adlink.errors import ApsError
+from vdevd.devices.adlink.interp import Interpolation
 from vdevd.devices.adlink.modes import HOME, IDLE, JOG, STOPPING, UNIT, VEL, Unit
 from vdevd.devices.adlink.params import AxisParams, BoardParams
+from vdevd.devices.adlink.ptable import PointTables
 from vdevd.region import Memory
 from vdevd.rt import MotionCore, PlantKind
 
@@ -85,7 +101,7 @@ log = logging.getLogger(__name__)
 
 # interrupt items [M §4.11]
 ITEM_SYSTEM, ITEM_DI_RISE, ITEM_DI_FALL = 8, 9, 10
-SYS_IEMG = 1 << 0
+SYS_IEMG, SYS_IMOV, SYS_IHOV = 1 << 0, 1 << 5, 1 << 6
 # the axis factors that follow status conditions (bit numbers of M §4.11)
 _I = {"IALM": 0, "IPEL": 1, "IMEL": 2, "IORG": 3, "IEZ": 4, "IINP": 5, "IEMG": 6, "ICSTP": 8,
       "IVM": 9, "IACC": 10, "IDEC": 11, "IMDN": 12, "IASTP": 13, "ISPEL": 15, "ISMEL": 16,
@@ -93,6 +109,36 @@ _I = {"IALM": 0, "IPEL": 1, "IMEL": 2, "IORG": 3, "IEZ": 4, "IINP": 5, "IEMG": 6
 
 _U32 = struct.Struct("<I")
 _ACK = struct.Struct("<IiII")
+
+#: the rows `status_words` stacks: (their MSTS bit, their MIO bit), None where they have none
+_ROWS = ((MTS_CSTP, None), (MTS_VM, None), (MTS_ACC, None), (MTS_DEC, None), (MTS_DIR, None),
+         (MTS_MDN, None), (MTS_HMV, None), (MTS_WAIT, None), (MTS_PTB, None), (MTS_JOG, None),
+         (MTS_ASTP, None), (MTS_BLD, None), (MTS_PRED, None), (MTS_POSTD, None), (MTS_GER, None),
+         (None, MIO_ALM), (None, MIO_PEL), (None, MIO_MEL), (None, MIO_ORG), (None, MIO_EMG),
+         (None, MIO_EZ), (None, MIO_INP), (None, MIO_SVON), (None, MIO_SPEL), (None, MIO_SMEL))
+#: the interrupt condition bits [M §4.11] of the MSTS and MIO bits that raise them: IALM..IINP
+#: and IEMG are the MIO bits 0-6 in the same places
+_COND_OF_MSTS = {MTS_CSTP: 8, MTS_VM: 9, MTS_ACC: 10, MTS_DEC: 11, MTS_MDN: 12, MTS_ASTP: 13,
+                 MTS_PRED: 18, MTS_POSTD: 19}
+_COND_OF_MIO = {**{b: b for b in range(7)}, MIO_SPEL: 15, MIO_SMEL: 16}
+
+
+def _weights() -> np.ndarray:
+    """(3, rows) int64: each row's bit in MSTS, in MIO and in the interrupt conditions."""
+    w = np.zeros((3, len(_ROWS)), dtype=np.int64)
+    for i, (msts, mio) in enumerate(_ROWS):
+        if msts is not None:
+            w[0, i] = 1 << msts
+            if msts in _COND_OF_MSTS:
+                w[2, i] = 1 << _COND_OF_MSTS[msts]
+        if mio is not None:
+            w[1, i] = 1 << mio
+            if mio in _COND_OF_MIO:
+                w[2, i] = 1 << _COND_OF_MIO[mio]
+    return w
+
+
+_WEIGHTS = _weights()
 
 
 class Kernel:
@@ -118,6 +164,8 @@ class Kernel:
                                PlantKind.SERVO if drive == "servo" else PlantKind.IDEAL)
         self.core.servo_on(slice(None))  # the drive follows the pulses; SVON is `svon` (jams)
         self.axis_params = AxisParams(n)
+        self._logic_rows = np.array([self.axis_params.index(no)
+                                     for no in (0x00, 0x00, 0x01, 0x04, 0x06, 0x05)])
         self.board_params = BoardParams()
         self.records = st.axis_records(buf, n)
         self.int_enable = st.u32_words(buf, Bar.INT_ENABLE, INT_ITEMS)
@@ -125,12 +173,14 @@ class Kernel:
         #: the kernel's units, in the order of their cycle work (spec §2.2: trajectories,
         #: gearing, compare/PWM/VAO, sampling); each appends itself on its own line
         self.units: list[Unit] = []
-        # -- units: interpolation
+        self.units.append(home.Homing(self))
+        self.units.append(jog.Jogging(self))
+        self.units.append(Interpolation(self))
+        self.units.append(PointTables(self))
         # -- units: gearing
         self.units.append(gear.GearUnit(self))
-        # -- units: trigger
-        # -- units: pwm/vao
-        # -- units: point table
+        self.units.append(trigger.TriggerUnit(self))
+        self.units.append(pwm.PwmUnit(self))
         # -- units: safety
         self.units.append(safety.WatchdogUnit(self))
         # -- units: sampling
@@ -140,14 +190,15 @@ class Kernel:
             motion,
             home,
             jog,
-            # -- handlers: interpolation
+            cmd_interp,
             # -- handlers: gearing
             gear,
-            # -- handlers: trigger
-            # -- handlers: pwm/vao, digital I/O
+            trigger,
+            pwm,
+            cmd_io,
             # -- handlers: interrupts
             # -- handlers: sampling
-            # -- handlers: point table
+            cmd_ptable,
             # -- handlers: safety
             safety,
         )
@@ -240,6 +291,7 @@ class Kernel:
         #: the next step of a home or jog sequence when the axis's profile ends (True: it
         #: planned another profile)
         self.sequences: dict[int, Callable[[], bool]] = {}
+        self.mdn_due: dict[int, int] = {}  # the cycle MDN rises at (PRA_MDN_DELAY)
         self.int_main = False
         self.int_enable[:] = 0
         self.int_signal[:] = 0
@@ -250,6 +302,9 @@ class Kernel:
         self.ack_seq = 0
         self.msts = np.zeros(n, dtype=np.int64)
         self.mio = np.zeros(n, dtype=np.int64)
+        self.axis_cond = np.zeros(n, dtype=np.int64)  # the interrupt conditions (events)
+        self._cond_stale = False  # the cycles left prev_axis_cond unset (interrupts off)
+        self._true, self._false = np.ones(n, dtype=bool), np.zeros(n, dtype=bool)
         for u in self.units:
             u.reset()
         self.write_identity()
@@ -287,9 +342,30 @@ class Kernel:
         if isinstance(a, bool) or not 0 <= a < self.n:
             raise ApsError(ERR_ParametersInvalid, f"axis {a} outside 0..{self.n - 1}")
 
+    # -- CPU load [M §4.1.2] --------------------------------------------------------------------------
+    def measure_motion(self, ns: int) -> None:
+        """A motion cycle's work took `ns` (wall): its load in 0.01 % of the cycle, the maximum,
+        and an over-cycle (system factor IMOV) when it took longer than the cycle."""
+        load = ns * 10_000 // (self.cycle_us * 1000)
+        t = self.timing
+        t[0], t[2] = load, max(t[2], load)
+        if load > 10_000:
+            t[4] += 1
+            self.sys_events |= SYS_IMOV
+
+    def measure_host(self, ns: int) -> None:
+        """A host command took `ns`: the host loop's load (of its 2 ms cycle [M §4.1.2.3])."""
+        load = ns * 10_000 // 2_000_000
+        t = self.timing
+        t[1], t[3] = load, max(t[3], load)
+        if load > 10_000:
+            t[4] += 1
+            self.sys_events |= SYS_IHOV
+
     # -- the mailbox -------------------------------------------------------------------------------
     def execute(self, seq: int, code: int, args: bytes) -> None:
         """Run one posted command and leave its acknowledgement (seq, rc, reply)."""
+        self.settle_conditions()
         call = BY_CODE.get(code)
         handler = self.handlers.get(code)
         reply = b""
@@ -312,9 +388,13 @@ class Kernel:
             except (ValueError, OverflowError, struct.error) as exc:
                 log.debug("adlink: %s refused: %s", call.name, exc)
                 rc, reply = ERR_ParametersInvalid, b""
+            except Exception:  # a kernel bug: the command fails, the card and daemon go on
+                log.exception("adlink: %s failed", call.name)
+                rc, reply = ERR_FirmwareError, b""
         self.ack_seq = seq
         _ACK.pack_into(self.buf, Bar.ACK_SEQ, seq & 0xFFFFFFFF, rc, len(reply), code & 0xFFFFFFFF)
         self.buf[Bar.REPLY:Bar.REPLY + len(reply)] = reply
+        self.logic()  # a command may change what the signals show (SVON and INP, logic, limits)
         self.publish()
 
     # -- the cycle ---------------------------------------------------------------------------------
@@ -325,7 +405,7 @@ class Kernel:
         t_next = core.profile.t + self.dt
         self.logic()
         self.protect()
-        if (self.seg_end <= t_next + 1e-12).any():
+        if np.count_nonzero(self.seg_end <= t_next + 1e-12):
             self.segment_ends(t_next)
         for u in self.units:
             u.before_motion(t_next)
@@ -339,19 +419,25 @@ class Kernel:
         """The logical (post-inversion) signals from the raw levels [M §4.1.1.4]."""
         p = self.p
         self.emg = bool(self.raw_emg) != bool(self.board_params.values[0x00])
-        el = p(0x00) != 0
+        # the logic parameters EL, EL, ORG, ALM, EZ, INP in one read
+        el, _, org, alm, ez, inp_logic = self.axis_params.values[self._logic_rows] != 0
         self.pel = self.raw_pel != el
         self.mel = self.raw_mel != el
-        self.org = self.raw_org != (p(0x01) != 0)
-        self.alm = self.raw_alm != (p(0x04) != 0)
-        self.ez = self.raw_ez != (p(0x06) != 0)
+        self.org = self.raw_org != org
+        self.alm = self.raw_alm != alm
+        self.ez = self.raw_ez != ez
         ax = self.core.axes
         settled = (np.abs(ax.cmd_pos - ax.fb) <= self.inp_window) & ~self.moving() & self.svon
-        inp = np.where(self.inp_force >= 0, self.inp_force == 1, settled)
-        self.inp = inp != (p(0x05) != 0)
-        cmd = self.user_cmd()
-        self.spel = (p(0x08) != 0) & (cmd >= p(0x0A))
-        self.smel = (p(0x09) != 0) & (cmd <= p(0x0B))
+        force = self.inp_force
+        inp = np.where(force >= 0, force == 1, settled) if np.count_nonzero(force + 1) else settled
+        self.inp = inp != inp_logic
+        soft_pos, soft_neg = p(0x08), p(0x09)
+        if np.count_nonzero(soft_pos) or np.count_nonzero(soft_neg):
+            cmd = self.user_cmd()
+            self.spel = (soft_pos != 0) & (cmd >= p(0x0A))
+            self.smel = (soft_neg != 0) & (cmd <= p(0x0B))
+        else:  # no soft limit enabled [M §4.10]
+            self.spel, self.smel = np.zeros(self.n, dtype=bool), np.zeros(self.n, dtype=bool)
 
     def moving(self) -> np.ndarray:
         return self.core.profile.moving | self.unit_moving
@@ -363,27 +449,31 @@ class Kernel:
         with PRA_EL_MODE 1, at PRA_SD_DEC (spec Q4); an axis already decelerating to a stop
         meets an immediate-mode limit too (it is not left to run on through it)."""
         moving = self.moving()
-        if not moving.any() and not self.svon.any():
+        if not np.count_nonzero(moving) and not np.count_nonzero(self.svon):
             return
         vel = self.core.axes.cmd_vel + self.gear_vel
-        if self.emg and moving.any():
+        if self.emg and np.count_nonzero(moving):
             self.abnormal(np.flatnonzero(moving), STOP_EMG, immediate=True)
             moving = self.moving()
         hit = moving & self.alm
-        if hit.any():
+        if np.count_nonzero(hit):
             self.abnormal(np.flatnonzero(hit), STOP_ALM, immediate=True)
-        decel = self.p(0x02) != 0
-        for cond, sign, code in ((self.pel, 1, STOP_PEL), (self.mel, -1, STOP_MEL),
-                                 (self.spel, 1, STOP_SPEL), (self.smel, -1, STOP_SMEL)):
-            hit = self.moving() & cond & (vel * sign > 0) & ((self.mode != STOPPING) | ~decel)
-            if hit.any():
-                for a in np.flatnonzero(hit).tolist():
-                    self.abnormal(np.array([a]), code, immediate=not decel[a])
+        if np.count_nonzero(self.pel | self.mel | self.spel | self.smel):  # else no limit on
+            decel = self.p(0x02) != 0
+            for cond, sign, code in ((self.pel, 1, STOP_PEL), (self.mel, -1, STOP_MEL),
+                                     (self.spel, 1, STOP_SPEL), (self.smel, -1, STOP_SMEL)):
+                hit = (self.moving() & cond & (vel * sign > 0)
+                       & ((self.mode != STOPPING) | ~decel))
+                if np.count_nonzero(hit):
+                    for a in np.flatnonzero(hit).tolist():
+                        self.abnormal(np.array([a]), code, immediate=not decel[a])
         level = self.p(0x124)
+        if not np.count_nonzero(level):  # no axis checks its position error
+            return
         ax = self.core.axes
         over = (level > 0) & (np.abs(ax.cmd_pos - ax.fb) > level * self.axis_params.row(0x86))
         over &= self.svon
-        if over.any():
+        if np.count_nonzero(over):
             idx = np.flatnonzero(over)
             self.abnormal(idx, STOP_ERROR_LEVEL, immediate=True)
             self.servo(idx, False)
@@ -431,7 +521,23 @@ class Kernel:
         f = self.factor(a)
         sign = 1.0 if v >= 0 else -1.0
         plan = profile.plan_stop(abs(v), dec_user * f, sf)
-        core.profile.load(a, profile.to_core_phases(plan, core.profile.t, p, sign, None))
+        self.load(a, plan, p, sign, None)
+
+    def load(self, a: int, plan: profile.Plan, p0: float, sign: float, hold: float | None,
+             endless: bool = False) -> None:
+        """Give axis a the profile `plan` from now, from p0 in direction `sign` (counts): its
+        end, when within 1 ns of a cycle boundary, lands on it (so a move that lasts a whole
+        number of cycles ends in that cycle, not one later by a rounding)."""
+        core = self.core
+        t0 = core.profile.t
+        phases = profile.to_core_phases(plan, t0, p0, sign, hold)
+        if len(phases) >= 2:
+            end = phases[-1].t0
+            grid = round(end / self.dt) * self.dt
+            if end != grid and abs(end - grid) < 1e-9 and grid > phases[-2].t0:
+                phases[-2] = phases[-2]._replace(dur=grid - phases[-2].t0)
+                phases[-1] = phases[-1]._replace(t0=grid)
+        core.profile.load(a, phases, endless=endless)
 
     def servo(self, idx: np.ndarray, on: bool) -> None:
         """SVON of axes `idx` [M §4.1.1.4]: off, the drive no longer follows the pulses (the
@@ -466,7 +572,7 @@ class Kernel:
         """Single-axis motions whose profile ended: MDN, the stop code, the home and jog
         sequences' next steps."""
         done = (self.mode != IDLE) & (self.mode != UNIT) & ~self.core.profile.moving
-        if not done.any():
+        if not np.count_nonzero(done):
             return
         for a in np.flatnonzero(done).tolist():
             motion.profile_ended(self, a)
@@ -482,57 +588,76 @@ class Kernel:
 
     # -- status and interrupts ---------------------------------------------------------------------
     def status_words(self) -> None:
-        """The motion status and motion I/O words of every axis [M §4.8.1, §4.1.1.4]."""
+        """The motion status and motion I/O words of every axis [M §4.8.1, §4.1.1.4], and the
+        interrupt conditions `events` compares: the bool rows stacked, one product with their bit
+        weights (`_WEIGHTS`: msts, mio, the conditions)."""
         ax = self.core.axes
         v, acc = ax.cmd_vel + self.gear_vel, ax.cmd_acc
         moving = self.moving()
+        av = acc * v
+        speeding = moving & ((av > 0) | ((v == 0) & (acc != 0)))
+        slowing = moving & (av < 0)
+        ph_vm = moving & ~speeding & ~slowing
         own = self.phase
-        speeding = moving & (((acc * v) > 0) | ((v == 0) & (acc != 0)))
-        slowing = moving & ((acc * v) < 0)
-        ph_acc = np.where(own > 0, own == 1, speeding)
-        ph_dec = np.where(own > 0, own == 3, slowing)
-        ph_vm = np.where(own > 0, own == 2, moving & ~speeding & ~slowing)
-        self.direction = np.where(moving & (v != 0), v > 0,
-                                  np.where(moving & (acc != 0), acc > 0, self.direction))
-        cstp = ~moving
-        msts = (st.bit(cstp, MTS_CSTP) | st.bit(ph_vm & moving, MTS_VM)
-                | st.bit(ph_acc & moving, MTS_ACC) | st.bit(ph_dec & moving, MTS_DEC)
-                | st.bit(self.direction, MTS_DIR) | st.bit(self.mdn, MTS_MDN)
-                | st.bit(self.hmv, MTS_HMV) | st.bit(self.wait, MTS_WAIT)
-                | st.bit(self.ptb, MTS_PTB) | st.bit(self.jog, MTS_JOG)
-                | st.bit(self.astp, MTS_ASTP) | st.bit(self.bld, MTS_BLD)
-                | st.bit(self.pred, MTS_PRED) | st.bit(self.postd, MTS_POSTD)
-                | st.bit(self.ger, MTS_GER))
-        mio = (st.bit(self.alm, MIO_ALM) | st.bit(self.pel, MIO_PEL)
-               | st.bit(self.mel, MIO_MEL) | st.bit(self.org, MIO_ORG)
-               | st.bit(np.full(self.n, self.emg), MIO_EMG) | st.bit(self.ez, MIO_EZ)
-               | st.bit(self.inp, MIO_INP) | st.bit(self.svon, MIO_SVON)
-               | st.bit(self.spel, MIO_SPEL) | st.bit(self.smel, MIO_SMEL))
-        self.msts, self.mio = msts, mio
+        if np.count_nonzero(own):
+            ph_acc = np.where(own > 0, own == 1, speeding) & moving
+            ph_dec = np.where(own > 0, own == 3, slowing) & moving
+            ph_vm = np.where(own > 0, own == 2, ph_vm) & moving
+        else:
+            ph_acc, ph_dec = speeding, slowing
+        self.follow_direction(moving)
+        flags = np.array((~moving, ph_vm, ph_acc, ph_dec, self.direction, self.mdn, self.hmv,
+                          self.wait, self.ptb, self.jog, self.astp, self.bld, self.pred,
+                          self.postd, self.ger, self.alm, self.pel, self.mel, self.org,
+                          self._true if self.emg else self._false, self.ez, self.inp, self.svon,
+                          self.spel, self.smel), dtype=bool)
+        self.msts, self.mio, self.axis_cond = _WEIGHTS @ flags
+
+    def follow_direction(self, moving: np.ndarray) -> None:
+        """DIR: the sign of the command velocity (of the acceleration from rest) of a moving
+        axis; held after a stop [M §4.8.1 bit 4]."""
+        if np.count_nonzero(moving):
+            ax = self.core.axes
+            vel = ax.cmd_vel + self.gear_vel
+            v = np.where(vel != 0, vel, ax.cmd_acc)
+            self.direction = np.where(moving & (v != 0), v > 0, self.direction)
+
+    def settle_conditions(self) -> None:
+        """The interrupt conditions as of now become the ones edges are taken against, when the
+        cycles left them unset (no interrupt on): the host's first command after them, or a
+        change of the axis world, sees the last cycle's state (`events`)."""
+        if self._cond_stale:
+            self._cond_stale = False
+            self.status_words()
+            self.prev_axis_cond = self.axis_cond
 
     def events(self) -> None:
         """Pre/post-distance events, the status words, then the interrupt factors: a factor
-        fires on the rising edge of its condition [M §4.11; spec §2.23]."""
+        fires on the rising edge of its condition [M §4.11; spec §2.23].
+
+        With the interrupts off (INT_MAIN 0) nothing can fire: the cycle keeps DIR and leaves the
+        status words to `publish` and the axis conditions unset; `settle_conditions` sets them
+        before anything but a cycle changes the state (a command, the axis world), so an
+        interrupt enabled later takes its edges against the last cycle's conditions."""
         t = self.core.profile.t
         self.pred |= self.pred_at <= t + 1e-12
         self.postd |= self.postd_at <= t + 1e-12
-        self.status_words()
-        msts, mio = self.msts, self.mio
-        cond = ((mio & 0x7F)  # IALM..IINP, IEMG: the MIO bits 0-6 in the same places
-                | ((msts >> MTS_CSTP) & 1) << 8 | ((msts >> MTS_VM) & 1) << 9
-                | ((msts >> MTS_ACC) & 1) << 10 | ((msts >> MTS_DEC) & 1) << 11
-                | ((msts >> MTS_MDN) & 1) << 12 | ((msts >> MTS_ASTP) & 1) << 13
-                | ((mio >> MIO_SPEL) & 1) << 15 | ((mio >> MIO_SMEL) & 1) << 16
-                | ((msts >> MTS_PRED) & 1) << 18 | ((msts >> MTS_POSTD) & 1) << 19)
-        rising = cond & ~self.prev_axis_cond
-        self.prev_axis_cond = cond
         sys_cond = SYS_IEMG if self.emg else 0
         sys_rise = (sys_cond & ~self.prev_sys) | self.sys_events
         self.prev_sys, self.sys_events = sys_cond, 0
         di = self.di_word()
         di_rise, di_fall = di & ~self.prev_di, ~di & self.prev_di & 0xFFFFFF
         self.prev_di = di
-        if not self.int_main or not (rising.any() or sys_rise or di_rise or di_fall):
+        if not self.int_main:
+            self.follow_direction(self.moving())
+            self._cond_stale = True
+            return
+        self.settle_conditions()  # the interrupts came on other than by a command: no edge yet
+        self.status_words()
+        cond = self.axis_cond
+        rising = cond & ~self.prev_axis_cond
+        self.prev_axis_cond = cond
+        if not (np.count_nonzero(rising) or sys_rise or di_rise or di_fall):
             return
         fired = False
         en = self.int_enable
@@ -555,6 +680,9 @@ class Kernel:
         mask = (1 << 24) - 1 if self.n == 8 else 0xFFFF0F
         word = self.di_raw & mask
         return word ^ mask if self.board_params.values[0x15] else word
+
+    def publish_cycles(self) -> None:
+        _U32.pack_into(self.buf, Bar.CYCLE_COUNT, self.cycles & 0xFFFFFFFF)
 
     def publish(self) -> None:
         """The status block: every axis record and the card words."""

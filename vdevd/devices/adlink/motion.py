@@ -48,7 +48,7 @@ QUEUE = 10  # commands in an axis's motion buffer [M §4.6.4]
 _MODE_MASK = 0xF000
 # axis parameters [spec §3.2]
 SD_DEC, SF, ACC, DEC, VS, VM, VE = 0x07, 0x20, 0x21, 0x22, 0x23, 0x24, 0x25
-PRE_DIST, POST_DIST, UNIT_FACTOR, MDM_CONDI = 0x2A, 0x2B, 0x86, 0x03
+PRE_DIST, POST_DIST, UNIT_FACTOR, MDM_CONDI, MDN_DELAY = 0x2A, 0x2B, 0x86, 0x03, 0x50
 
 
 @dataclass(slots=True)
@@ -198,7 +198,7 @@ def start_ptp(k: Kernel, a: int, seg: Segment) -> int:
                                 seg.dec * f, seg.sf)
     t0 = core.profile.t
     hold = goal if seg.ve == 0 else None
-    core.profile.load(a, profile.to_core_phases(plan, t0, p, sign, hold))
+    k.load(a, plan, p, sign, hold)
     core.profile.commit()
     begin(k, a, PTP, seg.target)
     k.seg_end[a] = t0 + plan.duration() if seg.ve > 0 else math.inf
@@ -257,7 +257,13 @@ def profile_ended(k: Kernel, a: int) -> None:
         if step is not None and step():
             return
     if k.p(MDM_CONDI)[a] and not k.inp[a] and mode != STOPPING:
-        return  # MDN waits for INP (PRA_MDM_CONDI)
+        return  # MDN waits for INP (PRA_MDM_CONDI, spec §2.14 Q10)
+    delay = int(k.p(MDN_DELAY)[a])
+    if delay and mode != STOPPING:  # and PRA_MDN_DELAY cycles after the profile's end
+        due = k.mdn_due.setdefault(a, k.cycles + delay)
+        if k.cycles < due:
+            return
+    k.mdn_due.pop(a, None)
     k.mq_usage[a] = 0
     k.seg_plan[a] = None
     k.finish(a)
@@ -291,7 +297,7 @@ def start_vel(k: Kernel, a: int, vm: float, vs: float, acc: float, dec: float, s
     moving = bool(core.profile.moving[a])
     v0 = v if moving else math.copysign(min(vs, abs(vm)), vm) * f
     plan = profile.plan_velocity(v0, vm * f, acc * f, dec * f, sf)
-    core.profile.load(a, profile.to_core_phases(plan, core.profile.t, p, 1.0, None), endless=True)
+    k.load(a, plan, p, 1.0, None, endless=True)
     core.profile.commit()
     k.queue[a].clear()
     k.seg_end[a] = math.inf

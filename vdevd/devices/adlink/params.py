@@ -145,6 +145,10 @@ class AxisParams:
     def known(self, no: int) -> bool:
         return no in self._index
 
+    def index(self, no: int) -> int:
+        """Where parameter `no`'s row is in `values`."""
+        return self._index[no]
+
     def row(self, no: int) -> np.ndarray:
         return self.values[self._index[no]]
 

@@ -3,9 +3,10 @@
 An internal timer the host must kick: `APS_wdt_start` sets its timeout (ms, 0 stops it),
 `APS_wdt_reset_counter` kicks it; when the count reaches the timeout the configured actions run
 once (until the next kick): bit 0 servo off on every axis (a moving axis stops with code 3,
-STOP_SVNO, and ASTP), bit 1 every DO off, bit 2 every PWM/TRG output off. ASSUMPTIONS (spec
-§2.22, Q27): timer 0 only; milliseconds; the count advances in the host cycle, 2 ms at a time,
-and is checked there. The timer's state is the board parameters PRB_WDT0_LIMIT (the timeout),
+STOP_SVNO, and ASTP), bit 1 every DO off, bit 2 every PWM output off (plain and VAO, through
+the PWM unit's `pwm_off`; the TRG pulse outputs are left alone). ASSUMPTIONS (spec §2.22, Q27):
+timer 0 only; milliseconds; the count advances in the host cycle, 2 ms at a time, and is
+checked there. The timer's state is the board parameters PRB_WDT0_LIMIT (the timeout),
 PRB_WDT0_COUNTER (the count: reading it reads the count, writing 0 kicks) and PRB_WDT0_ACTION
 (the actions), so APS_set_board_param reaches the same timer [spec §3.1]. EMG, ALM, the limits
 and the position-error protection are the kernel's `protect` (kernel.py).
@@ -94,9 +95,10 @@ class WatchdogUnit:
         if action & WDT_DO_OFF:
             k.do_word = 0
         if action & WDT_PWM_OFF:
-            pwm_off = getattr(k, "pwm_off", None)  # the PWM unit's hook, where it is built
-            if pwm_off is not None:
-                pwm_off()
+            for u in k.units:  # the PWM unit's hook (pwm.py)
+                pwm_off = getattr(u, "pwm_off", None)
+                if pwm_off is not None:
+                    pwm_off()
 
 
 def _unit(k: Kernel, timer: int) -> WatchdogUnit:
