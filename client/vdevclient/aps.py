@@ -14,6 +14,7 @@ from __future__ import annotations
 from vdevmaps.aps_defs import *  # noqa: F403  (ADLINK's constants under their own names)
 
 from vdevclient._aps_dio import *  # noqa: F403
+from vdevclient._aps_gear import *  # noqa: F403
 from vdevclient._aps_int import *  # noqa: F403
 from vdevclient._aps_interp import *  # noqa: F403
 from vdevclient._aps_motion import *  # noqa: F403
@@ -24,3 +25,4 @@ from vdevclient._aps_sampling import *  # noqa: F403
 from vdevclient._aps_system import *  # noqa: F403
 from vdevclient._aps_trigger import *  # noqa: F403
 from vdevclient._aps_types import *  # noqa: F403
+from vdevclient._aps_wdt import *  # noqa: F403

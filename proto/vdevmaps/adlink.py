@@ -266,6 +266,7 @@ CALLS: tuple[Call, ...] = _calls([
     (0x37, "linear_counts", "i i* i i* d", "", "M 4.7.1"),
     # -- end of interpolation
     # gearing and gantry 0x50-0x57 [M §4.9.1]
+    (0x50, "start_gear", "i i", "", "M 4.9.1"),  # slave, mode 0 off / 1 standard / 2 gantry
     # -- end of gearing
     # compare trigger and timer 0x60-0x7F [M §4.9.2]
     (0x60, "set_trigger_param", "i i", "", "M 4.9.2"),
@@ -355,6 +356,12 @@ CALLS: tuple[Call, ...] = _calls([
     (0xC7, "pt_get_error", "i", "i", "X1"),
     # -- end of point table
     # safety and watchdog 0xD0-0xDF [M §4.10]
+    (0xD0, "wdt_start", "i i", "", "M 4.10.2.3"),  # timer, timeout ms
+    (0xD1, "wdt_get_timeout_period", "i", "i", "M 4.10.2.3"),
+    (0xD2, "wdt_reset_counter", "i", "", "M 4.10.2.3"),
+    (0xD3, "wdt_get_counter", "i", "i", "X1"),
+    (0xD4, "wdt_set_action_event", "i i", "", "M 4.10.2.3"),
+    (0xD5, "wdt_get_action_event", "i", "i", "M 4.10.2.3"),
     # -- end of safety
 ])
 

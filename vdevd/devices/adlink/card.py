@@ -59,6 +59,9 @@ class AdlinkCard(Card):
                         help="ideal: feedback = command; servo: a drive with lag and INP"),
         "inp_window": Option(float, 1.0, min=0.0, max=1e9,
                              help="INP when |command - feedback| <= this many pulses at rest"),
+        "refused_rc": Option(int, 0, choices=(0, -13),
+                             help="what a motion command ignored for EMG/ALM/EL returns: 0 as "
+                                  "the manual's 'ignored', or -13 (spec Q15) [M §4.10]"),
     }
     axes_option: ClassVar[str] = ""  # the model counts the axes (check_options)
 
@@ -88,6 +91,7 @@ class AdlinkCard(Card):
         self.kernel = Kernel(self.bar.buf, n, model_code, opts.card_id, opts.cycle_us,
                              opts.drive, self.inta.trigger, inp_window=opts.inp_window,
                              clear_line=self.inta.clear)
+        self.kernel.refused_rc = opts.refused_rc
         store = ctx.nvram
         self._writer = NvramWriter(store, name) if store is not None else None
         saved = store.load(name) if store is not None else None

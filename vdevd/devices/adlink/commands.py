@@ -46,6 +46,7 @@ COMMANDS = CommandTable([
     Command("linear_counts", "linear_counts", section="M 4.7.1"),
     # -- end of interpolation
     # gearing and gantry [M §4.9.1]
+    Command("start_gear", "start_gear", section="M 4.9.1"),
     # -- end of gearing
     # compare trigger and timer [M §4.9.2]
     Command("set_trigger_param", "set_trigger_param", section="M 4.9.2"),
@@ -132,5 +133,11 @@ COMMANDS = CommandTable([
     Command("pt_get_error", "pt_get_error", section="X1"),
     # -- end of point table
     # safety and watchdog [M §4.10]
+    Command("wdt_start", "wdt_start", section="M 4.10.2.3"),
+    Command("wdt_get_timeout_period", "wdt_get_timeout_period", section="M 4.10.2.3"),
+    Command("wdt_reset_counter", "wdt_reset_counter", section="M 4.10.2.3"),
+    Command("wdt_get_counter", "wdt_get_counter", section="X1"),
+    Command("wdt_set_action_event", "wdt_set_action_event", section="M 4.10.2.3"),
+    Command("wdt_get_action_event", "wdt_get_action_event", section="M 4.10.2.3"),
     # -- end of safety
 ])

@@ -78,12 +78,14 @@ from vdevd.devices.adlink import (
     cmd_io,
     cmd_ptable,
     cmd_system,
+    gear,
     home,
     interrupts,
     jog,
     motion,
     profile,
     pwm,
+    safety,
     sampling,
     trigger,
 )
@@ -164,6 +166,10 @@ class Kernel:
         self.raise_line = raise_line
         self.clear_line = clear_line
         self.inp_window = inp_window
+        #: what a motion command refused for EMG/ALM/EL returns: 0 (the manual's "ignored"),
+        #: or the card option `refused_rc` (-13) (spec Q15); `refusal` marks the command now
+        self.refused_rc = 0
+        self.refusal = False
         self.dt = cycle_us / 1e6
         self.cycle_us = cycle_us
         self.core = MotionCore(n, cycle_us * 1000,
@@ -183,10 +189,10 @@ class Kernel:
         self.units.append(jog.Jogging(self))
         self.units.append(Interpolation(self))
         self.units.append(PointTables(self))
-        # -- units: gearing
+        self.units.append(gear.GearUnit(self))
         self.units.append(trigger.TriggerUnit(self))
         self.units.append(pwm.PwmUnit(self))
-        # -- units: safety
+        self.units.append(safety.WatchdogUnit(self))
         self.sampling = sampling.Sampling(self)
         self.units.append(self.sampling)
         #: the mailbox handlers by command code
@@ -196,14 +202,14 @@ class Kernel:
             home,
             jog,
             cmd_interp,
-            # -- handlers: gearing
+            gear,
             trigger,
             pwm,
             cmd_io,
             interrupts,
             sampling,
             cmd_ptable,
-            # -- handlers: safety
+            safety,
         )
         self.handlers: dict[int, Callable[..., Any]] = {
             BY_NAME[name].code: fn for name, fn in bound.items()}
@@ -257,6 +263,9 @@ class Kernel:
         self.bld = np.zeros(n, dtype=bool)
         self.ger = np.zeros(n, dtype=bool)
         self.gear_status = np.zeros(n, dtype=np.int32)
+        #: the gear's share of a slave's command velocity (counts/s, gear.py): the status
+        #: words, the limit checks and the readback add it to the profile's
+        self.gear_vel = np.zeros(n)
         self.mq_usage = np.zeros(n, dtype=np.int32)
         # inputs: raw levels (True = the signal is on at the connector), logic applied later
         self.raw_alm = np.zeros(n, dtype=bool)
@@ -381,8 +390,9 @@ class Kernel:
         else:
             try:
                 values = decode(call.args, args)
+                self.refusal = False
                 out = handler(self, *values)
-                rc = 0
+                rc = self.refused_rc if self.refusal else 0
                 if call.reply:
                     reply = encode(call.reply, out if isinstance(out, list | tuple) else [out])
                     if len(reply) > REPLY_MAX:
@@ -450,11 +460,15 @@ class Kernel:
         return self.core.profile.moving | self.unit_moving
 
     def protect(self) -> None:
-        """EMG, ALM, hard and soft limits, position-error protection [M §4.10]."""
+        """EMG, ALM, hard and soft limits, position-error protection [M §4.10].
+
+        A limit stops only motion toward it (motion away is allowed [M §4.10.1.3]), at once or,
+        with PRA_EL_MODE 1, at PRA_SD_DEC (spec Q4); an axis already decelerating to a stop
+        meets an immediate-mode limit too (it is not left to run on through it)."""
         moving = self.moving()
         if not np.count_nonzero(moving) and not np.count_nonzero(self.svon):
             return
-        vel = self.core.axes.cmd_vel
+        vel = self.core.axes.cmd_vel + self.gear_vel
         if self.emg and np.count_nonzero(moving):
             self.abnormal(np.flatnonzero(moving), STOP_EMG, immediate=True)
             moving = self.moving()
@@ -465,7 +479,8 @@ class Kernel:
             decel = self.p(0x02) != 0
             for cond, sign, code in ((self.pel, 1, STOP_PEL), (self.mel, -1, STOP_MEL),
                                      (self.spel, 1, STOP_SPEL), (self.smel, -1, STOP_SMEL)):
-                hit = self.moving() & cond & (vel * sign > 0) & (self.mode != STOPPING)
+                hit = (self.moving() & cond & (vel * sign > 0)
+                       & ((self.mode != STOPPING) | ~decel))
                 if np.count_nonzero(hit):
                     for a in np.flatnonzero(hit).tolist():
                         self.abnormal(np.array([a]), code, immediate=not decel[a])
@@ -543,8 +558,13 @@ class Kernel:
 
     def servo(self, idx: np.ndarray, on: bool) -> None:
         """SVON of axes `idx` [M §4.1.1.4]: off, the drive no longer follows the pulses (the
-        stage holds: a jam of the motion core); a moving axis stops at once (code 3)."""
+        stage holds: a jam of the motion core); a moving axis stops at once (code 3). Units
+        hear of a servo-off (`servo_off(idx)`: a gear slave is released [M §4.9.1])."""
         if not on:
+            for u in self.units:
+                hook = getattr(u, "servo_off", None)
+                if hook is not None:
+                    hook(idx)
             moving = idx[self.moving()[idx]]
             if len(moving):
                 self.stop_axes(moving, STOP_SVNO, immediate=True, astp=True)
@@ -589,7 +609,7 @@ class Kernel:
         interrupt conditions `events` compares: the bool rows stacked, one product with their bit
         weights (`_WEIGHTS`: msts, mio, the conditions)."""
         ax = self.core.axes
-        v, acc = ax.cmd_vel, ax.cmd_acc
+        v, acc = ax.cmd_vel + self.gear_vel, ax.cmd_acc
         moving = self.moving()
         av = acc * v
         speeding = moving & ((av > 0) | ((v == 0) & (acc != 0)))
@@ -615,7 +635,8 @@ class Kernel:
         axis; held after a stop [M §4.8.1 bit 4]."""
         if np.count_nonzero(moving):
             ax = self.core.axes
-            v = np.where(ax.cmd_vel != 0, ax.cmd_vel, ax.cmd_acc)
+            vel = ax.cmd_vel + self.gear_vel
+            v = np.where(vel != 0, vel, ax.cmd_acc)
             self.direction = np.where(moving & (v != 0), v > 0, self.direction)
 
     def settle_conditions(self) -> None:
@@ -715,8 +736,9 @@ class Kernel:
         rec["fbk_pos"] = fbk
         rec["target"] = np.where(self.mode == VEL, cmd, self.target)
         rec["err_pos"] = cmd - fbk
-        rec["cmd_vel"] = ax.cmd_vel / f
-        rec["fbk_vel"] = (ax.vel if self.drive == "servo" else ax.cmd_vel * self.svon) / f
+        cmd_vel = ax.cmd_vel + self.gear_vel
+        rec["cmd_vel"] = cmd_vel / f
+        rec["fbk_vel"] = (ax.vel if self.drive == "servo" else cmd_vel * self.svon) / f
         for u in self.units:
             publish = getattr(u, "publish", None)
             if publish is not None:

@@ -83,7 +83,8 @@ def profile_values(k: Kernel, a: int, vs: float, vm: float, ve: float, acc: floa
 
 def refused(k: Kernel, a: int, direction: float) -> bool:
     """EMG, ALM or a limit in the direction of travel: the command is ignored, the stop code
-    and ASTP set, and the call returns 0 [M §4.10; spec Q15]."""
+    and ASTP set, and the call returns 0 [M §4.10; spec Q15] (or the card's `refused_rc`).
+    Motion away from an active limit, and a zero direction with a limit, are not refused."""
     code = None
     if k.emg:
         code = STOP_EMG
@@ -102,6 +103,7 @@ def refused(k: Kernel, a: int, direction: float) -> bool:
     k.stop_code[a] = code
     k.astp[a] = True
     k.mdn[a] = not k.moving()[a]
+    k.refusal = True
     return True
 
 

@@ -215,6 +215,12 @@ class PwmUnit:
                 return
             self.tables = tables
 
+    def pwm_off(self) -> None:
+        """Every PWM output off, plain and VAO (the watchdog's action bit 2, safety.py)."""
+        self.pwm_on = [False] * 4
+        self.vao_mask = 0
+        self.refresh()
+
     def channel(self, ch: int) -> int:
         if not 0 <= ch < self.channels:
             raise invalid(f"PWM channel {ch} outside 0..{self.channels - 1} (spec Q25)")
