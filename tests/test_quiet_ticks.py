@@ -341,10 +341,150 @@ def adlink_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> No
         aps.APS_close()
 
 
+def adlink_units_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
+    """Every unit of the kernel that works between commands, each one let come to rest: a
+    compare on the timer (the timer running, then stopped with points pending), the watchdog
+    counting to its timeout, auto sampling, a triggered capture, a point table with a dwell, a
+    gear pair, a line and an arc, interrupt waits, the whole BAR read after steps of odd
+    lengths (decision 0008: a unit whose state a tick changes while `busy()` is False would
+    make the card skip ticks wrongly)."""
+    from vdevclient import aps
+
+    bits = ctypes.c_int32()
+    assert aps.APS_initial(ctypes.byref(bits), 0, endpoint=d.endpoint) == 0
+    card = rack.card("adlink0")
+    bar = card.region("bar0")
+    out, i32 = ctypes.c_int32(), ctypes.c_int32()
+
+    def state() -> None:
+        rec.add([bar.read(off, 0x1000) for off in range(0, 0x4000, 0x1000)])
+        rec.add(card.control("get_outputs"))
+
+    def steps(*ns: int) -> None:
+        for n in ns:
+            rack.sim.step(ns=n)
+            state()
+
+    def call(fn: Any, *args: Any) -> None:
+        rec.add([fn.__name__, fn(*args)])
+
+    try:
+        for a in range(8):
+            call(aps.APS_set_servo_on, a, 1)
+        call(aps.APS_int_enable, 0, 1)
+        for a in range(8):
+            call(aps.APS_set_int_factor, 0, a, aps.IMDN, 1)
+        call(aps.APS_set_int_factor, 0, aps.INT_ITEM_SYSTEM, aps.ILCF0, 1)
+        # the timer: a linear compare on it, the timer stopped with points pending, restarted
+        for no, v in ((aps.TGR_LCMP0_SRC, aps.TGR_CMP_SRC_TIMER0), (aps.TGR_TRG_EN, 0b11),
+                      (aps.TGR_TRG0_SRC, aps.TGR_SRC_LCMP0), (aps.TGR_TRG1_SRC,
+                                                              aps.TGR_SRC_LCMP1),
+                      (aps.TGR_LCMP1_SRC, 5), (aps.TIMR_ITV, 10_000)):
+            call(aps.APS_set_trigger_param, 0, no, v)
+        call(aps.APS_set_timer_counter, 0, 0, 0)
+        call(aps.APS_set_trigger_linear, 0, 0, 0, 6, 250)
+        call(aps.APS_set_trigger_linear, 0, 1, 100, 3, 400)  # on axis 5's encoder
+        call(aps.APS_set_trigger_param, 0, aps.TIMR_EN, 1)
+        steps(617 * MS + 3, 7)
+        call(aps.APS_set_trigger_param, 0, aps.TIMR_EN, 0)  # 3 points left, the timer still
+        steps(S + 333, 13 * MS)
+        call(aps.APS_get_timer_counter, 0, 0, ctypes.byref(out))
+        rec.add(out.value)
+        call(aps.APS_set_trigger_param, 0, aps.TIMR_EN, 1)
+        steps(900 * MS + 1)
+        call(aps.APS_set_trigger_param, 0, aps.TIMR_EN, 0)
+        rec.add(aps.APS_wait_single_int(0 * aps.INT_NO_PER_BOARD + aps.INT_ITEM_SYSTEM * 32
+                                        + aps.ILCF0, 10))
+        call(aps.APS_ptp, 5, 0, 1500.0, None)  # LCMP1 on axis 5's counter
+        # the watchdog: counting, then expired (DO off) and waiting for its kick
+        call(aps.APS_write_d_output, 0, 0, 0x5A)
+        call(aps.APS_wdt_set_action_event, 0, 0, 2)
+        call(aps.APS_wdt_start, 0, 0, 301)
+        steps(151 * MS + 9, 211 * MS)
+        call(aps.APS_wdt_get_counter, 0, 0, ctypes.byref(out))
+        rec.add(out.value)
+        steps(2 * S + 5)
+        # auto sampling, then a capture that a move triggers
+        for no, v in ((aps.SAMP_PA_RATE, 3), (aps.SAMP_PA_SRC_CH0, aps.SAMP_SRC_COM_POS | 4 << 8),
+                      (aps.SAMP_PA_SRC_CH1, aps.SAMP_SRC_MSTS_MDN | 4 << 8)):
+            call(aps.APS_set_sampling_param, 0, no, v)
+        call(aps.APS_auto_sampling, 0, 1)
+        call(aps.APS_ptp, 4, 0, 3000.0, None)
+        steps(123 * MS + 5, 77 * MS)
+        length, status = ctypes.c_int32(100), ctypes.c_int32()
+        data = (aps.STR_SAMP_DATA_4CH * 100)()
+        call(aps.APS_get_sampling_data, 0, ctypes.byref(length), data, ctypes.byref(status))
+        rec.add([length.value, status.value, bytes(data)])
+        steps(S + 3)  # auto sampling while every axis stands
+        call(aps.APS_get_sampling_count, 0, ctypes.byref(out))
+        rec.add(out.value)
+        call(aps.APS_auto_sampling, 0, 0)
+        steps(S + 1)
+        for no, v in ((aps.SAMP_PA_RATE, 1), (aps.SAMP_PA_LEVEL, 1000), (aps.SAMP_PA_EDGE, 1),
+                      (aps.SAMP_PA_TRIGCH, 0)):
+            call(aps.APS_set_sampling_param, 0, no, v)
+        capture = (aps.STR_SAMP_DATA_4CH * 40)()
+        call(aps.APS_wait_trigger_sampling_async, 0, 40, 10, 5000, capture)
+        steps(50 * MS + 3)
+        call(aps.APS_ptp, 4, 0, 0.0, None)
+        steps(777 * MS, 3)
+        call(aps.APS_get_sampling_count, 0, ctypes.byref(out))
+        rec.add([out.value, bytes(capture)])
+        # a point table with a dwell and a DO at its point, on axes 2 and 3
+        arr = (aps.I32 * 2)(2, 3)
+        call(aps.APS_pt_enable, 0, 0, 2, arr)
+        call(aps.APS_pt_set_absolute, 0, 0)
+        call(aps.APS_pt_set_trans_buffered, 0, 0)
+        call(aps.APS_pt_set_acc_dec, 0, 0, 1e5)
+        call(aps.APS_pt_set_vm, 0, 0, 4e3)
+        call(aps.APS_pt_set_ve, 0, 0, 0.0)
+        call(aps.APS_pt_set_vs, 0, 0, 0.0)
+        st = aps.PTSTS()
+        for pos in ((500.0, 250.0), (800.0, -100.0)):
+            prof = aps.PTLINE()
+            prof.Dim = 2
+            prof.Pos[0], prof.Pos[1] = pos
+            call(aps.APS_pt_line, 0, 0, ctypes.byref(prof), ctypes.byref(st))
+            dw = aps.PTDWL()
+            dw.DwTime = 137.0
+            call(aps.APS_pt_ext_set_do_ch, 0, 0, 3, 1)
+            call(aps.APS_pt_dwell, 0, 0, ctypes.byref(dw), ctypes.byref(st))
+        call(aps.APS_pt_start, 0, 0)
+        steps(211 * MS + 1, 97 * MS, S + 7)
+        call(aps.APS_get_pt_status, 0, 0, ctypes.byref(st))
+        rec.add(bytes(st))
+        call(aps.APS_pt_disable, 0, 0)
+        # a gear pair: the slave follows the master's move, then lets go
+        call(aps.APS_set_axis_param, 7, aps.PRA_GEAR_MASTER, 6)
+        call(aps.APS_set_axis_param_f, 7, aps.PRA_GEAR_RATIO, -0.5)
+        call(aps.APS_set_axis_param_f, 7, aps.PRA_GEAR_ENGAGE_RATE, 1e9)
+        call(aps.APS_start_gear, 7, aps.GEAR_STANDARD)
+        call(aps.APS_ptp, 6, 0, 4321.0, None)
+        steps(333 * MS + 17, S)
+        call(aps.APS_start_gear, 7, aps.GEAR_DISABLE)
+        steps(S // 3)
+        # a line and an arc on axes 0 and 1, waited on by interrupt
+        call(aps.APS_line, 2, [0, 1], 0, [3000.0, 4000.0], None)
+        rec.add(aps.APS_wait_single_int(0 * 32 + aps.IMDN, 5000))
+        rec.add(rack.sim.now_ns())
+        call(aps.APS_reset_int, 0 * 32 + aps.IMDN)
+        call(aps.APS_arc2_ca, [0, 1], 0, [0.0, 0.0], 1.5, None)
+        rec.add(aps.APS_wait_multiple_int(2, [0 * 32 + aps.IMDN, 1 * 32 + aps.IMDN], 1,
+                                          10_000))
+        rec.add(rack.sim.now_ns())
+        steps(7, 1234 * MS + 1, S + 13)
+        for a in range(8):
+            rec.add([aps.APS_motion_status(a), aps.APS_get_position(a, ctypes.byref(i32)),
+                     i32.value])
+    finally:
+        aps.APS_close()
+
+
 @pytest.mark.parametrize(("scenario", "card"), [
     (generic_scenario, "servo0"), (galil_scenario, "galil0"), (maxk_scenario, "maxk0"),
-    (pmac_scenario, "pmac0"), (octavia_scenario, "octavia0"), (adlink_scenario, "adlink0")],
-    ids=["generic", "galil", "maxk", "pmac", "octavia", "adlink"])
+    (pmac_scenario, "pmac0"), (octavia_scenario, "octavia0"), (adlink_scenario, "adlink0"),
+    (adlink_units_scenario, "adlink0")],
+    ids=["generic", "galil", "maxk", "pmac", "octavia", "adlink", "adlink-units"])
 def test_skipping_quiet_ticks_changes_no_reply(scenario: Callable[..., None], card: str,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
     both_ways(scenario, card, monkeypatch)
