@@ -10,6 +10,7 @@ state directory, written atomically.
 from __future__ import annotations
 
 import asyncio
+import logging
 import math
 import struct
 import time
@@ -40,6 +41,7 @@ from vdevd.pci import Bar as PciBar
 from vdevd.pci import PciIdentity
 from vdevd.region import Region, passive_except
 
+log = logging.getLogger(__name__)
 _DOORBELL = int(Bar.DOORBELL)
 _MAILBOX = struct.Struct("<II")  # code, length
 
@@ -96,9 +98,16 @@ class AdlinkCard(Card):
         self._writer = NvramWriter(store, name) if store is not None else None
         saved = store.load(name) if store is not None else None
         if isinstance(saved, dict) and isinstance(saved.get("flash"), dict):
-            self.kernel.flash = saved["flash"]
-            self.kernel.restore_parameters(saved["flash"])
+            dropped = self.kernel.restore_parameters(saved["flash"])
             self.kernel.board_params.values[0x8000] = float(opts.cycle_us)
+            self.kernel.flash = self.kernel.parameter_image()  # what load_parameter_from_flash loads
+            if dropped:
+                log.warning("%s: %d entries of its flash image are not legal on this card (an "
+                            "image of another program or version); they keep their defaults",
+                            name, dropped)
+        elif saved:
+            log.warning("%s: its flash image holds no parameters; the card starts from its "
+                        "defaults", name)
         self.make_world(n)
         self._feedback_offset = np.zeros(n)
         self._ez_at = np.zeros(n)

@@ -106,6 +106,7 @@ def load_parameter_from_flash(k: Kernel) -> None:
         raise ApsError(ERR_CommandInProcess, "parameters load only while no axis moves")
     if k.flash is not None:
         k.restore_parameters(k.flash)
+        k.board_params.values[BOARD_CYCLE] = float(k.cycle_us)  # the cycle the card runs
 
 
 def load_parameter_from_default(k: Kernel) -> None:

@@ -227,13 +227,18 @@ class Kernel:
         return {"axis": self.axis_params.image(), "board": self.board_params.image(),
                 "units": units}
 
-    def restore_parameters(self, image: dict[str, Any]) -> None:
-        self.axis_params.restore(image.get("axis", {}))
-        self.board_params.restore(image.get("board", {}))
+    def restore_parameters(self, image: dict[str, Any]) -> int:
+        """Take a parameter image; the count of its entries left out, not legal on this card
+        (an image another program or version left: those keep their values)."""
+        dropped = self.axis_params.restore(image.get("axis", {}))
+        dropped += self.board_params.restore(image.get("board", {}))
         saved = image.get("units", {})
+        if not isinstance(saved, dict):
+            saved, dropped = {}, dropped + 1
         for u in self.units:
             if hasattr(u, "restore") and type(u).__name__ in saved:
-                u.restore(saved[type(u).__name__])
+                dropped += u.restore(saved[type(u).__name__])
+        return dropped
 
     # -- state -----------------------------------------------------------------------------------
     def power_up(self) -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -121,6 +122,25 @@ BOARD_PARAMS: tuple[Param, ...] = (
     _p(0x8000, "PRB_VDEVD_MOTION_CYCLE", False, 500, 2000, 1000),
 )
 
+def image_entries(image: Any) -> tuple[list[tuple[int, Any]], int]:
+    """The (number, value) entries of a saved image keyed by hex numbers ("0x21"), and how many
+    entries are not such (a flash image another program or version left, spec adlink.md §4.1
+    ASSUMPTION: they are left out)."""
+    if not isinstance(image, dict):
+        return [], 1
+    out, bad = [], 0
+    for key, value in image.items():
+        try:
+            out.append((int(key, 16), value))
+        except (TypeError, ValueError):
+            bad += 1
+    return out, bad
+
+
+def is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
 AXIS_BY_NO: dict[int, Param] = {p.no: p for p in AXIS_PARAMS}
 BOARD_BY_NO: dict[int, Param] = {p.no: p for p in BOARD_PARAMS}
 BOARD_CYCLE = 0x8000
@@ -173,16 +193,17 @@ class AxisParams:
     def image(self) -> dict[str, list[float]]:
         return {f"{no:#x}": self.values[i].tolist() for i, no in enumerate(self.numbers)}
 
-    def restore(self, image: dict[str, list[float]]) -> None:
-        for key, vals in image.items():
-            try:
-                no = int(key, 16)
-            except ValueError:
-                continue
-            if no in self._index and len(vals) == self.n:
-                row = np.asarray(vals, dtype=float)
-                if np.isfinite(row).all() or no in (0x07, 0x13):
-                    self.values[self._index[no]] = row
+    def restore(self, image: Any) -> int:
+        """Take a saved image's rows: a row of this card's n axes whose every value `check`
+        allows; the count of entries left out (their parameters keep their values)."""
+        entries, dropped = image_entries(image)
+        for no, vals in entries:
+            if (no in self._index and isinstance(vals, list) and len(vals) == self.n
+                    and all(is_number(v) and self.check(no, float(v)) for v in vals)):
+                self.values[self._index[no]] = np.asarray(vals, dtype=float)
+            else:
+                dropped += 1
+        return dropped
 
 
 class BoardParams:
@@ -205,11 +226,12 @@ class BoardParams:
     def image(self) -> dict[str, float]:
         return {f"{no:#x}": v for no, v in self.values.items()}
 
-    def restore(self, image: dict[str, float]) -> None:
-        for key, v in image.items():
-            try:
-                no = int(key, 16)
-            except ValueError:
-                continue
-            if no in self.values and self.check(no, float(v)):
+    def restore(self, image: Any) -> int:
+        """Take a saved image's legal values; the count of entries left out."""
+        entries, dropped = image_entries(image)
+        for no, v in entries:
+            if no in self.values and is_number(v) and self.check(no, float(v)):
                 self.values[no] = float(v)
+            else:
+                dropped += 1
+        return dropped

@@ -37,7 +37,7 @@ from vdevmaps.aps_defs import (
     VAO_TABLE_SRC,
 )
 
-from vdevd.devices.adlink.errors import invalid
+from vdevd.devices.adlink.errors import ApsError, invalid
 
 if TYPE_CHECKING:
     from vdevd.devices.adlink.kernel import Kernel
@@ -206,14 +206,20 @@ class PwmUnit:
     def image(self) -> dict[str, Any]:
         return {"tables": [vars(t).copy() for t in self.tables]}
 
-    def restore(self, image: dict[str, Any]) -> None:
-        saved = image.get("tables", [])
-        if isinstance(saved, list) and len(saved) == VAO_TABLE_COUNT:
-            try:
-                tables = [VaoTable(**t) for t in saved]
-            except TypeError:
-                return
-            self.tables = tables
+    def restore(self, image: Any) -> int:
+        """Take a saved image's tables, each one a table the commands could have left (else it
+        keeps its parameters); the count of tables left out."""
+        saved = image.get("tables") if isinstance(image, dict) else None
+        if not isinstance(saved, list) or len(saved) != VAO_TABLE_COUNT:
+            return 1
+        dropped = 0
+        for no, t in enumerate(saved):
+            tab = _saved_table(t)
+            if tab is None:
+                dropped += 1
+            else:
+                self.tables[no] = tab
+        return dropped
 
     def pwm_off(self) -> None:
         """Every PWM output off, plain and VAO (the watchdog's action bit 2, safety.py)."""
@@ -229,6 +235,29 @@ class PwmUnit:
 
 def unit(k: Kernel) -> PwmUnit:
     return next(u for u in k.units if isinstance(u, PwmUnit))
+
+
+def _saved_table(t: Any) -> VaoTable | None:
+    """A table of a flash image, if the VAO commands could have made it: whole numbers, a known
+    output and input type, source axes, powers in the output type's range and a positive
+    interval between two or more points (PWM_Config may lie outside its output type's range:
+    set_vao_param allows that, APS_check_vao_param reports it)."""
+    if not isinstance(t, dict) or set(t) != set(vars(VaoTable())):
+        return None
+    power = t["power"]
+    numbers = [t[name] for name in ("output", "input", "config", "src", "min_vel", "interval")]
+    if not isinstance(power, list) or not all(
+            isinstance(v, int) and not isinstance(v, bool) for v in numbers + power):
+        return None
+    tab = VaoTable(**t)
+    try:
+        for name in ("output", "input", "src"):
+            _check_value(tab, name, t[name])
+        if power:
+            _check_table(tab.output, tab.min_vel, tab.interval, power)
+    except ApsError:
+        return None
+    return tab
 
 
 def _table(no: int) -> int:

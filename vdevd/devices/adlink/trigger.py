@@ -44,6 +44,7 @@ from vdevmaps.aps_defs import (
 )
 
 from vdevd.devices.adlink.errors import invalid
+from vdevd.devices.adlink.params import image_entries
 
 if TYPE_CHECKING:
     from vdevd.devices.adlink.kernel import Kernel
@@ -254,14 +255,17 @@ class TriggerUnit:
     def image(self) -> dict[str, int]:
         return {f"{no:#x}": v for no, v in self.params.items() if no != TIMR_EN}
 
-    def restore(self, image: dict[str, int]) -> None:
-        for key, v in image.items():
-            try:
-                no = int(key, 16)
-            except ValueError:
-                continue
-            if no in self.params and no != TIMR_EN and self.legal(no, int(v)):
-                self.params[no] = int(v)
+    def restore(self, image: Any) -> int:
+        """Take a saved image's legal parameters (TIMR_EN is no parameter: the timer starts
+        stopped); the count of entries left out."""
+        entries, dropped = image_entries(image)
+        for no, v in entries:
+            if (no in self.params and no != TIMR_EN and isinstance(v, int)
+                    and not isinstance(v, bool) and self.legal(no, v)):
+                self.params[no] = v
+            else:
+                dropped += 1
+        return dropped
 
     # -- parameters ---------------------------------------------------------------------------
     def legal(self, no: int, v: int) -> bool:
