@@ -30,6 +30,7 @@ from vdevmaps.aps_defs import (
     PRA_NAMES,
     PRB_NAMES,
     ERR_NoError,
+    ERR_ParametersInvalid,
 )
 
 from vdevclient._aps_session import ApsArgError, guarded, session
@@ -39,6 +40,17 @@ MAX_FILE_BYTES = 4 << 20
 _PRA = {name: no for no, name in PRA_NAMES.items()}
 _PRB = {name: no for no, name in PRB_NAMES.items()}
 _MODEL = {0x204: "AMP-204C", 0x208: "AMP-208C"}
+
+
+def _path(param: Any) -> str:
+    """The file name argument: a string or char array; NULL (None) or anything else is -10."""
+    try:
+        path = text(param).decode("latin-1")
+    except (TypeError, ValueError):
+        raise ApsArgError(ERR_ParametersInvalid) from None
+    if not path:
+        raise ApsArgError(ERR_ParametersInvalid)
+    return path
 
 
 def _number(entry: ET.Element, names: dict[str, int]) -> int:
@@ -93,7 +105,7 @@ def _entries(path: str) -> list[tuple[Any, int | None, int, float]]:
 def APS_load_param_from_file(pXMLFile: Any) -> int:
     """Apply the file's board and axis parameters (all or none: a value the card refuses is
     its code, after the entries before it were set; the file is checked first)."""
-    entries = _entries(text(pXMLFile).decode("latin-1"))
+    entries = _entries(_path(pXMLFile))
     for board, a, no, value in entries:
         if a is None:
             if value != int(value):
@@ -112,6 +124,7 @@ def APS_save_param_to_file(Board_ID: int, pXMLFile: Any) -> int:
     from vdevclient._aps_session import board as find_board
 
     b = find_board(Board_ID)
+    path = _path(pXMLFile)
     root = ET.Element("MotionCreatorPro")
     node = ET.SubElement(root, "Board", ID=str(b.board_id), Name=_MODEL.get(b.model, "AMP"))
     rc, (numbers, values) = b.post("get_board_param_table")
@@ -126,7 +139,6 @@ def APS_save_param_to_file(Board_ID: int, pXMLFile: Any) -> int:
         ax = ET.SubElement(node, "Axis", ID=str(a))
         for no, v in zip(numbers, values, strict=True):
             ET.SubElement(ax, "Param", No=hex(no), Name=PRA_NAMES.get(no, ""), Value=_fmt(v))
-    path = text(pXMLFile).decode("latin-1")
     tmp = f"{path}.tmp{os.getpid()}"
     try:
         ET.ElementTree(root).write(tmp, encoding="utf-8", xml_declaration=True)

@@ -204,6 +204,8 @@ def APS_get_sampling_count(Board_ID: int, SampCnt: Any) -> int:
     complete), or the unread ones of auto sampling; a complete _async capture is copied into its
     DataArr here."""
     b = board(Board_ID)
+    if target(SampCnt) is None:  # -10 before a finished capture is copied and forgotten
+        raise ApsArgError(ERR_ParametersInvalid)
     state, count = _status(b)
     pending = _pending.get(b.board_id)
     if pending is not None and state & SampState.DONE:
@@ -235,7 +237,7 @@ def _get_data(Board_ID: Any, Length: Any, DataArr: Any, Status: Any, channels: i
     b = board(Board_ID)
     dest = target(Length)
     want = as_int(dest[0] if isinstance(dest, list) else Length)
-    if want < 0:
+    if want < 0 or target(Status) is None:  # NULL Status: -10 before a record is taken
         raise ApsArgError(ERR_ParametersInvalid)
     _check_array(DataArr, want, channels)
     got, state, step = 0, 0, samp_records_per_reply(channels)

@@ -155,6 +155,23 @@ def test_async_capture_fills_the_array_when_the_count_is_complete() -> None:
         assert arr[49].tick == arr[0].tick + 49
 
 
+def test_a_null_count_leaves_a_finished_async_capture_uncopied() -> None:
+    """-10 for a NULL SampCnt changes nothing: the capture is copied into DataArr by the next
+    call that can report its count, not by the refused one."""
+    with aps_session() as (_, rack):
+        _set(rate=1, ch0=_src(aps.SAMP_SRC_COM_POS), level=100)
+        arr = (aps.STR_SAMP_DATA_4CH * 20)()
+        assert aps.APS_wait_trigger_sampling_async(0, 20, 5, -1, arr) == 0
+        step_ms(rack, 10)
+        aps.APS_ptp(0, 0, 2000.0, None)
+        step_ms(rack, 100)
+        assert aps.APS_get_sampling_count(0, None) == aps.ERR_ParametersInvalid
+        assert all(r.tick == 0 for r in arr)
+        count = c_int32()
+        assert aps.APS_get_sampling_count(0, byref(count)) == 0 and count.value == 20
+        assert arr[19].tick == arr[0].tick + 19 > 0
+
+
 def test_stop_wait_sampling_abandons_the_capture() -> None:
     with aps_session() as (_, rack):
         arr = (aps.STR_SAMP_DATA_4CH * 10)()
