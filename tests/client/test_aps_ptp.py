@@ -353,3 +353,19 @@ def test_mdn_waits_for_inp_and_the_mdn_delay(rack: vdevclient.Rack) -> None:
     assert "MDN" not in status(1)
     step_ms(rack, 1)
     assert "MDN" in status(1)
+
+
+def test_positions_beyond_the_32_bit_command_and_unknown_options_are_refused(
+        rack: vdevclient.Rack) -> None:
+    """A move of more than 2^31 - 1 pulses [M §1.1 "32-bit" position command], a coordinate no
+    F64 holds to the pulse, an option bit no function defines: -10, nothing changed."""
+    assert aps.APS_ptp(0, 0, 1e300, None) == aps.ERR_ParametersInvalid
+    assert aps.APS_ptp(0, 0, 2.0**31, None) == aps.ERR_ParametersInvalid
+    assert aps.APS_set_position_f(0, 1e300) == aps.ERR_ParametersInvalid
+    assert aps.APS_set_command_f(0, -1e300) == aps.ERR_ParametersInvalid
+    assert aps.APS_vel(0, 0x8000, 10.0, None) == aps.ERR_ParametersInvalid
+    assert aps.APS_vel(0, aps.PTP_OPT_BUFFERED, 10.0, None) == aps.ERR_ParametersInvalid
+    assert aps.APS_ptp(0, 0x0400, 1.0, None) == aps.ERR_ParametersInvalid
+    step_ms(rack, 10)
+    assert status(0) >= {"MDN", "CSTP"} and cmd(0) == 0.0 and f64(aps.APS_get_position_f, 0) == 0
+    assert aps.APS_ptp(0, 0, 2.0**31 - 1, None) == 0  # the longest move

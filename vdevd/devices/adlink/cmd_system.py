@@ -16,6 +16,10 @@ from vdevd.devices.adlink.params import BOARD_CYCLE
 if TYPE_CHECKING:
     from vdevd.devices.adlink.kernel import Kernel
 
+#: the largest user position a coordinate may be set to: beyond 2^53 an F64 no longer holds
+#: whole pulses (the counters are 32-bit [M §1.1], user positions F64: spec Q20)
+MAX_USER = 2.0**53
+
 #: get_timing / reset_timing selectors: the LPSTS fields [M §4.1.2; spec Q1]
 TIMING_MOTION, TIMING_HOST, TIMING_MOTION_MAX, TIMING_HOST_MAX, TIMING_OVER_COUNT = range(5)
 
@@ -148,7 +152,7 @@ def _idle(k: Kernel, a: int) -> None:
 def set_command_f(k: Kernel, a: int, value: float) -> None:
     """APS_set_command_f [M §4.2.1]: the command position redefined, no motion, the raw
     counters untouched (spec §2.3); only at rest (spec Q29)."""
-    if not math.isfinite(value):
+    if not math.isfinite(value) or abs(value) > MAX_USER:
         raise ApsError(ERR_ParametersInvalid, "position must be finite")
     _idle(k, a)
     k.cmd_off[a] = value - float(k.core.axes.cmd_pos[a]) / k.factor(a)
@@ -157,7 +161,7 @@ def set_command_f(k: Kernel, a: int, value: float) -> None:
 
 def set_position_f(k: Kernel, a: int, value: float) -> None:
     """APS_set_position_f [M §4.2.1]: the feedback position redefined."""
-    if not math.isfinite(value):
+    if not math.isfinite(value) or abs(value) > MAX_USER:
         raise ApsError(ERR_ParametersInvalid, "position must be finite")
     k.check_axis(a)
     k.fb_off[a] = value - float(k.core.axes.fb[a]) / k.factor(a)

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from vdevmaps.aps_defs import (
+    OPT_FORCE_ABORT,
     OPT_RELATIVE,
     OPT_WAIT,
     PTP_OPT_ABORTING,
@@ -46,6 +47,9 @@ if TYPE_CHECKING:
 
 QUEUE = 10  # commands in an axis's motion buffer [M §4.6.4]
 _MODE_MASK = 0xF000
+_FLAGS = OPT_RELATIVE | OPT_WAIT | OPT_FORCE_ABORT  # the option bits besides the mode [spec §3.6]
+#: the longest move in pulses: the 32-bit position command range [M §1.1]
+MAX_PULSES = 2**31 - 1
 # axis parameters [spec §3.2]
 SD_DEC, SF, ACC, DEC, VS, VM, VE = 0x07, 0x20, 0x21, 0x22, 0x23, 0x24, 0x25
 PRE_DIST, POST_DIST, UNIT_FACTOR, MDM_CONDI, MDN_DELAY = 0x2A, 0x2B, 0x86, 0x03, 0x50
@@ -122,8 +126,8 @@ def ptp(k: Kernel, a: int, option: int, pos: float, vs: float, vm: float, ve: fl
     if not math.isfinite(pos):
         raise ApsError(ERR_ParametersInvalid, "position must be finite")
     mode = option & _MODE_MASK
-    if mode > PTP_OPT_BLEND_HIGH:
-        raise ApsError(ERR_ParametersInvalid, f"buffer mode {mode:#x}")
+    if mode > PTP_OPT_BLEND_HIGH or option & ~(_MODE_MASK | _FLAGS):
+        raise ApsError(ERR_ParametersInvalid, f"option {option:#x}")
     check_free(k, a)
     values = profile_values(k, a, vs, vm, ve, acc, dec, sf)
     busy = k.mode[a] in (PTP, VEL, STOPPING) and k.core.profile.moving[a]
@@ -132,6 +136,8 @@ def ptp(k: Kernel, a: int, option: int, pos: float, vs: float, vm: float, ve: fl
     if queued:  # buffered: to the end of the last queued segment
         base = k.queue[a][-1].target if k.queue[a] else float(k.target[a])
     target = base + pos if option & OPT_RELATIVE else pos
+    if abs(k.to_counts(a, target) - k.to_counts(a, base)) > MAX_PULSES:
+        raise ApsError(ERR_ParametersInvalid, "beyond the 32-bit position command [M §1.1]")
     seg = Segment(target, *values, mode)
     if queued:
         if len(k.queue[a]) + 1 >= QUEUE:
@@ -278,6 +284,8 @@ def vel(k: Kernel, a: int, option: int, vm: float, vs: float, ve: float, acc: fl
     k.check_axis(a)
     if not math.isfinite(vm):
         raise ApsError(ERR_ParametersInvalid, "Vm must be finite")
+    if option & ~_FLAGS:  # no buffer mode for a velocity move [M §4.9.5.1]
+        raise ApsError(ERR_ParametersInvalid, f"option {option:#x}")
     check_free(k, a)
     vs_, _, _, acc_, dec_, sf_ = profile_values(k, a, vs, abs(vm) or math.nan, ve, acc, dec, sf)
     if refused(k, a, vm):
