@@ -96,8 +96,10 @@ from vdevd.devices.adlink.interp import Interpolation
 from vdevd.devices.adlink.modes import HOME, IDLE, JOG, STOPPING, UNIT, VEL, Unit
 from vdevd.devices.adlink.params import AxisParams, BoardParams
 from vdevd.devices.adlink.ptable import PointTables
+from vdevd.devices.adlink.runs import Runs
 from vdevd.region import Memory
 from vdevd.rt import MotionCore, PlantKind
+from vdevd.rt.axes import Axes
 
 log = logging.getLogger(__name__)
 
@@ -219,6 +221,7 @@ class Kernel:
         self.new_cycle_us: int | None = None  # PRB 8000h set: the card changes its period
         #: LPSTS (0.01 % of the cycle) and the over-cycle count [M §4.1.2]
         self.timing = [0, 0, 0, 0, 0]
+        self.runs = Runs(self)
         self.power_up()
 
     def parameter_image(self) -> dict[str, Any]:
@@ -432,8 +435,10 @@ class Kernel:
             u.after_motion(core.profile.t)
         self.events()
 
-    def logic(self) -> None:
-        """The logical (post-inversion) signals from the raw levels [M §4.1.1.4]."""
+    def logic(self, state: np.ndarray | None = None, moving: np.ndarray | None = None) -> None:
+        """The logical (post-inversion) signals from the raw levels [M §4.1.1.4]; INP and the
+        soft limits from the motion core's `state` rows and the `moving` axes (default: now;
+        the last cycle of a run takes those before its tick, runs.py)."""
         p = self.p
         self.emg = bool(self.raw_emg) != bool(self.board_params.values[0x00])
         # the logic parameters EL, EL, ORG, ALM, EZ, INP in one read
@@ -443,14 +448,18 @@ class Kernel:
         self.org = self.raw_org != org
         self.alm = self.raw_alm != alm
         self.ez = self.raw_ez != ez
-        ax = self.core.axes
-        settled = (np.abs(ax.cmd_pos - ax.fb) <= self.inp_window) & ~self.moving() & self.svon
+        if state is None:
+            state = self.core.axes.state
+        cmd_pos = state[Axes.CMD_POS]
+        if moving is None:
+            moving = self.moving()
+        settled = (np.abs(cmd_pos - state[Axes.FB]) <= self.inp_window) & ~moving & self.svon
         force = self.inp_force
         inp = np.where(force >= 0, force == 1, settled) if np.count_nonzero(force + 1) else settled
         self.inp = inp != inp_logic
         soft_pos, soft_neg = p(0x08), p(0x09)
         if np.count_nonzero(soft_pos) or np.count_nonzero(soft_neg):
-            cmd = self.user_cmd()
+            cmd = cmd_pos / self.axis_params.row(0x86) + self.cmd_off
             self.spel = (soft_pos != 0) & (cmd >= p(0x0A))
             self.smel = (soft_neg != 0) & (cmd <= p(0x0B))
         else:  # no soft limit enabled [M §4.10]
@@ -630,13 +639,15 @@ class Kernel:
                           self.spel, self.smel), dtype=bool)
         self.msts, self.mio, self.axis_cond = _WEIGHTS @ flags
 
-    def follow_direction(self, moving: np.ndarray) -> None:
+    def follow_direction(self, moving: np.ndarray, state: np.ndarray | None = None) -> None:
         """DIR: the sign of the command velocity (of the acceleration from rest) of a moving
-        axis; held after a stop [M §4.8.1 bit 4]."""
+        axis; held after a stop [M §4.8.1 bit 4]. `state`: the motion core's rows to take
+        (default: now)."""
         if np.count_nonzero(moving):
-            ax = self.core.axes
-            vel = ax.cmd_vel + self.gear_vel
-            v = np.where(vel != 0, vel, ax.cmd_acc)
+            if state is None:
+                state = self.core.axes.state
+            vel, acc = state[Axes.CMD_VEL] + self.gear_vel, state[Axes.CMD_ACC]
+            v = np.where(vel != 0, vel, acc)
             self.direction = np.where(moving & (v != 0), v > 0, self.direction)
 
     def settle_conditions(self) -> None:
