@@ -181,7 +181,9 @@ class Kernel:
         self._logic_rows = np.array([self.axis_params.index(no)
                                      for no in (0x00, 0x00, 0x01, 0x04, 0x06, 0x05)])
         self.board_params = BoardParams()
-        self.records = st.axis_records(buf, n)
+        self._rec_ints, self._rec_floats = st.axis_blocks(buf, n)
+        self._pub_ints = np.zeros((8, n), dtype=np.int64)  # the blocks' rows, then one copy each
+        self._pub_floats = np.zeros((6, n))
         self.int_enable = st.u32_words(buf, Bar.INT_ENABLE, INT_ITEMS)
         self.int_signal = st.u32_words(buf, Bar.INT_SIGNAL, INT_ITEMS)
         #: the kernel's units, in the order of their cycle work (spec §2.2: trajectories,
@@ -731,25 +733,37 @@ class Kernel:
     def publish(self) -> None:
         """The status block: every axis record and the card words."""
         self.status_words()
-        rec, ax = self.records, self.core.axes
+        ax = self.core.axes
         f = self.axis_params.row(0x86)
-        rec["msts"] = self.msts
-        rec["mio"] = self.mio
-        rec["stop_code"] = self.stop_code
-        rec["cmd_counter"] = st.wrap_i32(np.rint(ax.cmd_pos))
-        rec["encoder"] = st.wrap_i32(ax.encoder)
-        rec["mq_usage"] = self.mq_usage
-        rec["gear"] = self.gear_status
-        rec["servo"] = self.svon
-        cmd = ax.cmd_pos / f + self.cmd_off
-        fbk = ax.fb / f + self.fb_off
-        rec["cmd_pos"] = cmd
-        rec["fbk_pos"] = fbk
-        rec["target"] = np.where(self.mode == VEL, cmd, self.target)
-        rec["err_pos"] = cmd - fbk
-        cmd_vel = ax.cmd_vel + self.gear_vel
-        rec["cmd_vel"] = cmd_vel / f
-        rec["fbk_vel"] = (ax.vel if self.drive == "servo" else cmd_vel * self.svon) / f
+        # the I32 fields in record order; the counters wrap at 2^32 (spec Q20: the int64 -> I32
+        # copy keeps the low 32 bits, two's complement)
+        ints = self._pub_ints
+        ints[0] = self.msts
+        ints[1] = self.mio
+        ints[2] = self.stop_code
+        ints[3] = np.rint(ax.cmd_pos)
+        ints[4] = ax.encoder
+        ints[5] = self.mq_usage
+        ints[6] = self.gear_status
+        ints[7] = self.svon
+        self._rec_ints[...] = ints.T
+        # the F64 fields in record order, user units
+        cmd, fbk, target, err, cmd_vel, fbk_vel = floats = self._pub_floats
+        np.divide(ax.cmd_pos, f, out=cmd)
+        cmd += self.cmd_off
+        np.divide(ax.fb, f, out=fbk)
+        fbk += self.fb_off
+        np.copyto(target, self.target)
+        np.copyto(target, cmd, where=self.mode == VEL)
+        np.subtract(cmd, fbk, out=err)
+        np.add(ax.cmd_vel, self.gear_vel, out=cmd_vel)
+        if self.drive == "servo":
+            np.divide(ax.vel, f, out=fbk_vel)
+        else:
+            np.multiply(cmd_vel, self.svon, out=fbk_vel)
+            fbk_vel /= f
+        cmd_vel /= f
+        self._rec_floats[...] = floats.T
         for u in self.units:
             publish = getattr(u, "publish", None)
             if publish is not None:
