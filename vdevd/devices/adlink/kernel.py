@@ -184,6 +184,7 @@ class Kernel:
         self._rec_ints, self._rec_floats = st.axis_blocks(buf, n)
         self._pub_ints = np.zeros((8, n), dtype=np.int64)  # the blocks' rows, then one copy each
         self._pub_floats = np.zeros((6, n))
+        self._jit = st.compiled()  # the status words and records compiled, or None: numpy
         self.int_enable = st.u32_words(buf, Bar.INT_ENABLE, INT_ITEMS)
         self.int_signal = st.u32_words(buf, Bar.INT_SIGNAL, INT_ITEMS)
         #: the kernel's units, in the order of their cycle work (spec §2.2: trajectories,
@@ -618,8 +619,19 @@ class Kernel:
     def status_words(self) -> None:
         """The motion status and motion I/O words of every axis [M §4.8.1, §4.1.1.4], and the
         interrupt conditions `events` compares: the bool rows stacked, one product with their bit
-        weights (`_WEIGHTS`: msts, mio, the conditions)."""
+        weights (`_WEIGHTS`: msts, mio, the conditions). Compiled: the same per axis in one
+        call (status.py)."""
         ax = self.core.axes
+        if self._jit is not None:
+            out = np.empty((3, self.n), dtype=np.int64)  # new rows: prev_axis_cond keeps the old
+            self._jit[0](ax.cmd_vel, self.gear_vel, ax.cmd_acc, self.core.profile.moving,
+                         self.unit_moving, self.phase, self.direction,
+                         (self.mdn, self.hmv, self.wait, self.ptb, self.jog, self.astp, self.bld,
+                          self.pred, self.postd, self.ger, self.alm, self.pel, self.mel,
+                          self.org, self.ez, self.inp, self.svon, self.spel, self.smel),
+                         self.emg, _WEIGHTS, out)
+            self.msts, self.mio, self.axis_cond = out
+            return
         v, acc = ax.cmd_vel + self.gear_vel, ax.cmd_acc
         moving = self.moving()
         av = acc * v
@@ -735,8 +747,31 @@ class Kernel:
         self.status_words()
         ax = self.core.axes
         f = self.axis_params.row(0x86)
-        # the I32 fields in record order; the counters wrap at 2^32 (spec Q20: the int64 -> I32
-        # copy keeps the low 32 bits, two's complement)
+        if self._jit is not None:
+            self._jit[1](ax.cmd_pos, ax.fb, ax.encoder, f, self.cmd_off, self.fb_off,
+                         self.target, self.mode == VEL, ax.cmd_vel, self.gear_vel, ax.vel,
+                         self.drive == "servo", (self.msts, self.mio, self.stop_code,
+                                                 self.mq_usage, self.gear_status, self.svon),
+                         self._rec_ints, self._rec_floats)
+        else:
+            self._records(f)
+        for u in self.units:
+            publish = getattr(u, "publish", None)
+            if publish is not None:
+                publish()
+        buf = self.buf
+        _U32.pack_into(buf, Bar.CYCLE_COUNT, self.cycles & 0xFFFFFFFF)
+        _U32.pack_into(buf, Bar.EMG, int(self.emg))
+        _U32.pack_into(buf, Bar.DI, self.di_word())
+        _U32.pack_into(buf, Bar.DO, self.do_word & 0xFFFFFF)
+        _U32.pack_into(buf, Bar.INT_MAIN, int(self.int_main))
+
+    def _records(self, f: np.ndarray) -> None:
+        """`publish`'s axis records with numpy (`f`: the unit factors): two blocks of rows in
+        record order, one copy each."""
+        ax = self.core.axes
+        # the I32 fields; the counters wrap at 2^32 (spec Q20: the int64 -> I32 copy keeps the
+        # low 32 bits, two's complement)
         ints = self._pub_ints
         ints[0] = self.msts
         ints[1] = self.mio
@@ -747,7 +782,7 @@ class Kernel:
         ints[6] = self.gear_status
         ints[7] = self.svon
         self._rec_ints[...] = ints.T
-        # the F64 fields in record order, user units
+        # the F64 fields, user units
         cmd, fbk, target, err, cmd_vel, fbk_vel = floats = self._pub_floats
         np.divide(ax.cmd_pos, f, out=cmd)
         cmd += self.cmd_off
@@ -764,13 +799,3 @@ class Kernel:
             fbk_vel /= f
         cmd_vel /= f
         self._rec_floats[...] = floats.T
-        for u in self.units:
-            publish = getattr(u, "publish", None)
-            if publish is not None:
-                publish()
-        buf = self.buf
-        _U32.pack_into(buf, Bar.CYCLE_COUNT, self.cycles & 0xFFFFFFFF)
-        _U32.pack_into(buf, Bar.EMG, int(self.emg))
-        _U32.pack_into(buf, Bar.DI, self.di_word())
-        _U32.pack_into(buf, Bar.DO, self.do_word & 0xFFFFFF)
-        _U32.pack_into(buf, Bar.INT_MAIN, int(self.int_main))
