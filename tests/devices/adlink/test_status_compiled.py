@@ -19,16 +19,19 @@ pytestmark = pytest.mark.skipif(compiled() is None, reason="numba is not availab
 
 
 def both_paths(k: Kernel) -> tuple[tuple[bytes, ...], tuple[bytes, ...]]:
-    """The bar's axis records, the words and DIR after `publish` on the numpy path, then on the
-    compiled path, from the same state."""
+    """The signals (`logic`), the bar's axis records, the words and DIR after `publish` on the
+    numpy path, then on the compiled path, from the same state."""
     direction = k.direction.copy()
     out = []
     for jit in (None, compiled()):
         k.direction = direction.copy()
         k._jit = jit
+        k.logic()
         k.publish()
         out.append((bytes(k.buf[Bar.AXIS:Bar.AXIS_END]), k.msts.tobytes(), k.mio.tobytes(),
-                    k.axis_cond.tobytes(), k.direction.tobytes()))
+                    k.axis_cond.tobytes(), k.direction.tobytes(),
+                    *(row.tobytes() for row in (k.pel, k.mel, k.org, k.alm, k.ez, k.inp,
+                                                k.spel, k.smel))))
     return out[0], out[1]
 
 
@@ -40,6 +43,10 @@ def test_compiled_status_is_the_numpy_status(seed: int, drive: str) -> None:
     card: AdlinkCard = twin.cards[0]
     runs.servo_on(twin)
     twin.send(runs.param(1, 0x86, 3.7))  # a unit factor: user units are not counts
+    for a, no, value in ((3, 0x0A, 9_000.0), (3, 0x08, 1), (5, 0x0B, -4_000.0), (5, 0x09, 1),
+                         (6, 0x01, 1), (7, 0x05, 1)):  # soft limits, ORG and INP logic
+        twin.send(runs.param(a, no, value))
+    twin.control("set_inp", {"axis": 4, "active": True})
     compared = 0
     for _ in range(60):
         if rng.random() < 0.7:

@@ -180,6 +180,10 @@ class Kernel:
         self.axis_params = AxisParams(n)
         self._logic_rows = np.array([self.axis_params.index(no)
                                      for no in (0x00, 0x00, 0x01, 0x04, 0x06, 0x05)])
+        #: the rows the compiled `logic` reads: EL, ORG, ALM, EZ, INP logic, soft limits on
+        #: (+, -) and at, the unit factor
+        self._signal_rows = np.array([self.axis_params.index(no) for no in (
+            0x00, 0x01, 0x04, 0x06, 0x05, 0x08, 0x09, 0x0A, 0x0B, 0x86)], dtype=np.intp)
         self.board_params = BoardParams()
         self._rec_ints, self._rec_floats = st.axis_blocks(buf, n)
         self._pub_ints = np.zeros((8, n), dtype=np.int64)  # the blocks' rows, then one copy each
@@ -444,6 +448,18 @@ class Kernel:
         the last cycle of a run takes those before its tick, runs.py)."""
         p = self.p
         self.emg = bool(self.raw_emg) != bool(self.board_params.values[0x00])
+        if self._jit is not None:
+            if state is None:
+                state = self.core.axes.state
+            prof_moving, unit_moving = (self.core.profile.moving, self.unit_moving) \
+                if moving is None else (moving, moving)
+            out = np.empty((8, self.n), dtype=bool)
+            self._jit[2]((self.raw_pel, self.raw_mel, self.raw_org, self.raw_alm, self.raw_ez),
+                         self.axis_params.values, self._signal_rows, state[Axes.CMD_POS],
+                         state[Axes.FB], prof_moving, unit_moving, self.svon, self.inp_force,
+                         self.inp_window, self.cmd_off, out)
+            self.pel, self.mel, self.org, self.alm, self.ez, self.inp, self.spel, self.smel = out
+            return
         # the logic parameters EL, EL, ORG, ALM, EZ, INP in one read
         el, _, org, alm, ez, inp_logic = self.axis_params.values[self._logic_rows] != 0
         self.pel = self.raw_pel != el

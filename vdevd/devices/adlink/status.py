@@ -106,10 +106,37 @@ def records_py(cmd_pos: np.ndarray, fb: np.ndarray, encoder: np.ndarray, factor:
         floats[i, 5] = (vel[i] if servo_drive else cv * (1.0 if svon[i] else 0.0)) / f
 
 
+def signals_py(raw: tuple[np.ndarray, ...], values: np.ndarray, rows: np.ndarray,
+               cmd_pos: np.ndarray, fb: np.ndarray, prof_moving: np.ndarray,
+               unit_moving: np.ndarray, svon: np.ndarray, force: np.ndarray, window: float,
+               cmd_off: np.ndarray, out: np.ndarray) -> None:
+    """`Kernel.logic` per axis: `out` (8, n) = PEL, MEL, ORG, ALM, EZ, INP, SPEL, SMEL from the
+    `raw` levels (PEL, MEL, ORG, ALM, EZ) and the axis parameters `values` at `rows` (EL, ORG,
+    ALM, EZ and INP logic, soft limits on +/-, their positions, the unit factor)."""
+    raw_pel, raw_mel, raw_org, raw_alm, raw_ez = raw
+    el, org, alm, ez, inp_l, spel_en, smel_en, spel_at, smel_at, factor = (
+        rows[0], rows[1], rows[2], rows[3], rows[4], rows[5], rows[6], rows[7], rows[8], rows[9])
+    for i in range(len(cmd_pos)):
+        out[0, i] = raw_pel[i] != (values[el, i] != 0)
+        out[1, i] = raw_mel[i] != (values[el, i] != 0)
+        out[2, i] = raw_org[i] != (values[org, i] != 0)
+        out[3, i] = raw_alm[i] != (values[alm, i] != 0)
+        out[4, i] = raw_ez[i] != (values[ez, i] != 0)
+        if force[i] >= 0:
+            inp = force[i] == 1
+        else:
+            mv = prof_moving[i] or unit_moving[i]
+            inp = abs(cmd_pos[i] - fb[i]) <= window and not mv and svon[i]
+        out[5, i] = inp != (values[inp_l, i] != 0)
+        cmd = cmd_pos[i] / values[factor, i] + cmd_off[i]
+        out[6, i] = values[spel_en, i] != 0 and cmd >= values[spel_at, i]
+        out[7, i] = values[smel_en, i] != 0 and cmd <= values[smel_at, i]
+
+
 @cache
-def compiled() -> tuple[Callable[..., None], Callable[..., None]] | None:
-    """(words, records) compiled, or None without numba or with VDEVD_JIT=0 (as the motion
-    core, vdevd.rt.kernel): then the kernel runs its numpy path."""
+def compiled() -> tuple[Callable[..., None], Callable[..., None], Callable[..., None]] | None:
+    """(words, records, signals) compiled, or None without numba or with VDEVD_JIT=0 (as the
+    motion core, vdevd.rt.kernel): then the kernel runs its numpy path."""
     if jit_disabled():
         return None
     try:
@@ -119,12 +146,14 @@ def compiled() -> tuple[Callable[..., None], Callable[..., None]] | None:
     try:
         words = numba.njit(cache=True, nogil=True, boundscheck=False)(words_py)
         records = numba.njit(cache=True, nogil=True, boundscheck=False)(records_py)
+        signals = numba.njit(cache=True, nogil=True, boundscheck=False)(signals_py)
         words(*_probe_words())
         records(*_probe_records())
+        signals(*_probe_signals())
     except Exception as exc:  # noqa: BLE001 - any failure: the numpy path serves
         log.warning("the compiled status words are unavailable (%s): running numpy", exc)
         return None
-    return words, records
+    return words, records, signals
 
 
 def _probe_words() -> tuple[Any, ...]:
@@ -141,3 +170,9 @@ def _probe_records() -> tuple[Any, ...]:
     return (z, z, np.zeros(n, dtype=np.int64), np.ones(n), z, z, z, b, z, z, z, False,
             (np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64), i32, i32, i32, b),
             ints, floats)
+
+
+def _probe_signals() -> tuple[Any, ...]:
+    n, z, b = 1, np.zeros(1), np.zeros(1, dtype=bool)
+    return ((b,) * 5, np.ones((12, n)), np.arange(10, dtype=np.intp), z, z, b, b, b,
+            np.zeros(n, dtype=np.int8), 1.0, z, np.zeros((8, n), dtype=bool))
