@@ -358,6 +358,11 @@ class Kernel:
     def user_cmd(self) -> np.ndarray:
         return self.core.axes.cmd_pos / self.axis_params.row(0x86) + self.cmd_off
 
+    def user_cmd_of(self, a: int) -> float:
+        """`user_cmd()[a]` with scalars (the same IEEE operations: the same number)."""
+        return (float(self.core.axes.cmd_pos[a]) / float(self.axis_params.row(0x86)[a])
+                + float(self.cmd_off[a]))
+
     def user_fbk(self) -> np.ndarray:
         return self.core.axes.fb / self.axis_params.row(0x86) + self.fb_off
 
