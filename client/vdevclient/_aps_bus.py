@@ -25,6 +25,7 @@ from vdevmaps.adlink import (
     REPLY_MAX,
     Axis,
     Bar,
+    Call,
     axis_offset,
     decode,
     encode,
@@ -41,6 +42,27 @@ _F64 = struct.Struct("<d")
 #: reply bytes read with the acknowledgement when the reply's size is not fixed
 _FIRST_READ = 256
 _FIXED = {"i": 4, "d": 8}
+_CODE, _DOORBELL, _ACK_SEQ = int(Bar.CODE), int(Bar.DOORBELL), int(Bar.ACK_SEQ)
+
+
+@dataclass(frozen=True, slots=True)
+class _Form:
+    """A command as `Board.post` sends it, worked out once: its call, the packer of its
+    arguments when every one is a scalar (else None: `encode`), the bytes read with the
+    acknowledgement."""
+
+    call: Call
+    args: struct.Struct | None
+    want: int
+
+
+def _form(name: str) -> _Form:
+    call = BY_NAME[name]
+    scalar = all(kind in _FIXED for kind in call.args)
+    size = reply_size(call.reply)
+    return _Form(call, struct.Struct("<" + "".join(call.args)) if scalar else None,
+                 ACK_BYTES + (size if size is not None else _FIRST_READ))
+
 
 
 def reply_size(spec: Sequence[str]) -> int | None:
@@ -51,6 +73,9 @@ def reply_size(spec: Sequence[str]) -> int | None:
             return None
         total += _FIXED[kind]
     return total
+
+
+_FORMS = {name: _form(name) for name in BY_NAME}
 
 
 @dataclass
@@ -65,7 +90,6 @@ class Board:
     card_id: int
     model: int
     bar: Any = field(init=False)
-    _ops: dict[str, tuple[list[Any], int | None]] = field(init=False, default_factory=dict)
 
     def __post_init__(self) -> None:
         self.bar = self.rack.card(self.card).region(BAR)
@@ -73,21 +97,20 @@ class Board:
 
     def post(self, name: str, *values: Any) -> tuple[int, list[Any]]:
         """Run kernel command `name` with `values`: (return code, reply values)."""
-        call = BY_NAME[name]
+        form = _FORMS[name]
+        call = form.call
         try:
-            args = encode(call.args, values)
+            args = form.args.pack(*values) if form.args is not None else encode(call.args, values)
         except (struct.error, TypeError, ValueError, OverflowError):
             return ERR_ParametersInvalid, []
         if len(args) > ARGS_MAX:
             return ERR_ParametersInvalid, []
         seq = next(self._seq) & 0xFFFFFFFF
-        size = reply_size(call.reply)
-        want = ACK_BYTES + (size if size is not None else _FIRST_READ)
         card = self.card
         ops: list[Any] = [
-            ["w", card, BAR, int(Bar.CODE), _HEAD.pack(call.code, len(args)) + args],
-            ["w", card, BAR, int(Bar.DOORBELL), _SEQ.pack(seq)],
-            ["r", card, BAR, int(Bar.ACK_SEQ), want]]
+            ["w", card, BAR, _CODE, _HEAD.pack(call.code, len(args)) + args],
+            ["w", card, BAR, _DOORBELL, _SEQ.pack(seq)],
+            ["r", card, BAR, _ACK_SEQ, form.want]]
         ack = self.rack.call({"op": "batch", "ops": ops})[2]
         got_seq, rc, length, _ = _ACK.unpack_from(ack)
         if got_seq != seq:

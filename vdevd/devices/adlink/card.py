@@ -66,6 +66,7 @@ class AdlinkCard(Card):
                                   "the manual's 'ignored', or -13 (spec Q15) [M §4.10]"),
     }
     axes_option: ClassVar[str] = ""  # the model counts the axes (check_options)
+    runs_ticks: ClassVar[bool] = True  # cycles of the motion core's tick alone (`run`)
 
     @classmethod
     def check_options(cls, opts: Any, where: str) -> None:
@@ -157,6 +158,25 @@ class AdlinkCard(Card):
         self.kernel.cycle()
         self.kernel.measure_motion(time.perf_counter_ns() - t0)
         self._ran = True
+
+    def run(self, room: int) -> int:
+        """Motion cycles that are the motion core's tick alone run as a loop of core ticks
+        (runs.py): not while the stage is sensed or index marks pass at every cycle. The last
+        cycle of the run does the rest of its kernel work at its time."""
+        w = self.world
+        if w.mechanical or np.count_nonzero(w.index_period):
+            return 0
+        runs = self.kernel.runs
+        room = runs.room(room)
+        if not room:
+            return 0
+        t0 = time.perf_counter_ns()
+        ran = runs.ticks(room)
+        self.ticks_run(ran)
+        runs.finish(ran)
+        self.kernel.measure_motion((time.perf_counter_ns() - t0) // ran)
+        self._ran = True
+        return ran
 
     def batch_done(self) -> None:
         """The status block after a batch that ran a cycle; after cycles skipped at rest only

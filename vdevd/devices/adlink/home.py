@@ -117,6 +117,10 @@ class Homing:
     def busy(self) -> bool:
         return bool(self.runs)
 
+    def motion_only(self) -> bool:
+        """No search runs and no EL stop waits to be taken back (runs.py)."""
+        return not self.runs and not self.el_hits
+
     # -- starting --------------------------------------------------------------------------------
     def start(self, a: int) -> None:
         """APS_home_move on a free axis: the first step for the start condition."""

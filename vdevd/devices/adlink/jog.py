@@ -81,6 +81,10 @@ class Jogging:
     def busy(self) -> bool:
         return bool(self.runs)
 
+    def motion_only(self) -> bool:
+        """No jog runs and no DI is mapped to a JOG-ON (watched every cycle; runs.py)."""
+        return not self.runs and not (self.k.p(PRA_JG_MAP_DI_EN).any() or self.level[:, 1:].any())
+
     # -- JOG-ON ------------------------------------------------------------------------------------
     def signal(self, a: int, source: int, on: bool) -> None:
         """A source's JOG-ON level: its edges start and end the jog."""

@@ -96,8 +96,10 @@ from vdevd.devices.adlink.interp import Interpolation
 from vdevd.devices.adlink.modes import HOME, IDLE, JOG, STOPPING, UNIT, VEL, Unit
 from vdevd.devices.adlink.params import AxisParams, BoardParams
 from vdevd.devices.adlink.ptable import PointTables
+from vdevd.devices.adlink.runs import Runs
 from vdevd.region import Memory
 from vdevd.rt import MotionCore, PlantKind
+from vdevd.rt.axes import Axes
 
 log = logging.getLogger(__name__)
 
@@ -178,8 +180,15 @@ class Kernel:
         self.axis_params = AxisParams(n)
         self._logic_rows = np.array([self.axis_params.index(no)
                                      for no in (0x00, 0x00, 0x01, 0x04, 0x06, 0x05)])
+        #: the rows the compiled `logic` reads: EL, ORG, ALM, EZ, INP logic, soft limits on
+        #: (+, -) and at, the unit factor
+        self._signal_rows = np.array([self.axis_params.index(no) for no in (
+            0x00, 0x01, 0x04, 0x06, 0x05, 0x08, 0x09, 0x0A, 0x0B, 0x86)], dtype=np.intp)
         self.board_params = BoardParams()
-        self.records = st.axis_records(buf, n)
+        self._rec_ints, self._rec_floats = st.axis_blocks(buf, n)
+        self._pub_ints = np.zeros((8, n), dtype=np.int64)  # the blocks' rows, then one copy each
+        self._pub_floats = np.zeros((6, n))
+        self._jit = st.compiled()  # the status words and records compiled, or None: numpy
         self.int_enable = st.u32_words(buf, Bar.INT_ENABLE, INT_ITEMS)
         self.int_signal = st.u32_words(buf, Bar.INT_SIGNAL, INT_ITEMS)
         #: the kernel's units, in the order of their cycle work (spec §2.2: trajectories,
@@ -219,6 +228,7 @@ class Kernel:
         self.new_cycle_us: int | None = None  # PRB 8000h set: the card changes its period
         #: LPSTS (0.01 % of the cycle) and the over-cycle count [M §4.1.2]
         self.timing = [0, 0, 0, 0, 0]
+        self.runs = Runs(self)
         self.power_up()
 
     def parameter_image(self) -> dict[str, Any]:
@@ -353,6 +363,11 @@ class Kernel:
     def user_cmd(self) -> np.ndarray:
         return self.core.axes.cmd_pos / self.axis_params.row(0x86) + self.cmd_off
 
+    def user_cmd_of(self, a: int) -> float:
+        """`user_cmd()[a]` with scalars (the same IEEE operations: the same number)."""
+        return (float(self.core.axes.cmd_pos[a]) / float(self.axis_params.row(0x86)[a])
+                + float(self.cmd_off[a]))
+
     def user_fbk(self) -> np.ndarray:
         return self.core.axes.fb / self.axis_params.row(0x86) + self.fb_off
 
@@ -437,10 +452,24 @@ class Kernel:
             u.after_motion(core.profile.t)
         self.events()
 
-    def logic(self) -> None:
-        """The logical (post-inversion) signals from the raw levels [M §4.1.1.4]."""
+    def logic(self, state: np.ndarray | None = None, moving: np.ndarray | None = None) -> None:
+        """The logical (post-inversion) signals from the raw levels [M §4.1.1.4]; INP and the
+        soft limits from the motion core's `state` rows and the `moving` axes (default: now;
+        the last cycle of a run takes those before its tick, runs.py)."""
         p = self.p
         self.emg = bool(self.raw_emg) != bool(self.board_params.values[0x00])
+        if self._jit is not None:
+            if state is None:
+                state = self.core.axes.state
+            prof_moving, unit_moving = (self.core.profile.moving, self.unit_moving) \
+                if moving is None else (moving, moving)
+            out = np.empty((8, self.n), dtype=bool)
+            self._jit[2]((self.raw_pel, self.raw_mel, self.raw_org, self.raw_alm, self.raw_ez),
+                         self.axis_params.values, self._signal_rows, state[Axes.CMD_POS],
+                         state[Axes.FB], prof_moving, unit_moving, self.svon, self.inp_force,
+                         self.inp_window, self.cmd_off, out)
+            self.pel, self.mel, self.org, self.alm, self.ez, self.inp, self.spel, self.smel = out
+            return
         # the logic parameters EL, EL, ORG, ALM, EZ, INP in one read
         el, _, org, alm, ez, inp_logic = self.axis_params.values[self._logic_rows] != 0
         self.pel = self.raw_pel != el
@@ -448,14 +477,18 @@ class Kernel:
         self.org = self.raw_org != org
         self.alm = self.raw_alm != alm
         self.ez = self.raw_ez != ez
-        ax = self.core.axes
-        settled = (np.abs(ax.cmd_pos - ax.fb) <= self.inp_window) & ~self.moving() & self.svon
+        if state is None:
+            state = self.core.axes.state
+        cmd_pos = state[Axes.CMD_POS]
+        if moving is None:
+            moving = self.moving()
+        settled = (np.abs(cmd_pos - state[Axes.FB]) <= self.inp_window) & ~moving & self.svon
         force = self.inp_force
         inp = np.where(force >= 0, force == 1, settled) if np.count_nonzero(force + 1) else settled
         self.inp = inp != inp_logic
         soft_pos, soft_neg = p(0x08), p(0x09)
         if np.count_nonzero(soft_pos) or np.count_nonzero(soft_neg):
-            cmd = self.user_cmd()
+            cmd = cmd_pos / self.axis_params.row(0x86) + self.cmd_off
             self.spel = (soft_pos != 0) & (cmd >= p(0x0A))
             self.smel = (soft_neg != 0) & (cmd <= p(0x0B))
         else:  # no soft limit enabled [M §4.10]
@@ -612,8 +645,19 @@ class Kernel:
     def status_words(self) -> None:
         """The motion status and motion I/O words of every axis [M §4.8.1, §4.1.1.4], and the
         interrupt conditions `events` compares: the bool rows stacked, one product with their bit
-        weights (`_WEIGHTS`: msts, mio, the conditions)."""
+        weights (`_WEIGHTS`: msts, mio, the conditions). Compiled: the same per axis in one
+        call (status.py)."""
         ax = self.core.axes
+        if self._jit is not None:
+            out = np.empty((3, self.n), dtype=np.int64)  # new rows: prev_axis_cond keeps the old
+            self._jit[0](ax.cmd_vel, self.gear_vel, ax.cmd_acc, self.core.profile.moving,
+                         self.unit_moving, self.phase, self.direction,
+                         (self.mdn, self.hmv, self.wait, self.ptb, self.jog, self.astp, self.bld,
+                          self.pred, self.postd, self.ger, self.alm, self.pel, self.mel,
+                          self.org, self.ez, self.inp, self.svon, self.spel, self.smel),
+                         self.emg, _WEIGHTS, out)
+            self.msts, self.mio, self.axis_cond = out
+            return
         v, acc = ax.cmd_vel + self.gear_vel, ax.cmd_acc
         moving = self.moving()
         av = acc * v
@@ -635,13 +679,15 @@ class Kernel:
                           self.spel, self.smel), dtype=bool)
         self.msts, self.mio, self.axis_cond = _WEIGHTS @ flags
 
-    def follow_direction(self, moving: np.ndarray) -> None:
+    def follow_direction(self, moving: np.ndarray, state: np.ndarray | None = None) -> None:
         """DIR: the sign of the command velocity (of the acceleration from rest) of a moving
-        axis; held after a stop [M §4.8.1 bit 4]."""
+        axis; held after a stop [M §4.8.1 bit 4]. `state`: the motion core's rows to take
+        (default: now)."""
         if np.count_nonzero(moving):
-            ax = self.core.axes
-            vel = ax.cmd_vel + self.gear_vel
-            v = np.where(vel != 0, vel, ax.cmd_acc)
+            if state is None:
+                state = self.core.axes.state
+            vel, acc = state[Axes.CMD_VEL] + self.gear_vel, state[Axes.CMD_ACC]
+            v = np.where(vel != 0, vel, acc)
             self.direction = np.where(moving & (v != 0), v > 0, self.direction)
 
     def settle_conditions(self) -> None:
@@ -725,25 +771,16 @@ class Kernel:
     def publish(self) -> None:
         """The status block: every axis record and the card words."""
         self.status_words()
-        rec, ax = self.records, self.core.axes
+        ax = self.core.axes
         f = self.axis_params.row(0x86)
-        rec["msts"] = self.msts
-        rec["mio"] = self.mio
-        rec["stop_code"] = self.stop_code
-        rec["cmd_counter"] = st.wrap_i32(np.rint(ax.cmd_pos))
-        rec["encoder"] = st.wrap_i32(ax.encoder)
-        rec["mq_usage"] = self.mq_usage
-        rec["gear"] = self.gear_status
-        rec["servo"] = self.svon
-        cmd = ax.cmd_pos / f + self.cmd_off
-        fbk = ax.fb / f + self.fb_off
-        rec["cmd_pos"] = cmd
-        rec["fbk_pos"] = fbk
-        rec["target"] = np.where(self.mode == VEL, cmd, self.target)
-        rec["err_pos"] = cmd - fbk
-        cmd_vel = ax.cmd_vel + self.gear_vel
-        rec["cmd_vel"] = cmd_vel / f
-        rec["fbk_vel"] = (ax.vel if self.drive == "servo" else cmd_vel * self.svon) / f
+        if self._jit is not None:
+            self._jit[1](ax.cmd_pos, ax.fb, ax.encoder, f, self.cmd_off, self.fb_off,
+                         self.target, self.mode == VEL, ax.cmd_vel, self.gear_vel, ax.vel,
+                         self.drive == "servo", (self.msts, self.mio, self.stop_code,
+                                                 self.mq_usage, self.gear_status, self.svon),
+                         self._rec_ints, self._rec_floats)
+        else:
+            self._records(f)
         for u in self.units:
             publish = getattr(u, "publish", None)
             if publish is not None:
@@ -754,3 +791,37 @@ class Kernel:
         _U32.pack_into(buf, Bar.DI, self.di_word())
         _U32.pack_into(buf, Bar.DO, self.do_word & 0xFFFFFF)
         _U32.pack_into(buf, Bar.INT_MAIN, int(self.int_main))
+
+    def _records(self, f: np.ndarray) -> None:
+        """`publish`'s axis records with numpy (`f`: the unit factors): two blocks of rows in
+        record order, one copy each."""
+        ax = self.core.axes
+        # the I32 fields; the counters wrap at 2^32 (spec Q20: the int64 -> I32 copy keeps the
+        # low 32 bits, two's complement)
+        ints = self._pub_ints
+        ints[0] = self.msts
+        ints[1] = self.mio
+        ints[2] = self.stop_code
+        ints[3] = np.rint(ax.cmd_pos)
+        ints[4] = ax.encoder
+        ints[5] = self.mq_usage
+        ints[6] = self.gear_status
+        ints[7] = self.svon
+        self._rec_ints[...] = ints.T
+        # the F64 fields, user units
+        cmd, fbk, target, err, cmd_vel, fbk_vel = floats = self._pub_floats
+        np.divide(ax.cmd_pos, f, out=cmd)
+        cmd += self.cmd_off
+        np.divide(ax.fb, f, out=fbk)
+        fbk += self.fb_off
+        np.copyto(target, self.target)
+        np.copyto(target, cmd, where=self.mode == VEL)
+        np.subtract(cmd, fbk, out=err)
+        np.add(ax.cmd_vel, self.gear_vel, out=cmd_vel)
+        if self.drive == "servo":
+            np.divide(ax.vel, f, out=fbk_vel)
+        else:
+            np.multiply(cmd_vel, self.svon, out=fbk_vel)
+            fbk_vel /= f
+        cmd_vel /= f
+        self._rec_floats[...] = floats.T

@@ -132,7 +132,7 @@ def ptp(k: Kernel, a: int, option: int, pos: float, vs: float, vm: float, ve: fl
     values = profile_values(k, a, vs, vm, ve, acc, dec, sf)
     busy = k.mode[a] in (PTP, VEL, STOPPING) and k.core.profile.moving[a]
     queued = busy and mode != PTP_OPT_ABORTING and k.mode[a] == PTP
-    base = float(k.user_cmd()[a])  # aborting: relative to the command position now
+    here = base = k.user_cmd_of(a)  # aborting: relative to the command position now
     if queued:  # buffered: to the end of the last queued segment
         base = k.queue[a][-1].target if k.queue[a] else float(k.target[a])
     target = base + pos if option & OPT_RELATIVE else pos
@@ -146,7 +146,6 @@ def ptp(k: Kernel, a: int, option: int, pos: float, vs: float, vm: float, ve: fl
         k.queue[a].append(seg)
         k.mq_usage[a] = len(k.queue[a]) + 1
         return
-    here = float(k.user_cmd()[a])
     if refused(k, a, target - here):
         return
     if option & OPT_WAIT:
@@ -208,7 +207,7 @@ def start_ptp(k: Kernel, a: int, seg: Segment) -> int:
     core.profile.commit()
     begin(k, a, PTP, seg.target)
     k.seg_end[a] = t0 + plan.duration() if seg.ve > 0 else math.inf
-    k.seg_vm[a], k.seg_ve[a], k.seg_from[a] = seg.vm, seg.ve, float(k.user_cmd()[a])
+    k.seg_vm[a], k.seg_ve[a], k.seg_from[a] = seg.vm, seg.ve, k.user_cmd_of(a)
     k.seg_plan[a] = seg
     events(k, a, plan, t0, f)
     k.mq_usage[a] = len(k.queue[a]) + 1
@@ -309,7 +308,7 @@ def start_vel(k: Kernel, a: int, vm: float, vs: float, acc: float, dec: float, s
     core.profile.commit()
     k.queue[a].clear()
     k.seg_end[a] = math.inf
-    begin(k, a, VEL, float(k.user_cmd()[a]))
+    begin(k, a, VEL, k.user_cmd_of(a))
     k.pred_at[a] = k.postd_at[a] = math.inf
     k.mq_usage[a] = 1
 
@@ -373,7 +372,7 @@ def move_trigger(k: Kernel, axes: list[int]) -> None:
         k.pending_start[a] = IDLE
         if kind == PTP and k.queue[a]:
             seg = k.queue[a].pop(0)
-            if refused(k, a, seg.target - float(k.user_cmd()[a])):
+            if refused(k, a, seg.target - k.user_cmd_of(a)):
                 continue
             start_ptp(k, a, seg)
         elif kind == VEL and k.vel_pending[a] is not None:

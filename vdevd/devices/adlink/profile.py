@@ -53,6 +53,9 @@ class ProfilePhase(IntEnum):
     DEC = 3
 
 
+_ACC, _DEC = ProfilePhase.ACC, ProfilePhase.DEC  # (a class attribute of an enum costs a lookup)
+
+
 def clamp_vm(vm: float, unit_factor: float = 1.0) -> float:
     """`vm` (user units/s, signed) limited to VM_MAX_PPS pulses/s; `unit_factor` is pulses per user
     unit (axis parameter 86h [M §4.2.2]); a zero factor leaves `vm` as it is."""
@@ -116,6 +119,16 @@ def _ramp(v_from: float, v_to: float, peak: float, sf: float) -> _Tagged:
     return [(seg, tag) for seg in s_ramp(v_from, v_to, peak, sf)]
 
 
+def _ramp_with_distance(v_from: float, v_to: float, peak: float, sf: float) -> tuple[_Tagged, float]:
+    """`_ramp` and `_ramp_distance` from one `s_ramp` (the same numbers as each on its own)."""
+    segs = s_ramp(v_from, v_to, peak, sf)
+    tag = _ACC if abs(v_to) > abs(v_from) else _DEC
+    time: float = 0  # summed as `sum` does, from the int 0
+    for seg in segs:
+        time += seg[0]
+    return [(seg, tag) for seg in segs], (v_from + v_to) / 2 * time
+
+
 def _cut(segs: _Tagged, v: float, dist: float) -> tuple[_Tagged, float]:
     """`segs` (from velocity v, moving forward) cut where their distance reaches `dist`, and the
     velocity there."""
@@ -148,12 +161,14 @@ def _leg(u: float, dist: float, vm: float, ve: float, acc: float, dec: float, sf
     if dist <= 0 or (u == 0 and vm <= 0):
         return _Leg([], 0.0, u if dist <= 0 else 0.0, reached and u == ve, 0.0)
     lo = max(u, ve_eff) if u <= vm else vm  # the lowest peak: no cruise, a single ramp or two
+    planned: dict[float, tuple[_Tagged, _Tagged, float]] = {}  # by peak: a plan asks twice
 
     def ramps(vp: float) -> tuple[_Tagged, _Tagged, float]:
-        up = _ramp(u, vp, acc if vp > u else dec, sf)
-        down = _ramp(vp, ve_eff, dec, sf)
-        travel = _ramp_distance(u, vp, acc if vp > u else dec, sf) + _ramp_distance(vp, ve_eff, dec, sf)
-        return up, down, travel
+        if vp not in planned:
+            up, travel_up = _ramp_with_distance(u, vp, acc if vp > u else dec, sf)
+            down, travel_down = _ramp_with_distance(vp, ve_eff, dec, sf)
+            planned[vp] = up, down, travel_up + travel_down
+        return planned[vp]
 
     up, down, least = ramps(lo)
     if dist < least * (1 - _REL):  # too short even for Vs/Ve: cut, ending at a velocity step

@@ -145,6 +145,11 @@ class PwmUnit:
     def busy(self) -> bool:
         return False  # the outputs follow the axes and the DO word, both at rest then
 
+    def motion_only(self) -> bool:
+        """The outputs are those of the axes and the DO word now: a run's last cycle sets them
+        (runs.py)."""
+        return True
+
     def refresh(self) -> None:
         """Recompute every channel: VAO (it takes precedence when both are on, [X5]: "do not use
         them at the same time"), else plain PWM; then the DO gating [M §4.9.3.6]."""

@@ -193,6 +193,12 @@ class TriggerUnit:
         """The timer counts, or a comparator waits for its first update."""
         return bool(self.params[TIMR_EN]) or any(c.fresh for c in self.lcmp + self.tcmp)
 
+    def motion_only(self) -> bool:
+        """Nothing counts or compares: the cycle's after-motion work only takes the encoder
+        (runs.py)."""
+        return not self.busy() and not any(c.armed and c.remaining() > 0
+                                           for c in self.lcmp + self.tcmp)
+
     def after_motion(self, t: float) -> None:
         """Advance the timer, then run every armed comparator over the cycle's move."""
         enc = self.k.core.axes.encoder.copy()
