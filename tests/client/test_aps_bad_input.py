@@ -26,7 +26,8 @@ NAN, INF = float("nan"), float("inf")
 BAD, NOT_INIT = aps.ERR_ParametersInvalid, aps.ERR_DeviceNotInitial
 #: what a command changes that is no state of the card: the mailbox's bookkeeping, the load
 _KERNEL_SKIP = frozenset({"ack_seq", "timing", "refusal", "buf", "records", "handlers", "units",
-                          "core", "raise_line", "clear_line", "int_enable", "int_signal"})
+                          "core", "raise_line", "clear_line", "int_enable", "int_signal",
+                          "_jit"})
 _BAR_STATE = ((0, Bar.LOAD), (Bar.TRG_COUNT, Bar.DOORBELL), (Bar.AXIS, Bar.AXIS_END))
 
 
@@ -47,8 +48,8 @@ def _walk(obj: Any, out: list[bytes], depth: int = 0) -> None:
         for key in sorted(obj, key=repr):
             out.append(repr(key).encode())
             _walk(obj[key], out, depth + 1)
-    elif callable(obj) and not hasattr(obj, "__dict__"):
-        out.append(b"fn")
+    elif callable(obj) or not type(obj).__module__.startswith(("vdevd", "vdevmaps", "builtins")):
+        out.append(b"fn")  # code and library objects: no state of the card
     else:
         fields = getattr(obj, "__dict__", None) or {
             s: getattr(obj, s) for s in getattr(type(obj), "__slots__", ()) if hasattr(obj, s)}
