@@ -104,7 +104,7 @@ def run_rtt(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5,
     from ctypes import byref, c_double
 
     from vdevclient import _aps_session
-    from vdevclient._aps_bus import Board, Session
+    from vdevclient._aps_bus import Board, Links, Session
     from vdevclient.core import Rack
     from vdevmaps.adlink import Axis, axis_offset
     from vdevmaps.aps_defs import OPT_RELATIVE, PRA_VM
@@ -128,9 +128,9 @@ def run_rtt(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5,
         mapped = _aps_session.session()
         board, local = mapped.axis(0) or (None, 0)
         assert board is not None
-        unmapped_board = Board(plain, board.card, board.board_id, board.first_axis, board.axes,
+        unmapped_board = Board(Links(plain), board.card, board.board_id, board.first_axis, board.axes,
                                board.card_id, board.model)
-        unmapped = Session(plain, {board.board_id: unmapped_board},
+        unmapped = Session(unmapped_board.links, {board.board_id: unmapped_board},
                            [(unmapped_board, a) for a in range(board.axes)])
         pos, value = c_double(), c_double()
         sign = [1.0]

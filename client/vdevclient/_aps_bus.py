@@ -2,6 +2,11 @@
 (the boards of the rack, the global axis IDs), a kernel command posted through the BAR0 mailbox
 in one round trip, and the status block's reads (vdevmaps.adlink).
 
+A ZeroMQ socket serves one thread, so the session's connections are per thread (`Links`): the
+rack APS_initial opened serves the thread that opened it, and any other thread calling the
+library gets a connection of its own on first use. A thread can then wait in
+APS_wait_single_int while another commands the card, as with the DLL.
+
 A post is one batch: the command's code, length and arguments, the doorbell with a sequence
 number (the kernel runs the command there and then), and the acknowledgement with the return
 code and the reply values. A status read is one read of the status block, served from the
@@ -12,6 +17,8 @@ from __future__ import annotations
 
 import itertools
 import struct
+import threading
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -78,22 +85,78 @@ def reply_size(spec: Sequence[str]) -> int | None:
 _FORMS = {name: _form(name) for name in BY_NAME}
 
 
+class Links:
+    """The session's connections to the daemon, one per thread: `home` (the rack APS_initial
+    opened) for the thread that opened it, a connection of the same endpoint, keys and mapping
+    for each other thread, made on its first call. A finished thread's connection goes with
+    it; `close` closes those left."""
+
+    def __init__(self, home: Rack) -> None:
+        self.home = home
+        self._owner = threading.get_ident()
+        self._local = threading.local()
+        self._others: weakref.WeakSet[Rack] = weakref.WeakSet()
+        self._lock = threading.Lock()
+        self._closed = False
+
+    def rack(self) -> Rack:
+        """The calling thread's connection."""
+        if threading.get_ident() == self._owner:
+            return self.home
+        rack: Rack | None = getattr(self._local, "rack", None)
+        if rack is None:
+            h = self.home
+            rack = Rack(h.endpoint, h.events_endpoint or None, h.timeout, curve=h.curve,
+                        shm=h.shm is not None)
+            with self._lock:
+                if self._closed:
+                    rack.close()
+                    raise RuntimeError("the APS session is closed")
+                self._others.add(rack)
+            self._local.rack = rack
+        return rack
+
+    def close(self) -> None:
+        with self._lock:
+            self._closed = True
+            others = list(self._others)
+        for rack in others:
+            rack.close()
+        self.home.close()
+
+
 @dataclass
 class Board:
     """One AMP card of the session: board ID, its card in the rack, its axes."""
 
-    rack: Rack
+    links: Links
     card: str
     board_id: int
     first_axis: int
     axes: int
     card_id: int
     model: int
-    bar: Any = field(init=False)
+    _bar: Any = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        self.bar = self.rack.card(self.card).region(BAR)
+        self._bar = self.links.home.card(self.card).region(BAR)
         self._seq = itertools.count(1)
+        #: a post's acknowledgement and the rest of its reply are read before another thread's
+        #: post can overwrite them
+        self._post_lock = threading.Lock()
+
+    @property
+    def rack(self) -> Rack:
+        """The calling thread's connection to the daemon."""
+        return self.links.rack()
+
+    @property
+    def bar(self) -> Any:
+        """Region `bar0` through the calling thread's connection."""
+        links = self.links
+        if threading.get_ident() == links._owner:
+            return self._bar
+        return links.rack().card(self.card).region(BAR)
 
     def post(self, name: str, *values: Any) -> tuple[int, list[Any]]:
         """Run kernel command `name` with `values`: (return code, reply values)."""
@@ -105,21 +168,22 @@ class Board:
             return ERR_ParametersInvalid, []
         if len(args) > ARGS_MAX:
             return ERR_ParametersInvalid, []
-        seq = next(self._seq) & 0xFFFFFFFF
         card = self.card
-        ops: list[Any] = [
-            ["w", card, BAR, _CODE, _HEAD.pack(call.code, len(args)) + args],
-            ["w", card, BAR, _DOORBELL, _SEQ.pack(seq)],
-            ["r", card, BAR, _ACK_SEQ, form.want]]
-        ack = self.rack.call({"op": "batch", "ops": ops})[2]
-        got_seq, rc, length, _ = _ACK.unpack_from(ack)
-        if got_seq != seq:
-            raise RuntimeError(f"{card}: the mailbox acknowledged {got_seq}, not {seq}")
-        if rc < 0 or not call.reply:
-            return rc, []
-        data = bytes(ack[ACK_BYTES:ACK_BYTES + length])
-        if length > len(data):
-            data += self.bar.read(Bar.REPLY + len(data), min(length, REPLY_MAX) - len(data))
+        with self._post_lock:
+            seq = next(self._seq) & 0xFFFFFFFF
+            ops: list[Any] = [
+                ["w", card, BAR, _CODE, _HEAD.pack(call.code, len(args)) + args],
+                ["w", card, BAR, _DOORBELL, _SEQ.pack(seq)],
+                ["r", card, BAR, _ACK_SEQ, form.want]]
+            ack = self.rack.call({"op": "batch", "ops": ops})[2]
+            got_seq, rc, length, _ = _ACK.unpack_from(ack)
+            if got_seq != seq:
+                raise RuntimeError(f"{card}: the mailbox acknowledged {got_seq}, not {seq}")
+            if rc < 0 or not call.reply:
+                return rc, []
+            data = bytes(ack[ACK_BYTES:ACK_BYTES + length])
+            if length > len(data):
+                data += self.bar.read(Bar.REPLY + len(data), min(length, REPLY_MAX) - len(data))
         return rc, decode(call.reply, data)
 
     # -- the status block ------------------------------------------------------------------------
@@ -135,9 +199,9 @@ class Board:
 
 @dataclass
 class Session:
-    """What APS_initial opened: the rack, the boards by board ID, the global axis IDs."""
+    """What APS_initial opened: its connections, the boards by board ID, the global axis IDs."""
 
-    rack: Rack
+    links: Links
     boards: dict[int, Board]
     axes: list[tuple[Board, int]]  # global axis ID -> (board, local axis)
 
@@ -148,8 +212,13 @@ class Session:
             return self.axes[axis_id]
         return None
 
+    @property
+    def rack(self) -> Rack:
+        """The calling thread's connection to the daemon."""
+        return self.links.rack()
+
     def close(self) -> None:
-        self.rack.close()
+        self.links.close()
 
 
 def find_cards(rack: Rack) -> list[tuple[str, int, int, int]]:

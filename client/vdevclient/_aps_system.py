@@ -24,7 +24,7 @@ from vdevmaps.aps_defs import (
     ERR_ParametersInvalid,
 )
 
-from vdevclient._aps_bus import Board, Session, find_cards
+from vdevclient._aps_bus import Board, Links, Session, find_cards
 from vdevclient._aps_session import (
     ApsArgError,
     as_float,
@@ -70,6 +70,7 @@ def APS_initial(BoardID_InBits: Any, Mode: int, *, endpoint: str | None = None) 
         if len(set(ids)) != len(ids):
             rack.close()
             return ERR_CardIdDuplicate
+        links = Links(rack)
         boards: dict[int, Board] = {}
         axes: list[tuple[Board, int]] = []
         first = 0
@@ -77,13 +78,13 @@ def APS_initial(BoardID_InBits: Any, Mode: int, *, endpoint: str | None = None) 
                                                      key=lambda x: x[1]):
             if mode & INIT_PARALLEL_FIXED:
                 first = bid * MAX_AXES_PER_BOARD
-            b = Board(rack, name, bid, first, n, card_id, model)
+            b = Board(links, name, bid, first, n, card_id, model)
             boards[bid] = b
             while len(axes) < first:
                 axes.append(None)  # type: ignore[arg-type]
             axes.extend((b, a) for a in range(n))
             first += n
-        open_session(Session(rack, boards, axes))
+        open_session(Session(links, boards, axes))
         for b in boards.values():
             if mode & 0x30 == INIT_PARAM_LOAD_DEFAULT:
                 b.post("load_parameter_from_default")
