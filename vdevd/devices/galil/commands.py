@@ -42,8 +42,6 @@ _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
      TC.EMPTY_PROGRAM_LINE),
     (("DL", "UL", "LS", "ED"), "program download, upload, listing and editor: issue 20",
      TC.UNRECOGNIZED_COMMAND),
-    (("DM", "DA"), "arrays come with application programs: issue 20",
-     TC.UNRECOGNIZED_COMMAND),
     (("BN", "BP", "BV"), "burning parameters to flash (spec §1.5): issue 20",
      TC.UNRECOGNIZED_COMMAND),
     (("LM", "LI", "LE", "VM", "VP", "CR", "VE", "VS", "VA", "VD", "VR", "VT", "ES", "TN", "CS",
@@ -54,8 +52,6 @@ _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
     (("CM", "CD", "DT", "WC"), "contour mode: issue 20", TC.UNRECOGNIZED_COMMAND),
     (("AD", "AP", "AR", "AS", "AV", "AI", "MF", "MR", "AT", "TW"),
      "trippoints other than AM, MC and WT: issue 20", TC.UNRECOGNIZED_COMMAND),
-    (("RA", "RD", "RC"), "record mode (automatic data capture into arrays): issue 20",
-     TC.UNRECOGNIZED_COMMAND),
     (("BA", "BM", "BB", "BC", "BI", "BS", "BZ"),
      "sinusoidal commutation (spec §5.8): issue 20", TC.UNRECOGNIZED_COMMAND),
     (("QS", "YA", "YB", "YC", "YR", "YS"), "stepper position maintenance (spec §5.6): issue 20",
@@ -116,6 +112,16 @@ COMMANDS = CommandTable(
         # -- parameters [spec §1.3] ----------------------------------------------------------------
         *(Command(name, "_param", (name,), section=_PARAM_SECTIONS.get(name, _MOTION))
           for name in PARAMS),
+        # -- arrays, variables and record mode (array_commands.py) --------------------------------
+        Command("DM", "_dm", section="M Ch6 §Multiple Moves; spec §4.5 Arrays"),
+        Command("DA", "_da", section="spec §4.5 Arrays (A)"),
+        Command("LA", "_la", section="spec §4.5 Arrays; gclib GArrayUploadFile"),
+        Command("LV", "_lv", section="spec §4.5 Variables"),
+        Command("QU", "_qu", section="spec §6.2 DMCArrayUpload"),
+        Command("QD", "_qd", section="spec §6.2 DMCArrayDownload"),
+        Command("RA", "_ra", section="M Ch6 §Teach"),
+        Command("RD", "_rd", section="M Ch6 §Teach"),
+        Command("RC", "_rc", section="M Ch6 §Teach"),
         # -- statements that are no mnemonic (syntax.split_statement names them) ---------------------
         Command("=", "_assign", section="M Ch2 Ex14 (variables)"),
         Command("#", "_label", section="M Ch2 Ex11 (labels)"),

@@ -16,6 +16,7 @@ import numpy as np
 from vdevmaps.galil import GeneralStatus, InterruptCondition, InterruptStatus
 
 from vdevd.devices.galil import syntax
+from vdevd.devices.galil.arrays import ArrayDownload, ArrayTable
 from vdevd.devices.galil.bus import A16Window
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.interpreter import OK, Interpreter, Trippoint
@@ -23,6 +24,7 @@ from vdevd.devices.galil.motion import GalilMotion, StopCode
 from vdevd.devices.galil.numbers import REPORT_FORMATS
 from vdevd.devices.galil.params import COUNTS_PER_VOLT, PARAMS
 from vdevd.devices.galil.record import record_dtype
+from vdevd.devices.galil.recorder import Recorder
 from vdevd.devices.rest import ticks_before_multiple
 from vdevd.rt import wrap_int32
 
@@ -83,6 +85,9 @@ class Firmware:
         if old is not None:
             self.motion.core.zero[:] = -old.core.physical()
         self.variables: dict[str, float] = {}
+        self.arrays = ArrayTable()
+        self.recorder = Recorder()  # record mode (RA RD RC)
+        self.sink: ArrayDownload | None = None  # QD taking its data from the command FIFO
         self.error_code = 0
         self.echo = 0
         self.lz = 0
@@ -115,6 +120,8 @@ class Firmware:
             self.interrupt(InterruptStatus.EXCESS_ERROR)
         if self._out or self._trip is not None or self.bus.commands_waiting:
             self.serve()
+        if self.ticks >= self.recorder.next_tick:
+            self.recorder.capture()  # record mode, after the commands of the sample [M Ch6 §Teach]
         rate = self.record_rate
         if rate and not (self.ticks - self.time_origin) % (1 << rate):
             self.bus.load_record(self.data_record())
@@ -123,9 +130,10 @@ class Firmware:
     def idle_samples(self, room: int) -> int:
         """Of the next `room` samples, how many are motion and the ER check alone while no axis
         completes and none crosses ER: none while the interpreter has work (a reply to send, a
-        trippoint, commands), none from the next data record on."""
+        trippoint, commands), none from the next data record or record mode capture on."""
         if self._out or self._trip is not None or self.bus.commands_waiting:
             return 0
+        room = min(room, self.recorder.next_tick - self.ticks - 1)
         rate = self.record_rate
         if rate:
             room = min(room, ticks_before_multiple(self.ticks - self.time_origin, 1 << rate))
@@ -151,8 +159,8 @@ class Firmware:
     # -- rest (decision 0008) -----------------------------------------------------------------------
     def rest_state(self) -> bytes | None:
         """What a sample may change, as bytes, but the sample count; None while the interpreter
-        has work (a command, a reply to send, a trippoint) or a home search runs."""
-        if self._out or self._trip is not None or self.bus.commands_waiting:
+        has work (a command, a reply to send, a trippoint), records (RC) or a home search runs."""
+        if self._out or self._trip is not None or self.bus.commands_waiting or self.recorder.active:
             return None
         return self.motion.rest_state()
 
@@ -193,6 +201,15 @@ class Firmware:
                 self._trip = None
                 self._reply(OK)
                 continue
+            if self.sink is not None:  # QD's data, not commands
+                used, code = self.sink.feed(bus.command_bytes())
+                bus.consume(used)
+                if code is None:
+                    return
+                self.sink = None
+                self.error_code = code or self.error_code
+                self._reply(b"?" if code else OK)
+                continue
             buf = bus.command_bytes()
             if not buf:
                 return
@@ -208,6 +225,8 @@ class Firmware:
             result = self._execute(frame)
             if isinstance(result, Trippoint):
                 self._trip = result
+            elif isinstance(result, ArrayDownload):
+                self.sink = result
             else:
                 self._reply(result)
 
@@ -216,8 +235,9 @@ class Firmware:
         command-line trippoint and a reply in progress go too."""
         self._trip = None
         self._out.clear()
+        self.sink = None
 
-    def _execute(self, frame: syntax.Frame) -> bytes | Trippoint:
+    def _execute(self, frame: syntax.Frame) -> bytes | Trippoint | ArrayDownload:
         if not frame.binary:
             return self.interp.execute(frame.data.decode("latin-1"))
         try:
@@ -381,7 +401,9 @@ class _Env:
         if name == "TIME":
             return float(fw.ticks - fw.time_origin)
         scalars = {"TC": fw.error_code, "TB": fw.status_byte(), "OP": fw.outputs,
-                   "EO": fw.echo, "LZ": fw.lz, "TM": fw.tm_us, "DR": fw.record_rate}
+                   "EO": fw.echo, "LZ": fw.lz, "TM": fw.tm_us, "DR": fw.record_rate,
+                   "DM": fw.arrays.free_elements, "DA": fw.arrays.free_arrays,
+                   "RC": fw.recorder.active, "RD": fw.recorder.next_index}
         if name in scalars:
             return float(scalars[name])
         if name.startswith("TI") and name[2:].isdigit():
@@ -414,7 +436,7 @@ class _Env:
             raise GalilError(TC.VARIABLE_ERROR, name) from None
 
     def array(self, name: str, index: int) -> float:
-        raise GalilError(TC.BAD_FUNCTION, f"no array {name}")
+        return self.fw.arrays.read(name, index)
 
     def function(self, name: str, arg: float) -> float:
         fw = self.fw

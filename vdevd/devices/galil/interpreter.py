@@ -17,6 +17,8 @@ import numpy as np
 from vdevmaps.galil import InterruptStatus
 
 from vdevd.devices.galil import syntax
+from vdevd.devices.galil.array_commands import ArrayCommands
+from vdevd.devices.galil.arrays import ArrayDownload
 from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
 from vdevd.devices.galil.errors import TC, TEXTS, GalilError
 from vdevd.devices.galil.expr import evaluate
@@ -49,17 +51,18 @@ class Trippoint:
     ready: Callable[[], bool]
 
 
-class Interpreter:
+class Interpreter(ArrayCommands):
     """The command language over one card's firmware state (`fw`); its commands are the table
     of commands.py, bound once."""
 
     def __init__(self, fw: Firmware) -> None:
         self.fw = fw
         self.n = fw.n
-        self.handlers: dict[str, Callable[[str], bytes | Trippoint]] = COMMANDS.bind(self)
+        self.handlers: dict[str, Callable[[str], bytes | Trippoint | ArrayDownload]] = (
+            COMMANDS.bind(self))
 
     # -- entry -------------------------------------------------------------------------------------
-    def execute(self, text: str) -> bytes | Trippoint:
+    def execute(self, text: str) -> bytes | Trippoint | ArrayDownload:
         """Run one statement; a refused one answers `?` and sets the TC code."""
         try:
             if not text.strip():
@@ -410,10 +413,11 @@ class Interpreter:
 
     # -- variables ---------------------------------------------------------------------------------
     def _assign(self, text: str) -> bytes:
-        """`V1=expr` sets a variable; `V1=` prints it [M Ch2 Ex14]."""
+        """`V1=expr` sets a variable; `V1=` prints it [M Ch2 Ex14]; `A[i]=expr`, `A[i]=` an array
+        element [M Ch6 §Multiple Moves]."""
         name, index, value = syntax.parse_assignment(text)
         if index is not None:
-            raise GalilError(TC.MISSING_BRACKET, "arrays come with programs")
+            return self._assign_element(name, index, value)
         if not value.strip():
             return self.data(self.fmt(self.fw.env.variable(name), *VARIABLE_FORMAT))
         v = self.value(value)
@@ -421,6 +425,17 @@ class Interpreter:
         if name not in variables and len(variables) >= 254:
             raise GalilError(67)
         variables[name] = v
+        return OK
+
+    def _assign_element(self, name: str, index_text: str, value: str) -> bytes:
+        arrays = self.fw.arrays
+        index = self.value(index_text) if index_text else -1
+        if index != int(index):
+            raise GalilError(TC.ARRAY_INDEX_INVALID, f"{name}[{index}]")
+        if not value.strip():
+            return self.data(self.fmt(arrays.read(name, int(index)), *VARIABLE_FORMAT))
+        arrays.read(name, int(index))  # the element exists before its value is computed
+        arrays.write(name, int(index), self.value(value))
         return OK
 
     def _label(self, arg: str) -> bytes:
