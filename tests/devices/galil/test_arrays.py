@@ -19,6 +19,15 @@ def mg(rig: Rig, expr: str) -> float:
     return float(rig.send(b"MG " + expr.encode() + b"\r").split(b"\r")[0])
 
 
+def whole_reply(rig: Rig, line: bytes) -> bytes:
+    """A reply longer than the 512-byte response FIFO: the card refills it at its samples."""
+    out = rig.send(line)
+    while not out.endswith((b":", b"?")):
+        rig.sample()
+        out += rig.receive()
+    return out
+
+
 def refused(rig: Rig, line: bytes) -> int:
     """Send a line that must be answered '?'; the TC code it left."""
     assert rig.send(line) == b"?"
