@@ -454,6 +454,19 @@ def DMCVersion(hdmc: Any, pchVersion: Any, cbVersion: int) -> int:
 
 
 # -- arrays --------------------------------------------------------------------------------------------
+LONG_LINE = 1024  # bytes of a long line (QD's data) written per batch before the reply is read
+
+
+def long_command(bus: DmcBus, data: bytes, replies: int) -> Reply:
+    """`bus.command` for a line of any length: the bytes beyond the last LONG_LINE go first, a
+    batch per LONG_LINE (as the library's DMCWriteData calls), so no batch holds hundreds of
+    waits for FIFO room."""
+    cut = max(len(data) - LONG_LINE, 0)
+    for start in range(0, cut, LONG_LINE):
+        bus.send(data[start:min(start + LONG_LINE, cut)], 0)
+    return bus.command(data[cut:], replies)
+
+
 @_guarded
 def DMCArrayDownload(hdmc: Any, pszArrayName: Any, usFirstElement: int, usLastElement: int,
                      pchData: Any, cbData: int, pulBytesWritten: Any) -> int:
@@ -469,7 +482,7 @@ def DMCArrayDownload(hdmc: Any, pszArrayName: Any, usFirstElement: int, usLastEl
     data = _text(pchData)[:int(cbData)].replace(b"\n", b"0").replace(b" ", b"0")
     _set(pulBytesWritten, 0)
     line = b"QD %s[],%d,%d\r" % (_text(pszArrayName), int(usFirstElement), int(usLastElement))
-    rc = _reply(c, c.bus.command(line + data + b"\x1a", 1), None, 0)
+    rc = _reply(c, long_command(c.bus, line + data + b"\x1a", 1), None, 0)
     if rc == DMCNOERROR:
         _set(pulBytesWritten, len(data))
     return rc

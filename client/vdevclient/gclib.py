@@ -260,7 +260,7 @@ class py:
     # -- arrays (gclib.h GArrayDownload, GArrayUpload; gclibo.h GArray*File) ------------------------
     def _array_command(self, line: str, data: bytes = b"") -> bytes:
         """One QU/QD exchange: its reply without the final CR LF ':' ('?': GclibError)."""
-        reply = self._cc().command(line.encode("latin-1") + data, 1)
+        reply = galil.long_command(self._cc(), line.encode("latin-1") + data, 1)
         if b"?" in reply.data:
             _rc(G_BAD_RESPONSE_QUESTION_MARK)
         if reply.timed_out:

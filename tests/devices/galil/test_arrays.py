@@ -172,8 +172,9 @@ def test_qu_uploads_a_range_with_cr_or_comma_between_the_values(rig: Rig) -> Non
     (b"QU A[],0,5\r", 56),  # past the end
     (b"QU A[],0,4,2\r", 6),  # delimiter 0 or 1
     (b"QU A\r", 55),
-    (b"QD B[]\r", 82),
-    (b"QD A[],-1,2\r", 56),
+    (b"QD B[]\r1,2\\", 82),  # the data of a refused QD is read and dropped
+    (b"QD A[],-1,2\r1\r2\r\x1a", 56),
+    (b"QD A[],0,9,1\r5\\", 1),
 ])
 def test_a_bad_transfer_is_refused_and_the_card_keeps_serving(rig: Rig, line: bytes, code: int) -> None:
     rig.send(b"DM A[5]\r")

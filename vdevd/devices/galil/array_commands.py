@@ -131,10 +131,15 @@ class ArrayCommands:
     def _qd(self, arg: str) -> ArrayDownload:
         """QD NAME[],first,last: the data that follows the command (numbers separated by commas
         or CR, ended by a backslash or ^Z) goes into elements first..last (DMCArrayDownload;
-        gclib GArrayDownload); the card answers when the data has ended."""
-        name, _, rest = split_reference(arg)
-        first, last = self._fields(rest, 2)
-        elements, lo, hi = self.fw.arrays.span(name, first, last)
+        gclib GArrayDownload); the card answers when the data has ended. A refused QD (no
+        such array, a bad range) takes its data all the same and answers '?' after it: the
+        host has sent it behind the command, and it must not run as commands."""
+        try:
+            name, _, rest = split_reference(arg)
+            first, last = self._fields(rest, 2)
+            elements, lo, hi = self.fw.arrays.span(name, first, last)
+        except GalilError as exc:
+            return ArrayDownload.refused(exc.code)
         return ArrayDownload(elements, lo, hi)
 
     # -- record mode [M Ch6 §Teach] ------------------------------------------------------------------

@@ -172,6 +172,13 @@ class ArrayDownload:
         self.token = bytearray()
         self.error = 0
 
+    @classmethod
+    def refused(cls, code: int) -> ArrayDownload:
+        """The data phase of a refused QD: the data is read and dropped, then '?' with `code`."""
+        download = cls(np.zeros(0), 0, -1)
+        download.error = code
+        return download
+
     def feed(self, data: bytes) -> tuple[int, int | None]:
         """Take bytes of the command FIFO: (bytes used, None while the data goes on, else the
         error code to answer, 0 for ':')."""
