@@ -5,7 +5,7 @@ vdevclient.gclib's GArrayDownload/GArrayUpload/GArrayDownloadFile/GArrayUploadFi
 from __future__ import annotations
 
 import ctypes
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -138,7 +138,9 @@ def test_garray_download_into_a_sub_range(g: gclib.py) -> None:
     (lambda g: g.GArrayDownload("A", 0, 1, [1, 2, 3]), "56"),
     (lambda g: g.GArrayDownload("A", -1, -1, [1e-12]), "83"),  # str() gives 1e-12: no DMC number
 ])
-def test_garray_calls_refused_by_the_card_raise_gclib_s_error(g: gclib.py, call, code: str) -> None:
+def test_garray_calls_refused_by_the_card_raise_gclib_s_error(g: gclib.py,
+                                                             call: Callable[[gclib.py], object],
+                                                             code: str) -> None:
     g.GCommand("DM A[3]")
     with pytest.raises(gclib.GclibError, match="^question mark returned by controller$"):
         call(g)
@@ -174,3 +176,21 @@ def test_garray_upload_file_of_named_arrays_and_a_file_gclib_would_write(g: gcli
     assert out.read_bytes() == b"vel\r0000000002.0000\r0000000004.0000\r"
     with pytest.raises(gclib.GclibError, match="^file was not found"):
         g.GArrayDownloadFile(str(tmp_path / "missing.csv"))
+
+
+def test_arrays_on_a_card_that_decodes_at_its_samples() -> None:
+    """decode = "sample": QD's data is taken at the samples too, the FIFO filling faster than
+    the card empties it."""
+    with DaemonThread(rack_config(card(GALIL, "galil0", decode="sample"))) as d:
+        conn = gclib.py()
+        conn.GOpen(f"galil0 --endpoint {d.endpoint}")
+        try:
+            conn.GCommand("DM A[300]")
+            sent = [float(i) for i in range(300)]
+            conn.GArrayDownload("A", -1, -1, sent)
+            assert conn.GArrayUpload("A") == sent
+            with pytest.raises(gclib.GclibError):
+                conn.GArrayDownload("B", -1, -1, sent)
+            assert conn.GCommand("TC") == "082"
+        finally:
+            conn.GClose()

@@ -77,12 +77,16 @@ def test_a_negative_m_records_circularly_until_rc_0(rig: Rig) -> None:
 
 def test_recording_operands_of_io_and_several_axes(rig: Rig) -> None:
     rig.send(b"DM A[4],B[4],C[4],D[4];OP 165;DP ,-300\r")
-    rig.send(b"RA A[],B[],C[],D[];RD _OP,_TPY,_TEX,_TTX;RC 1,4\r")
-    for _ in range(8):
+    rig.send(b"RA A[],B[],C[],D[];RD _OP,_TPY,_TEX,_TI;RC 1,4\r")
+    for _ in range(4):
+        rig.sample()
+    rig.fw.set_input(2, 0)
+    for _ in range(4):
         rig.sample()
     assert values(rig, "A") == [165] * 4
     assert values(rig, "B") == [-300] * 4
-    assert values(rig, "C") == [0] * 4 and values(rig, "D") == [0] * 4
+    assert values(rig, "C") == [0] * 4
+    assert values(rig, "D") == [255, 255, 253, 253]  # IN2 low from the third record on
 
 
 @pytest.mark.parametrize(("setup", "line", "code"), [

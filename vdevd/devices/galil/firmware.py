@@ -406,8 +406,8 @@ class _Env:
                    "RC": fw.recorder.active, "RD": fw.recorder.next_index}
         if name in scalars:
             return float(scalars[name])
-        if name.startswith("TI") and name[2:].isdigit():
-            return float(fw.input_bank(int(name[2:])))
+        if name.startswith("TI") and (name[2:].isdigit() or name == "TI"):
+            return float(fw.input_bank(int(name[2:] or 0)))  # _TI: bank 0, as TI
         cmd, letter = name[:2], name[2:]
         if len(letter) != 1 or letter not in "XYZWABCD":
             raise GalilError(TC.BAD_FUNCTION, name)
