@@ -428,6 +428,7 @@ class Interpreter(ArrayCommands):
         return OK
 
     def _assign_element(self, name: str, index_text: str, value: str) -> bytes:
+        """`A[i]=expr` (TC 57 no array A, TC 56 an index outside it) or `A[i]=` (prints it)."""
         arrays = self.fw.arrays
         index = self.value(index_text) if index_text else -1
         if index != int(index):
