@@ -161,3 +161,20 @@ def test_a_client_that_never_reads_does_not_stall_the_daemon(port: tuple[str, in
             if sent == len(flood):
                 break
         assert ask(s, b"MG 5\r") == fifo_command(fifo, "MG 5")
+
+
+def test_wt_on_the_port_waits_card_time_while_the_card_is_otherwise_at_rest(
+        port: tuple[str, int], rack: vdevclient.Rack, fifo: ctypes.c_long) -> None:
+    """WT 500 [M Ch6 WT]: the reply after 500 ms of card time, not before; the connection's held
+    trippoint keeps a card with nothing else to do from skipping its samples (decision 0008)."""
+    with connect(port) as s:
+        assert ask(s, b"WT 500;MG 9\r", answers=0) == b""
+        rack.sim.step(seconds=0.4)
+        assert fifo_command(fifo, "MG 1").endswith(b"1.0000\r\n:")  # the FIFO is not held
+        s.setblocking(False)  # a reply made during the step would be here already (loopback)
+        with pytest.raises(BlockingIOError):
+            s.recv(16)  # 400 ms: nothing yet
+        s.setblocking(True)
+        s.settimeout(WAIT_S)
+        rack.sim.step(seconds=0.2)
+        assert ask(s, b"", answers=2) == b":" + fifo_command(fifo, "MG 9")
