@@ -178,3 +178,16 @@ def test_wt_on_the_port_waits_card_time_while_the_card_is_otherwise_at_rest(
         s.settimeout(WAIT_S)
         rack.sim.step(seconds=0.2)
         assert ask(s, b"", answers=2) == b":" + fifo_command(fifo, "MG 9")
+
+
+def test_rs_on_the_fifo_releases_a_trippoint_held_on_the_port(port: tuple[str, int], rack: vdevclient.Rack,
+                                                               fifo: ctypes.c_long) -> None:
+    """RS: the held AM goes without a reply (as a trippoint held on the FIFO does); the commands
+    behind it run at the next sample."""
+    with connect(port) as s:
+        assert ask(s, b"PR 900000;BGX;AMX;MG 4\r", answers=2) == b"::"
+        rack.sim.step(seconds=0.1)
+        assert fifo_command(fifo, "RS") == b":"
+        rack.sim.step(seconds=0.01)
+        assert ask(s, b"", answers=1) == fifo_command(fifo, "MG 4")
+        assert fifo_command(fifo, "MG _BGX").endswith(b"0.0000\r\n:")

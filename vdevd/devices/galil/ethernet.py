@@ -155,11 +155,12 @@ class EthernetServer:
             connection.serve()
 
     def reset(self) -> None:
-        """RS: every connection's held trippoint goes (the connections stay)."""
-        for connection in self._connections:
+        """RS: every connection's held trippoint goes without a reply, as the FIFO's does (the
+        connections stay); the commands behind it run at the next sample (not from inside the
+        RS, which may come from one of the connections)."""
+        for connection in self._waiting:
             if connection.channel is not None:
                 connection.channel.reset()
-        self._waiting.clear()
 
     def close(self) -> None:
         """Stop listening and drop every connection."""
