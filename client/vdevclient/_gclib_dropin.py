@@ -26,7 +26,9 @@ from vdevclient.gclib import (
     _BUF_SIZE,
     DEFAULT_TIMEOUT_MS,
     G_BAD_ADDRESS,
+    G_GCLIB_NON_BLOCKING_READ_EMPTY,
     G_OPEN_ERROR,
+    G_TIMEOUT,
     _rc,
 )
 
@@ -129,6 +131,22 @@ class py(gclib.py):
         self._cc()
         _rc(galil.DMCVersion(self._gcon, self._buf, _BUF_SIZE))
         return f"{self._shown}, {self._buf.value.decode('latin-1')}, {self._serial}"
+
+    def GMessage(self) -> str:
+        """The card's unsolicited output (vdevclient.gclib's); with none pending, gclib's: wait
+        up to the timeout (card time) for some, then GclibError "device timed out" (timeout 0:
+        "data was not waiting for a zero-timeout read") [gclib.h GMessage, x_gmessage.cpp]."""
+        text = super().GMessage()
+        if text:
+            return text
+        wait_ms = self._initial_timeout if self._timeout == -1 else self._timeout
+        if not wait_ms:
+            _fail(G_GCLIB_NON_BLOCKING_READ_EMPTY)
+        self._cc().pause(wait_ms)
+        text = super().GMessage()
+        if not text:
+            _fail(G_TIMEOUT)
+        return text
 
     def GAddresses(self) -> dict[str, str]:
         """The addresses the daemon's cards declare, each with its revision report

@@ -9,6 +9,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import tomllib
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -56,6 +57,15 @@ def test_dropin_path_is_the_directory_holding_only_gclib(capsys: pytest.CaptureF
                   and p.name != "__pycache__") == ["gclib.py"]
 
 
+def test_the_dropin_is_package_data_of_vdevclient_not_a_package() -> None:
+    """Installed with vdevclient (the wheel holds vdevclient/dropin/gclib.py), importable only as
+    the top-level `gclib` of a path that names the directory."""
+    pyproject = tomllib.loads((Path(__file__).resolve().parents[2] / "pyproject.toml").read_text())
+    assert "dropin/*.py" in pyproject["tool"]["setuptools"]["package-data"]["vdevclient"]
+    assert not (dropin_path() / "__init__.py").exists()
+    assert dropin_path().parent == Path(vdevclient.__file__).resolve().parent
+
+
 def test_an_unchanged_gclib_script_runs_on_the_card_its_address_names(daemon: DaemonThread) -> None:
     out = run_script(daemon, f"""
         import json
@@ -76,7 +86,16 @@ def test_an_unchanged_gclib_script_runs_on_the_card_its_address_names(daemon: Da
             out["bad"] = str(e)
         out["tc"] = g.GCommand("TC1")
         out["addresses"] = g.GAddresses()
-        out["message"] = g.GMessage()
+        g.GTimeout(50)
+        try:
+            g.GMessage()
+        except gclib.GclibError as e:
+            out["message"] = str(e)
+        g.GTimeout(0)
+        try:
+            g.GMessage()
+        except gclib.GclibError as e:
+            out["message0"] = str(e)
         g.GClose()
         try:
             gclib.py().GOpen("192.168.0.99 --direct")
@@ -93,7 +112,8 @@ def test_an_unchanged_gclib_script_runs_on_the_card_its_address_names(daemon: Da
     assert out["bad"] == "question mark returned by controller"
     assert out["tc"] == "1 Unrecognized command"
     assert out["addresses"] == {IP: "DMC1348 Rev 1.1a", "10.0.0.7": "DMC1328 Rev 1.1a"}
-    assert out["message"] == ""
+    assert out["message"] == "device timed out"  # nothing pending: gclib's time-out
+    assert out["message0"] == "data was not waiting for a zero-timeout read"
     assert out["unknown"] == "device failed to open"
     assert out["codes"] == [0, -1101]
 
@@ -117,6 +137,14 @@ def test_a_qcodes_style_driver_reads_its_idn_from_ginfo(g: _gclib_dropin.py) -> 
     g.GCommand("SP 10000\r")
     assert g.GCommand("MG _SPX\r") == "0000010000.0000"
     assert g.GCommand("MG _TPX\r") == "0000000000.0000"
+
+
+def test_gmessage_waits_the_timeout_in_card_time(g: _gclib_dropin.py, rack: vdevclient.Rack) -> None:
+    g.GTimeout(80)
+    start = rack.sim.now_ns()
+    with pytest.raises(gclib.GclibError, match="^device timed out$"):
+        g.GMessage()
+    assert rack.sim.now_ns() - start == 80_000_000
 
 
 def test_the_other_addressed_card_and_a_card_name_open_too(daemon: DaemonThread) -> None:
