@@ -4,6 +4,7 @@ declares (`address`), against a real lockstep daemon."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import subprocess
@@ -66,9 +67,27 @@ def test_the_dropin_is_package_data_of_vdevclient_not_a_package() -> None:
     assert dropin_path().parent == Path(vdevclient.__file__).resolve().parent
 
 
+def test_names_added_to_vdevclient_gclib_later_are_the_dropin_s_too(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The module delegates (PEP 562) and `py` subclasses vdevclient.gclib.py: a method or code
+    added there (GProgramDownload, GArrayUpload, ...) needs no change here."""
+    spec = importlib.util.spec_from_file_location("gclib_under_test", dropin_path() / "gclib.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    monkeypatch.setattr(gclib, "G_SOMETHING_NEW", -9999, raising=False)
+    monkeypatch.setattr(gclib.py, "GSomethingNew", lambda self: "delegated", raising=False)
+    assert module.G_SOMETHING_NEW == -9999
+    assert module.py().GSomethingNew() == "delegated"
+    assert module.GclibError is gclib.GclibError
+    assert {"GclibError", "py", "G_NO_ERROR", "G_OPEN_ERROR", "G_TIMEOUT"} <= set(module.__all__)
+    with pytest.raises(AttributeError, match="module 'gclib' has no attribute 'nothing'"):
+        module.nothing  # noqa: B018
+
+
 def test_an_unchanged_gclib_script_runs_on_the_card_its_address_names(daemon: DaemonThread) -> None:
     out = run_script(daemon, f"""
-        import json
+        import importlib.util
+import json
         import gclib
 
         g = gclib.py()
