@@ -86,8 +86,7 @@ def test_names_added_to_vdevclient_gclib_later_are_the_dropin_s_too(monkeypatch:
 
 def test_an_unchanged_gclib_script_runs_on_the_card_its_address_names(daemon: DaemonThread) -> None:
     out = run_script(daemon, f"""
-        import importlib.util
-import json
+        import json
         import gclib
 
         g = gclib.py()
