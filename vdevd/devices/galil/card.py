@@ -59,7 +59,7 @@ class GalilCard(Card):
         "address": Option(str, None,
                           help="the controller's address as gclib opens it (\"192.168.0.42\"): "
                                "the drop-in gclib finds the card by it"),
-        "serial": Option(int, 0, min=0, max=999_999_999, help="serial number (gclib's GInfo)"),
+        "serial": Option(int, 0, min=0, max=999_999, help="serial number (gclib's GInfo)"),
         "ethernet": Option(str, "",
                            help="tcp://HOST:PORT: serve the DMC command protocol there "
                                 "(loopback only, port 0: any free one); empty: off"),
