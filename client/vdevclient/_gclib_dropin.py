@@ -74,10 +74,16 @@ def parse_address(address: str) -> dict[str, str]:
     return flags
 
 
+#: the least wall time the daemon gets to answer the look-up (a short gclib --timeout is for
+#: the card's replies, not for finding it)
+LOOKUP_MIN_MS = 1000
+
+
 def _lookup(endpoint: str | None, events: str | None, timeout_ms: int) -> Rack:
-    """The daemon's rack; GclibError "device failed to open" when it does not answer."""
+    """The daemon's rack; GclibError "device failed to open" when it does not answer within the
+    timeout (wall time, at least LOOKUP_MIN_MS)."""
     try:
-        return connect(endpoint, events, timeout=max(timeout_ms, 1) / 1000)
+        return connect(endpoint, events, timeout=max(timeout_ms, LOOKUP_MIN_MS) / 1000)
     except VdevClientError:
         _fail(G_OPEN_ERROR)
 

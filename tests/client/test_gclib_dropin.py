@@ -22,6 +22,7 @@ from vdevclient.cli import dropin_path
 from vdevclient.cli import main as vdevctl
 
 from tests.client.galil import GALIL, card, rack_config
+from tests.conftest import free_endpoint
 from vdevd.testing import DaemonThread
 
 IP = "192.168.0.42"
@@ -195,3 +196,10 @@ def test_an_address_no_card_declares_fails_to_open(daemon: DaemonThread) -> None
         conn.GOpen(f"10.9.9.9 --direct --endpoint {daemon.endpoint}")
     with pytest.raises(gclib.GclibError, match="^connection to hardware not established$"):
         conn.GCommand("TPX")
+
+
+def test_no_daemon_at_the_endpoint_fails_to_open() -> None:
+    """Nothing answers: gclib's failure to open (after the look-up's time-out, LOOKUP_MIN_MS)."""
+    conn = _gclib_dropin.py()
+    with pytest.raises(gclib.GclibError, match="^device failed to open$"):
+        conn.GOpen(f"{IP} -t 1 --endpoint {free_endpoint()}")
