@@ -4,6 +4,7 @@ served at samples; and the card's `address`, `serial`, `ethernet` keys. No socke
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import pytest
@@ -11,8 +12,13 @@ import pytest
 from tests.devices.galil.test_firmware import Rig
 from vdevd.devices.base import CardContext
 from vdevd.devices.galil.card import GalilCard
-from vdevd.devices.galil.channel import MAX_INPUT, CommandChannel
+from vdevd.devices.galil.channel import MAX_BATCH, MAX_INPUT, CommandChannel
 from vdevd.devices.galil.ethernet import MAX_CONNECTIONS, EthernetServer, _Connection, parse_endpoint
+
+
+class FakeHandle:
+    def cancel(self) -> None:
+        pass
 
 
 class FakeTransport:
@@ -53,7 +59,21 @@ class Port:
     def __init__(self) -> None:
         self.rig = Rig()
         self.touches = 0
-        self.server = EthernetServer(lambda: CommandChannel(self.rig.fw), self._touched)
+        self.turns: list[Callable[[], None]] = []
+        self.server = EthernetServer(lambda: CommandChannel(self.rig.fw), self._touched,
+                                     self._call_soon)
+
+    def _call_soon(self, callback: Callable[[], None]) -> Any:
+        self.turns.append(callback)
+        return FakeHandle()
+
+    def run_turns(self) -> int:
+        """The loop's turns until none is scheduled; how many ran."""
+        n = 0
+        while self.turns:
+            self.turns.pop(0)()
+            n += 1
+        return n
 
     def _touched(self) -> None:
         self.touches += 1
@@ -93,8 +113,22 @@ def test_input_behind_a_trippoint_pauses_reading_until_it_is_decoded() -> None:
     assert transport.sent == b""
     for _ in range(25):
         port.sample()
-    assert transport.reading and not port.server.held
+    assert not port.server.held
+    turns = port.run_turns()  # the burst, MAX_BATCH commands a turn of the loop
+    assert turns >= (MAX_INPUT // 5 + 1) // MAX_BATCH
+    assert transport.reading
     assert transport.sent == b":" + port.rig.send(b"MG 1\r") * (MAX_INPUT // 5 + 1)
+
+
+def test_a_burst_runs_in_turns_of_the_loop_reading_paused_meanwhile() -> None:
+    port = Port()
+    conn, transport = port.open()
+    conn.data_received(b"MG 1;" * (3 * MAX_BATCH))
+    reply = port.rig.send(b"MG 1\r")
+    assert transport.sent == reply * MAX_BATCH and not transport.reading
+    assert len(port.turns) == 1
+    assert port.run_turns() == 2
+    assert transport.sent == reply * (3 * MAX_BATCH) and transport.reading
 
 
 def test_replies_the_client_does_not_read_pause_reading() -> None:

@@ -25,6 +25,9 @@ from vdevd.devices.galil.interpreter import OK, Trippoint
 MAX_COMMAND = FIFO_SIZE
 #: input kept behind a held trippoint before the connection stops reading (TCP flow control)
 MAX_INPUT = 64 * 1024
+#: commands decoded per `serve`: a client sending many at once gets them run in turns, the
+#: daemon's other work (samples, other clients) running between them
+MAX_BATCH = 64
 
 _next_frame = lru_cache(maxsize=256)(syntax.next_frame)
 _TERMINATOR = re.compile(rb"[\r;]")
@@ -38,6 +41,7 @@ class CommandChannel:
         self._in = bytearray()
         self._trip: Trippoint | None = None
         self._dropping = False  # inside an overlong command: dropped through its terminator
+        self.more = False  # the last `serve` stopped at MAX_BATCH with input left to decode
 
     @property
     def held(self) -> bool:
@@ -65,9 +69,15 @@ class CommandChannel:
         self._dropping = False
 
     def serve(self) -> bytes:
-        """Decode what the input holds until a trippoint holds the channel; the replies."""
+        """Decode what the input holds until a trippoint holds the channel, at most MAX_BATCH
+        commands (`more` tells whether input is left); the replies."""
         out = bytearray()
+        self.more = False
+        budget = MAX_BATCH
         while True:
+            if not budget:
+                self.more = bool(self._in)
+                break
             trip = self._trip
             if trip is not None:
                 if not trip.ready():
@@ -89,6 +99,7 @@ class CommandChannel:
                 if used:
                     continue
                 break
+            budget -= 1
             result = self._execute(frame)
             if isinstance(result, Trippoint):
                 self._trip = result

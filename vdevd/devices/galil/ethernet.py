@@ -4,10 +4,11 @@ layer around `CommandChannel`, on the daemon's loop.
 Each connection gets its own `CommandChannel` (own input and trippoint) over the card's shared
 interpreter. Bounded: at most MAX_CONNECTIONS connections (the Ethernet controllers' handles
 A-H), a command at most `channel.MAX_COMMAND` bytes, input behind a held trippoint at most
-`channel.MAX_INPUT`. A slow or dead client never stalls the loop: writes never block, and a
+`channel.MAX_INPUT`. A slow, dead or flooding client never stalls the loop: writes never block;
+a burst of commands runs `channel.MAX_BATCH` at a time, one batch per turn of the loop; and a
 connection whose replies the client does not read (the transport's buffer past its high-water
-mark), or whose input waits behind a trippoint, stops being read until that drains (TCP flow
-control does the rest).
+mark), or whose input waits behind a trippoint or for its turn, stops being read until that
+drains (TCP flow control does the rest).
 """
 
 from __future__ import annotations
@@ -50,6 +51,7 @@ class _Connection(asyncio.Protocol):
         self.channel: CommandChannel | None = None
         self._write_paused = False
         self._reading = True
+        self._turn: asyncio.Handle | None = None  # the next batch of a long burst, scheduled
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         self._transport = cast(asyncio.Transport, transport)
@@ -71,7 +73,9 @@ class _Connection(asyncio.Protocol):
         self._server._touched()
 
     def serve(self) -> None:
-        """A sample: the held trippoint satisfied, the commands behind it run."""
+        """A sample, or the next turn of a burst: the held trippoint satisfied, the commands
+        behind it run (MAX_BATCH at a time)."""
+        self._turn = None
         if self.channel is not None:
             self._send(self.channel.serve())
 
@@ -80,12 +84,15 @@ class _Connection(asyncio.Protocol):
         if reply and not self._transport.is_closing():
             self._transport.write(reply)
         self._server._held(self, self.channel.held)
+        if self.channel.more and self._turn is None:  # the rest of a burst at the loop's next turn
+            self._turn = self._server.call_soon(self.serve)
         self._flow()
 
     def _flow(self) -> None:
-        """Read while the replies go out and no input waits behind a trippoint."""
+        """Read while the replies go out and no input waits (behind a trippoint, or for its
+        turn)."""
         assert self.channel is not None and self._transport is not None
-        reading = not self._write_paused and not self.channel.input_full
+        reading = not self._write_paused and not self.channel.input_full and not self.channel.more
         if reading != self._reading and not self._transport.is_closing():
             if reading:
                 self._transport.resume_reading()
@@ -104,6 +111,9 @@ class _Connection(asyncio.Protocol):
             self._flow()
 
     def connection_lost(self, exc: Exception | None) -> None:
+        if self._turn is not None:
+            self._turn.cancel()
+            self._turn = None
         if self.channel is not None:
             self.channel.close()  # a command cut mid-line and a held trippoint go
             self.channel = None
@@ -118,9 +128,11 @@ class EthernetServer:
     """A listening Ethernet command port: one `CommandChannel` per connection from
     `open_channel()`; `touched()` after host input (the card looks again at its next tick)."""
 
-    def __init__(self, open_channel: Callable[[], CommandChannel], touched: Callable[[], None]) -> None:
+    def __init__(self, open_channel: Callable[[], CommandChannel], touched: Callable[[], None],
+                 call_soon: Callable[[Callable[[], None]], asyncio.Handle]) -> None:
         self._open_channel = open_channel
         self._touched = touched
+        self.call_soon = call_soon  # the loop's: the next turn of a connection's burst
         self._server: asyncio.Server | None = None
         self._connections: set[_Connection] = set()
         self._waiting: set[_Connection] = set()  # held by a trippoint: served every sample
@@ -132,8 +144,8 @@ class EthernetServer:
                     touched: Callable[[], None]) -> EthernetServer:
         """Listen on `endpoint` on the running loop."""
         host, port = parse_endpoint(endpoint)
-        self = cls(open_channel, touched)
         loop = asyncio.get_running_loop()
+        self = cls(open_channel, touched, loop.call_soon)
         self._server = await loop.create_server(lambda: _Connection(self), host, port)
         return self
 
