@@ -70,7 +70,6 @@ class _Connection(asyncio.Protocol):
         if self.channel is None:
             return
         self._send(self.channel.receive(data))
-        self._server._touched()
 
     def serve(self) -> None:
         """A sample, or the next turn of a burst: the held trippoint satisfied, the commands
@@ -83,6 +82,7 @@ class _Connection(asyncio.Protocol):
         assert self.channel is not None and self._transport is not None
         if reply and not self._transport.is_closing():
             self._transport.write(reply)
+        self._server._touched()  # commands ran: a card at rest looks again at its next tick
         self._server._held(self, self.channel.held)
         if self.channel.more and self._turn is None:  # the rest of a burst at the loop's next turn
             self._turn = self._server.call_soon(self.serve)
