@@ -44,6 +44,11 @@ _split_statement = lru_cache(maxsize=512)(syntax.split_statement)
 _parse_axes = lru_cache(maxsize=512)(syntax.parse_axes)
 
 
+def revision(n: int) -> str:
+    """The revision report of an n-axis card (^R^V, gclib's GInfo)."""
+    return f"DMC13{n}8 Rev 1.1a"
+
+
 @dataclass
 class Trippoint:
     """A command-line trippoint: the interpreter waits until `ready()` (spec §5.7)."""
@@ -298,7 +303,7 @@ class Interpreter(ArrayCommands):
 
     def _version(self, arg: str) -> bytes:
         """^R^V: the firmware revision [DMCLIB DMCVersion parses "...v<rev>"]."""
-        return self.data(f"DMC13{self.n}8 Rev 1.1a")
+        return self.data(revision(self.n))
 
     # -- settings ----------------------------------------------------------------------------------
     def _flag(self, name: str, arg: str) -> bytes:
