@@ -174,30 +174,20 @@ class FollowCommands:
         return OK
 
     def et(self, arg: str) -> bytes:
-        """ET[n]=x,y,z,w: the slaves' positions at point n (0-256; TC 101 else); ET=... loads
-        the point of the EC counter, which then counts on (ASSUMPTION)."""
+        """ET[n]=x,y,z,w: the slaves' positions at point n (0-256; TC 101 else); `ET[n]=?`."""
         ecam, interp = self.follow.ecam, self.interp
         text = arg.strip()
-        counted = text.startswith("=")
-        if counted:
-            row, rest = ecam.index, text[1:]
-        elif text.startswith("["):
-            close = text.find("]")
-            if close < 0:
-                raise GalilError(TC.MISSING_BRACKET, "ET")
-            index = interp.value(text[1:close])
-            rest = text[close + 1:].lstrip()
-            if not rest.startswith("="):
-                raise GalilError(TC.OPERAND_ERROR, "ET")
-            rest = rest[1:]
-            if index != int(index) or not 0 <= index < TABLE_POINTS:
-                raise GalilError(TC.ECAM_INDEX)
-            row = int(index)
-        else:
+        close = text.find("]")
+        if not text.startswith("[") or close < 0:
             raise GalilError(TC.MISSING_BRACKET, "ET")
-        if not 0 <= row < TABLE_POINTS:
+        index = interp.value(text[1:close])
+        rest = text[close + 1:].lstrip()
+        if not rest.startswith("="):
+            raise GalilError(TC.OPERAND_ERROR, "ET")
+        if index != int(index) or not 0 <= index < TABLE_POINTS:
             raise GalilError(TC.ECAM_INDEX)
-        fields = syntax.parse_fields(rest, self.n)
+        row = int(index)
+        fields = syntax.parse_fields(rest[1:], self.n)
         queries = [a for a, f in enumerate(fields) if f is syntax.QUERY]
         if queries:
             return interp.data(",".join(interp.fmt(float(ecam.table[row, a]), *_SCALAR_FORMAT)
@@ -207,8 +197,6 @@ class FollowCommands:
         if any(abs(v) > SLAVE_CHANGE_LIMIT for v in values):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE, "ET")
         ecam.set_table(row, [a for a, _ in pairs], values)
-        if counted:
-            ecam.index = min(row + 1, TABLE_POINTS - 1)
         return OK
 
     def eb(self, arg: str) -> bytes:
@@ -240,7 +228,8 @@ class FollowCommands:
         return self._done()
 
     def ec(self, arg: str) -> bytes:
-        """EC n: the table index ET without brackets loads (0-256, TC 101 else)."""
+        """EC n: the ECAM table index counter (0-256, TC 101 else); kept and reported (`_EC`):
+        the manual gives no command that reads or advances it."""
         ecam = self.follow.ecam
         if arg.strip() == "?":
             return self.interp.data(self.interp.fmt(ecam.index, 3, 0))

@@ -42,6 +42,7 @@ class Gearing:
         self._base_master = np.zeros(n)  # the master's reading when the ratio last changed
         self._base_offset = np.zeros(n)  # the increment applied up to then
         self._applied = np.zeros(n)  # the gearing's total increment so far
+        self._last = np.zeros(n)  # the master's reading `_applied` was computed from
         self._idx = np.zeros(0, dtype=np.int64)
 
     @property
@@ -57,11 +58,12 @@ class Gearing:
     def set_master(self, axes: list[int], masters: list[int], sources: list[int]) -> None:
         """GA: the masters of `axes`; a follower already geared goes on from the new master's
         reading (no jump)."""
-        self._rebase()
         self.master[axes] = masters
         self.source[axes] = sources
-        self._rebase()
         self._refresh()
+        idx = np.intersect1d(self._idx, axes)
+        self._base_master[idx] = self._last[idx] = self._reading(idx)
+        self._base_offset[idx] = self._applied[idx]
 
     def set_ratio(self, axes: list[int], ratios: list[float]) -> None:
         """GR: new ratios, on the fly: the follower goes on from where it is [M Ch6]."""
@@ -85,7 +87,7 @@ class Gearing:
         """Make the present master readings the base of the increments that follow."""
         idx = self._idx
         if len(idx):
-            self._base_master[idx] = self._reading(idx)
+            self._base_master[idx] = self._last[idx]
             self._base_offset[idx] = self._applied[idx]
 
     def _reading(self, idx: np.ndarray) -> np.ndarray:
@@ -97,7 +99,7 @@ class Gearing:
         self._idx = np.flatnonzero(engaged)
         new = np.setdiff1d(self._idx, was)
         if len(new):
-            self._base_master[new] = self._reading(new)
+            self._base_master[new] = self._last[new] = self._reading(new)
             self._base_offset[new] = self._applied[new]
 
     def step(self) -> None:
@@ -105,14 +107,16 @@ class Gearing:
         since the last sample (a limit switch it heads into disengages it in standard mode)."""
         idx = self._idx
         m = self.motion
-        want = self._base_offset[idx] + self.ratio[idx] * (self._reading(idx) - self._base_master[idx])
+        reading = self._reading(idx)
+        want = self._base_offset[idx] + self.ratio[idx] * (reading - self._base_master[idx])
         delta = want - self._applied[idx]
         blocked = ((m.forward_limit[idx] & (delta > 0)) | (m.reverse_limit[idx] & (delta < 0))) & \
             ~self.gantry[idx]
         if blocked.any():
             self.disengage(idx[blocked])
             keep = ~blocked
-            idx, want, delta = idx[keep], want[keep], delta[keep]
+            idx, want, delta, reading = idx[keep], want[keep], delta[keep], reading[keep]
+        self._last[idx] = reading
         if not len(idx) or not delta.any():
             return
         self._applied[idx] = want
