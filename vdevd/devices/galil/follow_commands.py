@@ -344,6 +344,7 @@ class FollowCommands:
             motion.values["PR"][a] = v
             motion.mode[a] = Mode.PR
         motion.begin(axes)
+        self.follow.spm.corrected[axes] += values
         return OK
 
     def qs(self, arg: str) -> bytes:

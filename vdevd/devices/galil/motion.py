@@ -133,6 +133,9 @@ class GalilMotion:
         #: +1, or -1 where MT -1 reverses the servo polarity or CE 2/3 reverses the main encoder:
         #: the sign of the DAC output per count of error (`apply_filter`) [M Ch6 §Using the CE]
         self.loop_sign = np.ones(n)
+        #: -1 where CE 2/3 reverses the main encoder: the core's output is the DAC seen in the
+        #: reversed count direction (`torque`)
+        self.dac_sign = np.ones(n)
         # index pulses at phase + k * period in physical counts (period 0: none)
         self.index_period = np.full(n, 4096.0)
         self.index_phase = np.zeros(n)
@@ -205,6 +208,7 @@ class GalilMotion:
             reversed_servo = self.values["MT"] == -1
             reversed_encoder = (self.values["CE"].astype(np.int64) & 3) >= 2
             self.loop_sign[:] = np.where(reversed_servo != reversed_encoder, -1.0, 1.0)
+            self.dac_sign[:] = np.where(reversed_encoder, -1.0, 1.0)
             self.apply_filter()
         elif name == "KS":
             self.stepper.set_ks(self.values["KS"])
@@ -551,7 +555,8 @@ class GalilMotion:
 
     def torque(self) -> np.ndarray:
         """TT: the DAC output in volts."""
-        return np.clip(np.rint(self.core.axes.out), -DAC_FULL_SCALE, DAC_FULL_SCALE) / COUNTS_PER_VOLT
+        out = np.clip(np.rint(self.core.axes.out), -DAC_FULL_SCALE, DAC_FULL_SCALE)
+        return out * self.dac_sign / COUNTS_PER_VOLT
 
     def destination(self) -> np.ndarray:
         """_PA: the destination while moving, else the commanded position [M Ch6]."""

@@ -33,6 +33,9 @@ class StepperMaintenance:
         self.motion = motion
         self.values = {k: np.full(n, d) for k, (d, _, _) in SPM_PARAMS.items()}
         self.ys = np.zeros(n, dtype=np.int64)
+        #: the pulses of YR corrections: they move the motor to where the encoder says it
+        #: should be, so they count in the step register but not in QS (ASSUMPTION)
+        self.corrected = np.zeros(n)
 
     @property
     def active(self) -> bool:
@@ -40,9 +43,9 @@ class StepperMaintenance:
         return bool(self.ys.any())
 
     def error(self) -> np.ndarray:
-        """QS, in pulses: TD - TP * YA * YB / YC [M Ch6 §SPM]."""
+        """QS, in pulses: TD - TP * YA * YB / YC [M Ch6 §SPM] (TD without YR's pulses)."""
         m, v = self.motion, self.values
-        return m.auxiliary() - m.position() * (v["YA"] * v["YB"] / v["YC"])
+        return m.auxiliary() - self.corrected - m.position() * (v["YA"] * v["YB"] / v["YC"])
 
     def step(self) -> None:
         """The error check: |QS| over 3 * YA pulses sets YS 2 (OE 1 stops the axis); an axis
