@@ -3,9 +3,13 @@ the 2^n-sample intervals, WC, the buffer running empty, leaving the mode, and mi
 
 from __future__ import annotations
 
+import numpy as np
+from vdevmaps.galil import AxisStatus, InterruptStatus
+
 from tests.devices.galil.follow_rig import Rig
 from vdevd.devices.galil.contour import BUFFER_SIZE
 from vdevd.devices.galil.errors import TC
+from vdevd.devices.galil.record import record_dtype
 
 #: [M Ch6 §Specifying Contour Segments]: X = 0 at 0 ms, 48 at 4, 288 at 12, 336 at 28
 MANUAL_PROGRAM = "CMX;DT 2;CD 48;WC;DT 3;CD 240;WC;DT 4;CD 48;WC;DT0;CD0"
@@ -100,3 +104,22 @@ def test_contour_misuse_answers_with_its_tc() -> None:
     rig.cmd("PR 1000;BGX")
     rig.run(2)
     assert rig.refused("CMX") == TC.NOT_VALID_WHILE_RUNNING
+
+
+def test_the_record_shows_contour_mode_and_its_end_is_a_motion_complete() -> None:
+    """Status word bit 6 "mode of motion contour" [M Ch4 §Explanation of Status Information];
+    EI bit 0: X's motion complete (D0) when the contour ends [M Ch4 §Interrupts]."""
+    rig = Rig()
+    dtype = record_dtype(4, "little")
+
+    def status() -> int:
+        return int(np.frombuffer(rig.fw.data_record(), dtype)["axis"]["status"][0][0])
+
+    rig.cmd("EI 1;CMX;DT 2;CD 100")
+    rig.run(2)
+    assert status() & AxisStatus.CONTOUR and status() & AxisStatus.MOVING
+    rig.cmd("DT 0;CD 0")
+    rig.run(10)
+    assert not status() & (AxisStatus.CONTOUR | AxisStatus.MOVING)
+    assert rig.bus.pending_interrupts == (InterruptStatus.AXIS_COMPLETE,)
+    assert rig.ints("SC X;RP X") == [51, 100]

@@ -98,6 +98,9 @@ def test_ecam_misuse_answers_with_its_tc() -> None:
     rig.cmd("EG 0,0")
     assert rig.refused("EA X") == TC.NOT_VALID_RUNNING_ECAM  # 100
     assert rig.refused("EG ,,0") == TC.NOT_VALID_PERFORMING_ECAM  # the master as its own slave
+    rig.cmd("GA ,,,Z")
+    assert rig.refused("GR 1") == TC.NOT_VALID_PERFORMING_ECAM  # X is a cam slave
+    assert rig.refused("CMY") == TC.NOT_VALID_PERFORMING_ECAM
     assert rig.refused("EM ,,9000000") == TC.NUMBER_OUT_OF_RANGE
 
 

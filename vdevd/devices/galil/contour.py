@@ -61,16 +61,20 @@ class Contour:
         """CD: one segment over the present DT (DT 0 and all zero: the end of the mode)."""
         self.buffer.append((1 << self.dt if self.dt else 0, increments[self.idx].copy()))
 
-    def leave(self) -> None:
-        """Out of contour mode now (the end of the data, ST, AB): the axes hold where they are."""
+    def leave(self, stop_code: int | None = SC_STOPPED) -> None:
+        """Out of contour mode now (the end of the data, ST; AB with `stop_code` None: the
+        abort's code stays): the axes hold where they are, their motion complete."""
         if not self.on:
             return
         self.on = False
         self.buffer.clear()
         self._samples = 0
         m = self.motion
-        m.core.hold(self.idx[m.core.profile.moving[self.idx]])
-        m.stop_code[self.idx] = SC_STOPPED
+        moving = self.idx[m.core.profile.moving[self.idx]]
+        if stop_code is not None:
+            m.stop_code[self.idx] = stop_code
+            m.stop_reason[moving] = stop_code
+        m.core.hold(moving)
 
     def step(self) -> None:
         """Before a sample: the next interpolated point of the running segment, the next segment
@@ -85,6 +89,8 @@ class Contour:
             if not samples:
                 self.leave()
                 return
+            if self._holding:
+                self.motion.tracking(self.idx)
             self._samples, self._inc, self._k, self._holding = samples, inc, 0, False
         self._k += 1
         k, n = self._k, self._samples

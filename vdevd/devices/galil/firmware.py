@@ -356,7 +356,7 @@ class Firmware:
         rec["error_code"] = self.error_code & 0xFF
         rec["general_status"] = int(GeneralStatus.ECHO_ON) if self.echo else 0
         ax = rec["axis"]
-        ax["status"] = m.status_word()
+        ax["status"] = m.status_word() | self.follow.status_bits()
         ax["switches"] = m.switches(self.latch_inputs())
         ax["stop_code"] = m.stop_code
         ax["reference_position"] = wrap_int32(m.reference())

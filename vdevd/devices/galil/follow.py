@@ -9,6 +9,9 @@ ticks as before and may rest (decision 0008); one with any engaged is not at res
 
 from __future__ import annotations
 
+import numpy as np
+from vdevmaps.galil import AxisStatus
+
 from vdevd.devices.galil.commutation import Commutation
 from vdevd.devices.galil.contour import Contour
 from vdevd.devices.galil.ecam import Ecam
@@ -54,10 +57,18 @@ class Follow:
             self.contour.leave()
         self.refresh()
 
+    def status_bits(self) -> np.ndarray:
+        """Bits of the axis status word these modes set: 6, contour mode [M Ch4 §Explanation of
+        Status Information]."""
+        bits = np.zeros(self.motion.n, dtype=np.int64)
+        if self.contour.on:
+            bits[self.contour.idx] |= int(AxisStatus.CONTOUR)
+        return bits
+
     def aborted(self) -> None:
         """AB or the abort input: gearing, ECAM and contour end at once (ASSUMPTION: the
         manual names ST and limit switches only)."""
         self.gearing.disengage(list(range(self.motion.n)))
         self.ecam.release_all()
-        self.contour.leave()
+        self.contour.leave(None)
         self.refresh()

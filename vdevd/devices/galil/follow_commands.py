@@ -107,6 +107,8 @@ class FollowCommands:
         def check(a: int, v: float) -> float:
             if not abs(v) <= GR_LIMIT + GR_RESOLUTION / 2:
                 raise GalilError(TC.NUMBER_OUT_OF_RANGE, f"GR {v}")
+            if v and self.follow.ecam.engaged[a]:
+                raise GalilError(TC.NOT_VALID_PERFORMING_ECAM)
             return round(v / GR_RESOLUTION) * GR_RESOLUTION
 
         got = self._values("GR", arg, check, lambda: gear.ratio, _GR_FORMAT)
@@ -253,6 +255,8 @@ class FollowCommands:
             raise GalilError(TC.NOT_VALID_CONTOURING)
         if any(motion.moving(a) for a in axes):
             raise GalilError(TC.NOT_VALID_WHILE_RUNNING)
+        if self.follow.ecam.engaged[axes].any():
+            raise GalilError(TC.NOT_VALID_PERFORMING_ECAM)
         contour.begin(axes)
         return self._done()
 

@@ -249,6 +249,12 @@ class GalilMotion:
     def moving(self, a: int) -> bool:
         return bool(self.core.profile.moving[a])
 
+    def tracking(self, axes: Any) -> None:
+        """Axes whose commanded position a follower mode (contour) now sets every sample: in
+        motion, and the end of it is a motion complete like a move's (`tick`, `_finish`)."""
+        self._moving_prev[axes] = True
+        self.stop_reason[axes] = 0
+
     # -- commands ----------------------------------------------------------------------------------
     def begin(self, axes: list[int]) -> None:
         """BG: check every axis first (TC 20 motor off, 21 running, 22 limit), then start all."""
