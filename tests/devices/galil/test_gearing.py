@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tests.devices.galil.follow_rig import Rig
 from vdevd.devices.galil.errors import TC
@@ -117,3 +119,30 @@ def test_bad_gearing_commands_answer_with_their_tc() -> None:
     assert rig.refused("GA ,Q") == TC.OPERAND_ERROR
     assert rig.refused("GM 2") == TC.NUMBER_OUT_OF_RANGE
     assert rig.cmd("GR 127.99994;GR ?") == "127.9999"
+
+
+@settings(derandomize=True, max_examples=25, deadline=None)
+@given(ratios=st.lists(st.integers(-1_279_999, 1_279_999), min_size=3, max_size=3),
+       moves=st.lists(st.integers(-5000, 5000), min_size=1, max_size=3))
+def test_followers_end_at_ratio_times_the_master_s_travel(ratios: list[int], moves: list[int]
+                                                          ) -> None:
+    """Any ratios (resolution 0.0001) and any master moves, forth and back: each follower ends at
+    GR x the master's net travel, rounded to a count."""
+    rig = Rig()
+    gr = [r / 10_000 for r in ratios]
+    rig.cmd("GA ,X,X,X;GR ," + ",".join(f"{g:.4f}" for g in gr))
+    for d in moves:
+        rig.cmd(f"PR {d};SP 200000;BGX")
+        rig.run_until_stopped()
+    travel = sum(moves)
+    assert rig.ints("RP") == [travel] + [round(g * travel) for g in gr]
+
+
+def test_ip_on_a_geared_follower_is_a_relative_move_on_top() -> None:
+    """"this IP command is equivalent to PR,10 BGY" [M Ch6 Example - Gantry Mode]."""
+    rig = Rig()
+    rig.cmd("GA ,CX;GR ,1;GM ,1;PR 3000;BGX")
+    rig.run(20)
+    rig.cmd("IP ,10")
+    rig.run_until_stopped()
+    assert rig.ints("RP X;RP Y") == [3000, 3010]
