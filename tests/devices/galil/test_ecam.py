@@ -40,8 +40,8 @@ def test_between_points_the_table_is_interpolated_and_the_cycle_repeats() -> Non
     rig.cmd("EG 0,0")
     master_to(rig, 1000)  # halfway between ET[2] and ET[3]
     assert rig.ints("RP X;RP Y") == [180, 90]
-    master_to(rig, 4000 + 400)  # the second cycle: the master modulo 4000
-    assert rig.ints("RP X;RP Y") == [40, 20]
+    master_to(rig, 4000 + 400)  # into the second cycle: the master redefined modulo 4000
+    assert rig.ints("RP X;RP Y;RP Z") == [40, 20, 400]
     assert rig.ints("SC X;SC Y") == [60, 60]  # SC 60: running ECAM (spec §4.4)
 
 
@@ -65,14 +65,18 @@ def test_eq_disengages_where_the_master_passes_its_position() -> None:
     assert rig.ints("RP X;RP Y") == [280, 140]
 
 
-def test_the_slave_change_per_cycle_accumulates() -> None:
-    """[M Ch6 Step 2]: master cycle 6000, slave change 1500, table 0, 3000, 2250, 1500."""
+def test_at_the_end_of_a_cycle_master_and_slave_positions_are_redefined() -> None:
+    """[M Ch6 Step 2]: master cycle 6000, slave change 1500, table 0, 3000, 2250, 1500; "at the
+    end of a cycle when the master is 6000 and the slave is 1500, the positions of both x and y
+    are redefined as zero"; the motion goes on (a follower geared to the master sees no jump)."""
     rig = Rig()
     rig.cmd("EAX;EM 6000,1500;EP 2000,0;ET[0]=,0;ET[1]=,3000;ET[2]=,2250;ET[3]=,1500;EB1;EG ,0")
-    master_to_x = "PA 8000;SP 50000;BGX"
-    rig.cmd(master_to_x)
+    rig.cmd("GA ,,,CX;GR ,,,1")
+    rig.cmd("PA 8000;SP 50000;BGX")
     rig.run_until_stopped()
-    assert rig.ints("RP Y") == [1500 + 3000]  # one cycle done, then ET[1]
+    assert rig.ints("RP X;RP Y;RP W") == [2000, 3000, 8000]
+    physical = rig.fw.motion.core.physical()
+    assert physical[:2].tolist() == [8000, 1500 + 3000]  # the stage went on through the cycle
 
 
 def test_eb0_releases_the_slaves_and_an_engaged_cam_keeps_the_card_busy() -> None:

@@ -5,10 +5,13 @@ cycle, `EP m,n` the table's master interval and start, `ET[i]` the slave positio
 position n + i*m (i = 0..256), `EB 1` enables the mode, `EG`/`EQ` engage and disengage each
 slave when the master passes a position of its cycle (at once if the position is outside it).
 An engaged slave's commanded position is the table, linearly interpolated at the master's
-position modulo its cycle, plus its change per cycle for every whole cycle since it engaged.
+position within its cycle; at the end of a cycle the master's position is redefined by its cycle
+and each engaged slave's by its change per cycle, the motion going on [M Ch6 Step 2].
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 
@@ -37,7 +40,8 @@ class Ecam:
         self.engaged = np.zeros(n, dtype=bool)
         self.engage_at = np.full(n, np.nan)  # EG pending: the master position
         self.disengage_at = np.full(n, np.nan)  # EQ pending
-        self._cycles0 = np.zeros(n)  # the master's whole cycles when each slave engaged
+        #: called with (axes, counts) when positions are redefined at the end of a cycle
+        self.on_redefine: Callable[[np.ndarray, np.ndarray], None] | None = None
         self._prev = 0.0  # the master's reading at the last sample
 
     @property
@@ -98,7 +102,7 @@ class Ecam:
             else:
                 self.engage_at[a] = x
         if now:
-            self._engage(np.asarray(now, dtype=np.int64), p)
+            self._engage(np.asarray(now, dtype=np.int64))
 
     def disengage(self, axes: list[int], positions: list[float]) -> None:
         """EQ: disengage when the master passes `positions` (outside the cycle: now)."""
@@ -117,11 +121,10 @@ class Ecam:
     def _reading(self) -> float:
         return float(self.motion.position()[self.master])
 
-    def _engage(self, idx: np.ndarray, p: float) -> None:
+    def _engage(self, idx: np.ndarray) -> None:
         idx = idx[~self.engaged[idx]]
         self.engaged[idx] = True
         self.engage_at[idx] = np.nan
-        self._cycles0[idx] = np.floor(p / self.master_cycle)
         self.motion.stop_code[idx] = SC_RUNNING
 
     def _release(self, idx: np.ndarray) -> None:
@@ -131,18 +134,32 @@ class Ecam:
         self.motion.stop_code[idx] = SC_STOPPED
 
     def positions(self, p: float, idx: np.ndarray) -> np.ndarray:
-        """The table at master reading `p` for the slaves `idx` (linear between points), plus
-        their change per cycle for each whole cycle since they engaged."""
-        cycle = self.master_cycle
-        u = (np.mod(p, cycle) - self.start) / self.interval
+        """The table at master reading `p` (within the cycle) for the slaves `idx`, linear
+        between points, flat before the first and after the last."""
+        u = (p - self.start) / self.interval
         i = int(min(max(np.floor(u), 0), TABLE_POINTS - 2))
         f = min(max(u - i, 0.0), 1.0)
         rows = self.table[i:i + 2][:, idx]
-        value = rows[0] + (rows[1] - rows[0]) * f
+        return rows[0] + (rows[1] - rows[0]) * f
+
+    def _wrap(self, p: float) -> float:
+        """At the end of a cycle the positions are redefined: the master's by its cycle, each
+        engaged slave's by its change per cycle, in the table's direction [M Ch6 Step 2]; the
+        motion goes on. Returns the master's reading after."""
+        cycle = self.master_cycle
+        turns = np.floor(p / cycle)
+        if not turns:
+            return p
+        idx = np.flatnonzero(self.engaged)
         last = min(int(round(cycle / self.interval)), TABLE_POINTS - 1)
         direction = np.where(self.table[last, idx] < self.table[0, idx], -1.0, 1.0)
-        turns = np.floor(p / cycle) - self._cycles0[idx]
-        return value + turns * np.abs(self.cycle[idx]) * direction
+        axes = np.concatenate(([self.master], idx)).astype(np.int64)
+        counts = -turns * np.concatenate(([cycle], np.abs(self.cycle[idx]) * direction))
+        self.motion.core.shift_position(axes, counts)
+        if self.on_redefine is not None:
+            self.on_redefine(axes, counts)
+        self._prev -= turns * cycle
+        return p - turns * cycle
 
     def _crossed(self, marks: np.ndarray, p: float) -> np.ndarray:
         """Which finite `marks` (positions within the cycle) the master passed since the last
@@ -155,11 +172,11 @@ class Ecam:
     def step(self) -> None:
         """Before a sample: pending engagements and disengagements, then the slaves' commanded
         positions from the table at the master's reading."""
-        p = self._reading()
+        p = self._wrap(self._reading())
         if np.isfinite(self.engage_at).any():
             hit = self._crossed(self.engage_at, p)
             if hit.any():
-                self._engage(np.flatnonzero(hit), p)
+                self._engage(np.flatnonzero(hit))
         if np.isfinite(self.disengage_at).any():
             hit = self._crossed(self.disengage_at, p)
             if hit.any():

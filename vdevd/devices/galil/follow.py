@@ -27,6 +27,7 @@ class Follow:
         self.motion = motion
         self.gearing = Gearing(motion)
         self.ecam = Ecam(motion)
+        self.ecam.on_redefine = self.gearing.redefined
         self.contour = Contour(motion)
         self.spm = StepperMaintenance(motion)
         self.commutation = Commutation(motion)

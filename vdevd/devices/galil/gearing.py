@@ -14,6 +14,7 @@ import enum
 import numpy as np
 
 from vdevd.devices.galil.motion import GalilMotion
+from vdevd.rt import PlantKind
 
 #: GR: +-127.9999 with a fractional resolution of .0001 [M Ch6 §Electronic Gearing]
 GR_LIMIT = 127.9999
@@ -82,6 +83,20 @@ class Gearing:
         standard = [a for a in axes if not self.gantry[a]]
         if standard:
             self.disengage(standard)
+
+    def redefined(self, axes: np.ndarray, counts: np.ndarray) -> None:
+        """Positions of `axes` redefined by `counts` (command and encoder alike, the ECAM cycle's
+        end): their followers go on without a jump."""
+        idx = self._idx
+        if not len(idx):
+            return
+        shift = np.zeros(self.motion.n)
+        shift[axes] = counts
+        moved = shift[self.master[idx]]
+        if self.motion.plant_kind != PlantKind.STEPPER:  # TD does not move on a servo axis
+            moved = np.where(self.source[idx] == Source.AUXILIARY, 0.0, moved)
+        self._base_master[idx] += moved
+        self._last[idx] += moved
 
     def _rebase(self) -> None:
         """Make the present master readings the base of the increments that follow."""
