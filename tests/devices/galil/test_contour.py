@@ -123,3 +123,14 @@ def test_the_record_shows_contour_mode_and_its_end_is_a_motion_complete() -> Non
     assert not status() & (AxisStatus.CONTOUR | AxisStatus.MOVING)
     assert rig.bus.pending_interrupts == (InterruptStatus.AXIS_COMPLETE,)
     assert rig.ints("SC X;RP X") == [51, 100]
+
+
+def test_a_limit_switch_in_the_path_ends_the_contour() -> None:
+    rig = Rig()
+    rig.cmd("CMX;DT 3;CD 800")
+    rig.run(3)
+    rig.fw.set_limits(np.array([True, False, False, False]), np.zeros(4, dtype=bool))
+    rig.run(20)
+    x = rig.ints("RP X")[0]
+    assert 0 < x < 800
+    assert rig.ints("SC X") == [2] and not rig.fw.follow.contour.on

@@ -3,8 +3,9 @@
 `CM` puts axes in contour mode; `CD x,y,z,w` queues position increments (+-32000 counts) over the
 interval `DT n`, 2^n samples (the manual's "2^n ms" at TM 1000); the card interpolates linearly,
 one point a sample. With the buffer empty the axes wait where they are, no motion generated;
-`DT 0` then `CD 0` leaves the mode once the buffer has run out. `WC` waits until the interval
-before the last one given is complete, `_CM` is 0 when the buffer is empty, else 1 [M Ch6].
+`DT 0` then `CD 0` leaves the mode once the buffer has run out, a limit switch the path heads
+into at once (SC 2/3). `WC` waits until the interval before the last one given is complete,
+`_CM` is 0 when the buffer is empty, else 1 [M Ch6].
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from collections import deque
 
 import numpy as np
 
-from vdevd.devices.galil.motion import GalilMotion
+from vdevd.devices.galil.motion import GalilMotion, StopCode
 
 CD_LIMIT = 32_000  # counts per interval [M Ch6 §Command Summary - Contour Mode]
 DT_MAX = 8
@@ -92,6 +93,13 @@ class Contour:
             if self._holding:
                 self.motion.tracking(self.idx)
             self._samples, self._inc, self._k, self._holding = samples, inc, 0, False
+        m = self.motion
+        ahead = ((m.forward_limit[self.idx] & (self._inc > 0))
+                 | (m.reverse_limit[self.idx] & (self._inc < 0)))
+        if ahead.any():  # a limit switch in the way stops the contour [M Ch3 §Limit Switch Input]
+            forward = bool((m.forward_limit[self.idx] & (self._inc > 0)).any())
+            self.leave(StopCode.FORWARD_LIMIT if forward else StopCode.REVERSE_LIMIT)
+            return
         self._k += 1
         k, n = self._k, self._samples
         self.motion.core.track(self.idx, self._start + self._inc * (k / n))
