@@ -93,3 +93,24 @@ def test_bad_ecam_and_contour_input_answers_question_mark_with_the_tc(g: gclib.p
         g.GCommand("EG 0")
     assert g.GCommand("TC1") == "105 EB1 command must be given first"
     assert g.GCommand("TPX") == "0000000000"  # the card serves on
+
+
+def test_a_reversed_encoder_with_a_reversed_servo_closes_the_loop(g: gclib.py) -> None:
+    """CE 2 (reversed main encoder) with MT -1 (reversed polarity servo) [M Ch6 §Using the CE
+    Command]: the move ends at its target; MT -1 alone runs away (ER then OE stop it)."""
+    g.GCommand("CE 2;MT -1;PR 1000;BGX")
+    g.GMotionComplete("X")
+    g.GSleep(300)
+    assert g.GCommand("TP X") == "0000001000"
+    g.GCommand("CE ,0;MT ,-1;ER ,2000;OE ,1;PR ,1000;BGY")
+    g.GSleep(300)
+    assert g.GCommand("MG _MOY") == "0000000001.0000"  # off on error: the loop ran away
+    assert g.GCommand("SC Y") == "008"
+
+
+def test_commutation_setup_through_gcommand(g: gclib.py) -> None:
+    g.GCommand("BAX;BM 62000;BZ -2")
+    assert g.GCommand("MG _BAX,_MOW,_MOX") == "0000000001.0000 0000000001.0000 0000000000.0000"
+    with pytest.raises(gclib.GclibError):
+        g.GCommand("BMY=1000")
+    assert g.GCommand("TC1") == "110 Must be made brushless by BA command"
