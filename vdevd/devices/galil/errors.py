@@ -32,7 +32,6 @@ class TC(enum.IntEnum):
     BEGIN_LIMIT_SWITCH = 22
     S_OPERAND_NOT_VALID = 28
     NO_TIME_SPECIFIED = 39
-    CONTOUR_RANGE = 41
     GEAR_MASTER_AND_FOLLOWER = 46
     NOT_ENOUGH_FIELDS = 50
     QUESTION_MARK_NOT_VALID = 51
@@ -54,7 +53,6 @@ class TC(enum.IntEnum):
     NOT_VALID_PERFORMING_ECAM = 104
     EB1_FIRST = 105
     NOT_BRUSHLESS = 110
-    BZ_TIMEOUT = 112
 
 
 #: code -> text, as `TC1` prints it
