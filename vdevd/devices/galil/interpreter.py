@@ -22,6 +22,7 @@ from vdevd.devices.galil.arrays import ArrayDownload
 from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
 from vdevd.devices.galil.errors import TC, TEXTS, GalilError
 from vdevd.devices.galil.expr import evaluate
+from vdevd.devices.galil.follow_commands import FollowCommands
 from vdevd.devices.galil.motion import Mode, StopCode
 from vdevd.devices.galil.numbers import (
     POSITION_FORMAT,
@@ -64,7 +65,7 @@ class Interpreter(ArrayCommands):
         self.fw = fw
         self.n = fw.n
         self.handlers: dict[str, Callable[[str], bytes | Trippoint | ArrayDownload]] = (
-            COMMANDS.bind(self))
+            COMMANDS.bind(self, FollowCommands(self)))
 
     # -- entry -------------------------------------------------------------------------------------
     def execute(self, text: str) -> bytes | Trippoint | ArrayDownload:
@@ -166,7 +167,9 @@ class Interpreter(ArrayCommands):
         return OK
 
     def _st(self, arg: str) -> bytes:
-        self.fw.motion.stop(self.axes(arg))
+        axes = self.axes(arg)
+        self.fw.motion.stop(axes)
+        self.fw.follow.stopped(axes)
         return OK
 
     def _ab(self, arg: str) -> bytes:
@@ -174,6 +177,7 @@ class Interpreter(ArrayCommands):
         if arg.strip() and self.value(arg) not in (0, 1):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
         self.fw.motion.abort(list(range(self.n)), StopCode.ABORT_COMMAND)
+        self.fw.follow.aborted()
         return OK
 
     def _mo(self, arg: str) -> bytes:
