@@ -11,7 +11,6 @@ from typing import TYPE_CHECKING
 
 from vdevd.devices.galil.arrays import ArrayDownload, split_reference, split_references
 from vdevd.devices.galil.errors import TC, GalilError
-from vdevd.devices.galil.numbers import VARIABLE_FORMAT
 from vdevd.devices.galil.recorder import MAX_RATE, MAX_RECORD_ARRAYS
 
 if TYPE_CHECKING:
@@ -38,6 +37,8 @@ class ArrayCommands:
         def value(self, text: str) -> float: ...
 
         def fmt(self, value: float, digits: int, frac: int) -> str: ...
+
+        def var(self, value: float) -> str: ...
 
         @staticmethod
         def data(text: str) -> bytes: ...
@@ -97,7 +98,7 @@ class ArrayCommands:
     def _lv(self, arg: str) -> bytes:
         """LV: every variable, `NAME = value` (the variable format) a line, alphabetically."""
         variables = self.fw.variables
-        lines = [f"{name} = {self.fmt(variables[name], *VARIABLE_FORMAT)}"
+        lines = [f"{name} = {self.var(variables[name])}"
                  for name in sorted(variables)]
         return "".join(line + CRLF for line in lines).encode() + b":"
 
@@ -123,9 +124,8 @@ class ArrayCommands:
         if delim not in (None, 0, 1):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE, f"delimiter {delim}")
         elements, lo, hi = self.fw.arrays.span(name, first, last)
-        fmt = self.fmt
-        text = ("," if delim == 1 else "\r").join(
-            [fmt(v, *VARIABLE_FORMAT) for v in elements[lo:hi + 1].tolist()])
+        var = self.var
+        text = ("," if delim == 1 else "\r").join([var(v) for v in elements[lo:hi + 1].tolist()])
         return self.data(text)
 
     def _qd(self, arg: str) -> ArrayDownload:

@@ -58,8 +58,6 @@ _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
     (("OC",), "output compare: not built yet (no issue schedules it)", TC.UNRECOGNIZED_COMMAND),
     (("CO",), "extended I/O banks: the card has none configured", TC.UNRECOGNIZED_COMMAND),
     (("TR",), "program trace: there are no programs yet", TC.UNRECOGNIZED_COMMAND),
-    (("PF", "VF"), "reply formats are fixed at the defaults (PF 10.0, VF 10.4)",
-     TC.UNRECOGNIZED_COMMAND),
     (("AF",), "analog feedback: every axis reads its encoder", TC.UNRECOGNIZED_COMMAND),
 )
 
@@ -107,6 +105,8 @@ COMMANDS = CommandTable(
         # -- settings ---------------------------------------------------------------------------
         Command("EO", "_flag", ("echo",), section="M Ch4 §Communication with Controller"),
         Command("LZ", "_flag", ("lz",), section="M Ch5 §Interrogation Commands"),
+        Command("PF", "pf", section="M Ch5 §Interrogation Commands; spec §4.4 (formats.py)"),
+        Command("VF", "vf", section="M Ch5 §Interrogation Commands; spec §4.4 (formats.py)"),
         Command("TM", "_tm", section="M Ch5 binary command table"),
         Command("DR", "_dr", section="M Ch4 §Secondary FIFO"),
         Command("RS", "_rs", section="M Ch4 §Clearing FIFO Buffer"),

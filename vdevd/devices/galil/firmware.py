@@ -21,6 +21,7 @@ from vdevd.devices.galil.bus import A16Window
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.follow import Follow
 from vdevd.devices.galil.follow_commands import operand
+from vdevd.devices.galil.formats import DEFAULT_PF, DEFAULT_VF
 from vdevd.devices.galil.interpreter import OK, Interpreter, Trippoint
 from vdevd.devices.galil.motion import GalilMotion, StopCode
 from vdevd.devices.galil.numbers import REPORT_FORMATS
@@ -94,6 +95,7 @@ class Firmware:
         self.error_code = 0
         self.echo = 0
         self.lz = 0
+        self.pf, self.vf = DEFAULT_PF, DEFAULT_VF  # PF, VF [formats.py]
         self.tm_us = float(self.configured_tm_us)
         self.record_rate = 0
         self.outputs = 0
@@ -408,7 +410,8 @@ class _Env:
         scalars = {"TC": fw.error_code, "TB": fw.status_byte(), "OP": fw.outputs,
                    "EO": fw.echo, "LZ": fw.lz, "TM": fw.tm_us, "DR": fw.record_rate,
                    "DM": fw.arrays.free_elements, "DA": fw.arrays.free_arrays,
-                   "RC": fw.recorder.active, "RD": fw.recorder.next_index}
+                   "RC": fw.recorder.active, "RD": fw.recorder.next_index,
+                   "PF": fw.pf.number(), "VF": fw.vf.number()}
         if name in scalars:
             return float(scalars[name])
         followed = operand(fw.follow, name)

@@ -23,11 +23,12 @@ from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
 from vdevd.devices.galil.errors import TC, TEXTS, GalilError
 from vdevd.devices.galil.expr import evaluate
 from vdevd.devices.galil.follow_commands import FollowCommands
+from vdevd.devices.galil.formats import FormatCommands
 from vdevd.devices.galil.motion import Mode, StopCode
 from vdevd.devices.galil.numbers import (
-    POSITION_FORMAT,
+    POSITION_PARAMS,
+    POSITION_REPORTS,
     REPORT_FORMATS,
-    VARIABLE_FORMAT,
     format_number,
 )
 from vdevd.devices.galil.params import MOTOR_TYPES, PARAMS
@@ -57,7 +58,7 @@ class Trippoint:
     ready: Callable[[], bool]
 
 
-class Interpreter(ArrayCommands):
+class Interpreter(ArrayCommands, FormatCommands):
     """The command language over one card's firmware state (`fw`); its commands are the table
     of commands.py, bound once."""
 
@@ -89,6 +90,14 @@ class Interpreter(ArrayCommands):
     def fmt(self, value: float, digits: int, frac: int) -> str:
         return format_number(value, digits, frac, lz=not self.fw.lz)
 
+    def pos(self, value: float) -> str:
+        """A position in the position format (PF)."""
+        return self.fw.pf.text(value, lz=not self.fw.lz)
+
+    def var(self, value: float) -> str:
+        """A variable, array element or MG number in the variable format (VF)."""
+        return self.fw.vf.text(value, lz=not self.fw.lz)
+
     @staticmethod
     def data(text: str) -> bytes:
         return text.encode("latin-1") + CRLF + OK
@@ -106,16 +115,18 @@ class Interpreter(ArrayCommands):
         return [(a, f) for a, f in enumerate(fields) if f is not None]
 
     def _setter(self, name: str, arg: str, apply: Callable[[list[int], list[float]], None],
-                query: Callable[[], np.ndarray], digits: int, frac: int,
+                query: Callable[[], np.ndarray], digits: int | Callable[[float], str], frac: int,
                 check: Callable[[float], float | None] | None = None) -> bytes:
-        """The common form of a per-axis command: set fields, or answer `?` queries."""
+        """The common form of a per-axis command: set fields, or answer `?` queries in the
+        format `digits`.`frac`, or the one `digits` prints (`self.pos`: PF)."""
         pairs = self.per_axis(arg)
         if not pairs:
             raise GalilError(TC.NOT_ENOUGH_FIELDS, name)
         queries = [a for a, f in pairs if f is syntax.QUERY]
         if queries:
             current = query()
-            return self.data(",".join(self.fmt(float(current[a]), digits, frac) for a in queries))
+            text = digits if callable(digits) else lambda v: self.fmt(v, digits, frac)
+            return self.data(",".join(text(float(current[a])) for a in queries))
         axes: list[int] = []
         values: list[float] = []
         for a, field in pairs:
@@ -147,8 +158,9 @@ class Interpreter(ArrayCommands):
 
         if name == "JG":
             self._check_jog(arg)
+        digits = self.pos if name in POSITION_PARAMS else param.digits
         return self._setter(name, arg, lambda ax, vs: motion.set_param(name, ax, vs), query,
-                            param.digits, param.frac, check)
+                            digits, param.frac, check)
 
     def _check_jog(self, arg: str) -> None:
         """JG while an axis moves in another mode is TC 13 [M Ch6 §Independent Jogging]."""
@@ -201,17 +213,17 @@ class Interpreter(ArrayCommands):
         motion = self.fw.motion
         if any(motion.moving(a) for a, _ in self.per_axis(arg)):
             raise GalilError(TC.NOT_VALID_WHILE_RUNNING)
-        return self._setter("DP", arg, motion.define_position, motion.reference, *POSITION_FORMAT,
+        return self._setter("DP", arg, motion.define_position, motion.reference, self.pos, 0,
                             PARAMS["PA"].coerce)
 
     def _de(self, arg: str) -> bytes:
         motion = self.fw.motion
-        return self._setter("DE", arg, motion.define_aux, motion.auxiliary, *POSITION_FORMAT,
+        return self._setter("DE", arg, motion.define_aux, motion.auxiliary, self.pos, 0,
                             PARAMS["PA"].coerce)
 
     def _ip(self, arg: str) -> bytes:
         motion = self.fw.motion
-        return self._setter("IP", arg, motion.increment, motion.reference, *POSITION_FORMAT,
+        return self._setter("IP", arg, motion.increment, motion.reference, self.pos, 0,
                             PARAMS["PR"].coerce)
 
     def _am(self, arg: str) -> Trippoint:
@@ -258,6 +270,9 @@ class Interpreter(ArrayCommands):
         digits, frac = REPORT_FORMATS[name]
         values = self.fw.report(name).tolist()
         lz = not self.fw.lz
+        if name in POSITION_REPORTS:  # PF [Galil command reference PF]
+            pos = self.pos
+            return self.data(",".join([pos(values[a]) for a in _parse_axes(arg, self.n).axes]))
         return self.data(",".join([format_number(values[a], digits, frac, lz)
                                    for a in _parse_axes(arg, self.n).axes]))
 
@@ -300,9 +315,9 @@ class Interpreter(ArrayCommands):
                 if not item.endswith('"') or len(item) < 2:
                     raise GalilError(TC.MISSING_QUOTE)
                 out.append(item[1:-1])
-            elif item:  # numbers print with a sign column
+            elif item:  # numbers print with a sign column (decimal VF)
                 v = self.value(item)
-                out.append(("" if v < 0 else " ") + self.fmt(v, *VARIABLE_FORMAT))
+                out.append(("" if v < 0 or self.fw.vf.hex else " ") + self.var(v))
         return self.data("".join(out))
 
     def _version(self, arg: str) -> bytes:
@@ -428,7 +443,7 @@ class Interpreter(ArrayCommands):
         if index is not None:
             return self._assign_element(name, index, value)
         if not value.strip():
-            return self.data(self.fmt(self.fw.env.variable(name), *VARIABLE_FORMAT))
+            return self.data(self.var(self.fw.env.variable(name)))
         v = self.value(value)
         variables = self.fw.variables
         if name not in variables and len(variables) >= 254:
@@ -443,7 +458,7 @@ class Interpreter(ArrayCommands):
         if index != int(index):
             raise GalilError(TC.ARRAY_INDEX_INVALID, f"{name}[{index}]")
         if not value.strip():
-            return self.data(self.fmt(arrays.read(name, int(index)), *VARIABLE_FORMAT))
+            return self.data(self.var(arrays.read(name, int(index))))
         arrays.read(name, int(index))  # the element exists before its value is computed
         arrays.write(name, int(index), self.value(value))
         return OK

@@ -23,6 +23,10 @@ REPORT_FORMATS: dict[str, tuple[int, int]] = {
     "TP": POSITION_FORMAT, "TE": POSITION_FORMAT, "RP": POSITION_FORMAT, "TD": POSITION_FORMAT,
     "RL": POSITION_FORMAT, "TV": (7, 0), "TT": (1, 4), "SC": (3, 0), "TS": (3, 0),
 }
+#: the reports and the parameters whose `?` print in the position format PF [Galil command
+#: reference PF: TP, TE, the `?` of DP DE IP PA PR BL FL]; the card's other position reports too
+POSITION_REPORTS = frozenset(("TP", "TE", "RP", "TD", "RL"))
+POSITION_PARAMS = frozenset(("PA", "PR", "BL", "FL"))
 
 
 def units(value: float) -> int:
