@@ -295,9 +295,10 @@ class GalilCard(Card):
 
     def drive_input(self, line: int, level: bool) -> None:
         """General input IN1..IN8 logic level; a falling edge latches an armed axis (IN1..IN4)
-        and raises an enabled input interrupt (EI bit 15)."""
-        if isinstance(line, bool) or not isinstance(line, int) or not 1 <= line <= 8:
-            raise ValueError(f"line {line!r} outside 1..8 (IN1..IN8)")
+        and raises an enabled input interrupt (EI bit 15). Lines 17..80: the extended I/O."""
+        if (isinstance(line, bool) or not isinstance(line, int)
+                or not (1 <= line <= 8 or 17 <= line <= 80)):
+            raise ValueError(f"line {line!r} outside 1..8 (IN1..IN8) and 17..80 (extended I/O)")
         self.firmware.set_input(line, level)
 
     def drive_analog(self, channel: int, volts: float) -> None:

@@ -56,7 +56,6 @@ _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
     (("EW",), "ECAM widen segment: defined only in Application Note #2444, not in the manual",
      TC.UNRECOGNIZED_COMMAND),
     (("OC",), "output compare: not built yet (no issue schedules it)", TC.UNRECOGNIZED_COMMAND),
-    (("CO",), "extended I/O banks: the card has none configured", TC.UNRECOGNIZED_COMMAND),
     (("TR",), "program trace: there are no programs yet", TC.UNRECOGNIZED_COMMAND),
     (("AF",), "analog feedback: every axis reads its encoder", TC.UNRECOGNIZED_COMMAND),
 )
@@ -118,6 +117,7 @@ COMMANDS = CommandTable(
         Command("CB", "_cb", section=_IO),
         Command("OB", "_ob", section=_IO),
         Command("OP", "_op", section=_IO),
+        Command("CO", "co", section="M Ch1 §General I/O; M Ch3 §Uncommitted Digital Inputs"),
         # -- interrupts [M Ch4] ------------------------------------------------------------------
         Command("EI", "_ei", section=_IRQ),
         Command("UI", "_ui", section="M Ch4 §Setting up Interrupts"),

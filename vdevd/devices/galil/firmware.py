@@ -19,6 +19,7 @@ from vdevd.devices.galil import syntax
 from vdevd.devices.galil.arrays import ArrayDownload, ArrayTable
 from vdevd.devices.galil.bus import A16Window
 from vdevd.devices.galil.errors import TC, GalilError
+from vdevd.devices.galil.extended_io import FIRST_BANK, FIRST_POINT, LAST_BANK, LAST_POINT, ExtendedIO
 from vdevd.devices.galil.follow import Follow
 from vdevd.devices.galil.follow_commands import operand
 from vdevd.devices.galil.formats import DEFAULT_PF, DEFAULT_VF
@@ -99,6 +100,10 @@ class Firmware:
         self.tm_us = float(self.configured_tm_us)
         self.record_rate = 0
         self.outputs = 0
+        levels = self.ext.levels if hasattr(self, "ext") else None
+        self.ext = ExtendedIO()  # CO 0: banks 2-9 inputs; the levels driven on them stay
+        if levels is not None:
+            self.ext.levels = levels
         self.ei_mask = 0
         self.ei_inputs = 0
         self.vector: int | None = None
@@ -293,8 +298,11 @@ class Firmware:
         self.motion.abort_input = bool(active)
 
     def set_input(self, input: int, level: int) -> None:
-        """General input IN1..IN8; a falling edge latches an armed axis (IN1..IN4, Fig 3-1) and
+        """General input IN1..IN8 (17..80: an extended I/O point, extended_io.py); a falling edge latches an armed axis (IN1..IN4, Fig 3-1) and
         raises an enabled input interrupt (EI bit 15, then cleared) [M Ch4]."""
+        if input >= FIRST_POINT:
+            self.ext.set_input(input, bool(level))
+            return
         bit = 1 << (input - 1)
         falling = bool(self.inputs & bit) and not level
         self.inputs = self.inputs | bit if level else self.inputs & ~bit
@@ -358,8 +366,10 @@ class Firmware:
         """TI n: IN1-IN8 as a byte for bank 0 (spec §4.4)."""
         if bank == 0:
             return self.inputs
-        if 2 <= bank <= 10:
-            return 0xFF  # extended I/O banks unconfigured; aux-encoder inputs open
+        if FIRST_BANK <= bank <= LAST_BANK:
+            return self.ext.bank(bank)  # extended I/O (CO)
+        if bank == 10:
+            return 0xFF  # aux-encoder inputs 81-88 open
         raise GalilError(TC.NUMBER_OUT_OF_RANGE)
 
     def latch_inputs(self) -> np.ndarray:
@@ -372,8 +382,11 @@ class Firmware:
         rec = np.zeros((), dtype=self._dtype)
         rec["sample_number"] = (self.ticks - self.time_origin) & 0xFFFF
         rec["input_bank_0"] = self.inputs
-        for bank in _UNUSED_INPUT_BANKS:
-            rec[bank] = 0xFF
+        rec["input_bank_1"] = 0xFF  # no inputs 9-16 on a 4-axis card
+        for bank in range(FIRST_BANK, LAST_BANK + 1):
+            rec[f"input_bank_{bank}"] = self.ext.bank(bank)
+            rec[f"output_bank_{bank}"] = self.ext.bank(bank) if self.ext.is_output(
+                FIRST_POINT + 8 * (bank - FIRST_BANK)) else 0
         rec["output_bank_0"] = self.outputs & 0xFF
         rec["error_code"] = self.error_code & 0xFF
         rec["general_status"] = int(GeneralStatus.ECHO_ON) if self.echo else 0
@@ -391,8 +404,6 @@ class Firmware:
         return rec.tobytes()
 
 
-#: banks 1-9 of the record's inputs: no extended I/O, open inputs read 1
-_UNUSED_INPUT_BANKS = tuple(f"input_bank_{i}" for i in range(1, 10))
 #: `_DEx` and `_DPx` read what DE and DP defined: the auxiliary encoder and the reference
 _DEFINED = {"DE": "TD", "DP": "RP"}
 
@@ -411,7 +422,7 @@ class _Env:
                    "EO": fw.echo, "LZ": fw.lz, "TM": fw.tm_us, "DR": fw.record_rate,
                    "DM": fw.arrays.free_elements, "DA": fw.arrays.free_arrays,
                    "RC": fw.recorder.active, "RD": fw.recorder.next_index,
-                   "PF": fw.pf.number(), "VF": fw.vf.number()}
+                   "PF": fw.pf.number(), "VF": fw.vf.number(), "CO": fw.ext.config}
         if name in scalars:
             return float(scalars[name])
         followed = operand(fw.follow, name)
@@ -455,13 +466,15 @@ class _Env:
         if name == "IN":
             if 1 <= n <= 8:
                 return float((fw.inputs >> (n - 1)) & 1)
-            if 17 <= n <= 88:
-                return 1.0  # extended inputs unconfigured, unused aux-encoder inputs open
+            if FIRST_POINT <= n <= LAST_POINT:
+                return float(fw.ext.read(n))  # extended I/O (CO)
+            if 81 <= n <= 88:
+                return 1.0  # unused aux-encoder inputs open
         elif name == "OUT":
             if 1 <= n <= 8:
                 return float((fw.outputs >> (n - 1)) & 1)
-            if 17 <= n <= 80:
-                return 0.0
+            if FIRST_POINT <= n <= LAST_POINT:
+                return float(fw.ext.output(n))
         elif name == "AN":
             if 1 <= n <= 8:
                 return float(fw.analog[n - 1])

@@ -22,8 +22,10 @@ from vdevd.devices.galil.arrays import ArrayDownload
 from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
 from vdevd.devices.galil.errors import TC, TEXTS, GalilError
 from vdevd.devices.galil.expr import evaluate
+from vdevd.devices.galil.extended_io import FIRST_POINT, LAST_POINT
 from vdevd.devices.galil.follow_commands import FollowCommands
 from vdevd.devices.galil.formats import FormatCommands
+from vdevd.devices.galil.io_commands import IoCommands
 from vdevd.devices.galil.motion import Mode, StopCode
 from vdevd.devices.galil.numbers import (
     POSITION_PARAMS,
@@ -58,7 +60,7 @@ class Trippoint:
     ready: Callable[[], bool]
 
 
-class Interpreter(ArrayCommands, FormatCommands):
+class Interpreter(ArrayCommands, FormatCommands, IoCommands):
     """The command language over one card's firmware state (`fw`); its commands are the table
     of commands.py, bound once."""
 
@@ -377,36 +379,56 @@ class Interpreter(ArrayCommands, FormatCommands):
         return OK
 
     # -- I/O ---------------------------------------------------------------------------------------
-    def _bit(self, arg: str) -> int:
+    def _point(self, arg: str) -> int:
+        """An output point: OUT1-OUT8, or 17-80 of the extended I/O (extended_io.py)."""
         n = self.value(arg)
-        if n != int(n) or not 1 <= n <= 8:
+        if n != int(n) or not (1 <= n <= 8 or FIRST_POINT <= n <= LAST_POINT):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
-        return 1 << (int(n) - 1)
+        return int(n)
+
+    def _output(self, point: int, on: bool) -> None:
+        """Set or clear an output point; an extended point of an input bank is TC 6."""
+        if point > 8:
+            self.fw.ext.write(point, on)
+            return
+        bit = 1 << (point - 1)
+        self.fw.outputs = self.fw.outputs | bit if on else self.fw.outputs & ~bit
 
     def _sb(self, arg: str) -> bytes:
-        self.fw.outputs |= self._bit(arg)
+        self._output(self._point(arg), True)
         return OK
 
     def _cb(self, arg: str) -> bytes:
-        self.fw.outputs &= ~self._bit(arg)
+        self._output(self._point(arg), False)
         return OK
 
     def _ob(self, arg: str) -> bytes:
         fields = syntax.parse_fields(arg, 2)
         if len(fields) != 2 or any(f is None or f is syntax.QUERY for f in fields):
             raise GalilError(TC.NOT_ENOUGH_FIELDS)
-        bit = self._bit(str(fields[0]))
-        on = self.value(str(fields[1])) != 0
-        self.fw.outputs = self.fw.outputs | bit if on else self.fw.outputs & ~bit
+        point = self._point(str(fields[0]))
+        self._output(point, self.value(str(fields[1])) != 0)
         return OK
 
     def _op(self, arg: str) -> bytes:
+        """OP m,a,b,c,d: OUT1-8, then the extended outputs 17-80 in words of 16 bits (extended
+        I/O appendix of the DMC-1700/1800: points of input banks ignored)."""
         if arg.strip() == "?":
             return self.data(self.fmt(self.fw.outputs, 3, 0))
-        v = self.value(arg)
-        if v != int(v) or not 0 <= v <= 255:
+        fields = syntax.parse_fields(arg, 5)
+        values: list[int | None] = []
+        for k, field in enumerate(fields):
+            if field is syntax.QUERY:
+                raise GalilError(TC.QUESTION_MARK_NOT_VALID)
+            v = None if field is None else self.value(str(field))
+            if v is not None and (v != int(v) or not 0 <= v <= (255 if k == 0 else 0xFFFF)):
+                raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+            values.append(None if v is None else int(v))
+        if not values:
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
-        self.fw.outputs = int(v)
+        if values[0] is not None:
+            self.fw.outputs = values[0]
+        self.fw.ext.write_words(values[1:])
         return OK
 
     # -- interrupts --------------------------------------------------------------------------------
