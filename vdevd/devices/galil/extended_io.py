@@ -29,6 +29,11 @@ class ExtendedIO:
         self.latches = 0  # bit i = output point 17 + i
         self.levels = _ALL  # bit i = input point 17 + i (open inputs read 1)
 
+    def reset(self) -> None:
+        """RS: CO 0 (every bank inputs), the latches cleared; driven levels stay."""
+        self.config = 0
+        self.latches = 0
+
     def configure(self, n: int) -> None:
         """CO n (0..255); the output latches of banks made inputs clear."""
         if not 0 <= n <= 255:

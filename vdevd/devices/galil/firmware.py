@@ -70,6 +70,7 @@ class Firmware:
         self.env = _Env(self)
         self.analog = np.zeros(8)
         self.inputs = 0xFF  # IN1-IN8 logic levels: open inputs read 1
+        self.ext = ExtendedIO()  # points 17-80 (CO)
         self.interp = Interpreter(self)
         self.reset()
 
@@ -100,10 +101,7 @@ class Firmware:
         self.tm_us = float(self.configured_tm_us)
         self.record_rate = 0
         self.outputs = 0
-        levels = self.ext.levels if hasattr(self, "ext") else None
-        self.ext = ExtendedIO()  # CO 0: banks 2-9 inputs; the levels driven on them stay
-        if levels is not None:
-            self.ext.levels = levels
+        self.ext.reset()  # CO 0: banks 2-9 inputs; the levels driven on them stay
         self.ei_mask = 0
         self.ei_inputs = 0
         self.vector: int | None = None
@@ -298,8 +296,8 @@ class Firmware:
         self.motion.abort_input = bool(active)
 
     def set_input(self, input: int, level: int) -> None:
-        """General input IN1..IN8 (17..80: an extended I/O point, extended_io.py); a falling edge latches an armed axis (IN1..IN4, Fig 3-1) and
-        raises an enabled input interrupt (EI bit 15, then cleared) [M Ch4]."""
+        """General input IN1..IN8 (17..80: an extended I/O point, extended_io.py); a falling
+        edge latches an armed axis (IN1..IN4, Fig 3-1) and raises an enabled input interrupt (EI bit 15, then cleared) [M Ch4]."""
         if input >= FIRST_POINT:
             self.ext.set_input(input, bool(level))
             return
