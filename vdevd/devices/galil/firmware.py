@@ -297,7 +297,8 @@ class Firmware:
 
     def set_input(self, input: int, level: int) -> None:
         """General input IN1..IN8 (17..80: an extended I/O point, extended_io.py); a falling
-        edge latches an armed axis (IN1..IN4, Fig 3-1) and raises an enabled input interrupt (EI bit 15, then cleared) [M Ch4]."""
+        edge latches an armed axis (IN1..IN4, Fig 3-1) and raises an enabled input interrupt
+        (EI bit 15, then cleared) [M Ch4]."""
         if input >= FIRST_POINT:
             self.ext.set_input(input, bool(level))
             return
