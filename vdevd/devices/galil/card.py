@@ -123,6 +123,8 @@ class GalilCard(Card):
                                  clock=lambda: self.now_ns, record_endian=opts.record_endian,
                                  sense=self._sense)
         self.firmware.on_reset = self._on_reset
+        self.cmp = self.add_irq("cmp")  # the CMP output of OC: an event per sample with pulses
+        self.firmware.on_compare = self._compare_pulses
         self._world_changed()
         self.address: str | None = opts.address
         self.serial: int = opts.serial
@@ -204,6 +206,12 @@ class GalilCard(Card):
     def skip(self, k: int) -> None:
         self.firmware.skip(k)
         super().skip(k)
+
+    def _compare_pulses(self, count: int) -> None:
+        """CMP pulsed in this sample (OC): one event on line `cmp`, status the pulses since RS
+        (low 32 bits); the line is a pulse, released at once."""
+        self.cmp.trigger(count & 0xFFFF_FFFF)
+        self.cmp.clear()
 
     def _raise_irq(self, status: int) -> None:
         """The firmware queued `code | vector << 8` with the output enabled: the line asserts at

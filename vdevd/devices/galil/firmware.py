@@ -26,6 +26,7 @@ from vdevd.devices.galil.formats import DEFAULT_PF, DEFAULT_VF
 from vdevd.devices.galil.interpreter import OK, Interpreter, Trippoint
 from vdevd.devices.galil.motion import GalilMotion, StopCode
 from vdevd.devices.galil.numbers import REPORT_FORMATS
+from vdevd.devices.galil.output_compare import OutputCompare
 from vdevd.devices.galil.params import COUNTS_PER_VOLT, PARAMS
 from vdevd.devices.galil.record import record_dtype
 from vdevd.devices.galil.recorder import Recorder
@@ -71,6 +72,8 @@ class Firmware:
         self.analog = np.zeros(8)
         self.inputs = 0xFF  # IN1-IN8 logic levels: open inputs read 1
         self.ext = ExtendedIO()  # points 17-80 (CO)
+        #: CMP pulses of a sample (OC): called with the count since RS (the card's `cmp` line)
+        self.on_compare: Callable[[int], None] | None = None
         self.interp = Interpreter(self)
         self.reset()
 
@@ -102,6 +105,7 @@ class Firmware:
         self.record_rate = 0
         self.outputs = 0
         self.ext.reset()  # CO 0: banks 2-9 inputs; the levels driven on them stay
+        self.compare = OutputCompare()  # OC
         self.ei_mask = 0
         self.ei_inputs = 0
         self.vector: int | None = None
@@ -120,6 +124,8 @@ class Firmware:
     def _after_motion(self, done: np.ndarray | None) -> None:
         """The rest of a sample after its motion, in which the axes of `done` completed."""
         motion = self.motion
+        if self.compare.armed:
+            self._compare()
         if done is not None:
             self._motion_complete(done)
         over = motion.check_error()
@@ -139,7 +145,7 @@ class Firmware:
         """Of the next `room` samples, how many are motion and the ER check alone while no axis
         completes and none crosses ER: none while the interpreter has work (a reply to send, a
         trippoint, commands), none from the next data record or record mode capture on."""
-        if self._out or self._trip is not None or self.bus.commands_waiting:
+        if self._out or self._trip is not None or self.bus.commands_waiting or self.compare.armed:
             return 0
         room = min(room, self.recorder.next_tick - self.ticks - 1)
         rate = self.record_rate
@@ -170,7 +176,8 @@ class Firmware:
         has work (a command, a reply to send, a trippoint), records (RC) or a home search runs."""
         if self._out or self._trip is not None or self.bus.commands_waiting or self.recorder.active:
             return None
-        return self.motion.rest_state()
+        rest = self.motion.rest_state()
+        return None if rest is None else rest + self.compare.state()
 
     def quiet_ticks(self) -> int:
         """At rest, the samples before the next data record (DR n: every 2^n samples)."""
@@ -183,6 +190,12 @@ class Firmware:
         """k samples at rest: only the sample count and the profile clock move."""
         self.ticks += k
         self.motion.core.skip(k)
+
+    def _compare(self) -> None:
+        """OC: the pulses of the positions the watched encoder passed in this sample."""
+        compare = self.compare
+        if compare.check(int(self.motion.position()[compare.axis])) and self.on_compare:
+            self.on_compare(compare.pulses)
 
     def _motion_complete(self, done: np.ndarray) -> None:
         """EI bits 0-3 per axis and bit 8 when every axis has stopped [M Ch4]."""

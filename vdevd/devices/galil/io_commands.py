@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 from vdevd.devices.galil import syntax
 from vdevd.devices.galil.errors import TC, GalilError
+from vdevd.devices.galil.output_compare import MAX_STEP
 
 if TYPE_CHECKING:
     from vdevd.devices.galil.firmware import Firmware
@@ -55,3 +56,19 @@ class IoCommands:
         if any(f is syntax.QUERY for f in fields):
             raise GalilError(TC.QUESTION_MARK_NOT_VALID, name)
         return axis, [None if f is None else str(f) for f in fields]
+
+    def oc(self, arg: str) -> bytes:
+        """OCx=m,n: CMP pulses from the main encoder of x at m, then every n counts (n 0 or
+        omitted: once); `OCX=0` turns the compare off (output_compare.py)."""
+        axis, fields = self._axis_fields("OC", arg)
+        if not fields or fields[0] is None:
+            raise GalilError(TC.NOT_ENOUGH_FIELDS, "OC")
+        m = self._integer(fields[0], -(2**31), 2**31 - 1)
+        step = 0 if len(fields) < 2 or fields[1] is None else self._integer(
+            fields[1], -MAX_STEP, MAX_STEP)
+        compare = self.fw.compare
+        if m == 0 and len(fields) == 1:
+            compare.off()
+            return b":"
+        compare.arm(axis, m, step, int(self.fw.motion.position()[axis]))
+        return b":"
