@@ -315,6 +315,7 @@ class GalilCard(Card):
             raise ValueError(f"channel {channel!r} outside 1..8 (AN1..AN8)")
         step = 20 / 4096  # 4096 levels from -10 V to 10 V - one step
         self.firmware.analog[channel - 1] = min(max(round(volts / step), -2048), 2047) * step
+        self.firmware.analog_driven(channel - 1)  # an AF axis's sensor reads it now
 
     def drive_estop(self, active: bool) -> None:
         """The ABORT input: motion stops at once, OE1 axes turn off [M Ch3 §Abort Input]."""

@@ -56,7 +56,6 @@ _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
     (("EW",), "ECAM widen segment: defined only in Application Note #2444, not in the manual",
      TC.UNRECOGNIZED_COMMAND),
     (("TR",), "program trace: there are no programs yet", TC.UNRECOGNIZED_COMMAND),
-    (("AF",), "analog feedback: every axis reads its encoder", TC.UNRECOGNIZED_COMMAND),
 )
 
 COMMANDS = CommandTable(
@@ -116,6 +115,7 @@ COMMANDS = CommandTable(
         Command("CB", "_cb", section=_IO),
         Command("OB", "_ob", section=_IO),
         Command("OP", "_op", section=_IO),
+        Command("AF", "af", section="M Ch1 §Encoder (analog feedback)"),
         Command("OC", "oc", section="M Ch3 §TTL Outputs (output compare)"),
         Command("CO", "co", section="M Ch1 §General I/O; M Ch3 §Uncommitted Digital Inputs"),
         # -- interrupts [M Ch4] ------------------------------------------------------------------

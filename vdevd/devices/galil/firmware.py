@@ -16,6 +16,7 @@ import numpy as np
 from vdevmaps.galil import GeneralStatus, InterruptCondition, InterruptStatus
 
 from vdevd.devices.galil import syntax
+from vdevd.devices.galil.analog_feedback import align, counts, overlay
 from vdevd.devices.galil.arrays import ArrayDownload, ArrayTable
 from vdevd.devices.galil.bus import A16Window
 from vdevd.devices.galil.errors import TC, GalilError
@@ -106,6 +107,7 @@ class Firmware:
         self.outputs = 0
         self.ext.reset()  # CO 0: banks 2-9 inputs; the levels driven on them stay
         self.compare = OutputCompare()  # OC
+        self.af_on = np.zeros(self.n, dtype=bool)  # AF: axes reading their analog input
         self.ei_mask = 0
         self.ei_inputs = 0
         self.vector: int | None = None
@@ -384,6 +386,27 @@ class Firmware:
             return 0xFF  # aux-encoder inputs 81-88 open
         raise GalilError(TC.NUMBER_OUT_OF_RANGE)
 
+    # -- analog feedback (AF, analog_feedback.py) ------------------------------------------------------
+    def set_analog_feedback(self, axes: list[int], values: list[float]) -> None:
+        """AF: an axis turned on reads its analog input from now on (the sensor follows it)."""
+        for a, v in zip(axes, values, strict=True):
+            if v and not self.af_on[a]:
+                self.af_on[a] = True
+                self.analog_driven(a)
+            elif not v:
+                self.af_on[a] = False
+
+    def analog_driven(self, channel: int) -> None:
+        """The analog input `channel` (0: AN1) was driven: an AF axis's position reads it."""
+        if channel < self.n and self.af_on[channel]:
+            m = self.motion
+            align(m.core, channel, counts(float(self.analog[channel])),
+                  float(m.enc_offset[channel]))
+
+    def analog_volts(self) -> np.ndarray:
+        """AN1..AN8 as the card reads them: an AF axis's channel reads its sensor."""
+        return overlay(self.analog, self.motion.position(), self.af_on)
+
     def latch_inputs(self) -> np.ndarray:
         """IN1..IN4 are the X..W latch inputs (Fig 3-1)."""
         return np.array([(self.inputs >> a) & 1 for a in range(self.n)], dtype=bool)
@@ -412,7 +435,7 @@ class Firmware:
         ax["aux_position"] = wrap_int32(m.auxiliary())
         ax["velocity"] = wrap_int32(m.tv * 64)
         ax["torque"] = np.rint(m.torque() * COUNTS_PER_VOLT).clip(-32767, 32767)
-        ax["analog_in"] = np.rint(self.analog[: self.n] * COUNTS_PER_VOLT).clip(-32767, 32767)
+        ax["analog_in"] = np.rint(self.analog_volts()[: self.n] * COUNTS_PER_VOLT).clip(-32767, 32767)
         return rec.tobytes()
 
 
@@ -458,6 +481,7 @@ class _Env:
         per_axis = {
             "LF": not m.forward_limit[a], "LR": not m.reverse_limit[a], "HM": m.home_input[a],
             "MO": not m.core.servo_on_mask[a], "BG": m.moving(a), "AL": m.latch_armed[a],
+            "AF": fw.af_on[a],
         }
         if cmd in per_axis:
             return float(per_axis[cmd])
@@ -489,7 +513,7 @@ class _Env:
                 return float(fw.ext.output(n))
         elif name == "AN":
             if 1 <= n <= 8:
-                return float(fw.analog[n - 1])
+                return float(fw.analog_volts()[n - 1])
         else:
             raise GalilError(TC.BAD_FUNCTION, name)
         raise GalilError(TC.NUMBER_OUT_OF_RANGE, f"@{name}[{n}]")

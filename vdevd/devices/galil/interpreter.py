@@ -305,7 +305,7 @@ class Interpreter(ArrayCommands, FormatCommands, IoCommands):
             f"Block 0 (8-1) dedicated as output- value {fw.outputs & 0xFF} "
             f"({fw.outputs & 0xFF:08b})",
             # no ':' in the text: a host library counts ':' as the end of a reply
-            "Analog inputs (1-8) " + ",".join(f"{v:.4f}" for v in fw.analog.tolist()),
+            "Analog inputs (1-8) " + ",".join(f"{v:.4f}" for v in fw.analog_volts().tolist()),
         ]
         return "\r\n".join(lines).encode() + CRLF + OK
 

@@ -5,7 +5,10 @@ Outputs; spec §1 (CO, OC, AF)]."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
+
+import numpy as np
 
 from vdevd.devices.galil import syntax
 from vdevd.devices.galil.errors import TC, GalilError
@@ -25,6 +28,10 @@ class IoCommands:
         def value(self, text: str) -> float: ...
 
         def fmt(self, value: float, digits: int, frac: int) -> str: ...
+
+        def _setter(self, name: str, arg: str, apply: Callable[[list[int], list[float]], None],
+                    query: Callable[[], np.ndarray], digits: int | Callable[[float], str],
+                    frac: int, check: Callable[[float], float | None] | None = None) -> bytes: ...
 
         @staticmethod
         def data(text: str) -> bytes: ...
@@ -72,3 +79,10 @@ class IoCommands:
             return b":"
         compare.arm(axis, m, step, int(self.fw.motion.position()[axis]))
         return b":"
+
+    def af(self, arg: str) -> bytes:
+        """AF n per axis: 1 the axis reads its analog input (AN of its number), 0 its encoder
+        (analog_feedback.py); `AF ?` reports them."""
+        fw = self.fw
+        return self._setter("AF", arg, fw.set_analog_feedback, lambda: fw.af_on.astype(float),
+                            1, 0, lambda v: v if v in (0.0, 1.0) else None)
