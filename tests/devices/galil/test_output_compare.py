@@ -101,3 +101,15 @@ def test_an_armed_compare_at_standstill_lets_the_card_rest_and_rs_clears_it() ->
     assert rig.fw.compare.pulses == 91
     assert rig.send(b"RS\r") == b":"
     assert rig.fw.compare.pulses == 0 and not rig.fw.compare.armed
+
+
+def test_a_redefinition_of_the_position_passes_no_compare_position() -> None:
+    rig = Rig()
+    rig.send(b"OCX=500,10\r")
+    rig.sample()
+    assert rig.send(b"DP 1000\r") == b":"  # the counter jumps over 500..1000: no pulses
+    rig.sample()
+    assert rig.fw.compare.pulses == 0
+    rig.send(b"PR -600;AC 67107840;BG X\r")  # back through 500 (against n: then every 65526)
+    _run(rig, 50)
+    assert rig.fw.compare.pulses == 1

@@ -195,8 +195,9 @@ class Firmware:
 
     def _compare(self) -> None:
         """OC: the pulses of the positions the watched encoder passed in this sample."""
-        compare = self.compare
-        if compare.check(int(self.motion.position()[compare.axis])) and self.on_compare:
+        compare, a = self.compare, self.compare.axis
+        core = self.motion.core
+        if compare.check(int(self.motion.position()[a]), float(core.zero[a])) and self.on_compare:
             self.on_compare(compare.pulses)
 
     def _motion_complete(self, done: np.ndarray) -> None:

@@ -77,7 +77,8 @@ class IoCommands:
         if m == 0 and len(fields) == 1:
             compare.off()
             return b":"
-        compare.arm(axis, m, step, int(self.fw.motion.position()[axis]))
+        motion = self.fw.motion
+        compare.arm(axis, m, step, int(motion.position()[axis]), float(motion.core.zero[axis]))
         return b":"
 
     def af(self, arg: str) -> bytes:

@@ -9,7 +9,8 @@ One compare for axes X-W (one CMP output). The reference's compare is 16 bits wi
 due wherever the encoder's low 16 bits equal the compare register, which then advances by n;
 moving against n's sign the pulses therefore come every 65536 - |n| counts, as the reference
 says, and a first position farther than 65535 counts fires at the first reading congruent to it
-(the reference requires it within 65535 counts).
+(the reference requires it within 65535 counts). A redefinition of the position (DP, HM, FI)
+makes the counter jump without passing the positions between.
 
 A pulse is 1 µs, far shorter than a sample: the card counts them (`pulses`) and the firmware
 reports those of each sample; an axis passing several positions within one sample gives as many
@@ -32,25 +33,31 @@ class OutputCompare:
         self.reading = 0  # the encoder at the last check
         self.pulses = 0  # CMP pulses since power-on / RS
         self.low = False  # a one shot fired: CMP held low until the next OC
+        self.zero = 0.0  # the axis's redefinitions of position so far (MotionCore.zero)
 
     @property
     def armed(self) -> bool:
         return self.axis >= 0
 
-    def arm(self, axis: int, position: int, step: int, reading: int) -> None:
-        """OCx=m,n with the axis's encoder now at `reading`."""
+    def arm(self, axis: int, position: int, step: int, reading: int, zero: float) -> None:
+        """OCx=m,n with the axis's encoder now at `reading` and its zero at `zero`."""
         self.axis, self.next, self.step, self.reading = axis, position, step, reading
-        self.low = False
+        self.zero, self.low = zero, False
 
     def off(self) -> None:
         """OCX=0."""
         self.axis = -1
         self.low = False
 
-    def check(self, reading: int) -> int:
+    def check(self, reading: int, zero: float) -> int:
         """The encoder now reads `reading`: the pulses of the positions passed since the last
-        check, in (last, reading] moving forward, [reading, last) backward."""
+        check, in (last, reading] moving forward, [reading, last) backward. A redefinition of
+        the position (DP, HM, FI: `zero` moved) is no motion: the counter jumps, passing
+        nothing."""
         last, self.reading = self.reading, reading
+        if zero != self.zero:
+            last += round(zero - self.zero)
+            self.zero = zero
         if reading == last:
             return 0
         c, s = self.next, self.step
@@ -76,4 +83,4 @@ class OutputCompare:
     def state(self) -> bytes:
         """What a sample may change, for the card's rest bytes (decision 0008)."""
         return b"".join(int(v).to_bytes(9, "little", signed=True) for v in (
-            self.axis, self.next, self.reading, self.pulses, self.low))
+            self.axis, self.next, self.reading, self.pulses, self.low, round(self.zero)))
