@@ -88,6 +88,12 @@ class ExtendedIO:
         source = self.latches if self.config >> (n - FIRST_BANK) & 1 else self.levels
         return source >> shift & 0xFF
 
+    def record_bytes(self) -> tuple[bytes, bytes]:
+        """The data record's banks 2-9: what TI reads, and the latches of output banks."""
+        mask = self._output_mask()
+        seen = (self.latches & mask) | (self.levels & ~mask & _ALL)
+        return seen.to_bytes(8, "little"), (self.latches & mask).to_bytes(8, "little")
+
     def set_input(self, point: int, level: bool) -> None:
         """The level driven on an input point (an output bank ignores it until made inputs)."""
         bit = 1 << (point - FIRST_POINT)

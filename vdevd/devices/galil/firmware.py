@@ -419,10 +419,10 @@ class Firmware:
         rec["sample_number"] = (self.ticks - self.time_origin) & 0xFFFF
         rec["input_bank_0"] = self.inputs
         rec["input_bank_1"] = 0xFF  # no inputs 9-16 on a 4-axis card
-        for bank in range(FIRST_BANK, LAST_BANK + 1):
-            rec[f"input_bank_{bank}"] = self.ext.bank(bank)
-            rec[f"output_bank_{bank}"] = self.ext.bank(bank) if self.ext.is_output(
-                FIRST_POINT + 8 * (bank - FIRST_BANK)) else 0
+        inputs, outputs = self.ext.record_bytes()
+        for name_in, name_out, i, o in zip(_EXT_INPUT_BANKS, _EXT_OUTPUT_BANKS, inputs, outputs,
+                                           strict=True):
+            rec[name_in], rec[name_out] = i, o
         rec["output_bank_0"] = self.outputs & 0xFF
         rec["error_code"] = self.error_code & 0xFF
         rec["general_status"] = int(GeneralStatus.ECHO_ON) if self.echo else 0
@@ -440,6 +440,9 @@ class Firmware:
         return rec.tobytes()
 
 
+#: the record's fields of the extended I/O banks 2-9 (extended_io.py)
+_EXT_INPUT_BANKS = tuple(f"input_bank_{b}" for b in range(FIRST_BANK, LAST_BANK + 1))
+_EXT_OUTPUT_BANKS = tuple(f"output_bank_{b}" for b in range(FIRST_BANK, LAST_BANK + 1))
 #: `_DEx` and `_DPx` read what DE and DP defined: the auxiliary encoder and the reference
 _DEFINED = {"DE": "TD", "DP": "RP"}
 
