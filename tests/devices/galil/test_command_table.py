@@ -11,6 +11,7 @@ import pytest
 from tests.devices.digest import digest_text
 from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
 from vdevd.devices.galil.errors import TC
+from vdevd.devices.galil.program_commands import ProgramCommands
 from vdevd.devices.galil.interpreter import Interpreter
 
 #: a mnemonic: two capitals, not part of a longer word (BGS), an operand (_TPX) or a function
@@ -70,7 +71,7 @@ def test_a_command_not_emulated_has_a_reason_and_a_tc_code() -> None:
 
 
 def test_every_command_of_the_table_binds_to_the_interpreter() -> None:
-    handlers = COMMANDS.bind(Interpreter.__new__(Interpreter))
+    handlers = COMMANDS.bind(Interpreter.__new__(Interpreter), ProgramCommands.__new__(ProgramCommands))
     assert set(handlers) == set(COMMANDS)
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 from vdevmaps.galil import GeneralStatus, InterruptCondition, InterruptStatus
@@ -18,11 +19,15 @@ from vdevmaps.galil import GeneralStatus, InterruptCondition, InterruptStatus
 from vdevd.devices.galil import syntax
 from vdevd.devices.galil.bus import A16Window
 from vdevd.devices.galil.errors import TC, GalilError
+from vdevd.devices.galil.flash import Flash
 from vdevd.devices.galil.interpreter import OK, Interpreter, Trippoint
 from vdevd.devices.galil.motion import GalilMotion, StopCode
 from vdevd.devices.galil.numbers import REPORT_FORMATS
 from vdevd.devices.galil.params import COUNTS_PER_VOLT, PARAMS
+from vdevd.devices.galil.program import DOWNLOAD_END, MAX_LINE_LENGTH, MAX_LINES
+from vdevd.devices.galil.program_commands import ProgramCommands
 from vdevd.devices.galil.record import record_dtype
+from vdevd.devices.galil.threads import LIMSWI, POSERR, Threads
 from vdevd.devices.rest import ticks_before_multiple
 from vdevd.rt import wrap_int32
 
@@ -34,6 +39,9 @@ _ALL_COMPLETE = int(InterruptCondition.ALL_COMPLETE)
 _COMMAND_DONE = int(InterruptCondition.COMMAND_DONE)
 _LIMIT_SWITCH = int(InterruptCondition.LIMIT_SWITCH)
 _INPUTS = int(InterruptCondition.INPUTS)
+#: a download longer than the buffer can hold is refused at its end (TC 60); what comes until the
+#: `\\` is read and dropped, so the bytes kept stay bounded
+_DOWNLOAD_LIMIT = MAX_LINES * (MAX_LINE_LENGTH + 2)
 
 
 class Firmware:
@@ -45,7 +53,9 @@ class Firmware:
                  raise_irq: Callable[[int], None], clear_irq: Callable[[], None],
                  clock: Callable[[], int] | None = None, record_endian: str = "little",
                  sense: Callable[[], None] | None = None,
-                 on_reset: Callable[[], None] | None = None) -> None:
+                 on_reset: Callable[[], None] | None = None,
+                 save_flash: Callable[[dict[str, Any]], None] | None = None,
+                 flash_image: dict[str, Any] | None = None) -> None:
         self.n = n
         self.period_ns = period_ns
         self.plant = plant
@@ -64,6 +74,14 @@ class Firmware:
         self.env = _Env(self)
         self.analog = np.zeros(8)
         self.inputs = 0xFF  # IN1-IN8 logic levels: open inputs read 1
+        self.threads = Threads(self)  # the program buffer and its threads (threads.py)
+        self.program_commands = ProgramCommands(self)
+        #: objects whose methods run commands, bound with the interpreter's (commands.py)
+        self.command_sets: tuple[object, ...] = (self.program_commands,)
+        #: `_XX` operands other modules answer: "XQ" -> fn("XQ0"), see _Env.operand
+        self.operands: dict[str, Callable[[str], float]] = {
+            "XQ": self.threads.operand, "ED": self.threads.operand}
+        self.flash = Flash(self, save_flash, flash_image)
         self.interp = Interpreter(self)
         self.reset()
 
@@ -95,8 +113,13 @@ class Firmware:
         self.time_origin = self.ticks
         self._trip: Trippoint | None = None
         self._out = bytearray()
+        self._download: tuple[str | None, bytearray] | None = None  # DL: (start label, bytes)
+        self.ar_base: dict[int, float] = {}  # AR: where the last AR trippoint ended per axis
+        self.threads.reset()
+        self.flash.restore()  # BN, BV, BP: the burned state [spec §1.4]
         if self.on_reset is not None:
             self.on_reset()  # the card puts its inputs on the new motion firmware
+        self.threads.start_auto()
 
     # -- the sample --------------------------------------------------------------------------------
     def step(self) -> None:
@@ -113,6 +136,10 @@ class Firmware:
         if over is not None and self.ei_mask & _EXCESS_ERROR:
             self.ei_mask &= ~_EXCESS_ERROR
             self.interrupt(InterruptStatus.EXCESS_ERROR)
+        if self.threads.active:
+            if over is not None:
+                self.threads.automatic(POSERR)
+            self.threads.run()
         if self._out or self._trip is not None or self.bus.commands_waiting:
             self.serve()
         rate = self.record_rate
@@ -124,7 +151,8 @@ class Firmware:
         """Of the next `room` samples, how many are motion and the ER check alone while no axis
         completes and none crosses ER: none while the interpreter has work (a reply to send, a
         trippoint, commands), none from the next data record on."""
-        if self._out or self._trip is not None or self.bus.commands_waiting:
+        if (self._out or self._trip is not None or self.bus.commands_waiting
+                or self.threads.active):
             return 0
         rate = self.record_rate
         if rate:
@@ -152,7 +180,8 @@ class Firmware:
     def rest_state(self) -> bytes | None:
         """What a sample may change, as bytes, but the sample count; None while the interpreter
         has work (a command, a reply to send, a trippoint) or a home search runs."""
-        if self._out or self._trip is not None or self.bus.commands_waiting:
+        if (self._out or self._trip is not None or self.bus.commands_waiting
+                or self.threads.active):
             return None
         return self.motion.rest_state()
 
@@ -196,6 +225,9 @@ class Firmware:
             buf = bus.command_bytes()
             if not buf:
                 return
+            if self._download is not None:
+                self._take_download(buf)
+                continue
             frame, used = _next_frame(buf)
             if used:
                 bus.consume(used)
@@ -206,6 +238,8 @@ class Firmware:
             if self.echo and not frame.binary:
                 self._out += buf[:used]
             result = self._execute(frame)
+            if self._download is not None and not result:
+                continue  # DL: the reply comes after the program's `\\`
             if isinstance(result, Trippoint):
                 self._trip = result
             else:
@@ -216,6 +250,7 @@ class Firmware:
         command-line trippoint and a reply in progress go too."""
         self._trip = None
         self._out.clear()
+        self._download = None
 
     def _execute(self, frame: syntax.Frame) -> bytes | Trippoint:
         if not frame.binary:
@@ -226,6 +261,43 @@ class Firmware:
             self.error_code = exc.code
             return b"?"
         return self.interp.execute(text)
+
+    # -- DL: the program over the command FIFO [DMCLIB DMCDownloadFile] -------------------------
+    def begin_download(self, start: str | None) -> None:
+        """DL: the bytes that follow, up to `\\`, are program lines."""
+        self._download = (start, bytearray())
+
+    def _take_download(self, buf: bytes) -> None:
+        """Take download bytes from the command FIFO; at `\\` the program is checked and the
+        card answers ':' or '?' (the TC of the first bad line, `_ED` its number)."""
+        assert self._download is not None
+        start, text = self._download
+        end = buf.find(DOWNLOAD_END)
+        chunk = buf if end < 0 else buf[:end]
+        self.bus.consume(len(chunk) if end < 0 else end + 1)
+        room = _DOWNLOAD_LIMIT + 1 - len(text)
+        text += chunk[:max(room, 0)]
+        if end < 0:
+            return
+        self._download = None
+        try:
+            if len(text) > _DOWNLOAD_LIMIT:
+                raise GalilError(TC.DOWNLOAD_ERROR, "download too long")
+            self.threads.program.download(bytes(text), start)
+        except GalilError as exc:
+            self.error_code = exc.code
+            self._reply(b"?")
+            return
+        self._reply(OK)
+
+    def output(self, data: bytes) -> None:
+        """A program's message to the host (MG, a report): into the response FIFO after what
+        waits there, as an unsolicited message."""
+        self._out += data
+
+    @property
+    def pending_output(self) -> bytearray:
+        return self._out
 
     def _reply(self, data: bytes) -> None:
         self._out += data
@@ -259,6 +331,8 @@ class Firmware:
         rising = self.motion.set_limits(forward, reverse)
         if rising.any() and self.ei_mask & _LIMIT_SWITCH:
             self.interrupt(InterruptStatus.LIMIT_SWITCH)
+        if rising.any():
+            self.threads.automatic(LIMSWI)  # [M Ch3 §Limit Switch Input]
 
     def set_abort(self, active: bool) -> None:
         """The ABORT input: motion stops at once, OE1 axes turn off [M Ch3 §Abort Input]."""
@@ -278,6 +352,7 @@ class Firmware:
         if a < self.n:
             self.latch(a, float(self.motion.position()[a]))
         self._input_interrupt(input)
+        self.threads.input_fell(input)
 
     def probe(self, axis: int, reading: float) -> None:
         """A pulse on the axis's latch input (IN1..IN4) shorter than a sample, the encoder
@@ -324,8 +399,9 @@ class Firmware:
         raise KeyError(name)
 
     def status_byte(self) -> int:
-        """TB: bit 6 data record active, bit 0 echo on (spec §4.4)."""
-        return (0x40 if self.record_rate else 0) | (0x01 if self.echo else 0)
+        """TB: bit 7 executing a program, bit 6 data record active, bit 0 echo on (spec §4.4)."""
+        return ((0x80 if self.threads.active else 0) | (0x40 if self.record_rate else 0)
+                | (0x01 if self.echo else 0))
 
     def input_bank(self, bank: int) -> int:
         """TI n: IN1-IN8 as a byte for bank 0 (spec §4.4)."""
@@ -349,7 +425,8 @@ class Firmware:
             rec[bank] = 0xFF
         rec["output_bank_0"] = self.outputs & 0xFF
         rec["error_code"] = self.error_code & 0xFF
-        rec["general_status"] = int(GeneralStatus.ECHO_ON) if self.echo else 0
+        rec["general_status"] = ((int(GeneralStatus.ECHO_ON) if self.echo else 0)
+                                 | (0x80 if self.threads.active else 0))  # program running
         ax = rec["axis"]
         ax["status"] = m.status_word()
         ax["switches"] = m.switches(self.latch_inputs())
@@ -380,6 +457,9 @@ class _Env:
         fw, m = self.fw, self.fw.motion
         if name == "TIME":
             return float(fw.ticks - fw.time_origin)
+        hook = fw.operands.get(name[:2])
+        if hook is not None:
+            return hook(name)
         scalars = {"TC": fw.error_code, "TB": fw.status_byte(), "OP": fw.outputs,
                    "EO": fw.echo, "LZ": fw.lz, "TM": fw.tm_us, "DR": fw.record_rate}
         if name in scalars:

@@ -56,7 +56,10 @@ class Interpreter:
     def __init__(self, fw: Firmware) -> None:
         self.fw = fw
         self.n = fw.n
-        self.handlers: dict[str, Callable[[str], bytes | Trippoint]] = COMMANDS.bind(self)
+        self.handlers: dict[str, Callable[[str], bytes | Trippoint]] = COMMANDS.bind(
+            self, *getattr(fw, "command_sets", ()))
+        #: the program thread whose statement runs now, None on the command line (threads.py)
+        self.thread: int | None = None
 
     # -- entry -------------------------------------------------------------------------------------
     def execute(self, text: str) -> bytes | Trippoint:
@@ -158,14 +161,20 @@ class Interpreter:
         return OK
 
     def _st(self, arg: str) -> bytes:
+        """ST axes; from the host without axes it halts the programs too [spec §4.5]."""
         self.fw.motion.stop(self.axes(arg))
+        if not arg.strip() and self.thread is None:
+            self.fw.threads.halt_all()
         return OK
 
     def _ab(self, arg: str) -> bytes:
-        """AB aborts motion at once (AB1: motion only; there are no programs yet) [M Ch6]."""
-        if arg.strip() and self.value(arg) not in (0, 1):
+        """AB aborts motion at once and the programs; AB1 motion only [M Ch6]."""
+        mode = self.value(arg) if arg.strip() else 0
+        if mode not in (0, 1):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
         self.fw.motion.abort(list(range(self.n)), StopCode.ABORT_COMMAND)
+        if mode == 0:
+            self.fw.threads.halt_all()
         return OK
 
     def _mo(self, arg: str) -> bytes:
@@ -221,7 +230,7 @@ class Interpreter:
                 return bool((steps == motion.reference()[axes]).all())
             return bool((np.abs(motion.error()[axes]) <= 1).all())
 
-        return Trippoint(ready)
+        return self.fw.program_commands.with_timeout(Trippoint(ready), axes, self.thread == 0)
 
     def _wt(self, arg: str) -> Trippoint:
         """WT n: wait n milliseconds [M Ch2 Ex10]."""

@@ -1,0 +1,120 @@
+"""The DMC-13X8's flash EEPROM: what BP, BV and BN burn and what power-up and RS restore (spec
+galil.md §1.4-1.5; [M Ch1 §Microcomputer Section] "2M Flash EEPROM provides non-volatile storage
+of variables, programs, and arrays"; [M Ch2 Step 7b E] BN).
+
+Sans-I/O: the card hands `save(image)` (an atomic write in the daemon's state directory,
+vdevd/nvram.py) and the image it loaded at start. The image is a map of sections:
+`programs` (the lines), `variables` ({name: value}), `parameters` ({command: per-axis values},
+the motor-off state and EO/LZ); other modules add sections through `sections` (arrays: a
+`(burn, restore)` pair under the name `arrays`, burned with BV). A section that does not read
+back (another program's or version's image) is skipped with a warning: the card keeps its
+defaults. `^R^S` (master reset) erases the flash [M Ch2 §Master Reset].
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from vdevd.devices.galil.errors import GalilError
+from vdevd.devices.galil.params import PARAMS
+
+if TYPE_CHECKING:
+    from vdevd.devices.galil.firmware import Firmware
+
+log = logging.getLogger("vdevd.galil.flash")
+
+FORMAT = "vdevd-galil-dmc13x8-flash"
+VERSION = 1
+#: parameters BN does not burn: the move commands' targets
+_NOT_BURNED = frozenset({"PR", "PA"})
+
+
+class Flash:
+    """The burned image of one card, with its burn and restore procedures."""
+
+    def __init__(self, fw: Firmware, save: Callable[[dict[str, Any]], None] | None = None,
+                 image: dict[str, Any] | None = None) -> None:
+        self.fw = fw
+        self.save = save
+        self.image: dict[str, Any] = {}
+        #: extra sections: name -> (what to burn, how to restore it); BV burns `arrays`
+        self.sections: dict[str, tuple[Callable[[], Any], Callable[[Any], None]]] = {}
+        if image is not None:
+            if isinstance(image, dict) and image.get("format") == FORMAT:
+                self.image = dict(image)
+            else:
+                log.warning("flash image of another kind ignored: the card starts from its defaults")
+
+    # -- burning ----------------------------------------------------------------------------------------
+    def burn(self, what: str) -> None:
+        """BP "programs", BV "variables" (and arrays), BN "parameters"."""
+        fw = self.fw
+        if what == "programs":
+            self.image["programs"] = list(fw.threads.program.lines)
+        elif what == "variables":
+            self.image["variables"] = dict(fw.variables)
+            if "arrays" in self.sections:
+                self.image["arrays"] = self.sections["arrays"][0]()
+        elif what == "parameters":
+            m = fw.motion
+            self.image["parameters"] = {
+                "values": {name: m.values[name].tolist() for name in PARAMS if name not in _NOT_BURNED},
+                "motor_off": (~m.core.servo_on_mask).tolist(),
+                "EO": fw.echo, "LZ": fw.lz,
+            }
+        else:
+            raise ValueError(what)
+        self.write()
+
+    def write(self) -> None:
+        if self.save is not None:
+            self.save({**self.image, "format": FORMAT, "version": VERSION})
+
+    def erase(self) -> None:
+        """^R^S: the flash returns to the factory state."""
+        self.image = {}
+        self.write()
+
+    # -- power-up / RS ------------------------------------------------------------------------------
+    def restore(self) -> None:
+        """Programs, variables and parameters from the image; a section that does not read
+        back is skipped with a warning."""
+        for name, apply in (("programs", self._programs), ("variables", self._variables),
+                            ("parameters", self._parameters)):
+            if name in self.image:
+                try:
+                    apply(self.image[name])
+                except (GalilError, TypeError, ValueError, KeyError, AttributeError) as exc:
+                    log.warning("flash section %s unreadable (%s): defaults kept", name, exc)
+        for name, (_, restore) in self.sections.items():
+            if name in self.image:
+                try:
+                    restore(self.image[name])
+                except (GalilError, TypeError, ValueError, KeyError, AttributeError) as exc:
+                    log.warning("flash section %s unreadable (%s): defaults kept", name, exc)
+
+    def _programs(self, lines: Any) -> None:
+        if not isinstance(lines, list) or not all(isinstance(s, str) for s in lines):
+            raise TypeError("programs is not a list of lines")
+        self.fw.threads.program.load(lines)
+
+    def _variables(self, values: Any) -> None:
+        good = {str(k): float(v) for k, v in dict(values).items()}
+        self.fw.variables.update(good)
+
+    def _parameters(self, section: Any) -> None:
+        fw = self.fw
+        m = fw.motion
+        n = fw.n
+        for name, vals in dict(section["values"]).items():
+            if name not in PARAMS or name in _NOT_BURNED:
+                continue
+            vs = [float(v) for v in list(vals)[:n]]
+            m.set_param(name, list(range(len(vs))), vs)
+        off = [a for a, v in enumerate(list(section.get("motor_off", []))[:n]) if v]
+        if off:
+            m.motor_off(off)
+        fw.echo = int(section.get("EO", fw.echo)) & 1
+        fw.lz = int(section.get("LZ", fw.lz)) & 1
