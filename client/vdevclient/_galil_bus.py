@@ -233,6 +233,31 @@ class DmcBus:
         ops = [self._fifo_write(data), self._fifo_read(A16Reg.DATA, length + 1)]
         self._quick[data] = (self.rack.prepare({"op": "batch", "ops": ops}), replies, length)
 
+    def command_until(self, data: bytes, end: bytes) -> Reply:
+        """Send `data` (all its bursts in one batch) and read until `end` then a ':' or '?' has
+        come, or a '?' before any `end`: UL, whose reply is the program then ^Z then ':'
+        [DMCLIB DMCUploadFile]. Reads grow as in `command`."""
+        if self.stale:
+            self.drain()
+        timeout_ns = self._timeout_ns()
+        ops = self._send_ops(data, timeout_ns)
+        waits = sum(1 for op in ops if op["op"] == "wait")
+        data_wait = self._wait(A16Reg.CONTROL, _READ_EMPTY, 0, timeout_ns)
+        ops += [data_wait, self._fifo_read(A16Reg.DATA, FIFO_SIZE + 1)]
+        res = self.batch(ops, (waits + 1) * timeout_ns)
+        got = b""
+        while True:
+            if not res[-2]["fired"]:
+                self.stale = True
+                return Reply(got, timed_out=True)
+            got += res[-1].split(b"\xff", 1)[0]
+            cut = got.find(end)
+            if (cut >= 0 and _count(got[cut:])) or (cut < 0 and got.startswith(b"?")):
+                self._room = True
+                self.stale = res[-1][-1] != EMPTY_READ
+                return Reply(got)
+            res = self.batch([data_wait, self._fifo_read(A16Reg.DATA, FIFO_SIZE + 1)], timeout_ns)
+
     def send(self, data: bytes, replies: int) -> None:
         """Write without reading the reply (DMCFastCommand); the card owes `replies` answers."""
         timeout_ns = self._timeout_ns()

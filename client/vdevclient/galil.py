@@ -617,6 +617,112 @@ def DMCSetTimeout(hdmc: Any, lTimeout: int) -> int:
     return DMCNOERROR
 
 
+# -- application programs [DMCLIB DMCDownloadFile, DMCUploadFile; spec §6.2] -------------------------
+UPLOAD_END = b"\x1a"  # UL ends the program with ^Z, then ':'
+
+
+def program_lines(text: bytes) -> list[bytes]:
+    """The lines DMCDownloadFile sends: CR, LF or CR LF separated, trailing blanks removed, blank
+    lines and REM lines left out [DMCLIB]."""
+    lines = text.replace(b"\r\n", b"\n").replace(b"\r", b"\n").split(b"\n")
+    out = [line.rstrip() for line in lines]
+    return [line for line in out if line and not line.lstrip().startswith(b"REM")]
+
+
+def download(c: _Controller, program: bytes, label: bytes = b"") -> int:
+    """`EO0`, `DL[#label]`, the lines, `\\`: all the command FIFO's bursts in one batch; the
+    card answers ':' once it has checked the program, '?' (DMCERROR_DOWNLOAD) when it refused
+    a line (DMCError: TC1)."""
+    data = b"EO0\rDL" + label + b"\r" + b"".join(line + b"\r" for line in program_lines(program))
+    reply = c.bus.command(data + b"\\", 2)
+    if b"?" in reply.data:
+        return DMCERROR_DOWNLOAD
+    if reply.timed_out and c.timeout_ms:
+        return DMCERROR_TIMEOUT
+    return DMCNOERROR
+
+
+def upload(c: _Controller) -> tuple[int, bytes]:
+    """`UL`: the program's lines (CR LF ends each), read until ^Z and the ':' after it."""
+    reply = c.bus.command_until(b"UL\r", UPLOAD_END)
+    if reply.timed_out:
+        return (DMCERROR_TIMEOUT if c.timeout_ms else DMCNOERROR), b""
+    if UPLOAD_END not in reply.data:
+        return DMCERROR_COMMAND, b""
+    return DMCNOERROR, reply.data.split(UPLOAD_END, 1)[0]
+
+
+def _label(pszLabel: Any) -> bytes:
+    label = _text(pszLabel) if pszLabel is not None else b""
+    return label if not label or label.startswith(b"#") else b"#" + label
+
+
+@_guarded
+def DMCDownloadFromBuffer(hdmc: Any, pszBuffer: Any, pszLabel: Any = None) -> int:
+    """Download the program in `pszBuffer` (from `pszLabel` on, when given: DL#label)."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pszBuffer is None:
+        return DMCERROR_ARGUMENT
+    return download(c, _text(pszBuffer), _label(pszLabel))
+
+
+@_guarded
+def DMCDownloadFile(hdmc: Any, pszFileName: Any, pszLabel: Any = None) -> int:
+    """Download the program file `pszFileName`; DMCERROR_FILE when it cannot be read."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pszFileName is None:
+        return DMCERROR_ARGUMENT
+    try:
+        with open(_text(pszFileName), "rb") as f:
+            program = f.read()
+    except OSError:
+        return DMCERROR_FILE
+    return download(c, program, _label(pszLabel))
+
+
+@_guarded
+def DMCUploadToBuffer(hdmc: Any, pchBuffer: Any, cbBuffer: int) -> int:
+    """Upload the program into `pchBuffer` (NUL-terminated); DMCERROR_BUFFERFULL when it does
+    not fit (the buffer then holds what did)."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pchBuffer is None or not cbBuffer:
+        return DMCERROR_ARGUMENT
+    rc, program = upload(c)
+    if rc != DMCNOERROR:
+        return rc
+    return DMCNOERROR if _put(pchBuffer, cbBuffer, program) else DMCERROR_BUFFERFULL
+
+
+@_guarded
+def DMCUploadFile(hdmc: Any, pszFileName: Any) -> int:
+    """Upload the program into the file `pszFileName`; DMCERROR_FILE when it cannot be written."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pszFileName is None:
+        return DMCERROR_ARGUMENT
+    rc, program = upload(c)
+    if rc != DMCNOERROR:
+        return rc
+    try:
+        with open(_text(pszFileName), "wb") as f:
+            f.write(program)
+    except OSError:
+        return DMCERROR_FILE
+    return DMCNOERROR
+
+
+def controller_of(hdmc: Any) -> _Controller | None:
+    """The open controller behind a handle (for vdevclient.gclib), None for a bad handle."""
+    return _handle(hdmc)
+
+
 def bus_of(hdmc: Any) -> DmcBus | None:
     """The register protocol behind a handle (for vdevclient.gclib), None for a bad handle."""
     c = _handle(hdmc)

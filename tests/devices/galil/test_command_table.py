@@ -11,8 +11,8 @@ import pytest
 from tests.devices.digest import digest_text
 from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
 from vdevd.devices.galil.errors import TC
-from vdevd.devices.galil.program_commands import ProgramCommands
 from vdevd.devices.galil.interpreter import Interpreter
+from vdevd.devices.galil.program_commands import ProgramCommands
 
 #: a mnemonic: two capitals, not part of a longer word (BGS), an operand (_TPX) or a function
 #: (@IN[n]); a digit or a bracket may follow (AB1, ET[n])

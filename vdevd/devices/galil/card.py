@@ -10,6 +10,7 @@ firmware's `serve()` at once. A VME card: no PCI configuration space.
 
 from __future__ import annotations
 
+import asyncio
 import sys
 from collections.abc import Mapping
 from typing import Any, ClassVar
@@ -22,6 +23,7 @@ from vdevd.devices.galil.bus import FREEZE_MODES, A16Window
 from vdevd.devices.galil.firmware import Firmware
 from vdevd.devices.galil.params import COUNTS_PER_VOLT
 from vdevd.devices.galil.syntax import AXIS_ALIASES, AXIS_LETTERS
+from vdevd.nvram import NvramWriter
 from vdevd.region import Region
 from vdevd.rt import PlantKind
 
@@ -92,12 +94,32 @@ class GalilCard(Card):
                       peek=self._host_peek, on_read_rep=self._host_read_rep,
                       on_write_rep=self._host_write_rep)
         self.irq = self.add_irq("irq")
+        # the flash (BP BV BN): one image in the state directory, restored at power-up
+        store = ctx.nvram
+        self._writer = NvramWriter(store, name) if store is not None else None
+        saved = store.load(name) if store is not None else None
+        self._flash: dict[str, Any] | None = saved.get("flash") if isinstance(saved, dict) else None
         self.firmware = Firmware(self.n, self.period_ns, self.plant, self.configured_tm_us, self.bus,
                                  raise_irq=self._raise_irq, clear_irq=self.irq.clear,
                                  clock=lambda: self.now_ns, record_endian=opts.record_endian,
-                                 sense=self._sense)
+                                 sense=self._sense, save_flash=self._save_flash,
+                                 flash_image=self._flash)
         self.firmware.on_reset = self._world_changed  # RS: the world on the new motion firmware
         self._world_changed()
+
+    def _save_flash(self, image: dict[str, Any]) -> None:
+        """BP, BV, BN, ^R^S: the flash image goes to the state directory, atomically."""
+        self._flash = image
+        if self._writer is not None:
+            self._writer.submit({"flash": image})
+
+    def nvram(self) -> dict[str, Any]:
+        return {"flash": self._flash} if self._flash is not None else {}
+
+    async def close_services(self) -> None:
+        """The daemon stops: the last flash image is written before it exits."""
+        if self._writer is not None:
+            await asyncio.to_thread(self._writer.close)
 
     def reset(self) -> None:
         """Power-on: the window empty, the line released, the firmware reset."""

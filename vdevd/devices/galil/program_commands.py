@@ -17,7 +17,7 @@ from vdevd.devices.galil import syntax
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.interpreter import OK, Trippoint
 from vdevd.devices.galil.motion import StopCode
-from vdevd.devices.galil.threads import MCTIME
+from vdevd.devices.galil.threads import MCTIME, Threads
 
 if TYPE_CHECKING:
     from vdevd.devices.galil.firmware import Firmware
@@ -30,7 +30,7 @@ class ProgramCommands:
         self.fw = fw
 
     @property
-    def _threads(self):  # noqa: ANN202 - the firmware's Threads
+    def _threads(self) -> Threads:
         return self.fw.threads
 
     def _value(self, text: str) -> float:
