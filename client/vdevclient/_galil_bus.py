@@ -50,6 +50,11 @@ MEMO_SIZE = 256  # commands whose reply length is remembered
 _NS_PER_MS = 1_000_000
 _ALMOST_FULL = int(ControlStatus.WRITE_ALMOST_FULL)  # plain ints: IntFlag arithmetic is slow
 _READ_EMPTY = int(ControlStatus.READ_EMPTY)
+#: a program's messages come with bit 7 set (the card's CW1, README "Application programs"):
+#: bytes 0x80-0xFE are unsolicited, the rest are replies
+_HIGH = bytes(range(0x80, 0x100))
+_LOW = bytes(range(0x80))
+_UNMARK = bytes(range(0x80)) * 2
 
 
 class Reply(NamedTuple):
@@ -170,7 +175,8 @@ class DmcBus:
         if not self.eager and not res[-2]["fired"]:
             return self._answer(data, owed, owed + replies, b"")
         chunk = res[-1]
-        reply = self._collect(data, owed, owed + replies, chunk.split(b"\xff", 1)[0], chunk)
+        reply = self._collect(data, owed, owed + replies, self._own(chunk.split(b"\xff", 1)[0]),
+                              chunk)
         if (not owed and not reply.timed_out and self._room and self.eager
                 and len(data) <= WRITE_BURST):
             self._learn_quick(data, replies)
@@ -183,6 +189,8 @@ class DmcBus:
         self._room = False
         chunk = self.rack.call(message)[-1]
         got = chunk.split(b"\xff", 1)[0]
+        if not got.isascii():
+            got = self._own(got)
         if len(got) == length and _count(got) >= replies:
             self._room = True  # every reply came: the card took the whole line
             self.stale = chunk[-1] != EMPTY_READ
@@ -211,8 +219,16 @@ class DmcBus:
             if not res[0]["fired"]:
                 break
             chunk = res[-1]
-            got += chunk.split(b"\xff", 1)[0]
+            got += self._own(chunk.split(b"\xff", 1)[0])
         return self._answer(data, owed, want, got)
+
+    def _own(self, got: bytes) -> bytes:
+        """The reply bytes of what was read; a program's messages (bit 7 set) go, unmarked, to
+        `unsolicited` [DMCLIB DMCGetUnsolicitedResponse]."""
+        if got.isascii():
+            return got
+        self.unsolicited += got.translate(_UNMARK, _LOW)
+        return got.translate(None, _HIGH)
 
     def _answer(self, data: bytes, owed: int, want: int, got: bytes) -> Reply:
         """The reply of a line from what came (`got`): the `owed` replies before it go to
@@ -250,7 +266,7 @@ class DmcBus:
             if not res[-2]["fired"]:
                 self.stale = True
                 return Reply(got, timed_out=True)
-            got += res[-1].split(b"\xff", 1)[0]
+            got += self._own(res[-1].split(b"\xff", 1)[0])
             cut = got.find(end)
             if (cut >= 0 and _count(got[cut:])) or (cut < 0 and got.startswith(b"?")):
                 self._room = True
@@ -303,6 +319,7 @@ class DmcBus:
                 return
 
     def _take_unsolicited(self, got: bytes) -> None:
+        got = got.translate(_UNMARK)
         self.unsolicited += got
         self.owed = max(0, self.owed - _count(got))
 

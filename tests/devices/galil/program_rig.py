@@ -11,6 +11,7 @@ from vdevd.devices.galil.bus import A16Window
 from vdevd.devices.galil.firmware import Firmware
 
 PERIOD_NS = 1_000_000  # TM 1000
+_UNMARK = bytes(range(128)) * 2
 
 
 class Rig:
@@ -36,14 +37,15 @@ class Rig:
         self.fw.serve()
         return self.receive()
 
-    def receive(self) -> bytes:
+    def receive(self, raw: bool = False) -> bytes:
+        """What the card sent; a program's messages (bit 7 set, CW1) unmarked unless `raw`."""
         out = bytearray()
         while not self.bus.read(A16Reg.CONTROL) & ControlStatus.READ_EMPTY:
             out.append(self.bus.read(A16Reg.DATA))
             if not self.bus.read(A16Reg.CONTROL) & ControlStatus.READ_EMPTY:
                 continue
             self.fw.serve()  # the card refills the response FIFO as the host empties it
-        return bytes(out)
+        return bytes(out) if raw else bytes(out).translate(_UNMARK)
 
     def download(self, program: str) -> bytes:
         """DL, the lines (CR), `\\`: the card's answer."""

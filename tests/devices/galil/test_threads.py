@@ -318,6 +318,45 @@ def test_in_waits_for_the_host_to_set_the_variable() -> None:
     assert rig.value("_SPX") == 1234
 
 
+def test_program_messages_carry_bit_7_unless_cw2() -> None:
+    """The host tells a program's messages from replies by bit 7 (CW1, the default)."""
+    rig = Rig()
+    rig.download("#A\nMG \"HI\"\nEN")
+    rig.send(b"XQ #A\r")
+    rig.samples(3)
+    assert rig.receive(raw=True) == b""
+    rig.send(b"XQ #A\r")
+    for _ in range(3):
+        rig.now_ns = (rig.fw.ticks + 1) * 1_000_000
+        rig.fw.step()
+    assert rig.receive(raw=True) == bytes(b | 0x80 for b in b"HI\r\n")
+    rig.send(b"CW 2;XQ #A\r")
+    for _ in range(3):
+        rig.now_ns = (rig.fw.ticks + 1) * 1_000_000
+        rig.fw.step()
+    assert rig.receive(raw=True) == b"HI\r\n"
+
+
+def test_a_bare_number_from_the_host_answers_in_without_a_reply() -> None:
+    """DMCCommand expects no ':' for "numeric IN replies" [DMCLIB]."""
+    rig = Rig()
+    rig.download("#A\nIN \"N?\",VAL\nSP VAL\nEN")
+    rig.send(b"XQ #A\r")
+    assert rig.samples(5) == b"N?\r\n"
+    assert rig.send(b"2500\r") == b""
+    rig.until_halted()
+    assert rig.value("_SPX") == 2500
+    assert rig.send(b"2500\r") == b"?"  # no IN waits: not a command
+
+
+def test_in_is_only_valid_in_thread_0() -> None:
+    rig = Rig()
+    rig.download("#A\nIN \"N?\",VAL\nEN")
+    rig.send(b"XQ #A,1\r")
+    rig.until_halted()
+    assert rig.tc() == 71
+
+
 def test_tr_traces_the_lines() -> None:
     rig = Rig()
     rig.download("#A\nV1=1\nEN")

@@ -42,6 +42,7 @@ _INPUTS = int(InterruptCondition.INPUTS)
 #: a download longer than the buffer can hold is refused at its end (TC 60); what comes until the
 #: `\\` is read and dropped, so the bytes kept stay bounded
 _DOWNLOAD_LIMIT = MAX_LINES * (MAX_LINE_LENGTH + 2)
+_MARK = bytes(b | 0x80 for b in range(256))  # CW1: a program's message with bit 7 set
 
 
 class Firmware:
@@ -115,6 +116,7 @@ class Firmware:
         self._out = bytearray()
         self._download: tuple[str | None, bytearray] | None = None  # DL: (start label, bytes)
         self.ar_base: dict[int, float] = {}  # AR: where the last AR trippoint ended per axis
+        self.mark_unsolicited = True  # CW1 (README "Application programs")
         self.threads.reset()
         self.flash.restore()  # BN, BV, BP: the burned state [spec §1.4]
         if self.on_reset is not None:
@@ -237,6 +239,8 @@ class Firmware:
                 return
             if self.echo and not frame.binary:
                 self._out += buf[:used]
+            if not frame.binary and self.threads.answer(frame.data):
+                continue  # a bare number answers IN, without a reply [DMCLIB DMCCommand]
             result = self._execute(frame)
             if self._download is not None and not result:
                 continue  # DL: the reply comes after the program's `\\`
@@ -292,8 +296,8 @@ class Firmware:
 
     def output(self, data: bytes) -> None:
         """A program's message to the host (MG, a report): into the response FIFO after what
-        waits there, as an unsolicited message."""
-        self._out += data
+        waits there, as an unsolicited message, with bit 7 set unless CW2."""
+        self._out += data.translate(_MARK) if self.mark_unsolicited else data
 
     @property
     def pending_output(self) -> bytearray:

@@ -95,6 +95,15 @@ class ProgramCommands:
         self._threads.set_trace(arg)
         return OK
 
+    def _cw(self, arg: str) -> bytes:
+        """CW 1: a program's messages reach the host with bit 7 set (the default), so that a
+        library tells them from replies; CW 2: as they are."""
+        v = self._value(arg) if arg.strip() else 0
+        if v not in (1, 2):
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+        self.fw.mark_unsolicited = v == 1
+        return OK
+
     def _program_only(self, arg: str) -> bytes:
         """JP JS EN RE RI IF ELSE ZS IN from the host: TC 2 "Command only valid from program"."""
         raise GalilError(TC.ONLY_VALID_FROM_PROGRAM)

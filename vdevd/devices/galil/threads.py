@@ -18,6 +18,7 @@ statement of thread 0 is refused. #AUTO starts thread 0 at power-up and RS.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -42,6 +43,7 @@ AUTO, LIMSWI, POSERR, ININT, MCTIME, CMDERR = "AUTO", "LIMSWI", "POSERR", "ININT
 _HOST_ONLY = frozenset({"DL", "UL", "LS", "ED", "BP", "BN", "BV", "\x12\x13", "RS"})
 
 _split = lru_cache(maxsize=1024)(syntax.split_statement)
+_BARE_NUMBER = re.compile(rb" *-?(\d+\.?\d*|\.\d+) *")
 
 
 @dataclass
@@ -341,8 +343,8 @@ class Threads:
         del t.stack[int(n):]
 
     def _in(self, t: Thread, arg: str) -> None:
-        """IN "prompt",V: the prompt goes to the host, which answers by setting V (`V=5`); the
-        thread waits until it does (the VME card has no operator terminal: README)."""
+        """IN "prompt",V: the prompt goes to the host, which answers with a bare number line
+        (`5`, no reply) or by setting V (`V=5`); the thread waits until it does."""
         if t.number != 0:
             raise GalilError(TC.IN_ONLY_IN_THREAD_0)
         prompt, comma, name = arg.rpartition(",")
@@ -356,6 +358,15 @@ class Threads:
             self.fw.output(text[1:-1].encode("latin-1") + b"\r\n")
         self.fw.variables.pop(name, None)
         t.awaiting = name
+
+    def answer(self, line: bytes) -> bool:
+        """A host line that is a bare number answers the IN thread 0 waits on [DMCLIB
+        DMCCommand: "numeric IN replies"]; whether it did."""
+        t = self.threads[0]
+        if t is None or t.awaiting is None or not _BARE_NUMBER.fullmatch(line):
+            return False
+        self.fw.variables[t.awaiting] = float(line)
+        return True
 
     def _ii(self, t: Thread, arg: str) -> None:
         """II m[,n]: inputs m..n (1-8) run #ININT on a high-to-low transition; II 0 disables."""
