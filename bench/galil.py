@@ -14,6 +14,11 @@ register read of the same card (the round trip floor through vdevd), a lockstep 
 tick (what a command would cost more with decode = "sample", which decodes at the next tick) and
 DMCCommand's batch replayed through `Rack.call` without the library (what the daemon and the card
 take for it). The round trips per call are counted.
+
+Application programs: the round trips `GProgramDownload` takes for a 100-line program (goal <= 20:
+the command FIFO's bursts go in one batch), and `GCommand("MG _TPX")` against the raw round trip
+while thread 0 runs a loop (goal p50 <= 2.5x), interleaved with a lockstep tick (which runs the
+loop's statements) as a diagnostic series.
 """
 
 from __future__ import annotations
@@ -43,6 +48,7 @@ from bench.common import (  # noqa: E402
     ns_dist_to_us,
     pin_self,
     placement,
+    verdict,
     write_json,
 )
 from bench.rtt import (  # noqa: E402
@@ -63,6 +69,18 @@ GCLIB = f'gclib.py().GCommand("{COMMAND}")'
 READ = "diag: Region.read of N+3 (one op)"
 TICK = "diag: sim step of one tick"
 REPLAY = "diag: DMCCommand's batch via Rack.call"
+PROGRAM_MG = 'gclib GCommand("MG _TPX"), a program looping'
+PROGRAM_TICK = "diag: sim step of one tick, a program looping"
+GOAL_DOWNLOAD_TRIPS = 20
+LOOP = "#LOOP\nV1=V1+1\nJP #LOOP"
+
+
+def hundred_lines() -> str:
+    """A 100-line program: labels, moves, trippoints, jumps."""
+    lines = []
+    for k in range(25):
+        lines += [f"#L{k}", f"PR {k * 100},{k * 50}", "BG XY;AM XY", f"JP #L{k + 1},V1<{k}"]
+    return "\n".join(lines)
 
 
 def galil_card(name: str = CARD) -> str:
@@ -152,13 +170,36 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
 
         series, counts, card_ns, stats = measure_commands(
             rack, Rack, fns, {DMC: dmc, GCLIB: gcommand}, n, repeats, warmup, block, seed)
+        program = measure_program(rack, Rack, g, raw_read, n, repeats, warmup, block, seed)
 
     measured = ratios_to_raw(series, {"dmc": DMC, "gclib": GCLIB})
     return command_figure(
         "galil", where, {"n": n, "repeats": repeats, "warmup": warmup, "block": block,
                          "command": COMMAND, "transport": "tcp loopback", "clock": "lockstep"},
         measured, counts, card_ns, stats, f"p50 <= {GOAL_P50}x raw REQ/REP",
-        all(r["p50"] <= GOAL_P50 for r in measured[2].values()), batch_ops=batch_ops)
+        all(r["p50"] <= GOAL_P50 for r in measured[2].values()) and program["pass"],
+        batch_ops=batch_ops, program=program)
+
+
+def measure_program(rack: Any, rack_class: Any, g: Any, raw_read: Callable[[], Any], n: int,
+                    repeats: int, warmup: int, block: int, seed: int) -> dict[str, Any]:
+    """The application program figures: the round trips of a 100-line download, then
+    GCommand("MG _TPX") against RAW while thread 0 loops (a tick series runs the loop)."""
+    download = count_round_trips(rack_class, {"download": lambda: g.GProgramDownload(hundred_lines())},
+                                 5)["download"]
+    g.GProgramDownload(LOOP)
+    g.GCommand("V1=0;XQ #LOOP")
+    fns: dict[str, Callable[[], Any]] = {RAW: raw_read, PROGRAM_MG: lambda: g.GCommand("MG _TPX"),
+                                         PROGRAM_TICK: lambda: rack.sim.step(ticks=1)}
+    warm_up(fns, warmup, block)
+    series = time_interleaved(fns, n, repeats, block, seed)
+    running = g.GCommand("MG _XQ0") != "-0000000001.0000"
+    g.GCommand("HX")
+    dists, per_repeat, ratios = ratios_to_raw(series, {"program": PROGRAM_MG})
+    return {"download_round_trips": download, "series": dists, "per_repeat": per_repeat,
+            "ratios": ratios, "thread_ran": running,
+            "pass": (download["max"] <= GOAL_DOWNLOAD_TRIPS and running
+                     and ratios[PROGRAM_MG]["p50"] <= GOAL_P50)}
 
 
 def last_request(rack: Any, fn: Callable[[], Any]) -> tuple[Any, Any]:
@@ -262,6 +303,17 @@ def report(r: dict[str, Any]) -> None:
               f"{p50[READ] - p50[RAW]:+.1f} us (vs raw REQ/REP); a lockstep tick would add "
               f"{p50[TICK] - p50[READ]:+.1f} us (sim step vs a one-op read)")
     report_ratio_goals(r, GOAL_P50)
+    prog = r.get("program")
+    if prog:
+        trips = prog["download_round_trips"]
+        print(f"GProgramDownload of 100 lines: {trips['mean']:.0f} round trip(s) (max {trips['max']}, "
+              f"goal <= {GOAL_DOWNLOAD_TRIPS})  ->  {verdict(trips['max'] <= GOAL_DOWNLOAD_TRIPS)}")
+        for name, d in prog["series"].items():
+            print(f"  {name}: p50 {d['p50']:.1f} us, p99 {d['p99']:.1f} us")
+        ratio = prog["ratios"][PROGRAM_MG]
+        print(f"{PROGRAM_MG} / raw: p50 {ratio['p50']:.2f}x (goal <= {GOAL_P50}), p99 "
+              f"{ratio['p99']:.2f}x, thread ran: {prog['thread_ran']}  ->  "
+              f"{verdict(ratio['p50'] <= GOAL_P50 and prog['thread_ran'])}")
 
 
 def main() -> None:

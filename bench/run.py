@@ -150,6 +150,16 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
                              f"{r['series'][series]['p50']:.0f} us",
                              f"raw {raw['p50']:.0f} us -> {ratio['p50']:.2f}x",
                              verdict(ratio["p50"] <= galil.GOAL_P50)])
+            prog = r.get("program")
+            if prog:
+                trips = prog["download_round_trips"]["max"]
+                rows.append(["galil 100-line GProgramDownload", f"<= {galil.GOAL_DOWNLOAD_TRIPS} trips",
+                             str(trips), "", verdict(trips <= galil.GOAL_DOWNLOAD_TRIPS)])
+                mg, ratio = prog["series"][galil.PROGRAM_MG], prog["ratios"][galil.PROGRAM_MG]
+                rows.append(["galil MG _TPX p50, program running", f"<= {galil.GOAL_P50}x raw",
+                             f"{mg['p50']:.0f} us",
+                             f"raw {prog['series'][rtt.RAW]['p50']:.0f} us -> {ratio['p50']:.2f}x",
+                             verdict(ratio["p50"] <= galil.GOAL_P50 and prog["thread_ran"])])
         elif name == "maxk":
             raw, cmd = r["series"][rtt.RAW], r["series"][maxk.MAXK]
             ratio = r["ratios"][maxk.MAXK]["p50"]
