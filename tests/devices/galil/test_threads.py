@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from vdevmaps.galil import InterruptStatus
 
 from tests.devices.galil.program_rig import Rig
 from vdevd.devices.galil.threads import MAX_STACK, MAX_THREADS
@@ -355,6 +356,17 @@ def test_in_is_only_valid_in_thread_0() -> None:
     rig.send(b"XQ #A,1\r")
     rig.until_halted()
     assert rig.tc() == 71
+
+
+def test_a_program_ending_posts_interrupt_db_when_ei_bit_13_is_set() -> None:
+    rig = Rig()
+    rig.download("#A\nWT 2\nEN\n#B\nJP #B")
+    rig.send(f"EI {1 << 13};XQ #A;XQ #B,1\r".encode())
+    assert rig.fw.bus.pending_interrupts == ()
+    rig.samples(5)
+    assert rig.fw.bus.pending_interrupts == (InterruptStatus.PROGRAM_STOPPED,)
+    rig.send(b"HX 1\r")  # halted by the host: no DB
+    assert rig.fw.bus.pending_interrupts == (InterruptStatus.PROGRAM_STOPPED,)
 
 
 def test_tr_traces_the_lines() -> None:

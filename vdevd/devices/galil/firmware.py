@@ -39,6 +39,7 @@ _ALL_COMPLETE = int(InterruptCondition.ALL_COMPLETE)
 _COMMAND_DONE = int(InterruptCondition.COMMAND_DONE)
 _LIMIT_SWITCH = int(InterruptCondition.LIMIT_SWITCH)
 _INPUTS = int(InterruptCondition.INPUTS)
+_PROGRAM_STOPPED = int(InterruptCondition.PROGRAM_STOPPED)
 #: a download longer than the buffer can hold is refused at its end (TC 60); what comes until the
 #: `\\` is read and dropped, so the bytes kept stay bounded
 _DOWNLOAD_LIMIT = MAX_LINES * (MAX_LINE_LENGTH + 2)
@@ -320,6 +321,11 @@ class Firmware:
             self.ei_inputs = n
         if vector is not None:
             self.vector = vector
+
+    def program_stopped(self) -> None:
+        """A thread ended by itself: EI bit 13, status DB [M Ch4 §Configuring Interrupts]."""
+        if self.ei_mask & _PROGRAM_STOPPED:
+            self.interrupt(InterruptStatus.PROGRAM_STOPPED)
 
     def interrupt(self, code: int) -> None:
         """Queue a status code; the line asserts while the host has interrupts enabled."""

@@ -197,7 +197,7 @@ class Threads:
         while t.line < len(code) and t.stmt >= len(code[t.line]):
             t.line, t.stmt = t.line + 1, 0  # an empty line
         if t.line >= len(code):
-            self.threads[t.number] = None
+            self._ended(t)
             return
         text = code[t.line][t.stmt]
         if self.trace and t.stmt == 0:
@@ -237,7 +237,13 @@ class Threads:
         if t.number == 0 and CMDERR in self.program.labels and not self._inside(t, CMDERR):
             self._interrupt(t, CMDERR)
             return
+        self._ended(t)
+
+    def _ended(self, t: Thread) -> None:
+        """The thread stopped by itself (EN, the last line, an error): interrupt DB when EI
+        enables it [M Ch4 §Servicing Interrupts]."""
         self.threads[t.number] = None
+        self.fw.program_stopped()
 
     # -- flow --------------------------------------------------------------------------------------
     def _target(self, arg: str) -> tuple[int, bool]:
@@ -273,7 +279,7 @@ class Threads:
             frame = t.stack.pop()
             t.line, t.stmt = frame.line, frame.stmt
             return
-        self.threads[t.number] = None
+        self._ended(t)
 
     def _return(self, t: Thread, arg: str, kinds: tuple[str, ...]) -> None:
         """RE / RI n: back to where an automatic subroutine interrupted the thread; n = 1 restores
@@ -400,7 +406,7 @@ class Threads:
 
     def _interrupt(self, t: Thread, label: str) -> None:
         if len(t.stack) >= MAX_STACK:
-            self.threads[t.number] = None
+            self._ended(t)
             return
         t.stack.append(Frame(t.line, t.stmt, label, t.trip))
         t.trip, t.awaiting = None, None
