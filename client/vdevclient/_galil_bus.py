@@ -319,9 +319,9 @@ class DmcBus:
                 return
 
     def _take_unsolicited(self, got: bytes) -> None:
-        got = got.translate(_UNMARK)
-        self.unsolicited += got
-        self.owed = max(0, self.owed - _count(got))
+        """Drained bytes: late replies (which settle what is owed) and program messages."""
+        self.owed = max(0, self.owed - _count(got.translate(None, _HIGH)))
+        self.unsolicited += got.translate(_UNMARK)
 
     def forget(self) -> None:
         """After a reset: what the card holds or owes is no longer known."""

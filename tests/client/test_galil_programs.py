@@ -83,6 +83,21 @@ def test_a_program_runs_while_gcommand_is_served_and_gmessage_gets_its_output(g:
     assert g.GMessage() == "DONE\r\n"
 
 
+def test_program_messages_with_colons_do_not_disturb_replies(g: gclib.py) -> None:
+    """A program's messages reach the host marked (CW1), so a ':' in them ends no reply."""
+    g.GProgramDownload("#A\nN=0\n#L\nMG \"N:\",N\nN=N+1\nWT 1\nJP #L,N<20\nEN")
+    g.GCommand("XQ #A")
+    replies = []
+    for _ in range(10):
+        g.GSleep(2)
+        replies.append(g.GCommand("MG 7"))
+    assert replies == ["0000000007.0000"] * 10
+    g.GSleep(50)
+    messages = g.GMessage().split("\r\n")
+    assert messages[:3] == ["N: 0000000000.0000", "N: 0000000001.0000", "N: 0000000002.0000"]
+    assert len([m for m in messages if m]) == 20
+
+
 def test_a_refused_download_raises_and_tc1_tells_why(g: gclib.py) -> None:
     g.GProgramDownload(EX12)
     with pytest.raises(gclib.GclibError, match="^question mark returned by controller$"):

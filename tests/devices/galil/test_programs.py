@@ -124,6 +124,15 @@ def test_bp_bv_bn_burn_and_a_new_power_up_restores_them() -> None:
     assert after.send(b"KP ?,?\r") == b"0012.00,0013.00\r\n:"
 
 
+def test_bn_while_a_program_runs_is_tc_17() -> None:
+    rig = Rig()
+    rig.download("#A\nJP #A")
+    rig.send(b"XQ #A\r")
+    assert rig.send(b"BN\r") == b"?"
+    assert rig.tc() == 17
+    assert rig.send(b"BP\r") == b":"
+
+
 def test_a_program_not_burned_is_gone_at_power_up() -> None:
     rig = Rig()
     rig.download(EX11)

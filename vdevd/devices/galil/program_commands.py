@@ -110,8 +110,9 @@ class ProgramCommands:
 
     # -- flash [spec §1.5] -------------------------------------------------------------------------
     def _burn(self, what: str, arg: str) -> bytes:
-        """BP (programs), BV (variables), BN (parameters): into the card's flash file."""
-        if what != "variables" and self._threads.active and what == "parameters":
+        """BP (programs), BV (variables), BN (parameters): into the card's flash file; BN while
+        a program runs is TC 17 "ED, BN and DL not valid while program running"."""
+        if what == "parameters" and self._threads.active:
             raise GalilError(TC.NOT_VALID_WHILE_PROGRAM_RUNS)
         self.fw.flash.burn(what)
         return OK
