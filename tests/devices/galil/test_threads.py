@@ -482,3 +482,68 @@ def test_re_outside_an_automatic_subroutine_is_refused() -> None:
     rig.send(b"XQ #A\r")
     assert rig.until_halted() == b""
     assert rig.tc() == 8
+
+
+# -- the manual's chapter 4 and 6 program examples ------------------------------------------------
+def _started(rig: Rig, axis: str, limit: int = 10_000) -> int:
+    """Samples until the axis moves; the sample count then."""
+    for _ in range(limit):
+        if rig.value(f"_BG{axis}"):
+            return rig.fw.ticks
+        rig.samples(1)
+    raise AssertionError(f"{axis} never started")
+
+
+def test_ch4_user_interrupt_when_at_speed() -> None:
+    """[M Ch4 §Setting up Interrupts, 2)]: #I PR 1000; SP 5000; BGX; ASX; UI1; EN: F1 once X
+    has reached 5000 counts/s (AC 256000: about 20 ms)."""
+    rig = Rig()
+    rig.download("#I\nPR 1000\nSP 5000\nBGX\nASX\nUI1\nEN")
+    rig.send(b"EI 2,,255;XQ #I\r")
+    for _ in range(100):
+        rig.samples(1)
+        if rig.fw.bus.pending_interrupts:
+            break
+    assert rig.fw.bus.pending_interrupts == (InterruptStatus.USER + 1,)
+    assert rig.fw.ticks == pytest.approx(5000 / 256000 * 1000, abs=3)
+
+
+def test_ch6_fig_6_1_moves_start_20_ms_apart() -> None:
+    """[M Ch6 §Independent Axis Positioning]: BG X, WT 20, BG Y, WT 20, BG Z."""
+    rig = Rig()
+    rig.download("#A\nPR 2000,500,100\nSP 15000,10000,5000\nAC 500000,500000,500000\n"
+                 "DC 500000,500000,500000\nBG X\nWT 20\nBG Y\nWT 20\nBG Z\nEN")
+    rig.send(b"XQ #A\r")
+    x = _started(rig, "X")
+    y = _started(rig, "Y")
+    z = _started(rig, "Z")
+    assert y - x == pytest.approx(20, abs=2)
+    assert z - y == pytest.approx(20, abs=2)
+    rig.samples(300)
+    assert [rig.value(f"_RP{a}") for a in "XYZ"] == [2000, 500, 100]
+
+
+def test_ch6_jog_x_then_z_once_x_is_at_speed() -> None:
+    """[M Ch6 §Example - Jog in X only]: AS X, then BG Z (AC 20000 rounds down to 19456)."""
+    rig = Rig()
+    rig.download("#A\nAC 20000,,20000\nDC 20000,,20000\nJG 50000,,-25000\nBG X\nAS X\nBG Z\nEN")
+    rig.send(b"XQ #A\r")
+    z = _started(rig, "Z")
+    assert z == pytest.approx(50000 / 19456 * 1000, abs=4)  # BG at the next sample, AS polled
+    assert rig.value("_TVX") >= 0  # X keeps jogging
+    assert rig.value("_BGX") == 1
+
+
+def test_ch6_joystick_jogging_follows_the_analog_input() -> None:
+    """[M Ch6 §Example - Joystick Jogging]: 10 V is 50000 counts/s."""
+    rig = Rig()
+    rig.download("#JOY\nJG0\nBGX\n#B\nV1 =@AN[1]\nVEL=V1*50000/10\nJG VEL\nJP #B")
+    rig.fw.analog[0] = 5.0
+    rig.send(b"XQ #JOY\r")
+    rig.samples(200)
+    assert rig.value("_JGX") == pytest.approx(25000, abs=2)
+    rig.fw.analog[0] = -2.0
+    rig.samples(50)
+    assert rig.value("_JGX") == pytest.approx(-10000, abs=2)
+    assert rig.send(b"ST\r") == b":"
+    assert not rig.fw.threads.active
