@@ -118,7 +118,7 @@ class DmcBus:
         """`size` single reads of one FIFO port (a repeated read: PROTOCOL.md `rep`)."""
         return {"op": "read", "offset": int(offset), "size": size, "rep": True, **self._where}
 
-    def _send_ops(self, data: bytes, timeout_ns: int) -> list[dict[str, Any]]:
+    def _send_ops(self, data: bytes, timeout_ns: int, memo: bool = True) -> list[dict[str, Any]]:
         """Command bytes to N+1 in bursts, each after bit 4 of N+3 reads 0 [M Ch4 §Write Procedure];
         the first burst skips the wait when the last status read showed room."""
         key = (data, self._room, timeout_ns)
@@ -130,6 +130,9 @@ class DmcBus:
                 if start or not self._room:
                     ops.append(room_wait)
                 ops.append(self._fifo_write(data[start:start + WRITE_BURST]))
+            if not memo:  # a program download: sent once, not worth keeping
+                self._room = False
+                return ops
             if len(self._send_cache) >= MEMO_SIZE:
                 self._send_cache.clear()
             self._send_cache[key] = ops
@@ -142,7 +145,14 @@ class DmcBus:
         return self.rack.call({"op": "batch", "ops": ops}, wait_ns / 1e9)
 
     # -- commands -------------------------------------------------------------------------------
-    def command(self, data: bytes, replies: int) -> Reply:
+    def download(self, data: bytes, replies: int) -> Reply:
+        """`command` for a program download: its bursts and reply length are not remembered."""
+        reply = self.command(data, replies, memo=False)
+        self._reply_len.pop(data, None)
+        self._quick.pop(data, None)
+        return reply
+
+    def command(self, data: bytes, replies: int, memo: bool = True) -> Reply:
         """Send `data` and read until `replies` ':' or '?' have come [DMCLIB DMCCommand].
 
         One batch: [bursts of command bytes, K + 1 reads of N+1 (one repeated read; an empty
@@ -159,7 +169,7 @@ class DmcBus:
             if quick is not None and quick[1] == replies:
                 return self._quick_command(data, quick)
         timeout_ns = self._timeout_ns()
-        ops = self._send_ops(data, timeout_ns)
+        ops = self._send_ops(data, timeout_ns, memo)
         sent = len(ops)
         waits = sum(1 for op in ops if op["op"] == "wait")
         owed, self.owed = self.owed, 0

@@ -634,7 +634,7 @@ def download(c: _Controller, program: bytes, label: bytes = b"") -> int:
     card answers ':' once it has checked the program, '?' (DMCERROR_DOWNLOAD) when it refused
     a line (DMCError: TC1)."""
     data = b"EO0\rDL" + label + b"\r" + b"".join(line + b"\r" for line in program_lines(program))
-    reply = c.bus.command(data + b"\\", 2)
+    reply = c.bus.download(data + b"\\", 2)
     if b"?" in reply.data:
         return DMCERROR_DOWNLOAD
     if reply.timed_out and c.timeout_ms:

@@ -189,3 +189,17 @@ def test_auto_runs_at_power_up_when_the_burned_program_has_it() -> None:
     assert after.fw.threads.active
     assert after.until_halted() == b"UP\r\n"
     assert after.value("V1") == 42
+
+
+@pytest.mark.parametrize(("command", "code"), [
+    (b"LS 7\r", 11), (b"LS 1,2,3\r", 4), (b"LS #NONE\r", 10), (b"XQ A\r", 11), (b"XQ #A,-1\r", 6),
+    (b"HX 9\r", 6), (b"II 9\r", 6), (b"II 3,2\r", 6), (b"TW 40000\r", 6), (b"TR 2\r", 6),
+    (b"CW 3\r", 6), (b"AI 9\r", 6), (b"AD\r", 50), (b"AP ?\r", 51),
+])
+def test_bad_program_commands_answer_their_tc_and_change_nothing(command: bytes, code: int) -> None:
+    rig = Rig()
+    rig.download(EX11)
+    assert rig.send(command) == b"?"
+    assert rig.tc() == code
+    assert rig.send(b"UL\r") == b"#A\r\nPR 700\r\nSP 2000\r\nBGX\r\nEN\r\n\x1a:"
+    assert not rig.fw.threads.active

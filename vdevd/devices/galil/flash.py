@@ -111,8 +111,9 @@ class Flash:
         for name, vals in dict(section["values"]).items():
             if name not in PARAMS or name in _NOT_BURNED:
                 continue
-            vs = [float(v) for v in list(vals)[:n]]
-            m.set_param(name, list(range(len(vs))), vs)
+            coerced = [PARAMS[name].coerce(float(v)) for v in list(vals)[:n]]
+            axes = [a for a, v in enumerate(coerced) if v is not None]
+            m.set_param(name, axes, [v for v in coerced if v is not None])
         off = [a for a, v in enumerate(list(section.get("motor_off", []))[:n]) if v]
         if off:
             m.motor_off(off)
