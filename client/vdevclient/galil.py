@@ -89,6 +89,7 @@ _MESSAGES: dict[int, str] = {
     DMCERROR_ARGUMENT: "One or more required arguments to a DMC API function call was NULL.",
     DMCERROR_DATARECORD: "Could not access DMC data record.",
     DMCERROR_FIRMWARE: "Could not update the controller's firmware.",
+    DMCERROR_DOWNLOAD: "Could not download the program to the controller.",
     DMCERROR_CONVERSION: "Could not convert DMC command (ASCII to binary or binary to ASCII).",
     DMCERROR_REGISTRY: "Could not access or modify the controller's registry information.",
     DMCERROR_RESOURCE: "Windows reports a resource conflict with the current hardware configuration.",
@@ -384,7 +385,8 @@ def DMCGetAdditionalResponse(hdmc: Any, pchResponse: Any, cbResponse: int) -> in
 @_guarded
 def DMCError(hdmc: Any, lError: int, pchMessage: Any, cbMessage: int) -> int:
     """The text of an error code; for DMCERROR_COMMAND the card's reason (`TC1`, e.g.
-    "1 Unrecognized command.") [dmclnx.c DMCError]."""
+    "1 Unrecognized command.") [dmclnx.c DMCError]; for DMCERROR_DOWNLOAD also the line in
+    error (`MG_ED`)."""
     if pchMessage is None or not cbMessage:
         return DMCERROR_ARGUMENT
     rc, text = DMCNOERROR, _MESSAGES.get(int(lError), "Unknown error.").encode()
@@ -399,6 +401,13 @@ def DMCError(hdmc: Any, lError: int, pchMessage: Any, cbMessage: int) -> int:
             if rc == DMCNOERROR:
                 cause = reply.data.rstrip(b":\r\n")
                 text = cause + b"." if cause else b"Unknown command error."
+    elif lError == DMCERROR_DOWNLOAD:
+        c = _handle(hdmc)
+        if c is not None:
+            cause = c.bus.command(b"TC1\r", 1).data.rstrip(b":\r\n")
+            line = c.bus.command(b"MG_ED\r", 1).data.rstrip(b":\r\n").strip()
+            if cause and line:
+                text += b" " + cause + b" at line " + str(int(float(line))).encode() + b"."
     _put(pchMessage, cbMessage, text)
     return rc
 

@@ -141,6 +141,10 @@ def test_a_refused_download_is_dmcerror_download(h: ctypes.c_long) -> None:
     buf = ctypes.create_string_buffer(64)
     assert galil.DMCCommand(h, "TC", buf, 64) == OK
     assert buf.value == b"061\r\n:"
+    assert galil.DMCDownloadFromBuffer(h, "#A\nEN\nMG \"" + "x" * 90 + "\"", None) == galil.DMCERROR_DOWNLOAD
+    text = ctypes.create_string_buffer(256)
+    assert galil.DMCError(h, galil.DMCERROR_DOWNLOAD, text, 256) == OK
+    assert text.value.endswith(b"60 Download error - line too long or too many lines at line 2.")
 
 
 def test_upload_into_a_small_buffer_is_bufferfull(h: ctypes.c_long) -> None:
