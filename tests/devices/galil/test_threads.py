@@ -405,6 +405,14 @@ def test_as_waits_until_at_speed() -> None:
     assert rig.value("V1") == pytest.approx(100, abs=3)  # 25600 / 256000 s = 100 samples
 
 
+def test_as_after_the_move_ended_does_not_wait() -> None:
+    rig = Rig()
+    rig.download("#A\nPR 100\nBGX\nAMX\nASX\nV1=1\nEN")
+    rig.send(b"XQ #A\r")
+    rig.until_halted(1000)
+    assert rig.value("V1") == 1
+
+
 def test_ar_waits_for_distances_from_the_last_ar() -> None:
     rig = Rig()
     rig.download("#A\nJG 10000\nBGX\nAR 1000\nV1=_RPX\nAR 1000\nV2=_RPX\nSTX\nEN")

@@ -179,13 +179,15 @@ class ProgramCommands:
         return Trippoint(ready)
 
     def _as(self, arg: str) -> Trippoint:
-        """AS axes: until the profiles have stopped accelerating (at slew speed) [M Ch6]."""
+        """AS axes: until the profiles have stopped accelerating (at slew speed, or decelerating
+        already in a short move), or ended [M Ch6 §Example - Jog in X only]."""
         axes = self.fw.interp.axes(arg)
-        axis = self.fw.motion.core.axes
+        core = self.fw.motion.core
 
         def ready() -> bool:
-            acc, vel = axis.cmd_acc[axes], axis.cmd_vel[axes]
-            return bool((acc * vel <= 0).all() and (vel != 0).all())
+            acc, vel = core.axes.cmd_acc[axes], core.axes.cmd_vel[axes]
+            at_speed = (acc * vel <= 0) & (vel != 0)
+            return bool((at_speed | ~core.profile.moving[axes]).all())
 
         return Trippoint(ready)
 
