@@ -4,7 +4,9 @@ The card (card.py) hands it the A16 window (bus.py) and a callback that raises t
 line; it runs `step()` every servo sample and `serve()` when a command arrives. The firmware owns
 the motion (motion.py), the command interpreter (interpreter.py, which depends on it and never on
 the card), the I/O, the error code, the variables, the EI conditions, the report formats, the
-timing and the master reset. Register offsets and codes are `vdevmaps.galil`.
+timing and the master reset, the application programs and their threads (threads.py: they run
+at every sample while one runs) and the flash (flash.py). Register offsets and codes are
+`vdevmaps.galil`.
 """
 
 from __future__ import annotations
