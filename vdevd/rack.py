@@ -308,10 +308,13 @@ class Rack:
 
     def _run_batch(self, ops: list[Request | Access], start: int, results: list[Any],
                    reply: Reply) -> None:
-        """Run ops from `start`; a wait suspends the rest until it resolves (atomic after it)."""
+        """Run ops from `start`; a wait suspends the rest until it resolves (atomic after it).
+        A wait that resolves at once goes on in this loop, not in a nested call, so a batch of
+        many such waits takes no stack."""
         regions = self._regions
         append = results.append
-        for i in range(start, len(ops)):
+        i = start
+        while i < len(ops):
             op = ops[i]
             if type(op) is not Request:  # a plain access (protocol.Access), the usual op
                 kind, card, name, offset, last = op  # type: ignore[misc]
@@ -331,35 +334,58 @@ class Rack:
                         append(None)
                 except VdevError as exc:
                     raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
+                i += 1
                 continue
             if op.op == "wait":
-                def resume(res: Any, i: int = i) -> None:
-                    if isinstance(res, VdevError):
-                        reply(res)
+                # until _add_waiter returns, a result is kept here and this loop goes on
+                now: list[Any] = []
+
+                def resume(res: Any, i: int = i, now: list[Any] = now) -> None:
+                    if now == [None]:
+                        now[0] = res  # resolved at once: the loop below takes it
                         return
-                    results.append(res)
-                    if not res.get("fired", True):
-                        results.extend([None] * (len(ops) - i - 1))
-                        reply(results)
-                        return
-                    try:
-                        self._run_batch(ops, i + 1, results, reply)
-                    except VdevError as exc:
-                        reply(exc)
-                    except Exception as exc:  # resumed from Waits.service: no execute() around it
-                        reply(self._internal(exc, f"batch op {i + 1}.."))
+                    if self._resumed(ops, i, results, reply, res):
+                        try:
+                            self._run_batch(ops, i + 1, results, reply)
+                        except VdevError as exc:
+                            reply(exc)
+                        except Exception as exc:  # from Waits.service: no execute() around it
+                            reply(self._internal(exc, f"batch op {i + 1}.."))
 
                 try:
                     waiter = self._make_waiter(op.args, resume)
                 except VdevError as exc:
                     raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
+                now.append(None)
                 self._add_waiter(waiter)
-                return
+                res = now.pop()
+                if res is None:
+                    return  # the wait goes on: resume runs the rest
+                if not self._resumed(ops, i, results, reply, res):
+                    return
+                i += 1
+                continue
             try:
                 append(self._batchable[op.op](op.args, reply))
             except VdevError as exc:
                 raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
+            i += 1
         reply(results)
+
+    @staticmethod
+    def _resumed(ops: list[Request | Access], i: int, results: list[Any], reply: Reply,
+                 res: Any) -> bool:
+        """A batch's wait `i` resolved with `res`: True when the ops after it run; else the
+        batch is answered (an error, or a wait that timed out: the rest are None)."""
+        if isinstance(res, VdevError):
+            reply(res)
+            return False
+        results.append(res)
+        if not res.get("fired", True):
+            results.extend([None] * (len(ops) - i - 1))
+            reply(results)
+            return False
+        return True
 
     def _make_waiter(self, args: dict[str, Any], reply: Reply) -> Waiter:
         card = self.card(args["card"])

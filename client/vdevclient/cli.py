@@ -1,4 +1,5 @@
-"""`vdevctl`: the operator command (cards, lspci, peek, poke, irq, step, stats, control, now).
+"""`vdevctl`: the operator command (cards, lspci, peek, poke, irq, step, stats, control, now,
+dropin-path).
 
 Endpoint rules as `vdevclient.connect`: --endpoint, else $VDEVD_ENDPOINT, else tcp://127.0.0.1:5555.
 """
@@ -8,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 from typing import Any
 
 import zmq
@@ -49,7 +51,14 @@ def parser() -> argparse.ArgumentParser:
     ctl.add_argument("card")
     ctl.add_argument("action")
     ctl.add_argument("params", nargs="*", help="key=value (value parsed as JSON when it can be)")
+    sub.add_parser("dropin-path", help="print the directory of the drop-in vendor modules "
+                   "(gclib): put it first on PYTHONPATH")
     return p
+
+
+def dropin_path() -> Path:
+    """The directory of the drop-in modules (`import gclib` finds vdevclient's there)."""
+    return Path(__file__).resolve().parent / "dropin"
 
 
 def _int(text: str) -> int:
@@ -90,6 +99,9 @@ def _value(text: str) -> Any:
 
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    if args.command == "dropin-path":  # no daemon needed
+        print(dropin_path())
+        return 0
     try:
         with connect(args.endpoint, args.events, timeout=args.timeout) as rack:
             return _run(rack, args)

@@ -462,6 +462,65 @@ def DMCVersion(hdmc: Any, pchVersion: Any, cbVersion: int) -> int:
     return rc
 
 
+# -- arrays --------------------------------------------------------------------------------------------
+LONG_LINE = 1024  # bytes of a long line (QD's data) written per batch before the reply is read
+
+
+def long_command(bus: DmcBus, data: bytes, replies: int) -> Reply:
+    """`bus.command` for a line of any length: the bytes beyond the last LONG_LINE go first, a
+    batch per LONG_LINE (as the library's DMCWriteData calls), so no batch holds hundreds of
+    waits for FIFO room."""
+    cut = max(len(data) - LONG_LINE, 0)
+    for start in range(0, cut, LONG_LINE):
+        bus.send(data[start:min(start + LONG_LINE, cut)], 0)
+    return bus.command(data[cut:], replies)
+
+
+@_guarded
+def DMCArrayDownload(hdmc: Any, pszArrayName: Any, usFirstElement: int, usLastElement: int,
+                     pchData: Any, cbData: int, pulBytesWritten: Any) -> int:
+    """Write elements first..last of a dimensioned array: `QD name[],first,last` CR, the data
+    (numbers separated by commas or CR; as Galil's library, LF and spaces become '0'), ^Z; the
+    card answers ':' or '?' (DMCERROR_COMMAND: a missing array, a bad range or number; DMCError
+    tells which) [DMCLIB DMCArrayDownload]."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pszArrayName is None or pchData is None or not cbData or pulBytesWritten is None:
+        return DMCERROR_ARGUMENT
+    data = _text(pchData)[:int(cbData)].replace(b"\n", b"0").replace(b" ", b"0")
+    _set(pulBytesWritten, 0)
+    line = b"QD %s[],%d,%d\r" % (_text(pszArrayName), int(usFirstElement), int(usLastElement))
+    rc = _reply(c, long_command(c.bus, line + data + b"\x1a", 1), None, 0)
+    if rc == DMCNOERROR:
+        _set(pulBytesWritten, len(data))
+    return rc
+
+
+@_guarded
+def DMCArrayUpload(hdmc: Any, pszArrayName: Any, usFirstElement: int, usLastElement: int,
+                   pchData: Any, cbData: int, pulBytesRead: Any, fComma: int) -> int:
+    """Read elements first..last of an array: `QU name[],first,last,fComma`; the values
+    separated by commas (fComma 1) or CR (0), without the final CR LF ':' (a '?' empties the
+    buffer: DMCERROR_COMMAND) [DMCLIB DMCArrayUpload]."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pszArrayName is None or pchData is None or not cbData or pulBytesRead is None:
+        return DMCERROR_ARGUMENT
+    _set(pulBytesRead, 0)
+    line = b"QU %s[],%d,%d,%d\r" % (_text(pszArrayName), int(usFirstElement), int(usLastElement),
+                                    int(fComma))
+    reply = c.bus.command(line, 1)
+    if b"?" in reply.data:
+        _put(pchData, cbData, b"")
+        return _outcome(c, reply, True, cbData)
+    values = reply.data.rstrip(b"\x1a:\r\n")
+    rc = _outcome(c, reply._replace(data=values), _put(pchData, cbData, values), cbData)
+    _set(pulBytesRead, min(len(values), max(int(cbData) - 1, 0)))
+    return rc
+
+
 # -- interrupts ----------------------------------------------------------------------------------------
 @_guarded
 def DMCGetInterruptStatus(hdmc: Any, pusStatus: Any) -> int:

@@ -36,10 +36,10 @@ G_BAD_RESPONSE_QUESTION_MARK = -10000
 G_BAD_VALUE_RANGE = -10002
 G_BAD_LOST_DATA = -10004
 G_BAD_ADDRESS = -10006
+G_BAD_FILE = -10005
 G_DATA_RECORD_ERROR = -1107
 G_GCLIB_ERROR = -1
 G_GCLIB_NON_BLOCKING_READ_EMPTY = -4
-G_BAD_FILE = -1102
 
 _TEXTS = {
     G_TIMEOUT: "device timed out",
@@ -50,10 +50,10 @@ _TEXTS = {
     G_BAD_VALUE_RANGE: "value passed to function was bad or out of range",
     G_BAD_LOST_DATA: "data was lost due to buffer or fifo limitations",
     G_BAD_ADDRESS: "a bad address was specified in open",
+    G_BAD_FILE: "file was not found, contents are invalid, or write failed",
     G_DATA_RECORD_ERROR: "data record error",
     G_GCLIB_ERROR: "gclib unexpected error",
     G_GCLIB_NON_BLOCKING_READ_EMPTY: "data was not waiting for a zero-timeout read",
-    G_BAD_FILE: "file error occurred",
 }
 
 #: GRecord's method (gclib.h): G_QR asks with the QR command, G_DR takes the DR stream. The
@@ -64,6 +64,9 @@ G_DR = 1
 DEFAULT_TIMEOUT_MS = 5000  # gclib's default timeout (py._timeout)
 MOTION_POLL_MS = 10  # GMotionComplete polls _BG this often (card time)
 _BUF_SIZE = 500_000  # gclib.py's response buffer: "big enough to fit an entire program"
+G_BOUNDS = -1  # GArrayUpload/GArrayDownload: first/last omitted, the whole array (gclib.h)
+G_CR = 0  # GArrayUpload's delimiters (gclib.h)
+G_COMMA = 1
 
 #: what a DMC library code becomes in gclib
 _FROM_DMC = {
@@ -305,3 +308,75 @@ class py:
         _rc(galil.DMCCopyDataRecord(self._gcon, record))
         axes = (size.value - FIRST_AXIS) // AXIS_SIZE
         return decode_record(record.raw, axes)
+
+    # -- arrays (gclib.h GArrayDownload, GArrayUpload; gclibo.h GArray*File) ------------------------
+    def _array_command(self, line: str, data: bytes = b"") -> bytes:
+        """One QU/QD exchange: its reply without the final CR LF ':' ('?': GclibError)."""
+        reply = galil.long_command(self._cc(), line.encode("latin-1") + data, 1)
+        if b"?" in reply.data:
+            _rc(G_BAD_RESPONSE_QUESTION_MARK)
+        if reply.timed_out:
+            _rc(G_TIMEOUT)
+        return reply.data.rstrip(b"\x1a:\r\n")
+
+    @staticmethod
+    def _bounds(first: int, last: int) -> str:
+        """`,first,last` of QU/QD, G_BOUNDS (-1) left empty: the card takes the array's ends."""
+        return "".join("," + ("" if v == G_BOUNDS else str(int(v))) for v in (first, last))
+
+    def GArrayDownload(self, name: str, first: int, last: int, array_data: list[Any]) -> None:
+        """Write `array_data` (numbers) into elements first.. of the dimensioned array `name`
+        (first/last -1: from 0 / to the end): `QD name[],first,last`, the values separated by
+        commas, a backslash. A missing array, a bad range or value: GclibError."""
+        data = ",".join(str(val) for val in array_data).encode("latin-1")
+        self._array_command(f"QD {name}[]{self._bounds(first, last)}\r", data + b"\\")
+
+    def GArrayUpload(self, name: str, first: int = G_BOUNDS, last: int = G_BOUNDS,
+                     delim: int = G_COMMA) -> list[float]:
+        """Elements first..last of array `name` (-1: the array's ends) as floats: `QU`."""
+        if delim not in (G_CR, G_COMMA):
+            _rc(G_BAD_VALUE_RANGE)
+        text = self._array_command(f"QU {name}[]{self._bounds(first, last)},{delim}\r")
+        return [float(s) for s in text.decode("latin-1").split("," if delim else "\r")]
+
+    def GArrayUploadFile(self, file_path: str, names: list[str] | None = None) -> None:
+        """Write arrays (`names`; none: every array LA lists) to a CSV file as gclib does: the
+        names on the first line, then one line per element index, an empty cell where an array
+        has ended, every line ended by CR."""
+        if not names:
+            listing = self.GCommand("LA").replace("\n", "\r").split("\r")
+            names = [line.split("[", 1)[0].strip() for line in listing if "[" in line]
+        columns = []
+        for name in names:
+            text = self._array_command(f"QU {name}[],,,{G_CR}\r").decode("latin-1")
+            columns.append([cell.replace(" ", "") for cell in text.split("\r")])
+        rows = [",".join(names)]
+        for i in range(max((len(c) for c in columns), default=0)):
+            rows.append(",".join(c[i] if i < len(c) else "" for c in columns))
+        try:
+            with open(file_path, "w", encoding="latin-1", newline="") as f:
+                f.write("".join(row + "\r" for row in rows))
+        except OSError:
+            _rc(G_BAD_FILE)
+
+    def GArrayDownloadFile(self, file_path: str) -> None:
+        """Arrays from a CSV file (GArrayUploadFile's form; CR, LF or CR LF lines): each array
+        is deallocated, dimensioned to its cells (`DA`, `DM`) and written (`QD`)."""
+        try:
+            with open(file_path, encoding="latin-1", newline="") as f:
+                text = f.read()
+        except OSError:
+            _rc(G_BAD_FILE)
+        lines = [line for line in text.replace("\r\n", "\r").replace("\n", "\r").split("\r")]
+        names = [n.strip() for n in (lines[0] if lines else "").split(",") if n.strip()]
+        if not names:
+            _rc(G_BAD_FILE)
+        cells: list[list[str]] = [[] for _ in names]
+        for line in lines[1:]:
+            for column, cell in zip(cells, line.split(","), strict=False):
+                if cell.strip():
+                    column.append(cell.strip())
+        for name, column in zip(names, cells, strict=True):
+            self.GCommand(f"DA {name}[]")
+            self.GCommand(f"DM {name}[{len(column)}]")
+            self.GArrayDownload(name, G_BOUNDS, G_BOUNDS, column)

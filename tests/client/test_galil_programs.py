@@ -124,7 +124,7 @@ def test_gprogram_files(g: gclib.py, tmp_path: Path) -> None:
     g.GProgramDownloadFile(str(src))
     g.GProgramUploadFile(str(dst))
     assert dst.read_bytes() == EX12.replace("\n", "\r\n").encode() + b"\r\n"
-    with pytest.raises(gclib.GclibError, match="^file error occurred$"):
+    with pytest.raises(gclib.GclibError, match="^file was not found, contents are invalid, or write failed$"):
         g.GProgramDownloadFile(str(tmp_path / "missing.dmc"))
 
 

@@ -121,3 +121,20 @@ def test_a_bad_compact_access_is_an_error_of_its_op(raw: RawClient) -> None:
         assert error_code(reply) == code, op
         assert reply["error"]["message"].startswith("batch op 1: "), reply
     assert raw.call(op="batch", ops=[good])["ok"] == [u32(R.CARD_ID)]  # still serving
+
+
+def test_many_waits_that_resolve_at_once_run_in_one_batch(raw: RawClient) -> None:
+    """A client's long FIFO write is a batch of hundreds of waits for room, most of them true
+    already: each goes on at once (no nesting per wait), and one that must wait resumes them."""
+    outputs = {"op": "wait", **BAR, "on": "value", "offset": R.OUTPUTS, "value": 7,
+               "timeout_ns": 10**9}
+    status = axis_reg(0, AxisReg.STATUS)
+    done = {"op": "wait", **BAR, "on": "value", "offset": status, "mask": int(AxisFlag.DONE),
+            "value": int(AxisFlag.DONE), "timeout_ns": 10**9}
+    ops = [{"op": "write", **BAR, "offset": R.OUTPUTS, "data": u32(7)},
+           *[outputs] * 3000, *move_ops(0, 2000), done, *[outputs] * 3000,
+           {"op": "read", **BAR, "offset": axis_reg(0, AxisReg.POSITION), "size": 4}]
+    results = raw.call(op="batch", ops=ops)["ok"]
+    assert len(results) == len(ops)
+    assert all(r["fired"] for r in results[1:3001] + results[-3001:-1])
+    assert int.from_bytes(results[-1], "little", signed=True) == 2000

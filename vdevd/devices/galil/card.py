@@ -11,6 +11,8 @@ firmware's `serve()` at once. A VME card: no PCI configuration space.
 from __future__ import annotations
 
 import asyncio
+import logging
+import os
 import sys
 from collections.abc import Mapping
 from typing import Any, ClassVar
@@ -20,12 +22,19 @@ from vdevmaps.galil import WINDOW_SIZE, A16Reg
 
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.galil.bus import FREEZE_MODES, A16Window
+from vdevd.devices.galil.channel import CommandChannel
+from vdevd.devices.galil.ethernet import EthernetServer, parse_endpoint
 from vdevd.devices.galil.firmware import Firmware
+from vdevd.devices.galil.interpreter import revision
 from vdevd.devices.galil.params import COUNTS_PER_VOLT
 from vdevd.devices.galil.syntax import AXIS_ALIASES, AXIS_LETTERS
+from vdevd.errors import StartError
 from vdevd.nvram import NvramWriter
 from vdevd.region import Region
 from vdevd.rt import PlantKind
+from vdevd.security import is_local
+
+log = logging.getLogger(__name__)
 
 _DATA = int(A16Reg.DATA)  # a plain int: an enum member costs a lookup on every access
 DEFAULT_INDEX_PERIOD = 4096.0  # counts between index pulses when [[card.axis]] gives none
@@ -49,6 +58,13 @@ class GalilCard(Card):
                                 help="byte order of the data record"),
         "decode": Option(str, "arrival", choices=("arrival", "sample"),
                          help="decode a command when its terminator arrives, or at the next sample"),
+        "address": Option(str, None,
+                          help="the controller's address as gclib opens it (\"192.168.0.42\"): "
+                               "the drop-in gclib finds the card by it"),
+        "serial": Option(int, 0, min=0, max=999_999, help="serial number (gclib's GInfo)"),
+        "ethernet": Option(str, "",
+                           help="tcp://HOST:PORT: serve the DMC command protocol there "
+                                "(loopback only, port 0: any free one); empty: off"),
     }
 
     #: the manual's axis letters; A B C D are synonyms of X Y Z W (any case)
@@ -67,6 +83,16 @@ class GalilCard(Card):
         if opts.period_ns is not None:
             raise ValueError(f"{where}.period_ns: a galil-dmc13x8 runs at its sample time; "
                              "set tm_us instead")
+        address = opts.address
+        if address is not None and (not address or address.startswith("-")
+                                    or any(c.isspace() or c == "," for c in address)):
+            raise ValueError(f"{where}.address: {address!r} is not a gclib address (one word, "
+                             "no commas, not a --flag)")
+        if opts.ethernet:
+            parse_endpoint(opts.ethernet)
+            if not is_local(opts.ethernet):
+                raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not loopback (the DMC "
+                                 "command protocol has no authentication)")
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         super().__init__(name, config, ctx)
@@ -104,8 +130,13 @@ class GalilCard(Card):
                                  clock=lambda: self.now_ns, record_endian=opts.record_endian,
                                  sense=self._sense, save_flash=self._save_flash,
                                  flash_image=self._flash)
-        self.firmware.on_reset = self._world_changed  # RS: the world on the new motion firmware
+        self.firmware.on_reset = self._on_reset
         self._world_changed()
+        self.address: str | None = opts.address
+        self.serial: int = opts.serial
+        self.ethernet: str = opts.ethernet
+        self.ethernet_endpoint = ""
+        self._server: EthernetServer | None = None
 
     def _save_flash(self, image: dict[str, Any]) -> None:
         """BP, BV, BN, ^R^S: the flash image goes to the state directory, atomically."""
@@ -115,11 +146,6 @@ class GalilCard(Card):
 
     def nvram(self) -> dict[str, Any]:
         return {"flash": self._flash} if self._flash is not None else {}
-
-    async def close_services(self) -> None:
-        """The daemon stops: the last flash image is written before it exits."""
-        if self._writer is not None:
-            await asyncio.to_thread(self._writer.close)
 
     def reset(self) -> None:
         """Power-on: the window empty, the line released, the firmware reset."""
@@ -159,21 +185,34 @@ class GalilCard(Card):
         return bytes(self.bus.peek(o) for o in range(offset, offset + size))
 
     # -- the firmware ------------------------------------------------------------------------------
+    def _on_reset(self) -> None:
+        """RS: the world on the new motion firmware; no channel stays held by a trippoint."""
+        self._world_changed()
+        server: EthernetServer | None = getattr(self, "_server", None)  # None while constructing
+        if server is not None:
+            server.reset()
+
     def step(self) -> None:
-        """One sample of the firmware: motion, interrupts, commands, the data record."""
+        """One sample of the firmware: motion, interrupts, commands, the data record; then the
+        Ethernet connections a trippoint holds."""
         self.firmware.step()
+        server = self._server
+        if server is not None and server.held:
+            server.serve()
 
     def run(self, room: int) -> int:
         """Samples with nothing to serve nor record run in a loop of motion and ER checks
         (Firmware.run_samples): not while the stage is sensed after each sample (a switch or
         a probe it crosses may interrupt in the middle of one)."""
         fw = self.firmware
-        if fw.motion.sense is not None:
+        if fw.motion.sense is not None or self._server is not None and self._server.held:
             return 0
         room = fw.idle_samples(room)
         return fw.run_samples(room, self.ticks_run) if room else 0
 
     def rest_state(self) -> bytes | None:
+        if self._server is not None and self._server.held:
+            return None
         return self.firmware.rest_state()
 
     def quiet_ticks(self) -> int:
@@ -187,6 +226,42 @@ class GalilCard(Card):
         """The firmware queued `code | vector << 8` with the output enabled: the line asserts at
         the jumpered level (README.md "Interrupts")."""
         self.irq.trigger(status | self.irq_level << 16)
+
+    # -- the Ethernet command channel (README.md "Ethernet command channel") -------------------------
+    async def open_services(self) -> None:
+        """Listen for the DMC command protocol at `ethernet`; a port that cannot be bound is a
+        `StartError`."""
+        if not self.ethernet:
+            return
+        try:
+            self._server = await EthernetServer.start(
+                self.ethernet, lambda: CommandChannel(self.firmware), self.touched)
+        except OSError as exc:
+            reason = os.strerror(exc.errno) if exc.errno else str(exc)
+            raise StartError(f"{self.name} ethernet {self.ethernet}: "
+                             f"{reason[:1].lower()}{reason[1:]}") from None
+        self.ethernet_endpoint = self._server.endpoint
+        log.info("%s: DMC command protocol on %s", self.name, self.ethernet_endpoint)
+
+    async def close_services(self) -> None:
+        """The daemon stops: the Ethernet server closes; the last flash image is written."""
+        if self._server is not None:
+            self._server.close()
+            await self._server.wait_closed()
+            self._server = None
+        if self._writer is not None:
+            await asyncio.to_thread(self._writer.close)
+
+    def listeners(self) -> dict[str, str]:
+        return {"ethernet": self.ethernet_endpoint} if self.ethernet_endpoint else {}
+
+    def describe(self) -> dict[str, Any]:
+        """`hello`'s card info, with what the drop-in gclib looks for: the address, the
+        revision report (^R^V), the serial number and the Ethernet endpoint."""
+        info = super().describe()
+        info.update(address=self.address, revision=revision(self.n), serial=self.serial,
+                    ethernet=self.ethernet_endpoint)
+        return info
 
     # -- the axis world (README.md "Axis world") ---------------------------------------------------
     def _sense(self) -> None:

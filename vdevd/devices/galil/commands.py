@@ -37,8 +37,6 @@ _PARAM_SECTIONS = {
 _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
     (("ED",), "the on-board editor needs an operator terminal (use DL, UL, LS)",
      TC.UNRECOGNIZED_COMMAND),
-    (("DM", "DA"), "arrays come with application programs: issue 20",
-     TC.UNRECOGNIZED_COMMAND),
     (("LM", "LI", "LE", "VM", "VP", "CR", "VE", "VS", "VA", "VD", "VR", "VT", "ES", "TN", "CS",
       "CA"), "vector, linear and circular interpolation: issue 20", TC.UNRECOGNIZED_COMMAND),
     (("GA", "GR", "GM"), "electronic gearing: issue 20", TC.UNRECOGNIZED_COMMAND),
@@ -48,8 +46,6 @@ _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
     (("AV",), "the vector distance trippoint comes with vector motion: issue 20",
      TC.UNRECOGNIZED_COMMAND),
     (("AT",), "the time trippoint: its reference time is not in the seed nor the digest",
-     TC.UNRECOGNIZED_COMMAND),
-    (("RA", "RD", "RC"), "record mode (automatic data capture into arrays): issue 20",
      TC.UNRECOGNIZED_COMMAND),
     (("BA", "BM", "BB", "BC", "BI", "BS", "BZ"),
      "sinusoidal commutation (spec §5.8): issue 20", TC.UNRECOGNIZED_COMMAND),
@@ -133,6 +129,16 @@ COMMANDS = CommandTable(
         # -- parameters [spec §1.3] ----------------------------------------------------------------
         *(Command(name, "_param", (name,), section=_PARAM_SECTIONS.get(name, _MOTION))
           for name in PARAMS),
+        # -- arrays, variables and record mode (array_commands.py) --------------------------------
+        Command("DM", "_dm", section="M Ch6 §Multiple Moves; spec §4.5 Arrays"),
+        Command("DA", "_da", section="spec §4.5 Arrays (A)"),
+        Command("LA", "_la", section="spec §4.5 Arrays; gclib GArrayUploadFile"),
+        Command("LV", "_lv", section="spec §4.5 Variables"),
+        Command("QU", "_qu", section="spec §6.2 DMCArrayUpload"),
+        Command("QD", "_qd", section="spec §6.2 DMCArrayDownload"),
+        Command("RA", "_ra", section="M Ch6 §Teach"),
+        Command("RD", "_rd", section="M Ch6 §Teach"),
+        Command("RC", "_rc", section="M Ch6 §Teach"),
         # -- statements that are no mnemonic (syntax.split_statement names them) ---------------------
         Command("=", "_assign", section="M Ch2 Ex14 (variables)"),
         Command("#", "_label", section="M Ch2 Ex11 (labels)"),

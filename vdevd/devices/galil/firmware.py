@@ -19,6 +19,7 @@ import numpy as np
 from vdevmaps.galil import GeneralStatus, InterruptCondition, InterruptStatus
 
 from vdevd.devices.galil import syntax
+from vdevd.devices.galil.arrays import ArrayDownload, ArrayTable
 from vdevd.devices.galil.bus import A16Window
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.flash import Flash
@@ -26,9 +27,10 @@ from vdevd.devices.galil.interpreter import OK, Interpreter, Trippoint
 from vdevd.devices.galil.motion import GalilMotion, StopCode
 from vdevd.devices.galil.numbers import REPORT_FORMATS
 from vdevd.devices.galil.params import COUNTS_PER_VOLT, PARAMS
-from vdevd.devices.galil.program import DOWNLOAD_END, MAX_LINE_LENGTH, MAX_LINES
+from vdevd.devices.galil.program import ProgramDownload
 from vdevd.devices.galil.program_commands import ProgramCommands
 from vdevd.devices.galil.record import record_dtype
+from vdevd.devices.galil.recorder import Recorder
 from vdevd.devices.galil.threads import LIMSWI, POSERR, Threads
 from vdevd.devices.rest import ticks_before_multiple
 from vdevd.rt import wrap_int32
@@ -42,9 +44,6 @@ _COMMAND_DONE = int(InterruptCondition.COMMAND_DONE)
 _LIMIT_SWITCH = int(InterruptCondition.LIMIT_SWITCH)
 _INPUTS = int(InterruptCondition.INPUTS)
 _PROGRAM_STOPPED = int(InterruptCondition.PROGRAM_STOPPED)
-#: a download longer than the buffer can hold is refused at its end (TC 60); what comes until the
-#: `\\` is read and dropped, so the bytes kept stay bounded
-_DOWNLOAD_LIMIT = MAX_LINES * (MAX_LINE_LENGTH + 2)
 _MARK = bytes(b | 0x80 for b in range(256))  # CW1: a program's message with bit 7 set
 
 
@@ -105,6 +104,10 @@ class Firmware:
         if old is not None:
             self.motion.core.zero[:] = -old.core.physical()
         self.variables: dict[str, float] = {}
+        self.arrays = ArrayTable()
+        self.recorder = Recorder()  # record mode (RA RD RC)
+        #: QD or DL taking its data from the command FIFO
+        self.sink: ArrayDownload | ProgramDownload | None = None
         self.error_code = 0
         self.echo = 0
         self.lz = 0
@@ -117,7 +120,6 @@ class Firmware:
         self.time_origin = self.ticks
         self._trip: Trippoint | None = None
         self._out = bytearray()
-        self._download: tuple[str | None, bytearray] | None = None  # DL: (start label, bytes)
         self.ar_base: dict[int, float] = {}  # AR: where the last AR trippoint ended per axis
         self.mark_unsolicited = True  # CW1 (README "Application programs")
         self.threads.reset()
@@ -147,6 +149,8 @@ class Firmware:
             self.threads.run()
         if self._out or self._trip is not None or self.bus.commands_waiting:
             self.serve()
+        if self.ticks >= self.recorder.next_tick:
+            self.recorder.capture()  # record mode, after the commands of the sample [M Ch6 §Teach]
         rate = self.record_rate
         if rate and not (self.ticks - self.time_origin) % (1 << rate):
             self.bus.load_record(self.data_record())
@@ -155,10 +159,12 @@ class Firmware:
     def idle_samples(self, room: int) -> int:
         """Of the next `room` samples, how many are motion and the ER check alone while no axis
         completes and none crosses ER: none while the interpreter has work (a reply to send, a
-        trippoint, commands), none from the next data record on."""
+        trippoint, commands), none while a program thread runs, none from the next data record
+        or record mode capture on."""
         if (self._out or self._trip is not None or self.bus.commands_waiting
                 or self.threads.active):
             return 0
+        room = min(room, self.recorder.next_tick - self.ticks - 1)
         rate = self.record_rate
         if rate:
             room = min(room, ticks_before_multiple(self.ticks - self.time_origin, 1 << rate))
@@ -184,9 +190,10 @@ class Firmware:
     # -- rest (decision 0008) -----------------------------------------------------------------------
     def rest_state(self) -> bytes | None:
         """What a sample may change, as bytes, but the sample count; None while the interpreter
-        has work (a command, a reply to send, a trippoint) or a home search runs."""
+        has work (a command, a reply to send, a trippoint), records (RC), a program thread runs
+        or a home search runs."""
         if (self._out or self._trip is not None or self.bus.commands_waiting
-                or self.threads.active):
+                or self.recorder.active or self.threads.active):
             return None
         return self.motion.rest_state()
 
@@ -227,12 +234,18 @@ class Firmware:
                 self._trip = None
                 self._reply(OK)
                 continue
+            if self.sink is not None:  # QD's or DL's data, not commands
+                used, code = self.sink.feed(bus.command_bytes())
+                bus.consume(used)
+                if code is None:
+                    return
+                self.sink = None
+                self.error_code = code or self.error_code
+                self._reply(b"?" if code else OK)
+                continue
             buf = bus.command_bytes()
             if not buf:
                 return
-            if self._download is not None:
-                self._take_download(buf)
-                continue
             frame, used = _next_frame(buf)
             if used:
                 bus.consume(used)
@@ -245,10 +258,10 @@ class Firmware:
             if not frame.binary and self.threads.answer(frame.data):
                 continue  # a bare number answers IN, without a reply [DMCLIB DMCCommand]
             result = self._execute(frame)
-            if self._download is not None and not result:
-                continue  # DL: the reply comes after the program's `\\`
             if isinstance(result, Trippoint):
                 self._trip = result
+            elif isinstance(result, (ArrayDownload, ProgramDownload)):
+                self.sink = result
             else:
                 self._reply(result)
 
@@ -257,9 +270,9 @@ class Firmware:
         command-line trippoint and a reply in progress go too."""
         self._trip = None
         self._out.clear()
-        self._download = None
+        self.sink = None
 
-    def _execute(self, frame: syntax.Frame) -> bytes | Trippoint:
+    def _execute(self, frame: syntax.Frame) -> bytes | Trippoint | ArrayDownload:
         if not frame.binary:
             return self.interp.execute(frame.data.decode("latin-1"))
         try:
@@ -268,34 +281,6 @@ class Firmware:
             self.error_code = exc.code
             return b"?"
         return self.interp.execute(text)
-
-    # -- DL: the program over the command FIFO [DMCLIB DMCDownloadFile] -------------------------
-    def begin_download(self, start: str | None) -> None:
-        """DL: the bytes that follow, up to `\\`, are program lines."""
-        self._download = (start, bytearray())
-
-    def _take_download(self, buf: bytes) -> None:
-        """Take download bytes from the command FIFO; at `\\` the program is checked and the
-        card answers ':' or '?' (the TC of the first bad line, `_ED` its number)."""
-        assert self._download is not None
-        start, text = self._download
-        end = buf.find(DOWNLOAD_END)
-        chunk = buf if end < 0 else buf[:end]
-        self.bus.consume(len(chunk) if end < 0 else end + 1)
-        room = _DOWNLOAD_LIMIT + 1 - len(text)
-        text += chunk[:max(room, 0)]
-        if end < 0:
-            return
-        self._download = None
-        try:
-            if len(text) > _DOWNLOAD_LIMIT:
-                raise GalilError(TC.DOWNLOAD_ERROR, "download too long")
-            self.threads.program.download(bytes(text), start)
-        except GalilError as exc:
-            self.error_code = exc.code
-            self._reply(b"?")
-            return
-        self._reply(OK)
 
     def output(self, data: bytes) -> None:
         """A program's message to the host (MG, a report): into the response FIFO after what
@@ -473,11 +458,13 @@ class _Env:
         if hook is not None:
             return hook(name)
         scalars = {"TC": fw.error_code, "TB": fw.status_byte(), "OP": fw.outputs,
-                   "EO": fw.echo, "LZ": fw.lz, "TM": fw.tm_us, "DR": fw.record_rate}
+                   "EO": fw.echo, "LZ": fw.lz, "TM": fw.tm_us, "DR": fw.record_rate,
+                   "DM": fw.arrays.free_elements, "DA": fw.arrays.free_arrays,
+                   "RC": fw.recorder.active, "RD": fw.recorder.next_index}
         if name in scalars:
             return float(scalars[name])
-        if name.startswith("TI") and name[2:].isdigit():
-            return float(fw.input_bank(int(name[2:])))
+        if name.startswith("TI") and (name[2:].isdigit() or name == "TI"):
+            return float(fw.input_bank(int(name[2:] or 0)))  # _TI: bank 0, as TI
         cmd, letter = name[:2], name[2:]
         if len(letter) != 1 or letter not in "XYZWABCD":
             raise GalilError(TC.BAD_FUNCTION, name)
@@ -506,7 +493,7 @@ class _Env:
             raise GalilError(TC.VARIABLE_ERROR, name) from None
 
     def array(self, name: str, index: int) -> float:
-        raise GalilError(TC.BAD_FUNCTION, f"no array {name}")
+        return self.fw.arrays.read(name, index)
 
     def function(self, name: str, arg: float) -> float:
         fw = self.fw

@@ -4,11 +4,11 @@ of variables, programs, and arrays"; [M Ch2 Step 7b E] BN).
 
 Sans-I/O: the card hands `save(image)` (an atomic write in the daemon's state directory,
 vdevd/nvram.py) and the image it loaded at start. The image is a map of sections:
-`programs` (the lines), `variables` ({name: value}), `parameters` ({command: per-axis values},
-the motor-off state and EO/LZ); other modules add sections through `sections` (arrays: a
-`(burn, restore)` pair under the name `arrays`, burned with BV). A section that does not read
-back (another program's or version's image) is skipped with a warning: the card keeps its
-defaults. `^R^S` (master reset) erases the flash [M Ch2 §Master Reset].
+`programs` (the lines), `variables` ({name: value}), `arrays` ({name: elements}, burned with
+the variables by BV), `parameters` ({command: per-axis values}, the motor-off state and EO/LZ).
+A section that does not read back (another program's or version's image) is skipped with a
+warning: the card keeps its defaults. `^R^S` (master reset) erases the flash [M Ch2 §Master
+Reset].
 """
 
 from __future__ import annotations
@@ -39,8 +39,6 @@ class Flash:
         self.fw = fw
         self.save = save
         self.image: dict[str, Any] = {}
-        #: extra sections: name -> (what to burn, how to restore it); BV burns `arrays`
-        self.sections: dict[str, tuple[Callable[[], Any], Callable[[Any], None]]] = {}
         if image is not None:
             if isinstance(image, dict) and image.get("format") == FORMAT:
                 self.image = dict(image)
@@ -55,8 +53,7 @@ class Flash:
             self.image["programs"] = list(fw.threads.program.lines)
         elif what == "variables":
             self.image["variables"] = dict(fw.variables)
-            if "arrays" in self.sections:
-                self.image["arrays"] = self.sections["arrays"][0]()
+            self.image["arrays"] = {name: a.tolist() for name, a in fw.arrays.arrays.items()}
         elif what == "parameters":
             m = fw.motion
             self.image["parameters"] = {
@@ -82,16 +79,10 @@ class Flash:
         """Programs, variables and parameters from the image; a section that does not read
         back is skipped with a warning."""
         for name, apply in (("programs", self._programs), ("variables", self._variables),
-                            ("parameters", self._parameters)):
+                            ("arrays", self._arrays), ("parameters", self._parameters)):
             if name in self.image:
                 try:
                     apply(self.image[name])
-                except (GalilError, TypeError, ValueError, KeyError, AttributeError) as exc:
-                    log.warning("flash section %s unreadable (%s): defaults kept", name, exc)
-        for name, (_, restore) in self.sections.items():
-            if name in self.image:
-                try:
-                    restore(self.image[name])
                 except (GalilError, TypeError, ValueError, KeyError, AttributeError) as exc:
                     log.warning("flash section %s unreadable (%s): defaults kept", name, exc)
 
@@ -103,6 +94,13 @@ class Flash:
     def _variables(self, values: Any) -> None:
         good = {str(k): float(v) for k, v in dict(values).items()}
         self.fw.variables.update(good)
+
+    def _arrays(self, section: Any) -> None:
+        arrays = {str(name): [float(v) for v in values] for name, values in dict(section).items()}
+        table = self.fw.arrays
+        table.dimension([(name, len(values)) for name, values in arrays.items()])
+        for name, values in arrays.items():
+            table.array(name)[:] = values
 
     def _parameters(self, section: Any) -> None:
         fw = self.fw

@@ -17,6 +17,8 @@ import numpy as np
 from vdevmaps.galil import InterruptStatus
 
 from vdevd.devices.galil import syntax
+from vdevd.devices.galil.array_commands import ArrayCommands
+from vdevd.devices.galil.arrays import ArrayDownload
 from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
 from vdevd.devices.galil.errors import TC, TEXTS, GalilError
 from vdevd.devices.galil.expr import evaluate
@@ -42,6 +44,11 @@ _split_statement = lru_cache(maxsize=512)(syntax.split_statement)
 _parse_axes = lru_cache(maxsize=512)(syntax.parse_axes)
 
 
+def revision(n: int) -> str:
+    """The revision report of an n-axis card (^R^V, gclib's GInfo)."""
+    return f"DMC13{n}8 Rev 1.1a"
+
+
 @dataclass
 class Trippoint:
     """A command-line trippoint: the interpreter waits until `ready()` (spec §5.7)."""
@@ -49,20 +56,20 @@ class Trippoint:
     ready: Callable[[], bool]
 
 
-class Interpreter:
+class Interpreter(ArrayCommands):
     """The command language over one card's firmware state (`fw`); its commands are the table
     of commands.py, bound once."""
 
     def __init__(self, fw: Firmware) -> None:
         self.fw = fw
         self.n = fw.n
-        self.handlers: dict[str, Callable[[str], bytes | Trippoint]] = COMMANDS.bind(
-            self, *getattr(fw, "command_sets", ()))
+        self.handlers: dict[str, Callable[[str], bytes | Trippoint | ArrayDownload]] = (
+            COMMANDS.bind(self, *getattr(fw, "command_sets", ())))
         #: the program thread whose statement runs now, None on the command line (threads.py)
         self.thread: int | None = None
 
     # -- entry -------------------------------------------------------------------------------------
-    def execute(self, text: str) -> bytes | Trippoint:
+    def execute(self, text: str) -> bytes | Trippoint | ArrayDownload:
         """Run one statement; a refused one answers `?` and sets the TC code."""
         try:
             if not text.strip():
@@ -304,7 +311,7 @@ class Interpreter:
 
     def _version(self, arg: str) -> bytes:
         """^R^V: the firmware revision [DMCLIB DMCVersion parses "...v<rev>"]."""
-        return self.data(f"DMC13{self.n}8 Rev 1.1a")
+        return self.data(revision(self.n))
 
     # -- settings ----------------------------------------------------------------------------------
     def _flag(self, name: str, arg: str) -> bytes:
@@ -419,10 +426,11 @@ class Interpreter:
 
     # -- variables ---------------------------------------------------------------------------------
     def _assign(self, text: str) -> bytes:
-        """`V1=expr` sets a variable; `V1=` prints it [M Ch2 Ex14]."""
+        """`V1=expr` sets a variable; `V1=` prints it [M Ch2 Ex14]; `A[i]=expr`, `A[i]=` an array
+        element [M Ch6 §Multiple Moves]."""
         name, index, value = syntax.parse_assignment(text)
         if index is not None:
-            raise GalilError(TC.MISSING_BRACKET, "arrays come with programs")
+            return self._assign_element(name, index, value)
         if not value.strip():
             return self.data(self.fmt(self.fw.env.variable(name), *VARIABLE_FORMAT))
         v = self.value(value)
@@ -430,6 +438,18 @@ class Interpreter:
         if name not in variables and len(variables) >= 254:
             raise GalilError(67)
         variables[name] = v
+        return OK
+
+    def _assign_element(self, name: str, index_text: str, value: str) -> bytes:
+        """`A[i]=expr` (TC 57 no array A, TC 56 an index outside it) or `A[i]=` (prints it)."""
+        arrays = self.fw.arrays
+        index = self.value(index_text) if index_text else -1
+        if index != int(index):
+            raise GalilError(TC.ARRAY_INDEX_INVALID, f"{name}[{index}]")
+        if not value.strip():
+            return self.data(self.fmt(arrays.read(name, int(index)), *VARIABLE_FORMAT))
+        arrays.read(name, int(index))  # the element exists before its value is computed
+        arrays.write(name, int(index), self.value(value))
         return OK
 
     def _label(self, arg: str) -> bytes:

@@ -140,3 +140,33 @@ class Program:
             return self.labels[label]
         except KeyError:
             raise GalilError(TC.EMPTY_PROGRAM_LINE, "#" + label) from None
+
+
+#: a download longer than the buffer can hold is refused at its end (TC 60); the bytes until the
+#: `\\` are read and dropped, so what is kept stays bounded
+DOWNLOAD_LIMIT = MAX_LINES * (MAX_LINE_LENGTH + 2)
+
+
+class ProgramDownload:
+    """DL's data phase on a command channel: the bytes that follow, up to `\\`, are the program
+    (as `arrays.ArrayDownload` is QD's: `feed` takes what came and says how much it used)."""
+
+    def __init__(self, program: Program, start: str | None) -> None:
+        self.program = program
+        self.start = start
+        self.text = bytearray()
+
+    def feed(self, data: bytes) -> tuple[int, int | None]:
+        """(bytes used, None while the `\\` has not come; then 0 or the TC of the refusal)."""
+        end = data.find(DOWNLOAD_END)
+        chunk = data if end < 0 else data[:end]
+        self.text += chunk[:max(DOWNLOAD_LIMIT + 1 - len(self.text), 0)]
+        if end < 0:
+            return len(data), None
+        try:
+            if len(self.text) > DOWNLOAD_LIMIT:
+                raise GalilError(TC.DOWNLOAD_ERROR, "download too long")
+            self.program.download(bytes(self.text), self.start)
+        except GalilError as exc:
+            return end + 1, exc.code
+        return end + 1, 0

@@ -17,6 +17,7 @@ from vdevd.devices.galil import syntax
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.interpreter import OK, Trippoint
 from vdevd.devices.galil.motion import StopCode
+from vdevd.devices.galil.program import ProgramDownload
 from vdevd.devices.galil.threads import MCTIME, Threads
 
 if TYPE_CHECKING:
@@ -37,7 +38,7 @@ class ProgramCommands:
         return self.fw.interp.value(text)
 
     # -- program buffer --------------------------------------------------------------------------
-    def _dl(self, arg: str) -> bytes:
+    def _dl(self, arg: str) -> ProgramDownload:
         """DL: the lines that follow, up to `\\`, are the program; DL# appends, DL#LABEL replaces
         from the label on [DMCLIB DMCDownloadFile]. TC 17 while a program runs."""
         if self._threads.active:
@@ -50,8 +51,7 @@ class ProgramCommands:
             start = text[1:]
             if start and start not in self._threads.program.labels:
                 raise GalilError(TC.EMPTY_PROGRAM_LINE, text)
-        self.fw.begin_download(start)
-        return b""
+        return ProgramDownload(self._threads.program, start)
 
     def _ul(self, arg: str) -> bytes:
         """UL: the program, each line ending CR LF, then ^Z [DMCLIB DMCUploadFile]."""

@@ -40,7 +40,7 @@ COMMAND_NS = 350_000  # "approximately 0.35 ms" to decode an ASCII command [M Ch
 OUTPUT_LIMIT = 512
 AUTO, LIMSWI, POSERR, ININT, MCTIME, CMDERR = "AUTO", "LIMSWI", "POSERR", "ININT", "MCTIME", "CMDERR"
 #: statements the host may not give from a program: TC 3 "Command not valid in program"
-_HOST_ONLY = frozenset({"DL", "UL", "LS", "ED", "BP", "BN", "BV", "\x12\x13", "RS"})
+_HOST_ONLY = frozenset({"DL", "UL", "LS", "ED", "BP", "BN", "BV", "\x12\x13", "RS", "QD"})
 
 _split = lru_cache(maxsize=1024)(syntax.split_statement)
 _BARE_NUMBER = re.compile(rb" *-?(\d+\.?\d*|\.\d+) *")
@@ -227,6 +227,8 @@ class Threads:
             interp.thread = None
         if isinstance(result, Trippoint):
             t.trip = result
+        elif not isinstance(result, bytes):
+            raise GalilError(TC.NOT_VALID_IN_PROGRAM, text)  # a data phase (QD) is the host's
         elif result == b"?":
             raise GalilError(self.fw.error_code, text)
         elif len(result) > 1:
