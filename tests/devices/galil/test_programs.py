@@ -6,6 +6,7 @@ from __future__ import annotations
 import pytest
 
 from tests.devices.galil.program_rig import Rig
+from vdevd.devices.galil.channel import CommandChannel
 from vdevd.devices.galil.program import MAX_LABELS, MAX_LINE_LENGTH, MAX_LINES
 
 #: [M Ch2 Ex11]: the program written with the editor, lines numbered from 000
@@ -203,3 +204,24 @@ def test_bad_program_commands_answer_their_tc_and_change_nothing(command: bytes,
     assert rig.tc() == code
     assert rig.send(b"UL\r") == b"#A\r\nPR 700\r\nSP 2000\r\nBGX\r\nEN\r\n\x1a:"
     assert not rig.fw.threads.active
+
+
+def test_bv_burns_the_arrays_with_the_variables() -> None:
+    rig = Rig()
+    rig.send(b"DM POS[3];POS[0]=5;POS[2]=-7;BV\r")
+    after = Rig(flash=rig.flash)
+    assert after.value("POS[0]") == 5
+    assert after.value("POS[2]") == -7
+    rig.send(b"DA POS[];RS\r")
+    assert rig.value("POS[2]") == -7
+
+
+def test_dl_over_an_ethernet_connection_takes_the_program_from_it() -> None:
+    """The Ethernet command channel takes DL's lines from its own input, as the FIFO does."""
+    rig = Rig()
+    channel = CommandChannel(rig.fw)
+    assert channel.receive(b"DL\r#A\rV1=3\r") == b""
+    assert rig.send(b"MG 1\r") == b" 0000000001.0000\r\n:"  # the FIFO is not in the download
+    assert channel.receive(b"EN\r\\") == b":"
+    assert channel.receive(b"UL\r") == b"#A\r\nV1=3\r\nEN\r\n\x1a:"
+    assert channel.receive(b"DL\r#A\r#A\r\\TC\r") == b"?061\r\n:"
