@@ -233,6 +233,14 @@ def test_if_else_endif_nest(v1: int, out: bytes) -> None:
     assert rig.until_halted() == out
 
 
+def test_a_variable_named_like_if_is_no_if() -> None:
+    rig = Rig()
+    rig.download("#A\nIF 0\nIFLAG=1\nELSE\nIFLAG=2\nENDIF\nEN")
+    rig.send(b"XQ #A\r")
+    rig.until_halted()
+    assert rig.value("IFLAG") == 2
+
+
 def test_if_without_endif_is_tc_63() -> None:
     rig = Rig()
     rig.download("#A\nIF 0\nMG 1\nEN")

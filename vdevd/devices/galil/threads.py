@@ -43,6 +43,14 @@ AUTO, LIMSWI, POSERR, ININT, MCTIME, CMDERR = "AUTO", "LIMSWI", "POSERR", "ININT
 _HOST_ONLY = frozenset({"DL", "UL", "LS", "ED", "BP", "BN", "BV", "\x12\x13", "RS", "QD"})
 
 _split = lru_cache(maxsize=1024)(syntax.split_statement)
+def _is_if(text: str) -> bool:
+    """Whether a statement is an IF (`IFLAG=1` is an assignment, not one)."""
+    try:
+        return _split(text).name == "IF"
+    except GalilError:
+        return False
+
+
 _BARE_NUMBER = re.compile(rb" *-?(\d+\.?\d*|\.\d+) *")
 
 
@@ -324,7 +332,7 @@ class Threads:
             while stmt < len(code[line]):
                 word = code[line][stmt].replace(" ", "")
                 stmt += 1
-                if word.startswith("IF"):
+                if _is_if(word):
                     depth += 1
                 elif word == "ENDIF":
                     if depth == 0:
