@@ -198,3 +198,19 @@ def test_a_corrupt_flash_file_does_not_stop_the_card(tmp_path: Path) -> None:
         assert g.GCommand("KP ?") == "0006.00"
         assert g.GProgramUpload() == ""
         g.GClose()
+
+
+def test_download_and_upload_on_a_card_that_decodes_at_its_samples() -> None:
+    """decode = "sample": the card empties the command FIFO at its samples; the download's
+    bursts wait for room in the same batch."""
+    with DaemonThread(rack_config(card(GALIL, "galil0", decode="sample"))) as d:
+        g = gclib.py()
+        g.GOpen(f"galil0 --endpoint {d.endpoint}")
+        program = hundred_lines()
+        g.GProgramDownload(program)
+        assert g.GProgramUpload() == program.replace("\n", "\r\n") + "\r\n"
+        g.GProgramDownload("#A\nMG \"HI\"\nEN")
+        g.GCommand("XQ #A")
+        g.GSleep(5)
+        assert g.GMessage() == "HI\r\n"
+        g.GClose()
