@@ -273,6 +273,14 @@ class ProfileGenerator:
         self.p0[axis] += distance
         self.axes.cmd_pos[axis] += distance
 
+    def shift_many(self, idx: np.ndarray, distances: np.ndarray) -> None:
+        """`shift` for the axes `idx` at once, the command only (a follower's increment of the
+        sample superimposed on its own motion: the Galil's electronic gearing and cam)."""
+        self.plans += 1
+        self.pp0[idx, :] += distances[:, None]
+        self.p0[idx] += distances
+        self.axes.cmd_pos[idx] += distances
+
     def hold(self, axis: int, position: float) -> None:
         """Stop the profile at once and hold `position` (abort, servo on/off, define position)."""
         self.load(axis, [Phase(self.t, INF, position, 0.0, 0.0, 0.0)])

@@ -11,6 +11,7 @@ import pytest
 from tests.devices.digest import digest_text
 from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
 from vdevd.devices.galil.errors import TC
+from vdevd.devices.galil.follow_commands import FollowCommands
 from vdevd.devices.galil.interpreter import Interpreter
 from vdevd.devices.galil.program_commands import ProgramCommands
 
@@ -71,7 +72,9 @@ def test_a_command_not_emulated_has_a_reason_and_a_tc_code() -> None:
 
 
 def test_every_command_of_the_table_binds_to_the_interpreter() -> None:
-    handlers = COMMANDS.bind(Interpreter.__new__(Interpreter), ProgramCommands.__new__(ProgramCommands))
+    handlers = COMMANDS.bind(Interpreter.__new__(Interpreter),
+                             FollowCommands.__new__(FollowCommands),
+                             ProgramCommands.__new__(ProgramCommands))
     assert set(handlers) == set(COMMANDS)
 
 

@@ -563,3 +563,49 @@ def test_ch6_joystick_jogging_follows_the_analog_input() -> None:
     assert rig.value("_JGX") == pytest.approx(-10000, abs=2)
     assert rig.send(b"ST\r") == b":"
     assert not rig.fw.threads.active
+
+
+#: [M Ch6 §SPM, Example: Error Correction], one statement per line as the listing's comments
+#: show them; without `KS16`, outside KS's range 0.5-8 (spec §1.3), which the card refuses
+SPM_EXAMPLE = """#SETUP
+OE1; 'SET THE PROFILER TO STOP AXIS UPON ERROR
+MT-2,-2,-2,-2; 'MOTOR TYPE SET TO STEPPER
+YA2; 'STEP RESOLUTION OF THE DRIVE
+YB200; 'MOTOR RESOLUTION (FULL STEPS PER REVOLUTION)
+YC4000; 'ENCODER RESOLUTION (COUNTS PER REVOLUTION)
+SHX; 'ENABLE AXIS
+WT100; 'ALLOW SLIGHT SETTLE TIME
+YS1; 'ENABLE SPM MODE
+#MOTION 'PERFORM MOTION
+SP512; 'SET THE SPEED
+PR1000; 'PREPARE MODE OF MOTION
+BGX; 'BEGIN MOTION
+#LOOP;JP#LOOP; 'KEEP THREAD ZERO ALIVE FOR #POSERR TO RUN IN
+#POSERR; 'AUTOMATIC SUBROUTINE IS CALLED WHEN YS=2
+WT100; 'WAIT HELPS USER SEE THE CORRECTION
+spsave=_SPX; 'SAVE CURRENT SPEED SETTING
+JP#RETURN,_YSX<>2;'RETURN TO THREAD ZERO IF INVALID ERROR
+SP64; 'SET SLOW SPEED SETTING FOR CORRECTION
+MG"ERROR= ",_QSX
+YRX=_QSX; 'ELSE, ERROR IS VALID, USE QS FOR CORRECTION
+MCX; 'WAIT FOR MOTION TO COMPLETE
+MG"CORRECTED, ERROR NOW= ",_QSX
+WT100; 'WAIT HELPS USER SEE THE CORRECTION
+#RETURN
+SPX=spsave; 'RETURN THE SPEED TO PREVIOUS SETTING
+RE0; 'RETURN FROM #POSERR"""
+
+
+def test_ch6_spm_error_correction_runs_poserr_when_ys_becomes_2() -> None:
+    rig = Rig("stepper")
+    rig.fw.motion.core.set_encoder_scale(0, 10.0)  # 4000 counts per 400 pulses (YA 2 x YB 200)
+    assert rig.download(SPM_EXAMPLE) == b":"
+    rig.send(b"XQ #SETUP\r")
+    rig.samples(400)
+    assert rig.value("_YSX") == 1
+    rig.fw.motion.core.slip_encoder(0, 100)  # 10 pulses: over three full steps
+    out = rig.samples(3000).decode()
+    assert out.startswith("ERROR=  0000000010.0000\r\nCORRECTED, ERROR NOW=  0000000000.0000")
+    assert rig.value("_YSX") == 1
+    assert rig.value("_SPX") == 512  # #RETURN restored the speed
+    assert rig.fw.threads.threads[0] is not None and not rig.fw.threads.threads[0].stack  # RE0

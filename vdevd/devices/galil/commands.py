@@ -20,6 +20,11 @@ _HOME = "M Ch3 §Home Switch Input"
 _REPORT = "M Ch5 §Summary of Interrogation Commands; spec §4.4"
 _IO = "M Ch3 §TTL Inputs / §TTL Outputs"
 _IRQ = "M Ch4 §Configuring Interrupts"
+_GEAR = "M Ch6 §Electronic Gearing"
+_ECAM = "M Ch6 §Electronic Cam"
+_CONTOUR = "M Ch6 §Contour Mode"
+_SPM = "M Ch6 §Stepper Position Maintenance Mode; spec §5.6"
+_BLM = "M Ch2 Step 5, Step 7b; spec §5.8"
 _PARAM_SECTIONS = {
     **dict.fromkeys(("KP", "KD", "KI", "IL", "TL", "OF", "PL"), "M13-web p.164; spec §5.1"),
     **dict.fromkeys(("FA", "FV"), "M Ch1; spec §5.2"),
@@ -39,17 +44,11 @@ _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
      TC.UNRECOGNIZED_COMMAND),
     (("LM", "LI", "LE", "VM", "VP", "CR", "VE", "VS", "VA", "VD", "VR", "VT", "ES", "TN", "CS",
       "CA"), "vector, linear and circular interpolation: issue 20", TC.UNRECOGNIZED_COMMAND),
-    (("GA", "GR", "GM"), "electronic gearing: issue 20", TC.UNRECOGNIZED_COMMAND),
-    (("EA", "EM", "EP", "ET", "EB", "EG", "EQ", "EC", "EW"), "electronic cam: issue 20",
-     TC.UNRECOGNIZED_COMMAND),
-    (("CM", "CD", "DT", "WC"), "contour mode: issue 20", TC.UNRECOGNIZED_COMMAND),
     (("AV",), "the vector distance trippoint comes with vector motion: issue 20",
      TC.UNRECOGNIZED_COMMAND),
     (("AT",), "the time trippoint: its reference time is not in the seed nor the digest",
      TC.UNRECOGNIZED_COMMAND),
-    (("BA", "BM", "BB", "BC", "BI", "BS", "BZ"),
-     "sinusoidal commutation (spec §5.8): issue 20", TC.UNRECOGNIZED_COMMAND),
-    (("QS", "YA", "YB", "YC", "YR", "YS"), "stepper position maintenance (spec §5.6): issue 20",
+    (("EW",), "ECAM widen segment: defined only in Application Note #2444, not in the manual",
      TC.UNRECOGNIZED_COMMAND),
     (("OC",), "output compare: not built yet (no issue schedules it)", TC.UNRECOGNIZED_COMMAND),
     (("CO",), "extended I/O banks: the card has none configured", TC.UNRECOGNIZED_COMMAND),
@@ -100,6 +99,19 @@ COMMANDS = CommandTable(
         Command("BV", "_burn", ("variables",), section="spec §1.5"),
         Command("BN", "_burn", ("parameters",), section="M Ch2 Step 7b E; spec §1.5"),
         Command("NO", "_ignored", section="spec §4.1 (no operation / comment)"),
+        # -- electronic gearing, ECAM, contour [M Ch6] (follow_commands.py) -----------------------
+        Command("GA", "ga", section=_GEAR),
+        Command("GR", "gr", section=_GEAR),
+        Command("GM", "gm", section=_GEAR),
+        *(Command(name, name.lower(), section=_ECAM)
+          for name in ("EA", "EM", "EP", "ET", "EB", "EG", "EQ", "EC")),
+        *(Command(name, name.lower(), section=_CONTOUR) for name in ("CM", "CD", "DT", "WC")),
+        # -- stepper position maintenance [M Ch6 §SPM] ---------------------------------------------
+        *(Command(name, "spm_param", (name,), section=_SPM) for name in ("YA", "YB", "YC")),
+        *(Command(name, name.lower(), section=_SPM) for name in ("YS", "YR", "QS")),
+        # -- sinusoidal commutation [M Ch2 Step 5, 7b; spec §5.8] -----------------------------------
+        *(Command(name, "b_param", (name,), section=_BLM) for name in ("BM", "BI", "BB")),
+        *(Command(name, name.lower(), section=_BLM) for name in ("BA", "BC", "BZ", "BS")),
         # -- reports and messages ---------------------------------------------------------------
         *(Command(name, "_report", (name,), section=_REPORT) for name in REPORT_FORMATS),
         Command("TC", "_tc", section="M Ch5 §Controller Response; spec §4.3"),

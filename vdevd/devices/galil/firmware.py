@@ -23,6 +23,8 @@ from vdevd.devices.galil.arrays import ArrayDownload, ArrayTable
 from vdevd.devices.galil.bus import A16Window
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.flash import Flash
+from vdevd.devices.galil.follow import Follow
+from vdevd.devices.galil.follow_commands import operand
 from vdevd.devices.galil.interpreter import OK, Interpreter, Trippoint
 from vdevd.devices.galil.motion import GalilMotion, StopCode
 from vdevd.devices.galil.numbers import REPORT_FORMATS
@@ -101,6 +103,8 @@ class Firmware:
         old = getattr(self, "motion", None)
         self.motion = GalilMotion(self.n, self.period_ns, self.plant)
         self.motion.sense = self.sense
+        self.follow = Follow(self.motion)
+        self.follow.spm.on_error = lambda: self.threads.automatic(POSERR)  # YS 2 [M Ch6 §SPM]
         if old is not None:
             self.motion.core.zero[:] = -old.core.physical()
         self.variables: dict[str, float] = {}
@@ -335,6 +339,7 @@ class Firmware:
         """The ABORT input: motion stops at once, OE1 axes turn off [M Ch3 §Abort Input]."""
         if active and not self.motion.abort_input:
             self.motion.abort(list(range(self.n)), StopCode.ABORT_INPUT)
+            self.follow.aborted()
         self.motion.abort_input = bool(active)
 
     def set_input(self, input: int, level: int) -> None:
@@ -396,8 +401,10 @@ class Firmware:
         raise KeyError(name)
 
     def status_byte(self) -> int:
-        """TB: bit 7 executing a program, bit 6 data record active, bit 0 echo on (spec §4.4)."""
+        """TB: bit 7 executing a program, bit 6 data record active, bit 5 contouring, bit 0 echo
+        on (spec §4.4)."""
         return ((0x80 if self.threads.active else 0) | (0x40 if self.record_rate else 0)
+                | (0x20 if self.follow.contour.on else 0)
                 | (0x01 if self.echo else 0))
 
     def input_bank(self, bank: int) -> int:
@@ -425,7 +432,7 @@ class Firmware:
         rec["general_status"] = ((int(GeneralStatus.ECHO_ON) if self.echo else 0)
                                  | (0x80 if self.threads.active else 0))  # program running
         ax = rec["axis"]
-        ax["status"] = m.status_word()
+        ax["status"] = m.status_word() | self.follow.status_bits()
         ax["switches"] = m.switches(self.latch_inputs())
         ax["stop_code"] = m.stop_code
         ax["reference_position"] = wrap_int32(m.reference())
@@ -463,6 +470,9 @@ class _Env:
                    "RC": fw.recorder.active, "RD": fw.recorder.next_index}
         if name in scalars:
             return float(scalars[name])
+        followed = operand(fw.follow, name)
+        if followed is not None:
+            return followed
         if name.startswith("TI") and (name[2:].isdigit() or name == "TI"):
             return float(fw.input_bank(int(name[2:] or 0)))  # _TI: bank 0, as TI
         cmd, letter = name[:2], name[2:]

@@ -22,6 +22,7 @@ from vdevd.devices.galil.arrays import ArrayDownload
 from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
 from vdevd.devices.galil.errors import TC, TEXTS, GalilError
 from vdevd.devices.galil.expr import evaluate
+from vdevd.devices.galil.follow_commands import FollowCommands
 from vdevd.devices.galil.motion import Mode, StopCode
 from vdevd.devices.galil.numbers import (
     POSITION_FORMAT,
@@ -64,7 +65,7 @@ class Interpreter(ArrayCommands):
         self.fw = fw
         self.n = fw.n
         self.handlers: dict[str, Callable[[str], bytes | Trippoint | ArrayDownload]] = (
-            COMMANDS.bind(self, *getattr(fw, "command_sets", ())))
+            COMMANDS.bind(self, FollowCommands(self), *getattr(fw, "command_sets", ())))
         #: the program thread whose statement runs now, None on the command line (threads.py)
         self.thread: int | None = None
 
@@ -169,7 +170,9 @@ class Interpreter(ArrayCommands):
 
     def _st(self, arg: str) -> bytes:
         """ST axes; from the host without axes it halts the programs too [spec §4.5]."""
-        self.fw.motion.stop(self.axes(arg))
+        axes = self.axes(arg)
+        self.fw.motion.stop(axes)
+        self.fw.follow.stopped(axes)
         if not arg.strip() and self.thread is None:
             self.fw.threads.halt_all()
         return OK
@@ -180,6 +183,7 @@ class Interpreter(ArrayCommands):
         if mode not in (0, 1):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
         self.fw.motion.abort(list(range(self.n)), StopCode.ABORT_COMMAND)
+        self.fw.follow.aborted()
         if mode == 0:
             self.fw.threads.halt_all()
         return OK

@@ -128,6 +128,16 @@ class GalilMotion:
         self.reverse_limit = np.zeros(n, dtype=bool)
         self.home_input = np.ones(n, dtype=bool)
         self.sense: Callable[[], None] | None = None
+        #: gearing, ECAM and contour (follow.py): their work before each sample while they have
+        #: some; `engaged` while an axis follows (the card is then not at rest)
+        self.before_tick: Callable[[], None] | None = None
+        self.engaged = False
+        #: +1, or -1 where MT -1 reverses the servo polarity or CE 2/3 reverses the main encoder:
+        #: the sign of the DAC output per count of error (`apply_filter`) [M Ch6 §Using the CE]
+        self.loop_sign = np.ones(n)
+        #: -1 where CE 2/3 reverses the main encoder: the core's output is the DAC seen in the
+        #: reversed count direction (`torque`)
+        self.dac_sign = np.ones(n)
         # index pulses at phase + k * period in physical counts (period 0: none)
         self.index_period = np.full(n, 4096.0)
         self.index_phase = np.zeros(n)
@@ -165,9 +175,11 @@ class GalilMotion:
         u = 4*KP*e + 4*KD*(e - e[k-1]) + (KI/2)*sum(e), the integral term clamped to IL volts,
         the output offset by OF and clamped to TL volts and to the 16-bit DAC."""
         v = self.values
-        kp, kd, ki = 4 * v["KP"][axes], 4 * v["KD"][axes], v["KI"][axes] / 2
+        sign = self.loop_sign[axes]
+        kp, kd, ki = 4 * v["KP"][axes] * sign, 4 * v["KD"][axes] * sign, v["KI"][axes] / 2
         il_counts = np.abs(v["IL"][axes]) * COUNTS_PER_VOLT
         il = np.where(ki > 0, il_counts / np.where(ki > 0, ki, 1.0), np.inf)
+        ki = ki * sign
         self.out_limit = np.minimum(v["TL"] * COUNTS_PER_VOLT, DAC_FULL_SCALE)
         self.offset = v["OF"] * COUNTS_PER_VOLT
         self._pl = bool(v["PL"].any())
@@ -176,8 +188,8 @@ class GalilMotion:
         else:
             offset, limit = self.offset, self.out_limit
         self.core.pid.set(slice(None), offset=offset, out_limit=limit)
-        self.core.pid.set(axes, kp=kp, kd=kd, ki=ki, il=il, vff=v["FV"][axes] * 1e-4,
-                          aff=v["FA"][axes] * 1e-6)
+        self.core.pid.set(axes, kp=kp, kd=kd, ki=ki, il=il, vff=v["FV"][axes] * 1e-4 * sign,
+                          aff=v["FA"][axes] * 1e-6 * sign)
 
     def apply_limits(self) -> None:
         """ER (-1 disables) is checked by the card each tick; FL/BL are the core's soft limits;
@@ -193,6 +205,12 @@ class GalilMotion:
         arr = self.values[name]
         arr[idx] = list(values)
         if name in ("KP", "KD", "KI", "IL", "TL", "OF", "FA", "FV", "PL"):
+            self.apply_filter()
+        elif name in ("MT", "CE"):
+            reversed_servo = self.values["MT"] == -1
+            reversed_encoder = (self.values["CE"].astype(np.int64) & 3) >= 2
+            self.loop_sign[:] = np.where(reversed_servo != reversed_encoder, -1.0, 1.0)
+            self.dac_sign[:] = np.where(reversed_encoder, -1.0, 1.0)
             self.apply_filter()
         elif name == "KS":
             self.stepper.set_ks(self.values["KS"])
@@ -232,6 +250,12 @@ class GalilMotion:
 
     def moving(self, a: int) -> bool:
         return bool(self.core.profile.moving[a])
+
+    def tracking(self, axes: Any) -> None:
+        """Axes whose commanded position a follower mode (contour) now sets every sample: in
+        motion, and the end of it is a motion complete like a move's (`tick`, `_finish`)."""
+        self._moving_prev[axes] = True
+        self.stop_reason[axes] = 0
 
     # -- commands ----------------------------------------------------------------------------------
     def begin(self, axes: list[int]) -> None:
@@ -388,6 +412,8 @@ class GalilMotion:
     def tick(self) -> np.ndarray | None:
         """One servo sample; the mask of axes whose motion completed at it (None: none did)."""
         core = self.core
+        if self.before_tick is not None:
+            self.before_tick()
         core.tick()
         if self.sense is not None:  # the switches where the stage now is
             self.sense()
@@ -418,7 +444,7 @@ class GalilMotion:
         """What a sample may change (the core's and the filters', averages and latches of this
         firmware), as bytes; None during a home search (MotionCore.rest_state)."""
         core = self.core.rest_state()
-        if core is None or self._searching:
+        if core is None or self._searching or self.engaged:
             return None
         return b"".join((core, self.tv.tobytes(), self.lowpass.tobytes(),
                          self._enc_prev.tobytes(), self.error_over.tobytes(),
@@ -538,7 +564,8 @@ class GalilMotion:
 
     def torque(self) -> np.ndarray:
         """TT: the DAC output in volts."""
-        return np.clip(np.rint(self.core.axes.out), -DAC_FULL_SCALE, DAC_FULL_SCALE) / COUNTS_PER_VOLT
+        out = np.clip(np.rint(self.core.axes.out), -DAC_FULL_SCALE, DAC_FULL_SCALE)
+        return out * self.dac_sign / COUNTS_PER_VOLT
 
     def destination(self) -> np.ndarray:
         """_PA: the destination while moving, else the commanded position [M Ch6]."""
