@@ -17,6 +17,7 @@ from vdevmaps.galil import GeneralStatus, InterruptCondition, InterruptStatus
 
 from vdevd.devices.galil import syntax
 from vdevd.devices.galil.bus import A16Window
+from vdevd.devices.galil.coord import Coordinated
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.interpreter import OK, Interpreter, Trippoint
 from vdevd.devices.galil.motion import GalilMotion, StopCode
@@ -80,6 +81,7 @@ class Firmware:
         old = getattr(self, "motion", None)
         self.motion = GalilMotion(self.n, self.period_ns, self.plant)
         self.motion.sense = self.sense
+        self.coord = Coordinated(self.motion)  # the S and T planes (coord.py)
         if old is not None:
             self.motion.core.zero[:] = -old.core.physical()
         self.variables: dict[str, float] = {}
@@ -102,6 +104,8 @@ class Firmware:
     def step(self) -> None:
         """One sample: motion, interrupt conditions, the command interpreter, the data record."""
         self.ticks += 1
+        if self.coord.active:
+            self.coord.sample()
         self._after_motion(self.motion.tick())
 
     def _after_motion(self, done: np.ndarray | None) -> None:
@@ -136,10 +140,12 @@ class Firmware:
         which an axis completes or crosses ER runs the rest of its sample (interrupts, the
         interpreter) after `advance(k)`, the card's clock to it, and ends the run. `advance`
         sees the count run at the end; returned too."""
-        motion = self.motion
+        motion, coord = self.motion, self.coord
         tick, changed = motion.tick, motion.error_changed
         for k in range(1, room + 1):
             self.ticks += 1
+            if coord.active:
+                coord.sample()
             done = tick()
             if done is not None or changed():
                 advance(k)
@@ -152,7 +158,7 @@ class Firmware:
     def rest_state(self) -> bytes | None:
         """What a sample may change, as bytes, but the sample count; None while the interpreter
         has work (a command, a reply to send, a trippoint) or a home search runs."""
-        if self._out or self._trip is not None or self.bus.commands_waiting:
+        if self._out or self._trip is not None or self.bus.commands_waiting or self.coord.active:
             return None
         return self.motion.rest_state()
 
@@ -351,7 +357,11 @@ class Firmware:
         rec["error_code"] = self.error_code & 0xFF
         rec["general_status"] = int(GeneralStatus.ECHO_ON) if self.echo else 0
         ax = rec["axis"]
-        ax["status"] = m.status_word()
+        ax["status"] = m.status_word() | self.coord.status_bits()
+        for key, plane in (("s", self.coord.planes["S"]), ("t", self.coord.planes["T"])):
+            rec[f"{key}_plane_segment_count"] = plane.seq.completed & 0xFFFF
+            rec[f"{key}_plane_move_status"] = plane.move_status()
+            rec[f"{key}_distance"] = wrap_int32(np.array([plane.seq.out]))[0]
         ax["switches"] = m.switches(self.latch_inputs())
         ax["stop_code"] = m.stop_code
         ax["reference_position"] = wrap_int32(m.reference())
@@ -380,6 +390,9 @@ class _Env:
         fw, m = self.fw, self.fw.motion
         if name == "TIME":
             return float(fw.ticks - fw.time_origin)
+        coordinated = fw.coord.operand(name)
+        if coordinated is not None:
+            return coordinated
         scalars = {"TC": fw.error_code, "TB": fw.status_byte(), "OP": fw.outputs,
                    "EO": fw.echo, "LZ": fw.lz, "TM": fw.tm_us, "DR": fw.record_rate}
         if name in scalars:

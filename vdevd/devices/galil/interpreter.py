@@ -28,6 +28,7 @@ from vdevd.devices.galil.numbers import (
     format_number,
 )
 from vdevd.devices.galil.params import MOTOR_TYPES, PARAMS
+from vdevd.devices.galil.vector_commands import VectorCommands
 from vdevd.rt import PlantKind
 
 if TYPE_CHECKING:
@@ -49,7 +50,7 @@ class Trippoint:
     ready: Callable[[], bool]
 
 
-class Interpreter:
+class Interpreter(VectorCommands):
     """The command language over one card's firmware state (`fw`); its commands are the table
     of commands.py, bound once."""
 
@@ -150,15 +151,22 @@ class Interpreter:
 
     # -- motion ------------------------------------------------------------------------------------
     def _bg(self, arg: str) -> bytes:
-        """BG axes; BG S/T needs a vector sequence, which this firmware has not yet (TC 24)."""
+        """BG axes; BG S/T begins the plane's sequence (vector_commands)."""
         axes = _parse_axes(arg, self.n)
         if axes.s or axes.t:
-            raise GalilError(24)
+            self._begin_sequences(axes.s, axes.t)
         self.fw.motion.begin(list(axes.axes))
         return OK
 
     def _st(self, arg: str) -> bytes:
-        self.fw.motion.stop(self.axes(arg))
+        """ST axes; ST S/T (and ST alone, or an axis of a running plane) stops the sequence along
+        its path at VD [M Ch6 §Specifying Linear Segments]."""
+        sel, coord = _parse_axes(arg, self.n), self.fw.coord
+        planes = coord.planes_named(sel.s or not arg.strip(), sel.t or not arg.strip())
+        planes += [p for a in sel.axes if (p := coord.plane_of(a)) is not None]
+        for plane in planes:
+            coord.stop(plane)
+        self.fw.motion.stop([a for a in sel.axes if all(a not in p.track for p in planes)])
         return OK
 
     def _ab(self, arg: str) -> bytes:
@@ -166,6 +174,7 @@ class Interpreter:
         if arg.strip() and self.value(arg) not in (0, 1):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
         self.fw.motion.abort(list(range(self.n)), StopCode.ABORT_COMMAND)
+        self.fw.coord.abort()
         return OK
 
     def _mo(self, arg: str) -> bytes:
@@ -203,18 +212,22 @@ class Interpreter:
                             PARAMS["PR"].coerce)
 
     def _am(self, arg: str) -> Trippoint:
-        """AM: wait until the profiles of the axes are complete [M Ch6]."""
-        axes, moving = self.axes(arg), self.fw.motion.core.profile.moving
-        return Trippoint(lambda: not moving[axes].any())
+        """AM: wait until the profiles of the axes are complete; AM S/T until the plane's sequence
+        is [M Ch6]."""
+        sel, moving = _parse_axes(arg, self.n), self.fw.motion.core.profile.moving
+        axes, planes = list(sel.axes), self.fw.coord.planes_named(sel.s, sel.t)
+        return Trippoint(lambda: not moving[axes].any() and not any(p.running for p in planes))
 
     def _mc(self, arg: str) -> Trippoint:
         """MC: the profile complete and the axis in position: a stepper when its step count
         (TD) equals the reference [M Ch6 §Motion Complete Trippoint]; a servo within one count
         of it (spec §4.5, open question 25)."""
-        motion, axes = self.fw.motion, self.axes(arg)
+        motion, sel = self.fw.motion, _parse_axes(arg, self.n)
+        planes = self.fw.coord.planes_named(sel.s, sel.t)
+        axes = sorted({*sel.axes, *(a for p in planes for a in p.track)})
 
         def ready() -> bool:
-            if motion.core.profile.moving[axes].any():
+            if any(p.running for p in planes) or motion.core.profile.moving[axes].any():
                 return False
             if motion.plant_kind == PlantKind.STEPPER:
                 steps = np.rint(motion.core.axes.pos[axes])

@@ -1,0 +1,267 @@
+"""The path planner of coordinated motion: linear (LI) and vector (VP, CR) segments, sampled
+once a servo period (manual ch. 6 "Linear Interpolation Mode", "Vector Mode").
+
+Pure: no card, no axes. A `Sequence` holds the segment buffer (at most `MAX_SEGMENTS` waiting,
+[M Ch6 §Specifying Linear Segments]) and moves a point along the path every sample: the vector
+speed VS (times the ratio VR) with trapezoidal ramps of VA and VD along the path, `<n` (VS n from
+the segment's start) and `>m` (speed m at the segment's end, one pending at a time) per segment
+[M Ch6 §Specifying Vector Speed for Each Segment], LE/VE (decelerate to a stop at the end; without
+it the motion stops at once at the last vector), ST (decelerate at VD) and VT (S-curve: a moving
+average of 1/VT samples over the path position, as IT smooths independent moves, spec §5.3).
+Positions are in the sequence's local coordinates (0 where BGS started it) [M Ch6 §Specifying
+Vector Segments]; arcs are evaluated on their circle, so every sample lies on the radius.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+#: segments the buffer holds: LM? reads 511 when it is empty [M Ch6 §Specifying Linear Segments]
+MAX_SEGMENTS = 511
+#: the longest segment and the wrap of _LE / LE? (spec §4.3 TC 31; [M Ch6] "resets after
+#: 2147483647")
+MAX_LENGTH = 2_147_483_647.0
+#: how close to a whole count a computed end point snaps to it (trig noise: cos 90 deg)
+_SNAP = 1e-7
+
+
+def _snap(x: float) -> float:
+    r = round(x)
+    return float(r) if abs(x - r) < _SNAP else x
+
+
+@dataclass
+class Segment:
+    """One segment: a line from `start` to `end` (any number of coordinates), or an arc of the
+    plane's circle of `radius` about `center` from angle `theta0` through `dtheta` (radians,
+    CCW positive) [M Ch6 §Specifying Vector Segments]. `speed` is `<n`, `end_speed` is `>m`."""
+
+    start: tuple[float, ...]
+    end: tuple[float, ...]
+    length: float
+    speed: float | None = None
+    end_speed: float | None = None
+    center: tuple[float, float] | None = None
+    radius: float = 0.0
+    theta0: float = 0.0
+    dtheta: float = 0.0
+    s0: float = 0.0  # where it starts along the sequence
+
+    def point(self, u: float) -> tuple[float, ...]:
+        """The point `u` counts along the segment (0 <= u <= length)."""
+        if self.center is None:
+            f = u / self.length
+            return tuple(a + (b - a) * f for a, b in zip(self.start, self.end, strict=True))
+        ang = self.theta0 + self.dtheta * (u / self.length)
+        cx, cy = self.center
+        return (cx + self.radius * math.cos(ang), cy + self.radius * math.sin(ang))
+
+    def heading(self, u: float) -> float:
+        """The direction of travel at `u`, radians (lines: constant; arcs: the tangent)."""
+        if self.center is None:
+            return math.atan2(self.end[1] - self.start[1], self.end[0] - self.start[0])
+        ang = self.theta0 + self.dtheta * (u / self.length)
+        return ang + math.copysign(math.pi / 2, self.dtheta)
+
+
+def line(start: tuple[float, ...], end: tuple[float, ...], speed: float | None = None,
+         end_speed: float | None = None) -> Segment:
+    """A straight segment (LI increments added to `start`, or VP's end point)."""
+    length = math.sqrt(sum((b - a) ** 2 for a, b in zip(start, end, strict=True)))
+    return Segment(start, end, length, speed, end_speed)
+
+
+def arc(start: tuple[float, float], radius: float, theta_deg: float, dtheta_deg: float,
+        speed: float | None = None, end_speed: float | None = None) -> Segment:
+    """CR r,θ,Δθ from `start`: the circle's center is where `start` sits at angle θ; the arc
+    ends at θ + Δθ [M Ch6 §Specifying Vector Segments]."""
+    t0, dt = math.radians(theta_deg), math.radians(dtheta_deg)
+    cx = start[0] - radius * math.cos(t0)
+    cy = start[1] - radius * math.sin(t0)
+    end = (_snap(cx + radius * math.cos(t0 + dt)), _snap(cy + radius * math.sin(t0 + dt)))
+    return Segment(start, end, radius * abs(dt), speed, end_speed, (cx, cy), radius, t0, dt)
+
+
+class Sequence:
+    """The segments of one coordinate plane and the motion along them. Segments are numbered
+    from 0 in the order given; `waiting` holds those from `base` on (the buffer)."""
+
+    def __init__(self, dims: int, dt: float) -> None:
+        self.dims = dims
+        self.dt = dt
+        self.waiting: deque[Segment] = deque()
+        self.base = 0  # the number of the first segment in `waiting`
+        self.count = 0  # segments given
+        self.last_end: tuple[float, ...] = (0.0,) * dims  # where the next segment starts
+        self.total = 0.0  # the length given so far (_LE)
+        self.ended = False  # LE / VE given
+        self.started = False  # BGS given
+        self.done = False  # the motion has ended (complete, stopped or aborted)
+        self.stopping = False  # ST: decelerate to a stop at VD
+        self.s = 0.0  # the raw path (before VT's smoothing)
+        self.v = 0.0
+        self.out = 0.0  # the smoothed path: where the axes are (_AV)
+        self.completed = 0  # segments the output has passed (_CS)
+        self.raw = 0  # the segment the raw path is in
+        self.speed: float | None = None  # the `<n` in force since the raw path entered its segment
+        self._window: deque[float] = deque([0.0])
+        self._window_sum = 0.0
+        self._heading: float | None = None  # the output's last heading (TN), unwrapped
+
+    # -- the buffer --------------------------------------------------------------------------------
+    @property
+    def free(self) -> int:
+        """_LM: the segments that can still be given (511 when the buffer is empty; a sequence
+        that has ended, stopped or been aborted left nothing in it)."""
+        if self.done:
+            return MAX_SEGMENTS
+        return MAX_SEGMENTS - (self.count - min(self.completed, self.count))
+
+    def add(self, seg: Segment) -> None:
+        """Append a segment that starts at `last_end` (the caller checked room and length)."""
+        seg.s0 = self.total
+        self.waiting.append(seg)
+        self.count += 1
+        self.total += seg.length
+        self.last_end = seg.end
+
+    def segment(self, k: int) -> Segment:
+        """Segment number k (clamped to those in the buffer)."""
+        w = self.waiting
+        return w[min(max(k - self.base, 0), len(w) - 1)]
+
+    # -- the motion --------------------------------------------------------------------------------
+    def start(self, smoothing: int) -> None:
+        """BGS: the path starts at 0, at rest; `smoothing` samples of VT's moving average."""
+        self.started = True
+        self._window = deque([0.0] * max(1, smoothing))
+        self._window_sum = 0.0
+        first = self.waiting[0] if self.waiting else None
+        self.speed = first.speed if first is not None else None
+
+    def advance(self, vs: float, va: float, vd: float) -> bool:
+        """One sample: the raw path and the output move; False once the motion has ended (the
+        output at rest where the raw path stopped for good). `vs` is VS x VR."""
+        if self.done:
+            return False
+        self._advance_raw(vs, va, vd)
+        win = self._window
+        s = self.s
+        if len(win) > 1:
+            win.append(s)
+            self._window_sum += s - win.popleft()
+            self.out = self._window_sum / len(win)
+        else:
+            self.out = s
+        out, count = self.out, self.count
+        while self.completed < count:
+            seg = self.segment(self.completed)
+            if out < seg.s0 + seg.length - 1e-9:
+                break
+            self.completed += 1
+        self._release()
+        at_rest = self.v == 0.0 and (self.stopping or (self.ended and s >= self.total))
+        if at_rest and (len(win) <= 1 or all(x == s for x in win)):
+            self.out = s
+            self.done = True
+            return False
+        return True
+
+    def _advance_raw(self, vs: float, va: float, vd: float) -> None:
+        if self.stopping:
+            vs = 0.0
+        elif self.speed is not None:
+            vs = self.speed * self.ratio
+        v, dt = self.v, self.dt
+        target = min(v + va * dt, vs) if v <= vs else max(v - vd * dt, vs)
+        # braking: the next `>m` ahead (one at a time) and the end of an ended sequence
+        for dist, v_end, hard in self._constraints():
+            c = v_end * v_end + 2.0 * vd * dist - vd * dt * v
+            if c < 0.0:
+                cap = 0.0 if hard else max(v - vd * dt, v_end)
+            else:
+                cap = 0.5 * (-vd * dt + math.sqrt((vd * dt) ** 2 + 4.0 * c))
+            if cap < target:
+                target = cap
+        if target < 0.0:
+            target = 0.0
+        step = 0.5 * (v + target) * dt
+        if self.s + step >= self.total - 1e-9:
+            # the end of an ended sequence, or a starved buffer: the motion stops at once at
+            # the last vector, without deceleration [M Ch6 §Specifying Linear Segments]
+            self.s, self.v = self.total, 0.0
+        else:
+            self.s += step
+            self.v = target
+        self._enter_segments()
+
+    ratio = 1.0  # VR, which scales `<n` as it scales VS [M Ch6 §Changing Feedrate]
+
+    def _enter_segments(self) -> None:
+        """The raw path passes into the next segment (the `<n` of one it enters applies)."""
+        while self.raw < self.count - 1:
+            seg = self.segment(self.raw)
+            if self.s < seg.s0 + seg.length - 1e-9:
+                break
+            self.raw += 1
+            nxt = self.segment(self.raw)
+            if nxt.speed is not None:
+                self.speed = nxt.speed
+
+    def _constraints(self) -> list[tuple[float, float, bool]]:
+        """(distance ahead, speed there, whether it is the end) of the braking targets."""
+        out: list[tuple[float, float, bool]] = []
+        s = self.s
+        if self.ended:
+            out.append((max(self.total - s, 0.0), 0.0, True))
+        for k in range(self.raw - self.base, len(self.waiting)):
+            seg = self.waiting[k]
+            if seg.end_speed is not None:
+                end = seg.s0 + seg.length
+                if end > s + 1e-9:
+                    out.append((end - s, seg.end_speed, False))
+                break
+        return out
+
+    def _release(self) -> None:
+        """Segments both paths have passed leave the buffer (the last one stays: it places
+        the output)."""
+        w = self.waiting
+        while self.base < min(self.completed, self.raw) and len(w) > 1:
+            w.popleft()
+            self.base += 1
+
+    # -- where the output is -----------------------------------------------------------------------
+    def _locate(self) -> tuple[Segment, float]:
+        """The segment the output is in and the distance into it."""
+        seg = self.segment(self.completed)
+        return seg, min(max(self.out - seg.s0, 0.0), seg.length)
+
+    def position(self) -> tuple[float, ...]:
+        """The output's point in local coordinates."""
+        if not self.waiting:
+            return self.last_end
+        seg, u = self._locate()
+        return seg.end if u >= seg.length else seg.point(u)
+
+    def heading(self) -> float:
+        """The output's direction of travel, radians, unwrapped along the path (TN)."""
+        if not self.waiting:
+            return self._heading or 0.0
+        seg, u = self._locate()
+        h = seg.heading(u)
+        if self._heading is not None:
+            h += 2 * math.pi * round((self._heading - h) / (2 * math.pi))
+        self._heading = h
+        return h
+
+    def intersection(self) -> tuple[float, ...]:
+        """_VP: the last intersection the output passed (the start of its segment; at the end
+        of the sequence its end)."""
+        if not self.waiting:
+            return self.last_end
+        if self.completed >= self.count:
+            return self.last_end
+        return self.segment(self.completed).start
