@@ -448,3 +448,53 @@ def test_vector_parameters_report_per_plane() -> None:
         b":00020000,00030000\r\n::00.5000\r\n::0.5000\r\n:")
     assert rig.send(b"CA T;CA ?;LM XY;LI 5,5;CA S;LM?;CA T;LM?\r") == (
         b":1\r\n::::511\r\n::510\r\n:")
+
+
+def test_mo_of_one_axis_ends_the_sequence_and_the_others_stop_where_they_are() -> None:
+    rig = Rig()
+    rig.send(b"LM XY;LI 80000,60000;LE;VS 50000;VA 500000;VD 250000;BGS\r")
+    for _ in range(100):
+        rig.sample()
+    rig.send(b"MO X\r")
+    rig.sample()
+    assert not rig.fw.coord.active
+    y = rp(rig)[1]
+    for _ in range(100):
+        rig.sample()
+    assert rp(rig)[1] == y  # Y does not run on at the path's speed
+    assert sc(rig)[:2] == [7, 7]
+
+
+def test_the_abort_input_ends_the_sequence_with_stop_code_6() -> None:
+    rig = Rig()
+    rig.send(b"LM XY;LI 80000,60000;LE;VS 50000;VA 500000;VD 250000;BGS\r")
+    for _ in range(100):
+        rig.sample()
+    rig.fw.set_abort(True)
+    here = rp(rig)
+    for _ in range(10):
+        rig.sample()
+    assert not rig.fw.coord.active
+    assert rp(rig) == here and sc(rig)[:2] == [6, 6]
+
+
+def test_mc_s_waits_for_the_sequence_and_the_axes_in_position() -> None:
+    rig = Rig()
+    assert rig.send(b"LM XY;LI 3000,4000;LE;VS 10000;VA 1000000;VD 1000000;BGS;MC S\r") == (
+        b":" * 7)
+    samples = 0
+    while not rig.receive():
+        rig.sample()
+        samples += 1
+    assert samples >= path_time(5000, 10_000, 1e6, 1e6) / DT - 2
+    assert rp(rig)[:2] == [3000, 4000]
+    assert rig.send(b"TP XY\r") == b"0000003000,0000004000\r\n:"
+
+
+def test_motion_complete_interrupts_fire_when_the_sequence_ends() -> None:
+    """EI bits 0-3 and 8 [M Ch4]: the X and Y ends and all axes complete."""
+    rig = Rig()
+    rig.send(b"EI 259;LM XY;LI 3000,4000;LE;VS 10000;BGS\r")
+    assert rig.bus.pending_interrupts == ()
+    finish(rig)  # the sample the path ends in ends the axes' profiles
+    assert rig.bus.pending_interrupts == (0xD0, 0xD1, 0xD8)

@@ -49,6 +49,7 @@ class Plane:
         self.running = False
         self.stop_code = SC_VECTOR_RUNNING  # the code the axes get when the motion ends
         self.origin = np.zeros(0)  # the commanded positions of `track` at BGS (local zero)
+        self.origin_list: list[float] = []
         self.track: list[int] = []  # the card's axes the path drives (and the tangent axis)
         self.track_idx = np.zeros(0, dtype=np.int64)
         self._dims: list[int] = []  # the path coordinate of each real axis of `track`
@@ -101,6 +102,8 @@ class Coordinated:
         self.current = "S"  # CA: the plane vector commands address
         self.active = False  # a plane runs: the card is not at rest
         self._running: list[Plane] = []
+        self._plans = -1  # the profile's plan count after the last track (nothing else planned)
+        self._no_limits = bytes(motion.n)  # limit arrays with no switch active, as bytes
 
     @property
     def plane(self) -> Plane:
@@ -132,6 +135,7 @@ class Coordinated:
             plane.track.append(plane.tangent)
         plane.track_idx = np.asarray(plane.track, dtype=np.int64)
         plane.origin = np.rint(core.axes.cmd_pos[plane.track_idx])
+        plane.origin_list = plane.origin.tolist()
         smoothing = round(1.0 / plane.vt) if plane.vt > 0 else 1
         plane.seq.ratio = plane.vr
         plane.seq.start(smoothing)
@@ -168,17 +172,31 @@ class Coordinated:
 
     # -- the sample --------------------------------------------------------------------------------
     def sample(self) -> None:
-        """Before the motion of a sample: every running plane feeds its axes the next point."""
+        """Before the motion of a sample: every running plane feeds its axes the next point, all
+        in one `track` (the same axes every sample take its cheap step)."""
+        axes: list[int] = []
+        targets: list[float] = []
+        m, prof = self.motion, self.core.profile
+        replanned = prof.plans != self._plans  # something but the path planned: look at the axes
+        none = self._no_limits
+        limits = m.forward_limit.tobytes() != none or m.reverse_limit.tobytes() != none
         for plane in self._running:
-            self._sample(plane)
+            target = self._sample(plane, replanned, limits)
+            if target is not None:
+                axes += plane.track
+                targets += target
+        if axes:
+            self.core.track(axes, targets)
+        self._plans = prof.plans
 
-    def _sample(self, plane: Plane) -> None:
+    def _sample(self, plane: Plane, replanned: bool, limits: bool) -> list[float] | None:
+        """The plane's next point for its axes; None when its motion ended here."""
         core, m = self.core, self.motion
         idx = plane.track_idx
-        if plane.tracking and not core.profile.moving[idx].all():
-            self._end(plane)  # AB, the abort input, MO, an off-on-error or amplifier fault
-            return
-        if (m.forward_limit.any() or m.reverse_limit.any()) and not plane.seq.stopping:
+        if replanned and plane.tracking and not core.profile.moving[idx].all():
+            self._cut(plane)  # AB, the abort input, MO, an off-on-error or amplifier fault
+            return None
+        if limits and not plane.seq.stopping:
             vel = core.axes.cmd_vel[idx]
             fwd, rev = m.forward_limit[idx] & (vel > 0), m.reverse_limit[idx] & (vel < 0)
             if fwd.any() or rev.any():  # a limit switch: a decelerated stop [M Ch3]
@@ -187,17 +205,31 @@ class Coordinated:
         seq.ratio = plane.vr
         more = seq.advance(plane.vs * plane.vr, plane.va, plane.vd)
         pos = seq.position()
-        origin = plane.origin
-        target = [float(origin[i]) + pos[d] for i, d in enumerate(plane._dims)]
+        target = [o + pos[d] for o, d in zip(plane.origin_list, plane._dims, strict=False)]
         if plane.tangent is not None:
             target.append(plane.tangent_position(seq.heading()))
         if more:
-            core.track(plane.track, target)
-            return
+            return target
         code = plane.stop_code
         m.stop_reason[idx] = code
         m.stop_code[idx] = code
         core.hold(plane.track, np.rint(target) if code == SC_VECTOR_DONE else target)
+        self._end(plane)
+        return None
+
+    def _cut(self, plane: Plane) -> None:
+        """An axis of the plane stopped under it: the others stop where they are, with that
+        axis's stop code (7, aborted, when it has none of its own, e.g. after MO)."""
+        core, m, idx = self.core, self.motion, plane.track_idx
+        stopped = idx[~core.profile.moving[idx]]
+        codes = [c for c in m.stop_code[stopped].tolist() if c != SC_VECTOR_RUNNING]
+        code = codes[0] if codes else int(StopCode.ABORT_COMMAND)
+        m.stop_code[stopped[m.stop_code[stopped] == SC_VECTOR_RUNNING]] = code
+        going = idx[core.profile.moving[idx]]
+        if len(going):
+            m.stop_reason[going] = code
+            m.stop_code[going] = code
+            core.hold(going)
         self._end(plane)
 
     def _end(self, plane: Plane) -> None:

@@ -109,6 +109,12 @@ class Sequence:
         self._window: deque[float] = deque([0.0])
         self._window_sum = 0.0
         self._heading: float | None = None  # the output's last heading (TN), unwrapped
+        # caches of the sample path (None: look again): the output's segment, where the raw
+        # path's segment ends, the next `>m` ahead (its end along the path, its speed)
+        self._out_seg: Segment | None = None
+        self._raw_end = -math.inf
+        self._brake: tuple[float, float] | None = None
+        self._brake_dirty = True
 
     # -- the buffer --------------------------------------------------------------------------------
     @property
@@ -126,6 +132,8 @@ class Sequence:
         self.count += 1
         self.total += seg.length
         self.last_end = seg.end
+        self._out_seg = None
+        self._brake_dirty = True
 
     def segment(self, k: int) -> Segment:
         """Segment number k (clamped to those in the buffer)."""
@@ -156,12 +164,12 @@ class Sequence:
         else:
             self.out = s
         out, count = self.out, self.count
-        while self.completed < count:
-            seg = self.segment(self.completed)
-            if out < seg.s0 + seg.length - 1e-9:
-                break
+        seg = self._out_seg or self._out_segment()
+        while self.completed < count and out >= seg.s0 + seg.length - 1e-9:
             self.completed += 1
-        self._release()
+            seg = self._out_seg = self.segment(self.completed)
+        if self.base < self.completed - 1:
+            self._release()
         at_rest = self.v == 0.0 and (self.stopping or (self.ended and s >= self.total))
         if at_rest and (len(win) <= 1 or all(x == s for x in win)):
             self.out = s
@@ -176,13 +184,20 @@ class Sequence:
             vs = self.speed * self.ratio
         v, dt = self.v, self.dt
         target = min(v + va * dt, vs) if v <= vs else max(v - vd * dt, vs)
-        # braking: the next `>m` ahead (one at a time) and the end of an ended sequence
-        for dist, v_end, hard in self._constraints():
-            c = v_end * v_end + 2.0 * vd * dist - vd * dt * v
-            if c < 0.0:
-                cap = 0.0 if hard else max(v - vd * dt, v_end)
-            else:
-                cap = 0.5 * (-vd * dt + math.sqrt((vd * dt) ** 2 + 4.0 * c))
+        # braking: the end of an ended sequence and the next `>m` ahead (one at a time)
+        s, ddt = self.s, vd * dt
+        if self.ended:
+            c = 2.0 * vd * (self.total - s) - ddt * v
+            cap = 0.0 if c < 0.0 else 0.5 * (-ddt + math.sqrt(ddt * ddt + 4.0 * c))
+            if cap < target:
+                target = cap
+        if self._brake_dirty:
+            self._brake = self._next_brake()
+        brake = self._brake
+        if brake is not None and brake[0] > s + 1e-9:
+            v_end = brake[1]
+            c = v_end * v_end + 2.0 * vd * (brake[0] - s) - ddt * v
+            cap = max(v - ddt, v_end) if c < 0.0 else 0.5 * (-ddt + math.sqrt(ddt * ddt + 4.0 * c))
             if cap < target:
                 target = cap
         if target < 0.0:
@@ -201,29 +216,32 @@ class Sequence:
 
     def _enter_segments(self) -> None:
         """The raw path passes into the next segment (the `<n` of one it enters applies)."""
+        if self.s < self._raw_end - 1e-9:
+            return
         while self.raw < self.count - 1:
             seg = self.segment(self.raw)
             if self.s < seg.s0 + seg.length - 1e-9:
                 break
             self.raw += 1
+            self._brake_dirty = True
             nxt = self.segment(self.raw)
             if nxt.speed is not None:
                 self.speed = nxt.speed
+        seg = self.segment(self.raw)
+        self._raw_end = seg.s0 + seg.length
 
-    def _constraints(self) -> list[tuple[float, float, bool]]:
-        """(distance ahead, speed there, whether it is the end) of the braking targets."""
-        out: list[tuple[float, float, bool]] = []
-        s = self.s
-        if self.ended:
-            out.append((max(self.total - s, 0.0), 0.0, True))
+    def _next_brake(self) -> tuple[float, float] | None:
+        """The first `>m` from the raw path's segment on: (its end along the path, m)."""
+        self._brake_dirty = False
         for k in range(self.raw - self.base, len(self.waiting)):
             seg = self.waiting[k]
             if seg.end_speed is not None:
-                end = seg.s0 + seg.length
-                if end > s + 1e-9:
-                    out.append((end - s, seg.end_speed, False))
-                break
-        return out
+                return seg.s0 + seg.length, seg.end_speed
+        return None
+
+    def _out_segment(self) -> Segment:
+        seg = self._out_seg = self.segment(self.completed)
+        return seg
 
     def _release(self) -> None:
         """Segments both paths have passed leave the buffer (the last one stays: it places
@@ -236,7 +254,7 @@ class Sequence:
     # -- where the output is -----------------------------------------------------------------------
     def _locate(self) -> tuple[Segment, float]:
         """The segment the output is in and the distance into it."""
-        seg = self.segment(self.completed)
+        seg = self._out_seg or self._out_segment()
         return seg, min(max(self.out - seg.s0, 0.0), seg.length)
 
     def position(self) -> tuple[float, ...]:
