@@ -498,3 +498,62 @@ def test_motion_complete_interrupts_fire_when_the_sequence_ends() -> None:
     assert rig.bus.pending_interrupts == ()
     finish(rig)  # the sample the path ends in ends the axes' profiles
     assert rig.bus.pending_interrupts == (0xD0, 0xD1, 0xD8)
+
+
+@pytest.mark.parametrize("skip_quiet", [True, False])
+def test_a_vector_move_in_runs_of_samples_ends_as_one_by_one(skip_quiet: bool) -> None:
+    """A card running sample runs (card.py `run`) and one stepping every sample end alike
+    through vector moves, ST S and AB (decision 0008: not at rest while a plane runs)."""
+    from tests.devices.galil.test_sample_runs import Twin
+
+    twin = Twin(skip_quiet, "servo")
+    twin.send("EI 511;DR 3;VM XYZ;TN 10,0;VS 50000;VA 1000000;VD 1000000;CR 5000,0,270;"
+              "VP 0,0;VE;CA T;LM W;LI,,,8000;LE;CA S;BG ST")
+    for n in [1, 2, 5, 7, 11, 13, 17, 19, 23, 64, 200] * 10:
+        twin.tick(n)
+        twin.same(read=False)
+    twin.send("LM XY;LI 30000,40000;LE;BGS")
+    twin.tick(100)
+    twin.send("ST S")
+    for n in [3, 64, 7, 200]:
+        twin.tick(n)
+        twin.same(read=True)
+    twin.send("LI 3000,4000;LE;BGS")
+    twin.tick(20)
+    twin.send("AB")
+    twin.tick(50)
+    twin.same(read=True)
+    for card in twin.cards:
+        assert not card.firmware.coord.active
+        assert card.firmware.motion.stop_code[:4].tolist() == [7, 7, 101, 101]
+
+
+def test_lmove_example_slows_for_the_corner_with_av_and_vs() -> None:
+    """[M Ch6 #LMOVE]: VS 4000; BGS; AV 4000; VS 1000; AV 5000; VS 4000: VS takes effect at
+    once, so the path slows (at VD) after 4000 to 1000 counts/s round the corner at 5000 and
+    speeds up again; the move ends at (5000, 5000)."""
+    rig = Rig()
+    assert rig.send(b"DP 0,0;LMXY;LI 5000,0;LI 0,5000;LE;VS 4000;BGS;AV 4000;VS 1000;AV 5000;"
+                    b"VS 4000\r") == b":" * 7
+    replies = 0  # AV 4000, VS 1000, AV 5000, VS 4000
+    av_at: dict[int, float] = {}
+    speeds: list[float] = []
+    while rig.fw.coord.active and len(speeds) < 20_000:
+        rig.sample()
+        seq = rig.fw.coord.planes["S"].seq
+        replies += rig.receive().count(b":")
+        av_at.setdefault(replies, seq.out)
+        speeds.append(seq.v)
+    assert replies == 4
+    assert av_at[2] == pytest.approx(4000, abs=4000 * DT)  # AV 4000 released; VS 1000 at once
+    assert av_at[4] == pytest.approx(5000, abs=1000 * DT)  # AV 5000 released at the corner
+    corner = int(4000 / 4000 / DT)  # samples to the first AV, then 1 s at <= 1000 counts/s
+    assert max(speeds[corner + 100: corner + 900]) <= 1000
+    assert max(speeds) == 4000
+    assert rp(rig)[:2] == [5000, 5000]
+
+
+def test_av_answers_at_once_when_no_sequence_runs() -> None:
+    rig = Rig()
+    assert rig.send(b"AV 1000;AV ,2000\r") == b"::"
+    assert rig.send(b"AV;TC\r") == b"?050\r\n:"

@@ -54,7 +54,7 @@ _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
     (("EA", "EM", "EP", "ET", "EB", "EG", "EQ", "EC", "EW"), "electronic cam: issue 20",
      TC.UNRECOGNIZED_COMMAND),
     (("CM", "CD", "DT", "WC"), "contour mode: issue 20", TC.UNRECOGNIZED_COMMAND),
-    (("AD", "AP", "AR", "AS", "AV", "AI", "MF", "MR", "AT", "TW"),
+    (("AD", "AP", "AR", "AS", "AI", "MF", "MR", "AT", "TW"),
      "trippoints other than AM, MC and WT: issue 20", TC.UNRECOGNIZED_COMMAND),
     (("RA", "RD", "RC"), "record mode (automatic data capture into arrays): issue 20",
      TC.UNRECOGNIZED_COMMAND),
@@ -95,6 +95,7 @@ COMMANDS = CommandTable(
         Command("CS", "_cs", section=_LINEAR),
         Command("CA", "_ca", section="M Ch6 §Specifying the Coordinate Plane"),
         Command("TN", "_tn", section="M Ch6 §Tangent Motion"),
+        Command("AV", "_av", section="M Ch6 §Linear Interpolation Mode (#LMOVE)"),
         *(Command(name, "_vector_param", (name,), section=_LINEAR)
           for name in ("VS", "VA", "VD", "VR", "VT")),
         # -- trippoints on the command line [M Ch6; spec §5.7] ----------------------------------

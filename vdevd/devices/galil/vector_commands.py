@@ -20,6 +20,7 @@ from vdevd.devices.galil.vector import MAX_LENGTH, Segment, arc, line
 
 if TYPE_CHECKING:
     from vdevd.devices.galil.firmware import Firmware
+    from vdevd.devices.galil.interpreter import Trippoint
 
 NO_SEQUENCE = 24  # "Begin not valid because no sequence defined"
 SEGMENT_TOO_SHORT = 30  # "Sequence segment too short"
@@ -266,6 +267,26 @@ class VectorCommands:
         if not -_COORD <= v <= _COORD:
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
         return v
+
+    def _av(self, arg: str) -> Trippoint:
+        """AV s,t: wait until the S (T) plane's path has travelled s (t) counts from its start,
+        or its sequence has ended [M Ch6 §Linear Interpolation Mode, #LMOVE; §Trippoints]."""
+        from vdevd.devices.galil.interpreter import Trippoint
+
+        fields = syntax.parse_fields(arg, 2)
+        if not fields or all(f is None for f in fields):
+            raise GalilError(TC.NOT_ENOUGH_FIELDS)
+        waits: list[tuple[Plane, float]] = []
+        for plane, field in zip((self.coord.planes["S"], self.coord.planes["T"]), fields,
+                                strict=False):
+            if field is syntax.QUERY:
+                raise GalilError(TC.QUESTION_MARK_NOT_VALID)
+            if field is not None:
+                v = self.value(str(field))
+                if not 0 <= v <= MAX_LENGTH:
+                    raise GalilError(TC.NUMBER_OUT_OF_RANGE)
+                waits.append((plane, v))
+        return Trippoint(lambda: all(not p.running or p.seq.out >= d - 1e-9 for p, d in waits))
 
     # -- begin (BG S / BG T) ----------------------------------------------------------------------
     def _begin_sequences(self, s: bool, t: bool) -> None:
