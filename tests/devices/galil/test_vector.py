@@ -557,3 +557,17 @@ def test_av_answers_at_once_when_no_sequence_runs() -> None:
     rig = Rig()
     assert rig.send(b"AV 1000;AV ,2000\r") == b"::"
     assert rig.send(b"AV;TC\r") == b"?050\r\n:"
+
+
+def test_st_after_a_sequence_stops_an_axis_of_that_plane_moving_on_its_own() -> None:
+    rig = Rig()
+    rig.send(b"LM XY;LI 300,400;LE;VS 100000;BGS\r")
+    finish(rig)
+    rig.send(b"JG 10000;BG X\r")
+    for _ in range(50):
+        rig.sample()
+    rig.send(b"ST\r")
+    for _ in range(200):
+        rig.sample()
+    assert not rig.fw.motion.moving(0)
+    assert sc(rig)[0] == 4

@@ -276,11 +276,14 @@ class Coordinated:
         return plane.initial_tangent()  # TN
 
     def _vp(self, axis: int) -> float:
-        """_VPm: the axis's coordinate at the last intersection of its plane's path, absolute
-        (the local zero of BGS added) [M Ch6 Operand Summary]."""
+        """_VPm: the axis's coordinate at the last intersection of its plane's path (the CA
+        plane's, else the other's), absolute (the local zero of BGS added) [M Ch6 Operand
+        Summary]."""
         plane = self.plane
-        if axis not in plane.axes:
-            return 0.0
+        if axis not in plane.axes:  # the other plane's axis, or none's
+            plane = self.planes["T" if self.current == "S" else "S"]
+            if axis not in plane.axes:
+                return 0.0
         d = plane.axes.index(axis)
         local = plane.seq.intersection()[d]
         origin = 0.0

@@ -162,7 +162,8 @@ class Interpreter(VectorCommands):
         """ST axes; ST S/T (and ST alone, or an axis of a running plane) stops the sequence along
         its path at VD [M Ch6 §Specifying Linear Segments]."""
         sel, coord = _parse_axes(arg, self.n), self.fw.coord
-        planes = coord.planes_named(sel.s or not arg.strip(), sel.t or not arg.strip())
+        planes = [p for p in coord.planes_named(sel.s or not arg.strip(), sel.t or not arg.strip())
+                  if p.running]
         planes += [p for a in sel.axes if (p := coord.plane_of(a)) is not None]
         for plane in planes:
             coord.stop(plane)
