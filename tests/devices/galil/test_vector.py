@@ -571,3 +571,16 @@ def test_st_after_a_sequence_stops_an_axis_of_that_plane_moving_on_its_own() -> 
         rig.sample()
     assert not rig.fw.motion.moving(0)
     assert sc(rig)[0] == 4
+
+
+def test_a_segment_speed_is_vs_from_that_segment_on() -> None:
+    """`<n` "is equivalent to commanding VSn at the start of the given segment" [M Ch6]."""
+    rig = Rig()
+    rig.send(b"LM X;VS 5000;LI 1000;LI 1000 <2000;LI 1000;LE;BGS\r")
+    speeds = []
+    while rig.fw.coord.active:
+        rig.sample()
+        speeds.append(rig.fw.coord.planes["S"].seq.v)
+    assert max(speeds[:150]) == 5000
+    assert max(speeds[400:]) == 2000  # the third segment keeps the second's speed
+    assert rig.send(b"VS ?\r") == b"00002000\r\n:"

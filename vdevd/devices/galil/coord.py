@@ -75,8 +75,7 @@ class Plane:
     def initial_tangent(self) -> float:
         """_TN: the tangent axis's position for the first segment's direction, the angle taken
         in [0, 360) degrees."""
-        first = self.seq.segment(0) if self.seq.waiting else None
-        angle = 0.0 if first is None else math.degrees(first.heading(0.0)) % 360.0
+        angle = math.degrees(self.seq.first_heading) % 360.0 if self.seq.count else 0.0
         return float(round(self.tn_offset + self.tn_scale * angle))
 
     def move_status(self) -> int:
@@ -204,6 +203,8 @@ class Coordinated:
         seq = plane.seq
         seq.ratio = plane.vr
         more = seq.advance(plane.vs * plane.vr, plane.va, plane.vd)
+        if seq.speed is not None:
+            plane.vs = seq.speed  # `<n` is VS n from its segment on [M Ch6]
         pos = seq.position()
         target = [o + pos[d] for o, d in zip(plane.origin_list, plane._dims, strict=False)]
         if plane.tangent is not None:

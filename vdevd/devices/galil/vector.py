@@ -60,8 +60,9 @@ class Segment:
 
     def heading(self, u: float) -> float:
         """The direction of travel at `u`, radians (lines: constant; arcs: the tangent)."""
-        if self.center is None:
-            return math.atan2(self.end[1] - self.start[1], self.end[0] - self.start[0])
+        if self.center is None:  # in the plane of the first two coordinates
+            dy = self.end[1] - self.start[1] if len(self.end) > 1 else 0.0
+            return math.atan2(dy, self.end[0] - self.start[0])
         ang = self.theta0 + self.dtheta * (u / self.length)
         return ang + math.copysign(math.pi / 2, self.dtheta)
 
@@ -109,6 +110,7 @@ class Sequence:
         self._window: deque[float] = deque([0.0])
         self._window_sum = 0.0
         self._heading: float | None = None  # the output's last heading (TN), unwrapped
+        self.first_heading = 0.0  # the direction the first segment starts in (_TN)
         # caches of the sample path (None: look again): the output's segment, where the raw
         # path's segment ends, the next `>m` ahead (its end along the path, its speed)
         self._out_seg: Segment | None = None
@@ -128,6 +130,8 @@ class Sequence:
     def add(self, seg: Segment) -> None:
         """Append a segment that starts at `last_end` (the caller checked room and length)."""
         seg.s0 = self.total
+        if not self.count:
+            self.first_heading = seg.heading(0.0)
         self.waiting.append(seg)
         self.count += 1
         self.total += seg.length

@@ -245,6 +245,8 @@ class VectorCommands:
             values.append((plane, v))
         for plane, v in values:
             setattr(plane, attr, v)
+            if attr == "vs":
+                plane.seq.speed = None  # VS replaces a segment's `<n` in force
         return b":"
 
     def _tn(self, arg: str) -> bytes:
