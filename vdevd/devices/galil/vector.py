@@ -164,9 +164,15 @@ class Sequence:
         if len(win) > 1:
             win.append(s)
             self._window_sum += s - win.popleft()
-            self.out = self._window_sum / len(win)
+            # the average lies between the output's last place and the raw path (a running
+            # sum drifts by rounding): keep it there, so the output never goes back
+            self.out = min(max(self._window_sum / len(win), self.out), s)
         else:
             self.out = s
+        at_rest = self.v == 0.0 and (self.stopping or (self.ended and s >= self.total))
+        if at_rest and (len(win) <= 1 or all(x == s for x in win)):
+            self.out = s
+            self.done = True
         out, count = self.out, self.count
         seg = self._out_seg or self._out_segment()
         while self.completed < count and out >= seg.s0 + seg.length - 1e-9:
@@ -174,12 +180,7 @@ class Sequence:
             seg = self._out_seg = self.segment(self.completed)
         if self.base < self.completed - 1:
             self._release()
-        at_rest = self.v == 0.0 and (self.stopping or (self.ended and s >= self.total))
-        if at_rest and (len(win) <= 1 or all(x == s for x in win)):
-            self.out = s
-            self.done = True
-            return False
-        return True
+        return not self.done
 
     def _advance_raw(self, vs: float, va: float, vd: float) -> None:
         if self.stopping:
@@ -201,7 +202,9 @@ class Sequence:
         if brake is not None and brake[0] > s + 1e-9:
             v_end = brake[1]
             c = v_end * v_end + 2.0 * vd * (brake[0] - s) - ddt * v
-            cap = max(v - ddt, v_end) if c < 0.0 else 0.5 * (-ddt + math.sqrt(ddt * ddt + 4.0 * c))
+            cap = v_end if c < 0.0 else 0.5 * (-ddt + math.sqrt(ddt * ddt + 4.0 * c))
+            # never harder than VD: a speed that cannot be met is reached later [M Ch6]
+            cap = max(cap, v - ddt)
             if cap < target:
                 target = cap
         if target < 0.0:
@@ -259,7 +262,8 @@ class Sequence:
     def _locate(self) -> tuple[Segment, float]:
         """The segment the output is in and the distance into it."""
         seg = self._out_seg or self._out_segment()
-        return seg, min(max(self.out - seg.s0, 0.0), seg.length)
+        u = self.out - seg.s0
+        return seg, seg.length if u >= seg.length - 1e-9 else max(u, 0.0)
 
     def position(self) -> tuple[float, ...]:
         """The output's point in local coordinates."""
