@@ -584,3 +584,25 @@ def test_a_segment_speed_is_vs_from_that_segment_on() -> None:
     assert max(speeds[:150]) == 5000
     assert max(speeds[400:]) == 2000  # the third segment keeps the second's speed
     assert rig.send(b"VS ?\r") == b"00002000\r\n:"
+
+
+def test_on_a_stepper_card_the_step_count_follows_the_path() -> None:
+    """TD (the step count after KS) of a stepper card follows the path's reference (RP) and
+    MC S waits for the last steps [M Ch6 §Stepper Motor Operation, §Motion Complete Trippoint]."""
+    from vdevd.devices.galil.bus import A16Window
+    from vdevd.devices.galil.firmware import Firmware
+
+    rig = Rig()
+    rig.bus = A16Window()
+    rig.fw = Firmware(4, 1_000_000, "stepper", 1000, rig.bus, raise_irq=lambda c: None,
+                      clear_irq=lambda: None, clock=lambda: rig.now_ns)
+    rig.send(b"VM XY;VS 20000;VA 1000000;VD 1000000;CR 1000,180,-90;VE;BGS\r")
+    for _ in range(50):
+        rig.sample()
+    td = [int(v) for v in rig.send(b"TD XY\r")[:-3].split(b",")]
+    ref = rp(rig)[:2]
+    assert 0 < td[0] < 2000 and abs(td[0] - ref[0]) < 20_000 * 6 * DT  # a few samples behind
+    assert rig.send(b"MC S\r") == b""
+    while not rig.receive():
+        rig.sample()
+    assert rig.send(b"TD XY;RP XY\r") == b"0000001000,0000001000\r\n:0000001000,0000001000\r\n:"
