@@ -606,3 +606,17 @@ def test_on_a_stepper_card_the_step_count_follows_the_path() -> None:
     while not rig.receive():
         rig.sample()
     assert rig.send(b"TD XY;RP XY\r") == b"0000001000,0000001000\r\n:0000001000,0000001000\r\n:"
+
+
+def test_bg_of_a_sequence_and_an_axis_is_checked_whole() -> None:
+    """BG XS with X in the S plane is refused (TC 21) and starts nothing; BG ZS starts both."""
+    rig = Rig()
+    rig.send(b"LM XY;LI 1000,1000;LE;PR ,,500\r")
+    assert rig.send(b"BG XS;TC\r") == b"?021\r\n:"
+    rig.sample()
+    assert not rig.fw.coord.active and not rig.fw.motion.moving(0)
+    assert rig.send(b"BG ZS\r") == b":"
+    finish(rig)
+    for _ in range(100):
+        rig.sample()
+    assert rp(rig) == [1000, 1000, 500, 0]

@@ -153,9 +153,10 @@ class Interpreter(VectorCommands):
     def _bg(self, arg: str) -> bytes:
         """BG axes; BG S/T begins the plane's sequence (vector_commands)."""
         axes = _parse_axes(arg, self.n)
-        if axes.s or axes.t:
-            self._begin_sequences(axes.s, axes.t)
+        planes = self._check_sequences(axes.s, axes.t, axes.axes) if axes.s or axes.t else []
         self.fw.motion.begin(list(axes.axes))
+        for plane in planes:
+            self.fw.coord.begin(plane)
         return OK
 
     def _st(self, arg: str) -> bytes:

@@ -291,23 +291,24 @@ class VectorCommands:
         return Trippoint(lambda: all(not p.running or p.seq.out >= d - 1e-9 for p, d in waits))
 
     # -- begin (BG S / BG T) ----------------------------------------------------------------------
-    def _begin_sequences(self, s: bool, t: bool) -> None:
-        """BGS, BGT: check every plane named, then start them [M Ch6]: no sequence TC 24, running
-        or an axis moving TC 21, a motor off TC 20, an axis heading into a limit TC 22."""
+    def _check_sequences(self, s: bool, t: bool, axes: tuple[int, ...]) -> list[Plane]:
+        """BGS, BGT (with the independent `axes` of the same BG): the planes to begin, checked
+        [M Ch6]: no sequence TC 24, running or an axis moving (or also begun on its own) TC 21,
+        a motor off TC 20, an axis heading into a limit TC 22."""
         coord, motion = self.coord, self.fw.motion
         planes = coord.planes_named(s, t)
+        independent = set(axes)
         for plane in planes:
             seq = plane.seq
             if plane.running:
                 raise GalilError(TC.BEGIN_WHILE_RUNNING)
             if plane.mode is None or seq.done or seq.started or not seq.waiting:
                 raise GalilError(NO_SEQUENCE)
-            axes = [a for a in (*plane.axes, plane.tangent) if a is not None and a != VIRTUAL]
-            if any(not motion.core.servo_on_mask[a] for a in axes):
+            used = [a for a in (*plane.axes, plane.tangent) if a is not None and a != VIRTUAL]
+            if any(not motion.core.servo_on_mask[a] for a in used):
                 raise GalilError(TC.BEGIN_WITH_MOTOR_OFF)
-            if any(motion.moving(a) for a in axes):
+            if any(motion.moving(a) or a in independent for a in used):
                 raise GalilError(TC.BEGIN_WHILE_RUNNING)
             if coord.blocked(plane):
                 raise GalilError(TC.BEGIN_LIMIT_SWITCH)
-        for plane in planes:
-            coord.begin(plane)
+        return planes
