@@ -19,6 +19,9 @@ Application programs: the round trips `GProgramDownload` takes for a 100-line pr
 the command FIFO's bursts go in one batch), and `GCommand("MG _TPX")` against the raw round trip
 while thread 0 runs a loop (goal p50 <= 2.5x), interleaved with a lockstep tick (which runs the
 loop's statements) as a diagnostic series.
+Second figure: the lockstep speed (simulated s per wall s) of the 4-axis card (servo plant,
+TM 1000) running a vector move: VM XY with Z as the tangent axis along a long circle (CR) and
+W in linear interpolation in the T plane, every axis moving; goal >= 50x real time.
 """
 
 from __future__ import annotations
@@ -26,8 +29,10 @@ from __future__ import annotations
 import argparse
 import contextlib
 import ctypes
+import statistics
 import sys
 import tempfile
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -48,6 +53,7 @@ from bench.common import (  # noqa: E402
     ns_dist_to_us,
     pin_self,
     placement,
+    table,
     verdict,
     write_json,
 )
@@ -61,6 +67,13 @@ from bench.rtt import (  # noqa: E402
 )
 
 GOAL_P50 = 2.5
+GOAL_SPEED = 50.0  # lockstep speed with a vector move running (simulated s / wall s)
+VECTOR = "4 axes in a vector move, sim step"
+IDLE = "baseline: idle, sim step"
+#: the vector move of the speed figure: an XY circle of 20 turns with Z tangent (S plane), and
+#: W in linear interpolation (T plane), long enough for every timed step
+VECTOR_SETUP = ("VM XYZ;TN 10,0;VS 100000;VA 1000000;VD 1000000;CR 50000,0,7200;VE;"
+                "CA T;LM W;VS 50000,50000;VA ,1000000;VD ,1000000;LI,,,2000000;LE;CA S")
 COMMAND = "TPX"
 CARD = "galil0"
 
@@ -126,7 +139,19 @@ def checked_raw_client(stack: contextlib.ExitStack, ctx: zmq.Context[Any], serve
 
 
 def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin: str = "split",
-        diag: bool = True, seed: int = 1) -> dict[str, Any]:
+        diag: bool = True, seed: int = 1, seconds: float = 5.0,
+        speed_repeats: int = 3) -> dict[str, Any]:
+    """The command figure, with the vector-move lockstep speed (`run_speed`) as `vector_speed`
+    (speed_repeats 0: none)."""
+    r = run_commands(n, repeats, warmup, block, pin, diag, seed)
+    if speed_repeats:
+        r["vector_speed"] = speed = run_speed(seconds, speed_repeats, pin)
+        r["pass"] = r["pass"] and speed["pass"]
+    return r
+
+
+def run_commands(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5,
+                 pin: str = "split", diag: bool = True, seed: int = 1) -> dict[str, Any]:
     from vdevclient import galil, gclib
     from vdevclient.core import Rack
 
@@ -200,6 +225,65 @@ def measure_program(rack: Any, rack_class: Any, g: Any, raw_read: Callable[[], A
             "ratios": ratios, "thread_ran": running,
             "pass": (download["max"] <= GOAL_DOWNLOAD_TRIPS and running
                      and ratios[PROGRAM_MG]["p50"] <= GOAL_P50)}
+
+
+def run_speed(seconds: float = 5.0, repeats: int = 3, pin: str = "split") -> dict[str, Any]:
+    """The lockstep speed of the card with every axis in a vector move, against the card idle."""
+    from vdevclient import gclib
+
+    server_cpus, client_cpus, where = placement(pin)
+    pin_self(client_cpus)
+    rows: dict[str, list[float]] = {VECTOR: [], IDLE: []}
+    with daemon(galil_card(), "lockstep", server_cpus) as d:
+        pin_self(client_cpus)
+        rack = connect(d)
+        g = gclib.py()
+        g.GOpen(f"{CARD} --endpoint {d.endpoint} --events {d.events}")
+
+        def step(s: float) -> float:
+            t0 = time.perf_counter()
+            now = rack.sim.now_ns()
+            if rack.sim.step(seconds=s) - now != round(s * 1e9):
+                raise RuntimeError("the step did not advance exactly")
+            return s / (time.perf_counter() - t0)
+
+        for _ in range(repeats):
+            g.GCommand(VECTOR_SETUP)
+            g.GCommand("BG ST")
+            step(0.2)  # untimed: up to speed
+            rows[VECTOR].append(step(seconds))
+            if g.GCommand("MG _BGS,_BGT").split() != ["0000000001.0000"] * 2:
+                raise RuntimeError("the vector move ended before the timed step did")
+            g.GCommand("AB")
+            step(1.0)  # untimed: to rest
+            rows[IDLE].append(step(seconds))
+        stats = rack.stats()
+        g.GClose()
+        rack.close()
+        d.child.check_alive("vdevd")
+    series = {name: {"median": statistics.median(xs), "min": min(xs), "max": max(xs),
+                     "us_per_sample": 1e6 / (statistics.median(xs) * 1000), "runs": xs}
+              for name, xs in rows.items()}
+    speed = series[VECTOR]["median"]
+    lost = stats["scheduler"]["lost_ticks"]
+    return {"figure": "galil-vector-lockstep", "placement": where,
+            "params": {"seconds": seconds, "repeats": repeats, "axes": 4, "sample_us": 1000,
+                       "plant": "servo", "move": VECTOR_SETUP},
+            "series": series, "speed_median": speed, "lost_ticks": lost,
+            "goal": f"median speed >= {GOAL_SPEED:.0f}x real time (4 axes in a vector move)",
+            "pass": speed >= GOAL_SPEED and lost == 0}
+
+
+def report_speed(speed: dict[str, Any]) -> None:
+    sp = speed["params"]
+    rows = [[name, s["median"], s["min"], s["max"], s["us_per_sample"]]
+            for name, s in speed["series"].items()]
+    table(["series", "median x", "min x", "max x", "us/sample (median)"], rows,
+          title=f"Galil DMC-13X8 lockstep speed (simulated s / wall s), {sp['axes']} axes in a "
+                f"vector move, {sp['plant']} plant, 1 ms samples, {sp['repeats']} x "
+                f"{sp['seconds']:g} s, placement {speed['placement']}")
+    print(f"speed {speed['speed_median']:.1f}x real time (goal >= {GOAL_SPEED:.0f}x), lost ticks "
+          f"{speed['lost_ticks']}  ->  {verdict(speed['pass'])}")
 
 
 def last_request(rack: Any, fn: Callable[[], Any]) -> tuple[Any, Any]:
@@ -314,6 +398,8 @@ def report(r: dict[str, Any]) -> None:
         print(f"{PROGRAM_MG} / raw: p50 {ratio['p50']:.2f}x (goal <= {GOAL_P50}), p99 "
               f"{ratio['p99']:.2f}x, thread ran: {prog['thread_ran']}  ->  "
               f"{verdict(ratio['p50'] <= GOAL_P50 and prog['thread_ran'])}")
+    if "vector_speed" in r:
+        report_speed(r["vector_speed"])
 
 
 def main() -> None:
@@ -324,10 +410,13 @@ def main() -> None:
     ap.add_argument("--block", type=int, default=5, help="calls per alternating block")
     ap.add_argument("--pin", choices=("split", "same", "none"), default="split")
     ap.add_argument("--no-diag", action="store_true", help="skip the two diagnostic series")
+    ap.add_argument("--seconds", type=float, default=5.0, help="simulated seconds per speed step")
+    ap.add_argument("--speed-repeats", type=int, default=3)
     ap.add_argument("--json", nargs="?", const="", help="write JSON (default: bench/results/)")
     a = ap.parse_args()
     install_signal_handlers()
-    r = run(a.n, a.repeats, a.warmup, a.block, a.pin, diag=not a.no_diag)
+    r = run(a.n, a.repeats, a.warmup, a.block, a.pin, diag=not a.no_diag, seconds=a.seconds,
+            speed_repeats=a.speed_repeats)
     report(r)
     if a.json is not None:
         print(f"results: {write_json(r, a.json, 'galil')}")

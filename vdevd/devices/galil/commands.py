@@ -17,6 +17,8 @@ from vdevd.devices.galil.params import PARAMS
 
 _MOTION = "M Ch6 §Independent Axis Positioning"
 _HOME = "M Ch3 §Home Switch Input"
+_LINEAR = "M Ch6 §Linear Interpolation Mode"
+_VECTOR = "M Ch6 §Vector Mode: Linear and Circular Interpolation Motion"
 _REPORT = "M Ch5 §Summary of Interrogation Commands; spec §4.4"
 _IO = "M Ch3 §TTL Inputs / §TTL Outputs"
 _IRQ = "M Ch4 §Configuring Interrupts"
@@ -42,10 +44,8 @@ _PARAM_SECTIONS = {
 _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
     (("ED",), "the on-board editor needs an operator terminal (use DL, UL, LS)",
      TC.UNRECOGNIZED_COMMAND),
-    (("LM", "LI", "LE", "VM", "VP", "CR", "VE", "VS", "VA", "VD", "VR", "VT", "ES", "TN", "CS",
-      "CA"), "vector, linear and circular interpolation: issue 20", TC.UNRECOGNIZED_COMMAND),
-    (("AV",), "the vector distance trippoint comes with vector motion: issue 20",
-     TC.UNRECOGNIZED_COMMAND),
+    (("ES",), "ellipse scale: the seed defers its definition to the command reference (ch. 11), "
+     "which it lacks", TC.UNRECOGNIZED_COMMAND),
     (("AT",), "the time trippoint: its reference time is not in the seed nor the digest",
      TC.UNRECOGNIZED_COMMAND),
     (("EW",), "ECAM widen segment: defined only in Application Note #2444, not in the manual",
@@ -71,6 +71,20 @@ COMMANDS = CommandTable(
         Command("DP", "_dp", section="M Ch2 Ex6; M Ch6 §Stepper Motor Operation"),
         Command("DE", "_de", section="M Ch6 §Continuous Dual Loop"),
         Command("IP", "_ip", section=_MOTION),
+        # -- coordinated motion [M Ch6 §Linear Interpolation Mode, §Vector Mode] -------------------
+        Command("LM", "_lm", section=_LINEAR),
+        Command("LI", "_li", section=_LINEAR),
+        Command("LE", "_le", section=_LINEAR),
+        Command("VM", "_vm", section=_VECTOR),
+        Command("VP", "_vp", section=_VECTOR),
+        Command("CR", "_cr", section=_VECTOR),
+        Command("VE", "_le", section=_VECTOR),
+        Command("CS", "_cs", section=_LINEAR),
+        Command("CA", "_ca", section="M Ch6 §Specifying the Coordinate Plane"),
+        Command("TN", "_tn", section="M Ch6 §Tangent Motion"),
+        Command("AV", "_av", section="M Ch6 §Linear Interpolation Mode (#LMOVE)"),
+        *(Command(name, "_vector_param", (name,), section=_LINEAR)
+          for name in ("VS", "VA", "VD", "VR", "VT")),
         # -- trippoints on the command line [M Ch6; spec §5.7] ----------------------------------
         Command("AM", "_am", section=_MOTION),
         Command("MC", "_mc", section="M Ch6 §Motion Complete Trippoint"),

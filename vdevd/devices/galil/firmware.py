@@ -21,6 +21,7 @@ from vdevmaps.galil import GeneralStatus, InterruptCondition, InterruptStatus
 from vdevd.devices.galil import syntax
 from vdevd.devices.galil.arrays import ArrayDownload, ArrayTable
 from vdevd.devices.galil.bus import A16Window
+from vdevd.devices.galil.coord import Coordinated
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.flash import Flash
 from vdevd.devices.galil.follow import Follow
@@ -105,6 +106,7 @@ class Firmware:
         self.motion.sense = self.sense
         self.follow = Follow(self.motion)
         self.follow.spm.on_error = lambda: self.threads.automatic(POSERR)  # YS 2 [M Ch6 §SPM]
+        self.coord = Coordinated(self.motion)  # the S and T planes (coord.py)
         if old is not None:
             self.motion.core.zero[:] = -old.core.physical()
         self.variables: dict[str, float] = {}
@@ -136,6 +138,8 @@ class Firmware:
     def step(self) -> None:
         """One sample: motion, interrupt conditions, the command interpreter, the data record."""
         self.ticks += 1
+        if self.coord.active:
+            self.coord.sample()
         self._after_motion(self.motion.tick())
 
     def _after_motion(self, done: np.ndarray | None) -> None:
@@ -179,10 +183,12 @@ class Firmware:
         which an axis completes or crosses ER runs the rest of its sample (interrupts, the
         interpreter) after `advance(k)`, the card's clock to it, and ends the run. `advance`
         sees the count run at the end; returned too."""
-        motion = self.motion
+        motion, coord = self.motion, self.coord
         tick, changed = motion.tick, motion.error_changed
         for k in range(1, room + 1):
             self.ticks += 1
+            if coord.active:
+                coord.sample()
             done = tick()
             if done is not None or changed():
                 advance(k)
@@ -194,10 +200,10 @@ class Firmware:
     # -- rest (decision 0008) -----------------------------------------------------------------------
     def rest_state(self) -> bytes | None:
         """What a sample may change, as bytes, but the sample count; None while the interpreter
-        has work (a command, a reply to send, a trippoint), records (RC), a program thread runs
-        or a home search runs."""
+        has work (a command, a reply to send, a trippoint), records (RC), a program thread runs,
+        a coordinated plane runs or a home search runs."""
         if (self._out or self._trip is not None or self.bus.commands_waiting
-                or self.recorder.active or self.threads.active):
+                or self.recorder.active or self.threads.active or self.coord.active):
             return None
         return self.motion.rest_state()
 
@@ -432,7 +438,12 @@ class Firmware:
         rec["general_status"] = ((int(GeneralStatus.ECHO_ON) if self.echo else 0)
                                  | (0x80 if self.threads.active else 0))  # program running
         ax = rec["axis"]
-        ax["status"] = m.status_word() | self.follow.status_bits()
+        ax["status"] = (m.status_word() | self.follow.status_bits()
+                        | self.coord.status_bits())
+        for key, plane in (("s", self.coord.planes["S"]), ("t", self.coord.planes["T"])):
+            rec[f"{key}_plane_segment_count"] = plane.seq.completed & 0xFFFF
+            rec[f"{key}_plane_move_status"] = plane.move_status()
+            rec[f"{key}_distance"] = wrap_int32(np.array([plane.seq.out]))[0]
         ax["switches"] = m.switches(self.latch_inputs())
         ax["stop_code"] = m.stop_code
         ax["reference_position"] = wrap_int32(m.reference())
@@ -464,6 +475,9 @@ class _Env:
         hook = fw.operands.get(name[:2])
         if hook is not None:
             return hook(name)
+        coordinated = fw.coord.operand(name)
+        if coordinated is not None:
+            return coordinated
         scalars = {"TC": fw.error_code, "TB": fw.status_byte(), "OP": fw.outputs,
                    "EO": fw.echo, "LZ": fw.lz, "TM": fw.tm_us, "DR": fw.record_rate,
                    "DM": fw.arrays.free_elements, "DA": fw.arrays.free_arrays,
