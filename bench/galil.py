@@ -14,6 +14,14 @@ register read of the same card (the round trip floor through vdevd), a lockstep 
 tick (what a command would cost more with decode = "sample", which decodes at the next tick) and
 DMCCommand's batch replayed through `Rack.call` without the library (what the daemon and the card
 take for it). The round trips per call are counted.
+
+Application programs: the round trips `GProgramDownload` takes for a 100-line program (goal <= 20:
+the command FIFO's bursts go in one batch), and `GCommand("MG _TPX")` against the raw round trip
+while thread 0 runs a loop (goal p50 <= 2.5x), interleaved with a lockstep tick (which runs the
+loop's statements) as a diagnostic series.
+Second figure: the lockstep speed (simulated s per wall s) of the 4-axis card (servo plant,
+TM 1000) running a vector move: VM XY with Z as the tangent axis along a long circle (CR) and
+W in linear interpolation in the T plane, every axis moving; goal >= 50x real time.
 """
 
 from __future__ import annotations
@@ -21,8 +29,10 @@ from __future__ import annotations
 import argparse
 import contextlib
 import ctypes
+import statistics
 import sys
 import tempfile
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -43,6 +53,8 @@ from bench.common import (  # noqa: E402
     ns_dist_to_us,
     pin_self,
     placement,
+    table,
+    verdict,
     write_json,
 )
 from bench.rtt import (  # noqa: E402
@@ -55,6 +67,13 @@ from bench.rtt import (  # noqa: E402
 )
 
 GOAL_P50 = 2.5
+GOAL_SPEED = 50.0  # lockstep speed with a vector move running (simulated s / wall s)
+VECTOR = "4 axes in a vector move, sim step"
+IDLE = "baseline: idle, sim step"
+#: the vector move of the speed figure: an XY circle of 20 turns with Z tangent (S plane), and
+#: W in linear interpolation (T plane), long enough for every timed step
+VECTOR_SETUP = ("VM XYZ;TN 10,0;VS 100000;VA 1000000;VD 1000000;CR 50000,0,7200;VE;"
+                "CA T;LM W;VS 50000,50000;VA ,1000000;VD ,1000000;LI,,,2000000;LE;CA S")
 COMMAND = "TPX"
 CARD = "galil0"
 
@@ -63,6 +82,18 @@ GCLIB = f'gclib.py().GCommand("{COMMAND}")'
 READ = "diag: Region.read of N+3 (one op)"
 TICK = "diag: sim step of one tick"
 REPLAY = "diag: DMCCommand's batch via Rack.call"
+PROGRAM_MG = 'gclib GCommand("MG _TPX"), a program looping'
+PROGRAM_TICK = "diag: sim step of one tick, a program looping"
+GOAL_DOWNLOAD_TRIPS = 20
+LOOP = "#LOOP\nV1=V1+1\nJP #LOOP"
+
+
+def hundred_lines() -> str:
+    """A 100-line program: labels, moves, trippoints, jumps."""
+    lines = []
+    for k in range(25):
+        lines += [f"#L{k}", f"PR {k * 100},{k * 50}", "BG XY;AM XY", f"JP #L{k + 1},V1<{k}"]
+    return "\n".join(lines)
 
 
 def galil_card(name: str = CARD) -> str:
@@ -108,7 +139,19 @@ def checked_raw_client(stack: contextlib.ExitStack, ctx: zmq.Context[Any], serve
 
 
 def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin: str = "split",
-        diag: bool = True, seed: int = 1) -> dict[str, Any]:
+        diag: bool = True, seed: int = 1, seconds: float = 5.0,
+        speed_repeats: int = 3) -> dict[str, Any]:
+    """The command figure, with the vector-move lockstep speed (`run_speed`) as `vector_speed`
+    (speed_repeats 0: none)."""
+    r = run_commands(n, repeats, warmup, block, pin, diag, seed)
+    if speed_repeats:
+        r["vector_speed"] = speed = run_speed(seconds, speed_repeats, pin)
+        r["pass"] = r["pass"] and speed["pass"]
+    return r
+
+
+def run_commands(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5,
+                 pin: str = "split", diag: bool = True, seed: int = 1) -> dict[str, Any]:
     from vdevclient import galil, gclib
     from vdevclient.core import Rack
 
@@ -152,13 +195,95 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
 
         series, counts, card_ns, stats = measure_commands(
             rack, Rack, fns, {DMC: dmc, GCLIB: gcommand}, n, repeats, warmup, block, seed)
+        program = measure_program(rack, Rack, g, raw_read, n, repeats, warmup, block, seed)
 
     measured = ratios_to_raw(series, {"dmc": DMC, "gclib": GCLIB})
     return command_figure(
         "galil", where, {"n": n, "repeats": repeats, "warmup": warmup, "block": block,
                          "command": COMMAND, "transport": "tcp loopback", "clock": "lockstep"},
         measured, counts, card_ns, stats, f"p50 <= {GOAL_P50}x raw REQ/REP",
-        all(r["p50"] <= GOAL_P50 for r in measured[2].values()), batch_ops=batch_ops)
+        all(r["p50"] <= GOAL_P50 for r in measured[2].values()) and program["pass"],
+        batch_ops=batch_ops, program=program)
+
+
+def measure_program(rack: Any, rack_class: Any, g: Any, raw_read: Callable[[], Any], n: int,
+                    repeats: int, warmup: int, block: int, seed: int) -> dict[str, Any]:
+    """The application program figures: the round trips of a 100-line download, then
+    GCommand("MG _TPX") against RAW while thread 0 loops (a tick series runs the loop)."""
+    download = count_round_trips(rack_class, {"download": lambda: g.GProgramDownload(hundred_lines())},
+                                 5)["download"]
+    g.GProgramDownload(LOOP)
+    g.GCommand("V1=0;XQ #LOOP")
+    fns: dict[str, Callable[[], Any]] = {RAW: raw_read, PROGRAM_MG: lambda: g.GCommand("MG _TPX"),
+                                         PROGRAM_TICK: lambda: rack.sim.step(ticks=1)}
+    warm_up(fns, warmup, block)
+    series = time_interleaved(fns, n, repeats, block, seed)
+    running = g.GCommand("MG _XQ0") != "-0000000001.0000"
+    g.GCommand("HX")
+    dists, per_repeat, ratios = ratios_to_raw(series, {"program": PROGRAM_MG})
+    return {"download_round_trips": download, "series": dists, "per_repeat": per_repeat,
+            "ratios": ratios, "thread_ran": running,
+            "pass": (download["max"] <= GOAL_DOWNLOAD_TRIPS and running
+                     and ratios[PROGRAM_MG]["p50"] <= GOAL_P50)}
+
+
+def run_speed(seconds: float = 5.0, repeats: int = 3, pin: str = "split") -> dict[str, Any]:
+    """The lockstep speed of the card with every axis in a vector move, against the card idle."""
+    from vdevclient import gclib
+
+    server_cpus, client_cpus, where = placement(pin)
+    pin_self(client_cpus)
+    rows: dict[str, list[float]] = {VECTOR: [], IDLE: []}
+    with daemon(galil_card(), "lockstep", server_cpus) as d:
+        pin_self(client_cpus)
+        rack = connect(d)
+        g = gclib.py()
+        g.GOpen(f"{CARD} --endpoint {d.endpoint} --events {d.events}")
+
+        def step(s: float) -> float:
+            t0 = time.perf_counter()
+            now = rack.sim.now_ns()
+            if rack.sim.step(seconds=s) - now != round(s * 1e9):
+                raise RuntimeError("the step did not advance exactly")
+            return s / (time.perf_counter() - t0)
+
+        for _ in range(repeats):
+            g.GCommand(VECTOR_SETUP)
+            g.GCommand("BG ST")
+            step(0.2)  # untimed: up to speed
+            rows[VECTOR].append(step(seconds))
+            if g.GCommand("MG _BGS,_BGT").split() != ["0000000001.0000"] * 2:
+                raise RuntimeError("the vector move ended before the timed step did")
+            g.GCommand("AB")
+            step(1.0)  # untimed: to rest
+            rows[IDLE].append(step(seconds))
+        stats = rack.stats()
+        g.GClose()
+        rack.close()
+        d.child.check_alive("vdevd")
+    series = {name: {"median": statistics.median(xs), "min": min(xs), "max": max(xs),
+                     "us_per_sample": 1e6 / (statistics.median(xs) * 1000), "runs": xs}
+              for name, xs in rows.items()}
+    speed = series[VECTOR]["median"]
+    lost = stats["scheduler"]["lost_ticks"]
+    return {"figure": "galil-vector-lockstep", "placement": where,
+            "params": {"seconds": seconds, "repeats": repeats, "axes": 4, "sample_us": 1000,
+                       "plant": "servo", "move": VECTOR_SETUP},
+            "series": series, "speed_median": speed, "lost_ticks": lost,
+            "goal": f"median speed >= {GOAL_SPEED:.0f}x real time (4 axes in a vector move)",
+            "pass": speed >= GOAL_SPEED and lost == 0}
+
+
+def report_speed(speed: dict[str, Any]) -> None:
+    sp = speed["params"]
+    rows = [[name, s["median"], s["min"], s["max"], s["us_per_sample"]]
+            for name, s in speed["series"].items()]
+    table(["series", "median x", "min x", "max x", "us/sample (median)"], rows,
+          title=f"Galil DMC-13X8 lockstep speed (simulated s / wall s), {sp['axes']} axes in a "
+                f"vector move, {sp['plant']} plant, 1 ms samples, {sp['repeats']} x "
+                f"{sp['seconds']:g} s, placement {speed['placement']}")
+    print(f"speed {speed['speed_median']:.1f}x real time (goal >= {GOAL_SPEED:.0f}x), lost ticks "
+          f"{speed['lost_ticks']}  ->  {verdict(speed['pass'])}")
 
 
 def last_request(rack: Any, fn: Callable[[], Any]) -> tuple[Any, Any]:
@@ -262,6 +387,19 @@ def report(r: dict[str, Any]) -> None:
               f"{p50[READ] - p50[RAW]:+.1f} us (vs raw REQ/REP); a lockstep tick would add "
               f"{p50[TICK] - p50[READ]:+.1f} us (sim step vs a one-op read)")
     report_ratio_goals(r, GOAL_P50)
+    prog = r.get("program")
+    if prog:
+        trips = prog["download_round_trips"]
+        print(f"GProgramDownload of 100 lines: {trips['mean']:.0f} round trip(s) (max {trips['max']}, "
+              f"goal <= {GOAL_DOWNLOAD_TRIPS})  ->  {verdict(trips['max'] <= GOAL_DOWNLOAD_TRIPS)}")
+        for name, d in prog["series"].items():
+            print(f"  {name}: p50 {d['p50']:.1f} us, p99 {d['p99']:.1f} us")
+        ratio = prog["ratios"][PROGRAM_MG]
+        print(f"{PROGRAM_MG} / raw: p50 {ratio['p50']:.2f}x (goal <= {GOAL_P50}), p99 "
+              f"{ratio['p99']:.2f}x, thread ran: {prog['thread_ran']}  ->  "
+              f"{verdict(ratio['p50'] <= GOAL_P50 and prog['thread_ran'])}")
+    if "vector_speed" in r:
+        report_speed(r["vector_speed"])
 
 
 def main() -> None:
@@ -272,10 +410,13 @@ def main() -> None:
     ap.add_argument("--block", type=int, default=5, help="calls per alternating block")
     ap.add_argument("--pin", choices=("split", "same", "none"), default="split")
     ap.add_argument("--no-diag", action="store_true", help="skip the two diagnostic series")
+    ap.add_argument("--seconds", type=float, default=5.0, help="simulated seconds per speed step")
+    ap.add_argument("--speed-repeats", type=int, default=3)
     ap.add_argument("--json", nargs="?", const="", help="write JSON (default: bench/results/)")
     a = ap.parse_args()
     install_signal_handlers()
-    r = run(a.n, a.repeats, a.warmup, a.block, a.pin, diag=not a.no_diag)
+    r = run(a.n, a.repeats, a.warmup, a.block, a.pin, diag=not a.no_diag, seconds=a.seconds,
+            speed_repeats=a.speed_repeats)
     report(r)
     if a.json is not None:
         print(f"results: {write_json(r, a.json, 'galil')}")

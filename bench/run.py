@@ -9,7 +9,8 @@
 2. lockstep  4-axis servo card at 1 kHz, simulated s per wall s (>= 50x), bench/lockstep.py
 3. realtime  no lost tick, simulated time behind wall time p99 <= 2 ms over 60 s, bench/realtime.py
 4. galil     DMCCommand(h, "TPX") and gclib GCommand("TPX") on a lockstep DMC-13X8 vs a raw
-             pyzmq REQ/REP round trip (p50 <= 2.5x), bench/galil.py
+             pyzmq REQ/REP round trip (p50 <= 2.5x), and the lockstep speed of the 4-axis card
+             with every axis in a vector move (>= 50x real time), bench/galil.py
 5. maxk      Maxk.send_and_get_string("AX RP") on a lockstep OMS MAXk vs a raw pyzmq REQ/REP
              round trip (p50 <= 2.5x), bench/maxk.py
 6. pmac      pmac-dpram: PComm PmacGetResponseA("#1P") on a lockstep Turbo PMAC vs a raw pyzmq
@@ -88,7 +89,8 @@ def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]]
                                     "wake_us": a.wake_us, "waker": a.waker, "pin": a.pin},
                      realtime.report),
         "galil": (galil.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
-                              "warmup": 300 if q else 1000, "pin": a.pin}, galil.report),
+                              "warmup": 300 if q else 1000, "seconds": 2.0 if q else 5.0,
+                              "speed_repeats": 2 if q else 3, "pin": a.pin}, galil.report),
         "maxk": (maxk.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
                             "warmup": 300 if q else 1000, "pin": a.pin}, maxk.report),
         "pmac": (pmac.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
@@ -150,6 +152,22 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
                              f"{r['series'][series]['p50']:.0f} us",
                              f"raw {raw['p50']:.0f} us -> {ratio['p50']:.2f}x",
                              verdict(ratio["p50"] <= galil.GOAL_P50)])
+            prog = r.get("program")
+            if prog:
+                trips = prog["download_round_trips"]["max"]
+                rows.append(["galil 100-line GProgramDownload", f"<= {galil.GOAL_DOWNLOAD_TRIPS} trips",
+                             str(trips), "", verdict(trips <= galil.GOAL_DOWNLOAD_TRIPS)])
+                mg, ratio = prog["series"][galil.PROGRAM_MG], prog["ratios"][galil.PROGRAM_MG]
+                rows.append(["galil MG _TPX p50, program running", f"<= {galil.GOAL_P50}x raw",
+                             f"{mg['p50']:.0f} us",
+                             f"raw {prog['series'][rtt.RAW]['p50']:.0f} us -> {ratio['p50']:.2f}x",
+                             verdict(ratio["p50"] <= galil.GOAL_P50 and prog["thread_ran"])])
+            if "vector_speed" in r:
+                speed = r["vector_speed"]
+                moving, idle = speed["series"][galil.VECTOR], speed["series"][galil.IDLE]["median"]
+                rows.append(["galil lockstep (vector move)", f">= {galil.GOAL_SPEED:.0f}x real time",
+                             f"{moving['median']:.1f}x", f"idle {idle:.1f}x, "
+                             f"{moving['us_per_sample']:.1f} us per sample", verdict(speed["pass"])])
         elif name == "maxk":
             raw, cmd = r["series"][rtt.RAW], r["series"][maxk.MAXK]
             ratio = r["ratios"][maxk.MAXK]["p50"]

@@ -190,6 +190,22 @@ def galil_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> Non
     galil.DMCClose(h)
 
 
+def galil_program_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
+    """An application program: a loop with a move, a wait and messages, then a card at rest."""
+    h = ctypes.c_long()
+    assert galil.DMCOpen(1, 0, ctypes.byref(h), endpoint=d.endpoint, events=d.events) == 0
+    buf = ctypes.create_string_buffer(512)
+    program = "#A\nN=0\n#L\nPR 1000\nBGX\nAMX\nWT 333\nMG N,_TPX\nN=N+1\nJP #L,N<4\nEN"
+    rec.add(galil.DMCDownloadFromBuffer(h, program, None))
+    for text in ("XQ #A", "MG _XQ0"):
+        rec.add([galil.DMCCommand(h, text, buf, 512), buf.value])
+    for ns in (S + 17, 777 * MS, 3 * S, 10 * S + 3):
+        rack.sim.step(ns=ns)
+        rec.add([galil.DMCCommand(h, "MG TIME,_XQ0,N", buf, 512), buf.value])
+        rec.add([galil.DMCGetUnsolicitedResponse(h, buf, 512), buf.value])
+    galil.DMCClose(h)
+
+
 def maxk_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
     """Moves on servo and stepper axes, done flags, positions, a jog and its stop."""
     with maxk.open(1, endpoint=d.endpoint) as m:
@@ -481,10 +497,11 @@ def adlink_units_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder)
 
 
 @pytest.mark.parametrize(("scenario", "card"), [
-    (generic_scenario, "servo0"), (galil_scenario, "galil0"), (maxk_scenario, "maxk0"),
+    (generic_scenario, "servo0"), (galil_scenario, "galil0"), (galil_program_scenario, "galil0"),
+    (maxk_scenario, "maxk0"),
     (pmac_scenario, "pmac0"), (octavia_scenario, "octavia0"), (adlink_scenario, "adlink0"),
     (adlink_units_scenario, "adlink0")],
-    ids=["generic", "galil", "maxk", "pmac", "octavia", "adlink", "adlink-units"])
+    ids=["generic", "galil", "galil-program", "maxk", "pmac", "octavia", "adlink", "adlink-units"])
 def test_skipping_quiet_ticks_changes_no_reply(scenario: Callable[..., None], card: str,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
     both_ways(scenario, card, monkeypatch)

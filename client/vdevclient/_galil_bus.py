@@ -50,6 +50,11 @@ MEMO_SIZE = 256  # commands whose reply length is remembered
 _NS_PER_MS = 1_000_000
 _ALMOST_FULL = int(ControlStatus.WRITE_ALMOST_FULL)  # plain ints: IntFlag arithmetic is slow
 _READ_EMPTY = int(ControlStatus.READ_EMPTY)
+#: a program's messages come with bit 7 set (the card's CW1, README "Application programs"):
+#: bytes 0x80-0xFE are unsolicited, the rest are replies
+_HIGH = bytes(range(0x80, 0x100))
+_LOW = bytes(range(0x80))
+_UNMARK = bytes(range(0x80)) * 2
 
 
 class Reply(NamedTuple):
@@ -113,7 +118,7 @@ class DmcBus:
         """`size` single reads of one FIFO port (a repeated read: PROTOCOL.md `rep`)."""
         return {"op": "read", "offset": int(offset), "size": size, "rep": True, **self._where}
 
-    def _send_ops(self, data: bytes, timeout_ns: int) -> list[dict[str, Any]]:
+    def _send_ops(self, data: bytes, timeout_ns: int, memo: bool = True) -> list[dict[str, Any]]:
         """Command bytes to N+1 in bursts, each after bit 4 of N+3 reads 0 [M Ch4 §Write Procedure];
         the first burst skips the wait when the last status read showed room."""
         key = (data, self._room, timeout_ns)
@@ -125,6 +130,9 @@ class DmcBus:
                 if start or not self._room:
                     ops.append(room_wait)
                 ops.append(self._fifo_write(data[start:start + WRITE_BURST]))
+            if not memo:  # a program download: sent once, not worth keeping
+                self._room = False
+                return ops
             if len(self._send_cache) >= MEMO_SIZE:
                 self._send_cache.clear()
             self._send_cache[key] = ops
@@ -137,7 +145,14 @@ class DmcBus:
         return self.rack.call({"op": "batch", "ops": ops}, wait_ns / 1e9)
 
     # -- commands -------------------------------------------------------------------------------
-    def command(self, data: bytes, replies: int) -> Reply:
+    def download(self, data: bytes, replies: int) -> Reply:
+        """`command` for a program download: its bursts and reply length are not remembered."""
+        reply = self.command(data, replies, memo=False)
+        self._reply_len.pop(data, None)
+        self._quick.pop(data, None)
+        return reply
+
+    def command(self, data: bytes, replies: int, memo: bool = True) -> Reply:
         """Send `data` and read until `replies` ':' or '?' have come [DMCLIB DMCCommand].
 
         One batch: [bursts of command bytes, K + 1 reads of N+1 (one repeated read; an empty
@@ -154,7 +169,7 @@ class DmcBus:
             if quick is not None and quick[1] == replies:
                 return self._quick_command(data, quick)
         timeout_ns = self._timeout_ns()
-        ops = self._send_ops(data, timeout_ns)
+        ops = self._send_ops(data, timeout_ns, memo)
         sent = len(ops)
         waits = sum(1 for op in ops if op["op"] == "wait")
         owed, self.owed = self.owed, 0
@@ -170,7 +185,8 @@ class DmcBus:
         if not self.eager and not res[-2]["fired"]:
             return self._answer(data, owed, owed + replies, b"")
         chunk = res[-1]
-        reply = self._collect(data, owed, owed + replies, chunk.split(b"\xff", 1)[0], chunk)
+        reply = self._collect(data, owed, owed + replies, self._own(chunk.split(b"\xff", 1)[0]),
+                              chunk)
         if (not owed and not reply.timed_out and self._room and self.eager
                 and len(data) <= WRITE_BURST):
             self._learn_quick(data, replies)
@@ -183,6 +199,8 @@ class DmcBus:
         self._room = False
         chunk = self.rack.call(message)[-1]
         got = chunk.split(b"\xff", 1)[0]
+        if not got.isascii():
+            got = self._own(got)
         if len(got) == length and _count(got) >= replies:
             self._room = True  # every reply came: the card took the whole line
             self.stale = chunk[-1] != EMPTY_READ
@@ -211,8 +229,16 @@ class DmcBus:
             if not res[0]["fired"]:
                 break
             chunk = res[-1]
-            got += chunk.split(b"\xff", 1)[0]
+            got += self._own(chunk.split(b"\xff", 1)[0])
         return self._answer(data, owed, want, got)
+
+    def _own(self, got: bytes) -> bytes:
+        """The reply bytes of what was read; a program's messages (bit 7 set) go, unmarked, to
+        `unsolicited` [DMCLIB DMCGetUnsolicitedResponse]."""
+        if got.isascii():
+            return got
+        self.unsolicited += got.translate(_UNMARK, _LOW)
+        return got.translate(None, _HIGH)
 
     def _answer(self, data: bytes, owed: int, want: int, got: bytes) -> Reply:
         """The reply of a line from what came (`got`): the `owed` replies before it go to
@@ -232,6 +258,31 @@ class DmcBus:
         length = self._reply_len[data]
         ops = [self._fifo_write(data), self._fifo_read(A16Reg.DATA, length + 1)]
         self._quick[data] = (self.rack.prepare({"op": "batch", "ops": ops}), replies, length)
+
+    def command_until(self, data: bytes, end: bytes) -> Reply:
+        """Send `data` (all its bursts in one batch) and read until `end` then a ':' or '?' has
+        come, or a '?' before any `end`: UL, whose reply is the program then ^Z then ':'
+        [DMCLIB DMCUploadFile]. Reads grow as in `command`."""
+        if self.stale:
+            self.drain()
+        timeout_ns = self._timeout_ns()
+        ops = self._send_ops(data, timeout_ns)
+        waits = sum(1 for op in ops if op["op"] == "wait")
+        data_wait = self._wait(A16Reg.CONTROL, _READ_EMPTY, 0, timeout_ns)
+        ops += [data_wait, self._fifo_read(A16Reg.DATA, FIFO_SIZE + 1)]
+        res = self.batch(ops, (waits + 1) * timeout_ns)
+        got = b""
+        while True:
+            if not res[-2]["fired"]:
+                self.stale = True
+                return Reply(got, timed_out=True)
+            got += self._own(res[-1].split(b"\xff", 1)[0])
+            cut = got.find(end)
+            if (cut >= 0 and _count(got[cut:])) or (cut < 0 and got.startswith(b"?")):
+                self._room = True
+                self.stale = res[-1][-1] != EMPTY_READ
+                return Reply(got)
+            res = self.batch([data_wait, self._fifo_read(A16Reg.DATA, FIFO_SIZE + 1)], timeout_ns)
 
     def send(self, data: bytes, replies: int) -> None:
         """Write without reading the reply (DMCFastCommand); the card owes `replies` answers."""
@@ -278,8 +329,9 @@ class DmcBus:
                 return
 
     def _take_unsolicited(self, got: bytes) -> None:
-        self.unsolicited += got
-        self.owed = max(0, self.owed - _count(got))
+        """Drained bytes: late replies (which settle what is owed) and program messages."""
+        self.owed = max(0, self.owed - _count(got.translate(None, _HIGH)))
+        self.unsolicited += got.translate(_UNMARK)
 
     def forget(self) -> None:
         """After a reset: what the card holds or owes is no longer known."""

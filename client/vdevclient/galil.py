@@ -89,6 +89,7 @@ _MESSAGES: dict[int, str] = {
     DMCERROR_ARGUMENT: "One or more required arguments to a DMC API function call was NULL.",
     DMCERROR_DATARECORD: "Could not access DMC data record.",
     DMCERROR_FIRMWARE: "Could not update the controller's firmware.",
+    DMCERROR_DOWNLOAD: "Could not download the program to the controller.",
     DMCERROR_CONVERSION: "Could not convert DMC command (ASCII to binary or binary to ASCII).",
     DMCERROR_REGISTRY: "Could not access or modify the controller's registry information.",
     DMCERROR_RESOURCE: "Windows reports a resource conflict with the current hardware configuration.",
@@ -384,7 +385,8 @@ def DMCGetAdditionalResponse(hdmc: Any, pchResponse: Any, cbResponse: int) -> in
 @_guarded
 def DMCError(hdmc: Any, lError: int, pchMessage: Any, cbMessage: int) -> int:
     """The text of an error code; for DMCERROR_COMMAND the card's reason (`TC1`, e.g.
-    "1 Unrecognized command.") [dmclnx.c DMCError]."""
+    "1 Unrecognized command.") [dmclnx.c DMCError]; for DMCERROR_DOWNLOAD also the line in
+    error (`MG_ED`)."""
     if pchMessage is None or not cbMessage:
         return DMCERROR_ARGUMENT
     rc, text = DMCNOERROR, _MESSAGES.get(int(lError), "Unknown error.").encode()
@@ -399,6 +401,13 @@ def DMCError(hdmc: Any, lError: int, pchMessage: Any, cbMessage: int) -> int:
             if rc == DMCNOERROR:
                 cause = reply.data.rstrip(b":\r\n")
                 text = cause + b"." if cause else b"Unknown command error."
+    elif lError == DMCERROR_DOWNLOAD:
+        c = _handle(hdmc)
+        if c is not None:
+            cause = c.bus.command(b"TC1\r", 1).data.rstrip(b":\r\n")
+            line = c.bus.command(b"MG_ED\r", 1).data.rstrip(b":\r\n").strip()
+            if cause and line:
+                text += b" " + cause + b" at line " + str(int(float(line))).encode() + b"."
     _put(pchMessage, cbMessage, text)
     return rc
 
@@ -674,6 +683,112 @@ def DMCSetTimeout(hdmc: Any, lTimeout: int) -> int:
     c.timeout_ms = timeout
     c.bus.timeout_ms = timeout or ZERO_TIMEOUT_BOUND_MS
     return DMCNOERROR
+
+
+# -- application programs [DMCLIB DMCDownloadFile, DMCUploadFile; spec §6.2] -------------------------
+UPLOAD_END = b"\x1a"  # UL ends the program with ^Z, then ':'
+
+
+def program_lines(text: bytes) -> list[bytes]:
+    """The lines DMCDownloadFile sends: CR, LF or CR LF separated, trailing blanks removed, blank
+    lines and REM lines left out [DMCLIB]."""
+    lines = text.replace(b"\r\n", b"\n").replace(b"\r", b"\n").split(b"\n")
+    out = [line.rstrip() for line in lines]
+    return [line for line in out if line and not line.lstrip().startswith(b"REM")]
+
+
+def download(c: _Controller, program: bytes, label: bytes = b"") -> int:
+    """`EO0`, `DL[#label]`, the lines, `\\`: all the command FIFO's bursts in one batch; the
+    card answers ':' once it has checked the program, '?' (DMCERROR_DOWNLOAD) when it refused
+    a line (DMCError: TC1)."""
+    data = b"EO0\rDL" + label + b"\r" + b"".join(line + b"\r" for line in program_lines(program))
+    reply = c.bus.download(data + b"\\", 2)
+    if b"?" in reply.data:
+        return DMCERROR_DOWNLOAD
+    if reply.timed_out and c.timeout_ms:
+        return DMCERROR_TIMEOUT
+    return DMCNOERROR
+
+
+def upload(c: _Controller) -> tuple[int, bytes]:
+    """`UL`: the program's lines (CR LF ends each), read until ^Z and the ':' after it."""
+    reply = c.bus.command_until(b"UL\r", UPLOAD_END)
+    if reply.timed_out:
+        return (DMCERROR_TIMEOUT if c.timeout_ms else DMCNOERROR), b""
+    if UPLOAD_END not in reply.data:
+        return DMCERROR_COMMAND, b""
+    return DMCNOERROR, reply.data.split(UPLOAD_END, 1)[0]
+
+
+def _label(pszLabel: Any) -> bytes:
+    label = _text(pszLabel) if pszLabel is not None else b""
+    return label if not label or label.startswith(b"#") else b"#" + label
+
+
+@_guarded
+def DMCDownloadFromBuffer(hdmc: Any, pszBuffer: Any, pszLabel: Any = None) -> int:
+    """Download the program in `pszBuffer` (from `pszLabel` on, when given: DL#label)."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pszBuffer is None:
+        return DMCERROR_ARGUMENT
+    return download(c, _text(pszBuffer), _label(pszLabel))
+
+
+@_guarded
+def DMCDownloadFile(hdmc: Any, pszFileName: Any, pszLabel: Any = None) -> int:
+    """Download the program file `pszFileName`; DMCERROR_FILE when it cannot be read."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pszFileName is None:
+        return DMCERROR_ARGUMENT
+    try:
+        with open(_text(pszFileName), "rb") as f:
+            program = f.read()
+    except OSError:
+        return DMCERROR_FILE
+    return download(c, program, _label(pszLabel))
+
+
+@_guarded
+def DMCUploadToBuffer(hdmc: Any, pchBuffer: Any, cbBuffer: int) -> int:
+    """Upload the program into `pchBuffer` (NUL-terminated); DMCERROR_BUFFERFULL when it does
+    not fit (the buffer then holds what did)."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pchBuffer is None or not cbBuffer:
+        return DMCERROR_ARGUMENT
+    rc, program = upload(c)
+    if rc != DMCNOERROR:
+        return rc
+    return DMCNOERROR if _put(pchBuffer, cbBuffer, program) else DMCERROR_BUFFERFULL
+
+
+@_guarded
+def DMCUploadFile(hdmc: Any, pszFileName: Any) -> int:
+    """Upload the program into the file `pszFileName`; DMCERROR_FILE when it cannot be written."""
+    c = _handle(hdmc)
+    if c is None:
+        return DMCERROR_HANDLE
+    if pszFileName is None:
+        return DMCERROR_ARGUMENT
+    rc, program = upload(c)
+    if rc != DMCNOERROR:
+        return rc
+    try:
+        with open(_text(pszFileName), "wb") as f:
+            f.write(program)
+    except OSError:
+        return DMCERROR_FILE
+    return DMCNOERROR
+
+
+def controller_of(hdmc: Any) -> _Controller | None:
+    """The open controller behind a handle (for vdevclient.gclib), None for a bad handle."""
+    return _handle(hdmc)
 
 
 def bus_of(hdmc: Any) -> DmcBus | None:

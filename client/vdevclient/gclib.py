@@ -77,6 +77,7 @@ _FROM_DMC = {
     galil.DMCERROR_HANDLE: G_CONNECTION_NOT_ESTABLISHED,
     galil.DMCERROR_BUFFERFULL: G_BAD_LOST_DATA,
     galil.DMCERROR_DATARECORD: G_DATA_RECORD_ERROR,
+    galil.DMCERROR_DOWNLOAD: G_BAD_RESPONSE_QUESTION_MARK,
 }
 
 
@@ -90,6 +91,17 @@ def _rc(code: int) -> None:
         return
     code = _FROM_DMC.get(code, code)
     raise GclibError(_TEXTS.get(code, _TEXTS[G_GCLIB_ERROR]))
+
+
+def _preprocessor_limit(preprocessor: str) -> int | None:
+    """The line length of "--max n" (None without), G_BAD_VALUE_RANGE for another option."""
+    words = preprocessor.split()
+    if not words:
+        return None
+    if len(words) == 2 and words[0] == "--max" and words[1].isdigit():
+        return int(words[1])
+    _rc(G_BAD_VALUE_RANGE)
+    return None
 
 
 def _parse_address(address: str) -> tuple[str, dict[str, str]]:
@@ -175,6 +187,46 @@ class py:
         _rc(rc)  # no connection: DMCERROR_HANDLE, "connection to hardware not established"
         response = text.decode("latin-1")
         return response[:-1].strip() if response.endswith(":") else response.strip()
+
+    # -- application programs ------------------------------------------------------------------------
+    def GProgramDownload(self, program: str, preprocessor: str = "") -> None:
+        """Download `program` (lines separated by CR, LF or CR LF) with DL; a line the card
+        refuses raises "question mark returned by controller" (TC1 tells why). `preprocessor`:
+        "" leaves blank and REM lines out; "--max n" also checks every line is at most n
+        characters (a longer one: "value passed to function was bad or out of range")."""
+        self._cc()
+        limit = _preprocessor_limit(preprocessor)
+        data = program.encode("latin-1")
+        if limit is not None and any(len(line) > limit for line in galil.program_lines(data)):
+            _rc(G_BAD_VALUE_RANGE)
+        _rc(galil.DMCDownloadFromBuffer(self._gcon, data, None))
+
+    def GProgramUpload(self) -> str:
+        """The program on the card, its lines ending CR LF."""
+        self._cc()
+        c = galil.controller_of(self._gcon)
+        assert c is not None
+        rc, program = galil.upload(c)
+        _rc(rc)
+        return program.decode("latin-1")
+
+    def GProgramDownloadFile(self, file_path: str, preprocessor: str = "") -> None:
+        """Download the program file `file_path` (see GProgramDownload)."""
+        try:
+            with open(file_path, encoding="latin-1") as f:
+                program = f.read()
+        except OSError:
+            _rc(G_BAD_FILE)
+        self.GProgramDownload(program, preprocessor)
+
+    def GProgramUploadFile(self, file_path: str) -> None:
+        """Upload the card's program into the file `file_path`."""
+        program = self.GProgramUpload()
+        try:
+            with open(file_path, "w", encoding="latin-1", newline="") as f:
+                f.write(program)
+        except OSError:
+            _rc(G_BAD_FILE)
 
     def GTimeout(self, timeout: int) -> None:
         """Set the timeout in ms; -1 restores the one GOpen set."""

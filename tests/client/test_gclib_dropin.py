@@ -203,3 +203,30 @@ def test_no_daemon_at_the_endpoint_fails_to_open() -> None:
     conn = _gclib_dropin.py()
     with pytest.raises(gclib.GclibError, match="^device failed to open$"):
         conn.GOpen(f"{IP} -t 1 --endpoint {free_endpoint()}")
+
+
+def test_an_unchanged_gclib_application_downloads_and_runs_a_program(daemon: DaemonThread) -> None:
+    """A gclib application's usual flow through the drop-in: download a program, run it, wait,
+    read its message, its array and its end position, upload the program back."""
+    program = "\r".join(["#A", "DM SQ[5]", "i=0", "#L", "SQ[i]=i*i", "i=i+1", "JP #L,i<5",
+                         "PR 1000", "BGX", "AMX", "MG \"DONE\"", "EN"])
+    out = run_script(daemon, f"""
+        import json
+        import gclib
+
+        g = gclib.py()
+        g.GOpen("{IP} --direct -s ALL")
+        g.GProgramDownload({program!r}, "")
+        g.GCommand("XQ #A")
+        g.GSleep(1000)
+        out = {{"message": g.GMessage(), "squares": g.GArrayUpload("SQ", 0, 4, 1),
+               "tp": g.GCommand("TPX"), "running": g.GCommand("MG _XQ0"),
+               "program": g.GProgramUpload()}}
+        g.GClose()
+        print(json.dumps(out))
+    """)
+    assert out["message"] == "DONE\r\n"
+    assert out["squares"] == [0.0, 1.0, 4.0, 9.0, 16.0]
+    assert out["tp"] == "0000001000"
+    assert float(str(out["running"])) == -1.0  # the thread ended [M Ch6 _XQ]
+    assert str(out["program"]).replace("\r\n", "\r").strip("\r") == program

@@ -13,6 +13,7 @@ from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
 from vdevd.devices.galil.errors import TC
 from vdevd.devices.galil.follow_commands import FollowCommands
 from vdevd.devices.galil.interpreter import Interpreter
+from vdevd.devices.galil.program_commands import ProgramCommands
 
 #: a mnemonic: two capitals, not part of a longer word (BGS), an operand (_TPX) or a function
 #: (@IN[n]); a digit or a bracket may follow (AB1, ET[n])
@@ -72,7 +73,8 @@ def test_a_command_not_emulated_has_a_reason_and_a_tc_code() -> None:
 
 def test_every_command_of_the_table_binds_to_the_interpreter() -> None:
     handlers = COMMANDS.bind(Interpreter.__new__(Interpreter),
-                             FollowCommands.__new__(FollowCommands))
+                             FollowCommands.__new__(FollowCommands),
+                             ProgramCommands.__new__(ProgramCommands))
     assert set(handlers) == set(COMMANDS)
 
 

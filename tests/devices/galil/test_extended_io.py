@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from tests.devices.galil.program_rig import Rig as FlashRig
 from tests.devices.galil.test_firmware import Rig
 from vdevd.devices.galil.record import record_dtype
 
@@ -62,3 +63,12 @@ def test_rs_returns_to_co_0_keeping_the_driven_levels() -> None:
     assert rig.send(b"CO 1;SB 17;RS;CO ?;MG @OUT[17],@IN[20]\r") == (
         b":::000\r\n: 0000000000.0000 0000000000.0000\r\n:")
 
+
+
+def test_bn_burns_co_the_outputs_and_the_formats_for_the_next_power_up() -> None:
+    """"The configuration of the extended I/O and the state of the outputs can be stored in the
+    EEPROM with the BN command" [DMC-1700/1800 appendix]; PF and VF with them."""
+    rig = FlashRig()
+    assert rig.send(b"CO 2;SB 26;OP 9;PF-4;VF 2.1;BN\r") == b"::::::"
+    after = FlashRig(flash=rig.flash)
+    assert after.send(b"CO ?;TI 3;OP ?;PF ?;VF ?\r") == b"002\r\n:002\r\n:009\r\n:-04\r\n:02\r\n:"

@@ -10,6 +10,7 @@ firmware's `serve()` at once. A VME card: no PCI configuration space.
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import os
 import sys
@@ -28,6 +29,7 @@ from vdevd.devices.galil.interpreter import revision
 from vdevd.devices.galil.params import COUNTS_PER_VOLT
 from vdevd.devices.galil.syntax import AXIS_ALIASES, AXIS_LETTERS
 from vdevd.errors import StartError
+from vdevd.nvram import NvramWriter
 from vdevd.region import Region
 from vdevd.rt import PlantKind
 from vdevd.security import is_local
@@ -118,10 +120,16 @@ class GalilCard(Card):
                       peek=self._host_peek, on_read_rep=self._host_read_rep,
                       on_write_rep=self._host_write_rep)
         self.irq = self.add_irq("irq")
+        # the flash (BP BV BN): one image in the state directory, restored at power-up
+        store = ctx.nvram
+        self._writer = NvramWriter(store, name) if store is not None else None
+        saved = store.load(name) if store is not None else None
+        self._flash: dict[str, Any] | None = saved.get("flash") if isinstance(saved, dict) else None
         self.firmware = Firmware(self.n, self.period_ns, self.plant, self.configured_tm_us, self.bus,
                                  raise_irq=self._raise_irq, clear_irq=self.irq.clear,
                                  clock=lambda: self.now_ns, record_endian=opts.record_endian,
-                                 sense=self._sense)
+                                 sense=self._sense, save_flash=self._save_flash,
+                                 flash_image=self._flash)
         self.firmware.on_reset = self._on_reset
         self.cmp = self.add_irq("cmp")  # the CMP output of OC: an event per sample with pulses
         self.firmware.on_compare = self._compare_pulses
@@ -131,6 +139,15 @@ class GalilCard(Card):
         self.ethernet: str = opts.ethernet
         self.ethernet_endpoint = ""
         self._server: EthernetServer | None = None
+
+    def _save_flash(self, image: dict[str, Any]) -> None:
+        """BP, BV, BN, ^R^S: the flash image goes to the state directory, atomically."""
+        self._flash = image
+        if self._writer is not None:
+            self._writer.submit({"flash": image})
+
+    def nvram(self) -> dict[str, Any]:
+        return {"flash": self._flash} if self._flash is not None else {}
 
     def reset(self) -> None:
         """Power-on: the window empty, the line released, the firmware reset."""
@@ -235,10 +252,13 @@ class GalilCard(Card):
         log.info("%s: DMC command protocol on %s", self.name, self.ethernet_endpoint)
 
     async def close_services(self) -> None:
+        """The daemon stops: the Ethernet server closes; the last flash image is written."""
         if self._server is not None:
             self._server.close()
             await self._server.wait_closed()
             self._server = None
+        if self._writer is not None:
+            await asyncio.to_thread(self._writer.close)
 
     def listeners(self) -> dict[str, str]:
         return {"ethernet": self.ethernet_endpoint} if self.ethernet_endpoint else {}

@@ -20,6 +20,7 @@ from vdevd.devices.galil.arrays import ArrayDownload
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.firmware import Firmware
 from vdevd.devices.galil.interpreter import OK, Trippoint
+from vdevd.devices.galil.program import ProgramDownload
 
 #: the longest command (text between terminators) a channel takes: what the command FIFO holds;
 #: a longer one is answered `?`, TC 5 "Input buffer full", and dropped through its terminator
@@ -42,7 +43,8 @@ class CommandChannel:
         self._in = bytearray()
         self._trip: Trippoint | None = None
         self._dropping = False  # inside an overlong command: dropped through its terminator
-        self._sink: ArrayDownload | None = None  # QD taking its data from this connection
+        #: QD or DL taking its data from this connection
+        self._sink: ArrayDownload | ProgramDownload | None = None
         self.more = False  # the last `serve` stopped at MAX_BATCH with input left to decode
 
     @property
@@ -116,7 +118,7 @@ class CommandChannel:
             result = self._execute(frame)
             if isinstance(result, Trippoint):
                 self._trip = result
-            elif isinstance(result, ArrayDownload):
+            elif isinstance(result, (ArrayDownload, ProgramDownload)):
                 self._sink = result
             else:
                 out += result
@@ -132,7 +134,7 @@ class CommandChannel:
         self._dropping = False
         return True
 
-    def _execute(self, frame: syntax.Frame) -> bytes | Trippoint | ArrayDownload:
+    def _execute(self, frame: syntax.Frame) -> bytes | Trippoint | ArrayDownload | ProgramDownload:
         """A command as the FIFO channel runs it (Firmware._execute), without echo and without
         the VME command-done interrupt (both belong to the bus)."""
         interp = self.fw.interp

@@ -17,6 +17,8 @@ from vdevd.devices.galil.params import PARAMS
 
 _MOTION = "M Ch6 §Independent Axis Positioning"
 _HOME = "M Ch3 §Home Switch Input"
+_LINEAR = "M Ch6 §Linear Interpolation Mode"
+_VECTOR = "M Ch6 §Vector Mode: Linear and Circular Interpolation Motion"
 _REPORT = "M Ch5 §Summary of Interrogation Commands; spec §4.4"
 _IO = "M Ch3 §TTL Inputs / §TTL Outputs"
 _IRQ = "M Ch4 §Configuring Interrupts"
@@ -40,22 +42,14 @@ _PARAM_SECTIONS = {
 
 #: (mnemonics, why the card does not run them, the TC code of their `?`)
 _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
-    (("JP", "JS", "EN", "RE", "RI", "IF", "EL", "HX", "ZS", "IN", "II"),
-     "application program flow (M Ch7 is not in the seed): issue 20",
-     TC.ONLY_VALID_FROM_PROGRAM),
-    (("XQ",), "application programs: nothing can be downloaded yet, issue 20",
-     TC.EMPTY_PROGRAM_LINE),
-    (("DL", "UL", "LS", "ED"), "program download, upload, listing and editor: issue 20",
+    (("ED",), "the on-board editor needs an operator terminal (use DL, UL, LS)",
      TC.UNRECOGNIZED_COMMAND),
-    (("BN", "BP", "BV"), "burning parameters to flash (spec §1.5): issue 20",
+    (("ES",), "ellipse scale: the seed defers its definition to the command reference (ch. 11), "
+     "which it lacks", TC.UNRECOGNIZED_COMMAND),
+    (("AT",), "the time trippoint: its reference time is not in the seed nor the digest",
      TC.UNRECOGNIZED_COMMAND),
-    (("LM", "LI", "LE", "VM", "VP", "CR", "VE", "VS", "VA", "VD", "VR", "VT", "ES", "TN", "CS",
-      "CA"), "vector, linear and circular interpolation: issue 20", TC.UNRECOGNIZED_COMMAND),
-    (("AD", "AP", "AR", "AS", "AV", "AI", "MF", "MR", "AT", "TW"),
-     "trippoints other than AM, MC and WT: issue 20", TC.UNRECOGNIZED_COMMAND),
     (("EW",), "ECAM widen segment: defined only in Application Note #2444, not in the manual",
      TC.UNRECOGNIZED_COMMAND),
-    (("TR",), "program trace: there are no programs yet", TC.UNRECOGNIZED_COMMAND),
 )
 
 COMMANDS = CommandTable(
@@ -72,11 +66,48 @@ COMMANDS = CommandTable(
         Command("DP", "_dp", section="M Ch2 Ex6; M Ch6 §Stepper Motor Operation"),
         Command("DE", "_de", section="M Ch6 §Continuous Dual Loop"),
         Command("IP", "_ip", section=_MOTION),
+        # -- coordinated motion [M Ch6 §Linear Interpolation Mode, §Vector Mode] -------------------
+        Command("LM", "_lm", section=_LINEAR),
+        Command("LI", "_li", section=_LINEAR),
+        Command("LE", "_le", section=_LINEAR),
+        Command("VM", "_vm", section=_VECTOR),
+        Command("VP", "_vp", section=_VECTOR),
+        Command("CR", "_cr", section=_VECTOR),
+        Command("VE", "_le", section=_VECTOR),
+        Command("CS", "_cs", section=_LINEAR),
+        Command("CA", "_ca", section="M Ch6 §Specifying the Coordinate Plane"),
+        Command("TN", "_tn", section="M Ch6 §Tangent Motion"),
+        Command("AV", "_av", section="M Ch6 §Linear Interpolation Mode (#LMOVE)"),
+        *(Command(name, "_vector_param", (name,), section=_LINEAR)
+          for name in ("VS", "VA", "VD", "VR", "VT")),
         # -- trippoints on the command line [M Ch6; spec §5.7] ----------------------------------
         Command("AM", "_am", section=_MOTION),
         Command("MC", "_mc", section="M Ch6 §Motion Complete Trippoint"),
         Command("WT", "_wt", section="M Ch2 Ex10"),
         Command("AL", "_al", section="M Ch3 Fig 3-1 §High Speed Position Capture"),
+        # -- application programs (program_commands.py, threads.py) [spec §4.5] ------------------
+        Command("AD", "_ad", section="M Ch2 Ex13"),
+        Command("AP", "_ap", section="M Ch2 Ex13"),
+        Command("AR", "_ar", section="spec §5.7"),
+        Command("AS", "_as", section="M Ch6 §Operand Summary; spec §5.7"),
+        Command("AI", "_ai", section="M Ch6 §Electronic Cam"),
+        Command("MF", "_mf", section="M Ch6 §Electronic Cam"),
+        Command("MR", "_mr", section="spec §5.7"),
+        Command("TW", "_tw", section="spec §4.4 (SC 99 MC timeout)"),
+        Command("DL", "_dl", section="DMCLIB DMCDownloadFile; spec §4.5"),
+        Command("UL", "_ul", section="DMCLIB DMCUploadFile; spec §4.5"),
+        Command("LS", "_ls", section="M Ch2 Ex11; spec §4.5"),
+        Command("XQ", "_xq", section="M Ch2 Ex11"),
+        Command("HX", "_hx", section="spec §4.5"),
+        Command("II", "_ii", section="1400-CR 113; spec §4.5"),
+        Command("TR", "_tr", section="M Ch5 §Summary of Interrogation Commands"),
+        Command("CW", "_cw", section="spec §2.4 (unsolicited output); README"),
+        *(Command(name, "_program_only", section="spec §4.5 (program flow)")
+          for name in ("JP", "JS", "EN", "RE", "RI", "IF", "EL", "ZS", "IN")),
+        Command("BP", "_burn", ("programs",), section="spec §1.5"),
+        Command("BV", "_burn", ("variables",), section="spec §1.5"),
+        Command("BN", "_burn", ("parameters",), section="M Ch2 Step 7b E; spec §1.5"),
+        Command("NO", "_ignored", section="spec §4.1 (no operation / comment)"),
         # -- electronic gearing, ECAM, contour [M Ch6] (follow_commands.py) -----------------------
         Command("GA", "ga", section=_GEAR),
         Command("GR", "gr", section=_GEAR),
@@ -107,7 +138,7 @@ COMMANDS = CommandTable(
         Command("TM", "_tm", section="M Ch5 binary command table"),
         Command("DR", "_dr", section="M Ch4 §Secondary FIFO"),
         Command("RS", "_rs", section="M Ch4 §Clearing FIFO Buffer"),
-        Command("\x12\x13", "_rs", section="DMCLIB DMCMasterReset (^R^S)"),
+        Command("\x12\x13", "_master_reset", section="DMCLIB DMCMasterReset (^R^S); M Ch2 §Master Reset"),
         Command("CN", "_cn", section="M Ch3; M Ch5 binary command table"),
         Command("KF", "_ignored", section="M Ch5 binary command table; spec §4.5 (A)"),
         # -- I/O [M Ch3] -------------------------------------------------------------------------

@@ -39,9 +39,10 @@ class ExtendedIO:
         if not 0 <= n <= 255:
             raise GalilError(TC.NUMBER_OUT_OF_RANGE, f"CO {n}")
         self.config = n
-        self.latches &= self._output_mask()
+        self.latches &= self.output_mask()
 
-    def _output_mask(self) -> int:
+    def output_mask(self) -> int:
+        """The bits of the points of output banks."""
         mask = 0
         for k in range(8):
             if self.config >> k & 1:
@@ -60,7 +61,7 @@ class ExtendedIO:
 
     def write_words(self, words: list[int | None]) -> None:
         """OP's a, b, c, d: 16 bits each for banks 2-3, 4-5, 6-7, 8-9; None leaves them."""
-        mask = self._output_mask()
+        mask = self.output_mask()
         for k, word in enumerate(words):
             if word is None:
                 continue
@@ -90,7 +91,7 @@ class ExtendedIO:
 
     def record_bytes(self) -> tuple[bytes, bytes]:
         """The data record's banks 2-9: what TI reads, and the latches of output banks."""
-        mask = self._output_mask()
+        mask = self.output_mask()
         seen = (self.latches & mask) | (self.levels & ~mask & _ALL)
         return seen.to_bytes(8, "little"), (self.latches & mask).to_bytes(8, "little")
 

@@ -4,13 +4,16 @@ The card (card.py) hands it the A16 window (bus.py) and a callback that raises t
 line; it runs `step()` every servo sample and `serve()` when a command arrives. The firmware owns
 the motion (motion.py), the command interpreter (interpreter.py, which depends on it and never on
 the card), the I/O, the error code, the variables, the EI conditions, the report formats, the
-timing and the master reset. Register offsets and codes are `vdevmaps.galil`.
+timing and the master reset, the application programs and their threads (threads.py: they run
+at every sample while one runs) and the flash (flash.py). Register offsets and codes are
+`vdevmaps.galil`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 from vdevmaps.galil import GeneralStatus, InterruptCondition, InterruptStatus
@@ -19,8 +22,10 @@ from vdevd.devices.galil import syntax
 from vdevd.devices.galil.analog_feedback import align, counts, overlay
 from vdevd.devices.galil.arrays import ArrayDownload, ArrayTable
 from vdevd.devices.galil.bus import A16Window
+from vdevd.devices.galil.coord import Coordinated
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.extended_io import FIRST_BANK, FIRST_POINT, LAST_BANK, LAST_POINT, ExtendedIO
+from vdevd.devices.galil.flash import Flash
 from vdevd.devices.galil.follow import Follow
 from vdevd.devices.galil.follow_commands import operand
 from vdevd.devices.galil.formats import DEFAULT_PF, DEFAULT_VF
@@ -29,8 +34,11 @@ from vdevd.devices.galil.motion import GalilMotion, StopCode
 from vdevd.devices.galil.numbers import REPORT_FORMATS
 from vdevd.devices.galil.output_compare import OutputCompare
 from vdevd.devices.galil.params import COUNTS_PER_VOLT, PARAMS
+from vdevd.devices.galil.program import ProgramDownload
+from vdevd.devices.galil.program_commands import ProgramCommands
 from vdevd.devices.galil.record import record_dtype
 from vdevd.devices.galil.recorder import Recorder
+from vdevd.devices.galil.threads import LIMSWI, POSERR, Threads
 from vdevd.devices.rest import ticks_before_multiple
 from vdevd.rt import wrap_int32
 
@@ -42,6 +50,8 @@ _ALL_COMPLETE = int(InterruptCondition.ALL_COMPLETE)
 _COMMAND_DONE = int(InterruptCondition.COMMAND_DONE)
 _LIMIT_SWITCH = int(InterruptCondition.LIMIT_SWITCH)
 _INPUTS = int(InterruptCondition.INPUTS)
+_PROGRAM_STOPPED = int(InterruptCondition.PROGRAM_STOPPED)
+_MARK = bytes(b | 0x80 for b in range(256))  # CW1: a program's message with bit 7 set
 
 
 class Firmware:
@@ -53,7 +63,9 @@ class Firmware:
                  raise_irq: Callable[[int], None], clear_irq: Callable[[], None],
                  clock: Callable[[], int] | None = None, record_endian: str = "little",
                  sense: Callable[[], None] | None = None,
-                 on_reset: Callable[[], None] | None = None) -> None:
+                 on_reset: Callable[[], None] | None = None,
+                 save_flash: Callable[[dict[str, Any]], None] | None = None,
+                 flash_image: dict[str, Any] | None = None) -> None:
         self.n = n
         self.period_ns = period_ns
         self.plant = plant
@@ -75,6 +87,14 @@ class Firmware:
         self.ext = ExtendedIO()  # points 17-80 (CO)
         #: CMP pulses of a sample (OC): called with the count since RS (the card's `cmp` line)
         self.on_compare: Callable[[int], None] | None = None
+        self.threads = Threads(self)  # the program buffer and its threads (threads.py)
+        self.program_commands = ProgramCommands(self)
+        #: objects whose methods run commands, bound with the interpreter's (commands.py)
+        self.command_sets: tuple[object, ...] = (self.program_commands,)
+        #: `_XX` operands other modules answer: "XQ" -> fn("XQ0"), see _Env.operand
+        self.operands: dict[str, Callable[[str], float]] = {
+            "XQ": self.threads.operand, "ED": self.threads.operand}
+        self.flash = Flash(self, save_flash, flash_image)
         self.interp = Interpreter(self)
         self.reset()
 
@@ -92,12 +112,15 @@ class Firmware:
         self.motion = GalilMotion(self.n, self.period_ns, self.plant)
         self.motion.sense = self.sense
         self.follow = Follow(self.motion)
+        self.follow.spm.on_error = lambda: self.threads.automatic(POSERR)  # YS 2 [M Ch6 §SPM]
+        self.coord = Coordinated(self.motion)  # the S and T planes (coord.py)
         if old is not None:
             self.motion.core.zero[:] = -old.core.physical()
         self.variables: dict[str, float] = {}
         self.arrays = ArrayTable()
         self.recorder = Recorder()  # record mode (RA RD RC)
-        self.sink: ArrayDownload | None = None  # QD taking its data from the command FIFO
+        #: QD or DL taking its data from the command FIFO
+        self.sink: ArrayDownload | ProgramDownload | None = None
         self.error_code = 0
         self.echo = 0
         self.lz = 0
@@ -114,13 +137,20 @@ class Firmware:
         self.time_origin = self.ticks
         self._trip: Trippoint | None = None
         self._out = bytearray()
+        self.ar_base: dict[int, float] = {}  # AR: where the last AR trippoint ended per axis
+        self.mark_unsolicited = True  # CW1 (README "Application programs")
+        self.threads.reset()
+        self.flash.restore()  # BN, BV, BP: the burned state [spec §1.4]
         if self.on_reset is not None:
             self.on_reset()  # the card puts its inputs on the new motion firmware
+        self.threads.start_auto()
 
     # -- the sample --------------------------------------------------------------------------------
     def step(self) -> None:
         """One sample: motion, interrupt conditions, the command interpreter, the data record."""
         self.ticks += 1
+        if self.coord.active:
+            self.coord.sample()
         self._after_motion(self.motion.tick())
 
     def _after_motion(self, done: np.ndarray | None) -> None:
@@ -134,6 +164,10 @@ class Firmware:
         if over is not None and self.ei_mask & _EXCESS_ERROR:
             self.ei_mask &= ~_EXCESS_ERROR
             self.interrupt(InterruptStatus.EXCESS_ERROR)
+        if self.threads.active:
+            if over is not None:
+                self.threads.automatic(POSERR)
+            self.threads.run()
         if self._out or self._trip is not None or self.bus.commands_waiting:
             self.serve()
         if self.ticks >= self.recorder.next_tick:
@@ -146,8 +180,10 @@ class Firmware:
     def idle_samples(self, room: int) -> int:
         """Of the next `room` samples, how many are motion and the ER check alone while no axis
         completes and none crosses ER: none while the interpreter has work (a reply to send, a
-        trippoint, commands), none from the next data record or record mode capture on."""
-        if self._out or self._trip is not None or self.bus.commands_waiting or self.compare.armed:
+        trippoint, commands), none while a program thread runs or an output compare is armed,
+        none from the next data record or record mode capture on."""
+        if (self._out or self._trip is not None or self.bus.commands_waiting
+                or self.threads.active or self.compare.armed):
             return 0
         room = min(room, self.recorder.next_tick - self.ticks - 1)
         rate = self.record_rate
@@ -160,10 +196,12 @@ class Firmware:
         which an axis completes or crosses ER runs the rest of its sample (interrupts, the
         interpreter) after `advance(k)`, the card's clock to it, and ends the run. `advance`
         sees the count run at the end; returned too."""
-        motion = self.motion
+        motion, coord = self.motion, self.coord
         tick, changed = motion.tick, motion.error_changed
         for k in range(1, room + 1):
             self.ticks += 1
+            if coord.active:
+                coord.sample()
             done = tick()
             if done is not None or changed():
                 advance(k)
@@ -175,8 +213,10 @@ class Firmware:
     # -- rest (decision 0008) -----------------------------------------------------------------------
     def rest_state(self) -> bytes | None:
         """What a sample may change, as bytes, but the sample count; None while the interpreter
-        has work (a command, a reply to send, a trippoint), records (RC) or a home search runs."""
-        if self._out or self._trip is not None or self.bus.commands_waiting or self.recorder.active:
+        has work (a command, a reply to send, a trippoint), records (RC), a program thread runs,
+        a coordinated plane runs or a home search runs."""
+        if (self._out or self._trip is not None or self.bus.commands_waiting
+                or self.recorder.active or self.threads.active or self.coord.active):
             return None
         rest = self.motion.rest_state()
         return None if rest is None else rest + self.compare.state()
@@ -225,7 +265,7 @@ class Firmware:
                 self._trip = None
                 self._reply(OK)
                 continue
-            if self.sink is not None:  # QD's data, not commands
+            if self.sink is not None:  # QD's or DL's data, not commands
                 used, code = self.sink.feed(bus.command_bytes())
                 bus.consume(used)
                 if code is None:
@@ -246,10 +286,12 @@ class Firmware:
                 return
             if self.echo and not frame.binary:
                 self._out += buf[:used]
+            if not frame.binary and self.threads.answer(frame.data):
+                continue  # a bare number answers IN, without a reply [DMCLIB DMCCommand]
             result = self._execute(frame)
             if isinstance(result, Trippoint):
                 self._trip = result
-            elif isinstance(result, ArrayDownload):
+            elif isinstance(result, (ArrayDownload, ProgramDownload)):
                 self.sink = result
             else:
                 self._reply(result)
@@ -271,6 +313,15 @@ class Firmware:
             return b"?"
         return self.interp.execute(text)
 
+    def output(self, data: bytes) -> None:
+        """A program's message to the host (MG, a report): into the response FIFO after what
+        waits there, as an unsolicited message, with bit 7 set unless CW2."""
+        self._out += data.translate(_MARK) if self.mark_unsolicited else data
+
+    @property
+    def pending_output(self) -> bytearray:
+        return self._out
+
     def _reply(self, data: bytes) -> None:
         self._out += data
         if self.ei_mask & _COMMAND_DONE:
@@ -289,6 +340,11 @@ class Firmware:
         if vector is not None:
             self.vector = vector
 
+    def program_stopped(self) -> None:
+        """A thread ended by itself: EI bit 13, status DB [M Ch4 §Configuring Interrupts]."""
+        if self.ei_mask & _PROGRAM_STOPPED:
+            self.interrupt(InterruptStatus.PROGRAM_STOPPED)
+
     def interrupt(self, code: int) -> None:
         """Queue a status code; the line asserts while the host has interrupts enabled."""
         self.bus.post_interrupt(int(code))
@@ -303,6 +359,8 @@ class Firmware:
         rising = self.motion.set_limits(forward, reverse)
         if rising.any() and self.ei_mask & _LIMIT_SWITCH:
             self.interrupt(InterruptStatus.LIMIT_SWITCH)
+        if rising.any():
+            self.threads.automatic(LIMSWI)  # [M Ch3 §Limit Switch Input]
 
     def set_abort(self, active: bool) -> None:
         """The ABORT input: motion stops at once, OE1 axes turn off [M Ch3 §Abort Input]."""
@@ -327,6 +385,7 @@ class Firmware:
         if a < self.n:
             self.latch(a, float(self.motion.position()[a]))
         self._input_interrupt(input)
+        self.threads.input_fell(input)
 
     def probe(self, axis: int, reading: float) -> None:
         """A pulse on the axis's latch input (IN1..IN4) shorter than a sample, the encoder
@@ -373,8 +432,10 @@ class Firmware:
         raise KeyError(name)
 
     def status_byte(self) -> int:
-        """TB: bit 6 data record active, bit 5 contouring, bit 0 echo on (spec §4.4)."""
-        return ((0x40 if self.record_rate else 0) | (0x20 if self.follow.contour.on else 0)
+        """TB: bit 7 executing a program, bit 6 data record active, bit 5 contouring, bit 0 echo
+        on (spec §4.4)."""
+        return ((0x80 if self.threads.active else 0) | (0x40 if self.record_rate else 0)
+                | (0x20 if self.follow.contour.on else 0)
                 | (0x01 if self.echo else 0))
 
     def input_bank(self, bank: int) -> int:
@@ -425,9 +486,15 @@ class Firmware:
             rec[name_in], rec[name_out] = i, o
         rec["output_bank_0"] = self.outputs & 0xFF
         rec["error_code"] = self.error_code & 0xFF
-        rec["general_status"] = int(GeneralStatus.ECHO_ON) if self.echo else 0
+        rec["general_status"] = ((int(GeneralStatus.ECHO_ON) if self.echo else 0)
+                                 | (0x80 if self.threads.active else 0))  # program running
         ax = rec["axis"]
-        ax["status"] = m.status_word() | self.follow.status_bits()
+        ax["status"] = (m.status_word() | self.follow.status_bits()
+                        | self.coord.status_bits())
+        for key, plane in (("s", self.coord.planes["S"]), ("t", self.coord.planes["T"])):
+            rec[f"{key}_plane_segment_count"] = plane.seq.completed & 0xFFFF
+            rec[f"{key}_plane_move_status"] = plane.move_status()
+            rec[f"{key}_distance"] = wrap_int32(np.array([plane.seq.out]))[0]
         ax["switches"] = m.switches(self.latch_inputs())
         ax["stop_code"] = m.stop_code
         ax["reference_position"] = wrap_int32(m.reference())
@@ -457,6 +524,12 @@ class _Env:
         fw, m = self.fw, self.fw.motion
         if name == "TIME":
             return float(fw.ticks - fw.time_origin)
+        hook = fw.operands.get(name[:2])
+        if hook is not None:
+            return hook(name)
+        coordinated = fw.coord.operand(name)
+        if coordinated is not None:
+            return coordinated
         scalars = {"TC": fw.error_code, "TB": fw.status_byte(), "OP": fw.outputs,
                    "EO": fw.echo, "LZ": fw.lz, "TM": fw.tm_us, "DR": fw.record_rate,
                    "DM": fw.arrays.free_elements, "DA": fw.arrays.free_arrays,

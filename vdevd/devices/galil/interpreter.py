@@ -34,6 +34,7 @@ from vdevd.devices.galil.numbers import (
     format_number,
 )
 from vdevd.devices.galil.params import MOTOR_TYPES, PARAMS
+from vdevd.devices.galil.vector_commands import VectorCommands
 from vdevd.rt import PlantKind
 
 if TYPE_CHECKING:
@@ -60,7 +61,7 @@ class Trippoint:
     ready: Callable[[], bool]
 
 
-class Interpreter(ArrayCommands, FormatCommands, IoCommands):
+class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
     """The command language over one card's firmware state (`fw`); its commands are the table
     of commands.py, bound once."""
 
@@ -68,7 +69,9 @@ class Interpreter(ArrayCommands, FormatCommands, IoCommands):
         self.fw = fw
         self.n = fw.n
         self.handlers: dict[str, Callable[[str], bytes | Trippoint | ArrayDownload]] = (
-            COMMANDS.bind(self, FollowCommands(self)))
+            COMMANDS.bind(self, FollowCommands(self), *getattr(fw, "command_sets", ())))
+        #: the program thread whose statement runs now, None on the command line (threads.py)
+        self.thread: int | None = None
 
     # -- entry -------------------------------------------------------------------------------------
     def execute(self, text: str) -> bytes | Trippoint | ArrayDownload:
@@ -173,25 +176,40 @@ class Interpreter(ArrayCommands, FormatCommands, IoCommands):
 
     # -- motion ------------------------------------------------------------------------------------
     def _bg(self, arg: str) -> bytes:
-        """BG axes; BG S/T needs a vector sequence, which this firmware has not yet (TC 24)."""
+        """BG axes; BG S/T begins the plane's sequence (vector_commands)."""
         axes = _parse_axes(arg, self.n)
-        if axes.s or axes.t:
-            raise GalilError(24)
+        planes = self._check_sequences(axes.s, axes.t, axes.axes) if axes.s or axes.t else []
         self.fw.motion.begin(list(axes.axes))
+        for plane in planes:
+            self.fw.coord.begin(plane)
         return OK
 
     def _st(self, arg: str) -> bytes:
-        axes = self.axes(arg)
-        self.fw.motion.stop(axes)
-        self.fw.follow.stopped(axes)
+        """ST axes; from the host without axes it halts the programs too [spec §4.5]; ST S/T
+        (and ST alone, or an axis of a running plane) stops the sequence along its path at VD
+        [M Ch6 §Specifying Linear Segments]."""
+        sel, coord = _parse_axes(arg, self.n), self.fw.coord
+        planes = [p for p in coord.planes_named(sel.s or not arg.strip(), sel.t or not arg.strip())
+                  if p.running]
+        planes += [p for a in sel.axes if (p := coord.plane_of(a)) is not None]
+        for plane in planes:
+            coord.stop(plane)
+        self.fw.motion.stop([a for a in sel.axes if all(a not in p.track for p in planes)])
+        self.fw.follow.stopped(list(sel.axes))
+        if not arg.strip() and self.thread is None:
+            self.fw.threads.halt_all()
         return OK
 
     def _ab(self, arg: str) -> bytes:
-        """AB aborts motion at once (AB1: motion only; there are no programs yet) [M Ch6]."""
-        if arg.strip() and self.value(arg) not in (0, 1):
+        """AB aborts motion at once and the programs; AB1 motion only [M Ch6]."""
+        mode = self.value(arg) if arg.strip() else 0
+        if mode not in (0, 1):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
         self.fw.motion.abort(list(range(self.n)), StopCode.ABORT_COMMAND)
         self.fw.follow.aborted()
+        if mode == 0:
+            self.fw.threads.halt_all()
+        self.fw.coord.abort()
         return OK
 
     def _mo(self, arg: str) -> bytes:
@@ -229,25 +247,29 @@ class Interpreter(ArrayCommands, FormatCommands, IoCommands):
                             PARAMS["PR"].coerce)
 
     def _am(self, arg: str) -> Trippoint:
-        """AM: wait until the profiles of the axes are complete [M Ch6]."""
-        axes, moving = self.axes(arg), self.fw.motion.core.profile.moving
-        return Trippoint(lambda: not moving[axes].any())
+        """AM: wait until the profiles of the axes are complete; AM S/T until the plane's sequence
+        is [M Ch6]."""
+        sel, moving = _parse_axes(arg, self.n), self.fw.motion.core.profile.moving
+        axes, planes = list(sel.axes), self.fw.coord.planes_named(sel.s, sel.t)
+        return Trippoint(lambda: not moving[axes].any() and not any(p.running for p in planes))
 
     def _mc(self, arg: str) -> Trippoint:
         """MC: the profile complete and the axis in position: a stepper when its step count
         (TD) equals the reference [M Ch6 §Motion Complete Trippoint]; a servo within one count
         of it (spec §4.5, open question 25)."""
-        motion, axes = self.fw.motion, self.axes(arg)
+        motion, sel = self.fw.motion, _parse_axes(arg, self.n)
+        planes = self.fw.coord.planes_named(sel.s, sel.t)
+        axes = sorted({*sel.axes, *(a for p in planes for a in p.track)})
 
         def ready() -> bool:
-            if motion.core.profile.moving[axes].any():
+            if any(p.running for p in planes) or motion.core.profile.moving[axes].any():
                 return False
             if motion.plant_kind == PlantKind.STEPPER:
                 steps = np.rint(motion.core.axes.pos[axes])
                 return bool((steps == motion.reference()[axes]).all())
             return bool((np.abs(motion.error()[axes]) <= 1).all())
 
-        return Trippoint(ready)
+        return self.fw.program_commands.with_timeout(Trippoint(ready), axes, self.thread == 0)
 
     def _wt(self, arg: str) -> Trippoint:
         """WT n: wait n milliseconds [M Ch2 Ex10]."""

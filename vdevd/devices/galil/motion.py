@@ -67,6 +67,7 @@ class StopCode(enum.IntEnum):
     OFF_ON_ERROR = 8
     FIND_EDGE = 9
     HOMED = 10
+    MC_TIMEOUT = 99
 
 
 _PLANTS = {"servo": PlantKind.SERVO, "stepper": PlantKind.STEPPER, "ideal": PlantKind.IDEAL}
@@ -116,6 +117,7 @@ class GalilMotion:
         self.search_dir = np.ones(n)  # direction of the FE/HM phase-1 search
         self.home_level0 = np.zeros(n, dtype=bool)  # the home input when a phase began
         self.stop_code = np.full(n, int(StopCode.AT_POSITION), dtype=np.int64)
+        self.move_start = np.zeros(n)  # the reference at the last BG (AD measures from it)
         self.stop_reason = np.zeros(n, dtype=np.int64)  # why a stopping profile stops (0: none)
         self.pa_target = np.zeros(n)
         self.oe_tripped = np.zeros(n, dtype=bool)
@@ -272,6 +274,7 @@ class GalilMotion:
             self.stop_reason[a] = 0
             self.stop_code[a] = StopCode.RUNNING
             here = float(np.rint(core.axes.cmd_pos[a]))
+            self.move_start[a] = here
             if mode == Mode.PR:
                 core.move_absolute(a, here + v["PR"][a], sp, ac, dc, jerk)
             elif mode == Mode.PA:

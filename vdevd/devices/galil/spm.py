@@ -10,6 +10,8 @@ pulses; once a move has completed with |QS| under the limit, YS returns to 1.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from vdevd.devices.galil.motion import GalilMotion, StopCode
@@ -36,6 +38,8 @@ class StepperMaintenance:
         #: the pulses of YR corrections: they move the motor to where the encoder says it
         #: should be, so they count in the step register but not in QS (ASSUMPTION)
         self.corrected = np.zeros(n)
+        #: YS 2 "causes the automatic subroutine labeled #POSERR to be executed" [M Ch6 §SPM]
+        self.on_error: Callable[[], object] | None = None
 
     @property
     def active(self) -> bool:
@@ -58,6 +62,8 @@ class StepperMaintenance:
             stop = np.flatnonzero(trip & (m.values["OE"] > 0)).tolist()
             if stop:
                 m.stop(stop, StopCode.OFF_ON_ERROR)
+            if self.on_error is not None:
+                self.on_error()
         cleared = (self.ys == YS_ERROR) & ~over & ~m.core.profile.moving
         if cleared.any():
             self.ys[cleared] = 1
