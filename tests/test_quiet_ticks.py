@@ -206,6 +206,30 @@ def galil_program_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder
     galil.DMCClose(h)
 
 
+def galil_io_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
+    """An armed output compare, analog feedback on Y, extended outputs and formats: moves, then a
+    card at rest with the compare still armed."""
+    h = ctypes.c_long()
+    assert galil.DMCOpen(1, 0, ctypes.byref(h), endpoint=d.endpoint, events=d.events) == 0
+    buf = ctypes.create_string_buffer(512)
+    rack.control("galil0", "set_analog", channel=2, volts=1.5)
+    for text in ("OCX=100,250", "AF ,1", "CO 1", "SB 17", "PF 6.1", "PR 3000,-200",
+                 "SP 20000,5000", "BG XY"):
+        rec.add([text, galil.DMCCommand(h, text, buf, 512), buf.value])
+    for ns in (77 * MS, S + 17, 3 * S, 10 * S + 3):
+        rack.sim.step(ns=ns)
+        rec.add([galil.DMCCommand(h, "TP;TI 2;MG TIME", buf, 512), buf.value,
+                 rack.control("galil0", "compare_pulses")])
+    rec.add([galil.DMCCommand(h, "JG -20000;BG X", buf, 512), buf.value])
+    rack.sim.step(ns=S)
+    rec.add([galil.DMCCommand(h, "ST X;TP", buf, 512), buf.value,
+             rack.control("galil0", "compare_pulses")])
+    rack.sim.step(ns=5 * S)
+    rec.add([galil.DMCCommand(h, "TP;MG TIME", buf, 512), buf.value,
+             rack.control("galil0", "compare_pulses")])
+    galil.DMCClose(h)
+
+
 def maxk_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
     """Moves on servo and stepper axes, done flags, positions, a jog and its stop."""
     with maxk.open(1, endpoint=d.endpoint) as m:
@@ -498,10 +522,10 @@ def adlink_units_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder)
 
 @pytest.mark.parametrize(("scenario", "card"), [
     (generic_scenario, "servo0"), (galil_scenario, "galil0"), (galil_program_scenario, "galil0"),
-    (maxk_scenario, "maxk0"),
+    (galil_io_scenario, "galil0"), (maxk_scenario, "maxk0"),
     (pmac_scenario, "pmac0"), (octavia_scenario, "octavia0"), (adlink_scenario, "adlink0"),
     (adlink_units_scenario, "adlink0")],
-    ids=["generic", "galil", "galil-program", "maxk", "pmac", "octavia", "adlink", "adlink-units"])
+    ids=["generic", "galil", "galil-program", "galil-io", "maxk", "pmac", "octavia", "adlink", "adlink-units"])
 def test_skipping_quiet_ticks_changes_no_reply(scenario: Callable[..., None], card: str,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
     both_ways(scenario, card, monkeypatch)

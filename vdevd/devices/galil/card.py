@@ -363,6 +363,12 @@ class GalilCard(Card):
         core = self.firmware.motion.core
         core.plant.set(a, coulomb=float(volts) * COUNTS_PER_VOLT * float(core.plant.amp_gain[a]))
 
+    @control()
+    def compare_pulses(self) -> int:
+        """The CMP output's pulses since power-on or RS (OC; README "Formats, extended I/O,
+        output compare, analog feedback")."""
+        return self.firmware.compare.pulses
+
     # -- backdoor: deprecated names ----------------------------------------------------------------
     @control(deprecated="set_limit")
     def set_switches(self, axis: str | int, forward_limit: bool | None = None,
