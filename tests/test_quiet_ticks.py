@@ -525,7 +525,8 @@ def adlink_units_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder)
     (galil_io_scenario, "galil0"), (maxk_scenario, "maxk0"),
     (pmac_scenario, "pmac0"), (octavia_scenario, "octavia0"), (adlink_scenario, "adlink0"),
     (adlink_units_scenario, "adlink0")],
-    ids=["generic", "galil", "galil-program", "galil-io", "maxk", "pmac", "octavia", "adlink", "adlink-units"])
+    ids=["generic", "galil", "galil-program", "galil-io", "maxk", "pmac", "octavia", "adlink",
+         "adlink-units"])
 def test_skipping_quiet_ticks_changes_no_reply(scenario: Callable[..., None], card: str,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
     both_ways(scenario, card, monkeypatch)
