@@ -40,7 +40,7 @@ def test_bm_bi_bb_need_a_brushless_axis() -> None:
     assert rig.value("_BMZ") == pytest.approx(1333.333, abs=1e-3)
     assert rig.cmd("BI ,,?") == "006"
     assert rig.refused("BI 7") == TC.NUMBER_OUT_OF_RANGE  # three inputs from IN7: none left
-    assert rig.refused("BZY=-2") == TC.NOT_BRUSHLESS
+    assert rig.refused("BZY=-2") == TC.ONLY_ABCD_VALID  # Y drives X's phase B: not available
     assert rig.refused("BSY=2,700") == TC.NOT_BRUSHLESS
     rig.cmd("BSX=2,700;BCX")
 
@@ -75,3 +75,32 @@ def test_a_quarter_magnetic_cycle_from_zero_puts_phase_a_at_u_and_phase_b_at_min
     assert abs(u) > 0.5
     assert a == pytest.approx(u, rel=1e-3)
     assert b == pytest.approx(-u / 2, rel=1e-2)
+
+
+def test_after_bax_the_card_is_a_1338_and_w_is_no_longer_available() -> None:
+    """[M Ch2 Step 1]: "if the command BAX is given to a DMC-1348 controller, the controller will
+    be re-configured to a DMC-1338 controller ... The 'W' axis is no longer available since the
+    output DAC is being used for sinusoidal commutation": W named is TC 90 as on a 1338, the
+    reports and "every axis" commands cover X, Y, Z."""
+    rig = Rig("servo")
+    assert rig.cmd("\x12\x16").startswith("DMC1348")  # ^R^V
+    rig.cmd("BAX")
+    assert rig.cmd("\x12\x16").startswith("DMC1338")
+    for line in ("PRW=100", "PR 1,2,3,4", "BGW", "TPW", "KP ,,,5", "SHW"):
+        assert rig.refused(line) == TC.ONLY_ABCD_VALID, line
+    assert len(rig.ints("TP")) == 3
+    rig.cmd("KP*=12")
+    assert rig.cmd("KP ?,?,?") == "0012.00,0012.00,0012.00"
+    rig.cmd("SH;PR 100,200,300;BG")
+    rig.run(2000)
+    assert rig.ints("RP") == [100, 200, 300]
+
+
+def test_baxz_leaves_x_and_z_and_frees_y_and_w() -> None:
+    """BAXZ: X's phase B is Y's DAC and Z's is W's [M Ch2 Step 5]: Y and W are refused."""
+    rig = Rig("servo")
+    rig.cmd("BAXZ")
+    assert rig.cmd("\x12\x16").startswith("DMC1328")
+    assert rig.refused("PRY=5") == TC.ONLY_ABCD_VALID
+    assert rig.refused("BG W") == TC.ONLY_ABCD_VALID
+    assert len(rig.ints("TP")) == 2

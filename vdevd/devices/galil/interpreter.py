@@ -9,7 +9,7 @@ the interpreter takes no further command until it is satisfied (spec §5.7). No 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import TYPE_CHECKING
 
@@ -108,16 +108,40 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
         return text.encode("latin-1") + CRLF + OK
 
     def axes(self, arg: str) -> list[int]:
-        return list(_parse_axes(arg, self.n).axes)
+        return list(self._sel(arg).axes)
+
+    def _sel(self, arg: str) -> syntax.AxisSet:
+        """The axes of an action command (`_parse_axes`) on the card BA leaves: an axis whose
+        DAC is a second phase is no longer available [M Ch2 Step 5: "BAX ... re-configured to a
+        DMC-1338 ... The 'W' axis is no longer available"]: left out of "every axis", TC 90
+        when named (as on the smaller card)."""
+        sel = _parse_axes(arg, self.n)
+        freed = self.fw.follow.commutation.freed()
+        if not freed.size:
+            return sel
+        if arg.strip():
+            if any(a in freed for a in sel.axes):
+                raise GalilError(TC.ONLY_ABCD_VALID, "the axis drives a second phase (BA)")
+            return sel
+        return replace(sel, axes=tuple(a for a in sel.axes if a not in freed))
 
     def per_axis(self, arg: str) -> list[tuple[int, str | object]]:
         """(axis, field) pairs of `PR 1,,3` / `PRX=1` / `PR*=1` / `PR ?`; field text or QUERY."""
         assign = syntax.parse_axis_assign(arg, self.n)
         if assign is not None:
             axes, text = assign
-            return [(a, syntax.QUERY if text.strip() == "?" else text) for a in axes]
-        fields = syntax.parse_fields(arg, self.n)
-        return [(a, f) for a, f in enumerate(fields) if f is not None]
+            pairs: list[tuple[int, str | object]] = [
+                (a, syntax.QUERY if text.strip() == "?" else text) for a in axes]
+        else:
+            fields = syntax.parse_fields(arg, self.n)
+            pairs = [(a, f) for a, f in enumerate(fields) if f is not None]
+        freed = self.fw.follow.commutation.freed()
+        if freed.size and any(a in freed for a, _ in pairs):
+            # `PR*=` names every axis: the freed ones are not the card's any more (BA)
+            if assign is not None and len(assign[0]) > 1:
+                return [(a, f) for a, f in pairs if a not in freed]
+            raise GalilError(TC.ONLY_ABCD_VALID, "the axis drives a second phase (BA)")
+        return pairs
 
     def _setter(self, name: str, arg: str, apply: Callable[[list[int], list[float]], None],
                 query: Callable[[], np.ndarray], digits: int | Callable[[float], str], frac: int,
@@ -177,7 +201,7 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
     # -- motion ------------------------------------------------------------------------------------
     def _bg(self, arg: str) -> bytes:
         """BG axes; BG S/T begins the plane's sequence (vector_commands)."""
-        axes = _parse_axes(arg, self.n)
+        axes = self._sel(arg)
         planes = self._check_sequences(axes.s, axes.t, axes.axes) if axes.s or axes.t else []
         self.fw.motion.begin(list(axes.axes))
         for plane in planes:
@@ -188,7 +212,7 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
         """ST axes; from the host without axes it halts the programs too [spec §4.5]; ST S/T
         (and ST alone, or an axis of a running plane) stops the sequence along its path at VD
         [M Ch6 §Specifying Linear Segments]."""
-        sel, coord = _parse_axes(arg, self.n), self.fw.coord
+        sel, coord = self._sel(arg), self.fw.coord
         planes = [p for p in coord.planes_named(sel.s or not arg.strip(), sel.t or not arg.strip())
                   if p.running]
         planes += [p for a in sel.axes if (p := coord.plane_of(a)) is not None]
@@ -249,7 +273,7 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
     def _am(self, arg: str) -> Trippoint:
         """AM: wait until the profiles of the axes are complete; AM S/T until the plane's sequence
         is [M Ch6]."""
-        sel, moving = _parse_axes(arg, self.n), self.fw.motion.core.profile.moving
+        sel, moving = self._sel(arg), self.fw.motion.core.profile.moving
         axes, planes = list(sel.axes), self.fw.coord.planes_named(sel.s, sel.t)
         return Trippoint(lambda: not moving[axes].any() and not any(p.running for p in planes))
 
@@ -257,7 +281,7 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
         """MC: the profile complete and the axis in position: a stepper when its step count
         (TD) equals the reference [M Ch6 §Motion Complete Trippoint]; a servo within one count
         of it (spec §4.5, open question 25)."""
-        motion, sel = self.fw.motion, _parse_axes(arg, self.n)
+        motion, sel = self.fw.motion, self._sel(arg)
         planes = self.fw.coord.planes_named(sel.s, sel.t)
         axes = sorted({*sel.axes, *(a for p in planes for a in p.track)})
 
@@ -296,9 +320,9 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
         lz = not self.fw.lz
         if name in POSITION_REPORTS:  # PF [Galil command reference PF]
             pos = self.pos
-            return self.data(",".join([pos(values[a]) for a in _parse_axes(arg, self.n).axes]))
+            return self.data(",".join([pos(values[a]) for a in self._sel(arg).axes]))
         return self.data(",".join([format_number(values[a], digits, frac, lz)
-                                   for a in _parse_axes(arg, self.n).axes]))
+                                   for a in self._sel(arg).axes]))
 
     def _tc(self, arg: str) -> bytes:
         """TC: the code of the last `?`; TC1 adds its text [M Ch5 §Controller Response]."""
@@ -346,7 +370,7 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
 
     def _version(self, arg: str) -> bytes:
         """^R^V: the firmware revision [DMCLIB DMCVersion parses "...v<rev>"]."""
-        return self.data(revision(self.n))
+        return self.data(revision(self.fw.follow.commutation.standard_axes))
 
     # -- settings ----------------------------------------------------------------------------------
     def _flag(self, name: str, arg: str) -> bytes:
