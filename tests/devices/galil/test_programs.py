@@ -225,3 +225,26 @@ def test_dl_over_an_ethernet_connection_takes_the_program_from_it() -> None:
     assert channel.receive(b"EN\r\\") == b":"
     assert channel.receive(b"UL\r") == b"#A\r\nV1=3\r\nEN\r\n\x1a:"
     assert channel.receive(b"DL\r#A\r#A\r\\TC\r") == b"?061\r\n:"
+
+
+def test_ctrl_l_ctrl_k_locks_the_program_against_ul_ls_and_tr() -> None:
+    """^L^K password,1 with the password PW set (Galil command reference; README): UL, LS and TR
+    are TC 106 "Privilege violation" while locked, the program still runs; a wrong password
+    neither locks nor unlocks; ^R^S erases the password and the lock."""
+    rig = Rig()
+    rig.download(EX11)
+    assert rig.send(b"PW abc,abd\r") == b"?" and rig.tc() == 6  # the two must match
+    assert rig.send(b"PW abc,abc\r") == b":"
+    assert rig.send(b"\x0c\x0bxyz,1\r") == b"?" and rig.tc() == 106
+    assert rig.value("_LK") == 0
+    assert rig.send(b"\x0c\x0babc,1\r") == b":"
+    assert rig.value("_LK") == 1
+    for line in (b"UL\r", b"LS\r", b"TR1\r", b"PW q,q\r"):
+        assert rig.send(line) == b"?" and rig.tc() == 106, line
+    assert rig.send(b"XQ #A\r") == b":"  # a locked program runs
+    rig.until_halted()
+    assert rig.send(b"\x0c\x0babc,0\r") == b":"
+    assert rig.send(b"UL\r").endswith(b"\x1a:")
+    rig.send(b"\x0c\x0babc,1\r")
+    assert rig.send(b"\x12\x13\r") == b":"  # ^R^S
+    assert rig.value("_LK") == 0 and rig.send(b"LS\r") == b":"

@@ -101,6 +101,8 @@ COMMANDS = CommandTable(
         Command("HX", "_hx", section="spec §4.5"),
         Command("II", "_ii", section="1400-CR 113; spec §4.5"),
         Command("TR", "_tr", section="M Ch5 §Summary of Interrogation Commands"),
+        Command("PW", "_pw", section="Galil command reference (PW); README"),
+        Command("\x0c\x0b", "_lock", section="Galil command reference (^L^K); README"),
         Command("CW", "_cw", section="spec §2.4 (unsolicited output); README"),
         *(Command(name, "_program_only", section="spec §4.5 (program flow)")
           for name in ("JP", "JS", "EN", "RE", "RI", "IF", "EL", "ZS", "IN")),

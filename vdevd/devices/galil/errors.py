@@ -60,6 +60,7 @@ class TC(enum.IntEnum):
     ECAM_MODULUS_TOO_LARGE = 103
     NOT_VALID_PERFORMING_ECAM = 104
     EB1_FIRST = 105
+    PRIVILEGE_VIOLATION = 106
     NOT_BRUSHLESS = 110
 
 
@@ -134,6 +135,7 @@ TEXTS: dict[int, str] = {
     103: "Master axis modulus greater than 256*EP value",
     104: "Not valid when axis performing ECAM",
     105: "EB1 command must be given first",
+    106: "Privilege violation",
     110: "Must be made brushless by BA command",
     111: "Must be made brushless by BA command",
     112: "BZ command timeout",

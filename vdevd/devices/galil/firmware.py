@@ -93,7 +93,7 @@ class Firmware:
         self.command_sets: tuple[object, ...] = (self.program_commands,)
         #: `_XX` operands other modules answer: "XQ" -> fn("XQ0"), see _Env.operand
         self.operands: dict[str, Callable[[str], float]] = {
-            "XQ": self.threads.operand, "ED": self.threads.operand}
+            "XQ": self.threads.operand, "ED": self.threads.operand, "LK": self.threads.operand}
         self.flash = Flash(self, save_flash, flash_image)
         self.interp = Interpreter(self)
         self.reset()

@@ -66,6 +66,10 @@ class Program:
     labels: dict[str, int] = field(default_factory=dict)
     #: the line of the last download error (`_ED`), as the card reports it for DMCError
     error_line: int = 0
+    #: `PW` and `^L^K` (the Galil command reference; not in the seed): while locked, UL, LS, ED
+    #: and TR are TC 106
+    password: str = ""
+    locked: bool = False
 
     def download(self, text: bytes, start: str | None = None) -> None:
         """Take a download: `text` is its lines (CR, LF or CR LF) without the final `\\`.
@@ -119,6 +123,7 @@ class Program:
 
     def erase(self) -> None:
         self.lines, self.code, self.labels = [], [], {}
+        self.password, self.locked = "", False
 
     def load(self, lines: list[str]) -> None:
         """Restore lines burned with BP (checked as a download)."""

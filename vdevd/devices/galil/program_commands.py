@@ -55,10 +55,39 @@ class ProgramCommands:
 
     def _ul(self, arg: str) -> bytes:
         """UL: the program, each line ending CR LF, then ^Z [DMCLIB DMCUploadFile]."""
+        self._unlocked()
         return self._threads.program.upload() + OK
+
+    def _unlocked(self) -> None:
+        """UL, LS, ED and TR while `^L^K` locks the program: TC 106 "Privilege violation"."""
+        if self._threads.program.locked:
+            raise GalilError(TC.PRIVILEGE_VIOLATION, "the program is locked (^L^K)")
+
+    def _pw(self, arg: str) -> bytes:
+        """PW password,password: the password `^L^K` asks for, given twice, up to 8
+        characters; only while unlocked (TC 106), the two must match (TC 6)."""
+        self._unlocked()
+        fields = [f.strip() for f in arg.split(",")]
+        if len(fields) != 2 or fields[0] != fields[1] or len(fields[0]) > 8:
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE, "PW password,password")
+        self._threads.program.password = fields[0]
+        return OK
+
+    def _lock(self, arg: str) -> bytes:
+        """^L^K password,n: n 1 locks the program against UL, LS, ED and TR, 0 unlocks; a wrong
+        password is TC 106. `_LK` reads 1 while locked."""
+        program = self._threads.program
+        text, _, n = arg.rpartition(",")
+        if not _ or n.strip() not in ("0", "1"):
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE, "^L^K password,n")
+        if text.strip() != program.password:
+            raise GalilError(TC.PRIVILEGE_VIOLATION, "wrong password")
+        program.locked = n.strip() == "1"
+        return OK
 
     def _ls(self, arg: str) -> bytes:
         """LS [first[,last]]: the lines with their numbers; `first` may be a #label [M Ch2 Ex11]."""
+        self._unlocked()
         program = self._threads.program
         fields = [f.strip() for f in arg.split(",")] if arg.strip() else []
         if len(fields) > 2:
@@ -92,6 +121,7 @@ class ProgramCommands:
         return OK
 
     def _tr(self, arg: str) -> bytes:
+        self._unlocked()
         self._threads.set_trace(arg)
         return OK
 

@@ -108,7 +108,7 @@ class Threads:
 
     def operand(self, name: str) -> float:
         """`_XQn`: the line thread n runs, -1 when it is halted; `_ED`: the line of the last
-        download or program error."""
+        download or program error; `_LK`: 1 while `^L^K` locks the program."""
         if name.startswith("XQ"):
             n = int(name[2:]) if name[2:].isdigit() else 0
             if not 0 <= n < MAX_THREADS:
@@ -117,6 +117,8 @@ class Threads:
             return float(t.line) if t is not None else -1.0
         if name == "ED":
             return float(self.program.error_line)
+        if name == "LK":
+            return float(self.program.locked)
         raise GalilError(TC.BAD_FUNCTION, name)
 
     def reset(self) -> None:
