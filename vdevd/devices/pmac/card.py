@@ -40,6 +40,7 @@ from vdevmaps.pmac import (
 
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
+from vdevd.devices.pmac.eth_framing import KeptFraming
 from vdevd.devices.pmac.ethernet_server import EthernetServer
 from vdevd.devices.pmac.firmware import Firmware, Identity
 from vdevd.devices.pmac.hostport import HostPort, InterruptController
@@ -77,11 +78,15 @@ _AXIS_ACTIONS = ("set_limit", "set_home", "set_home_window", "set_index", "set_a
 
 
 class CommandPort:
-    """A serial-style port (Ethernet connection, host port): framed replies as I3/I6 make them."""
+    """A serial-style port (Ethernet connection, host port): framed replies as I3/I6 make them.
 
-    def __init__(self, card: PmacCard) -> None:
+    An Ethernet connection (`ethernet=True`) keeps its framing across `$$$` and `$$$***`
+    (eth_framing.py, README "Ethernet after a reset")."""
+
+    def __init__(self, card: PmacCard, ethernet: bool = False) -> None:
         self.card = card
         self.state = PortState()
+        self.framing = KeptFraming() if ethernet else None
 
     def reply(self, line: str) -> Reply:
         """Run a line; control characters in it act first and report ahead of its data."""
@@ -100,9 +105,17 @@ class CommandPort:
         self.card.touched()
         fw = self.card.fw
         # a printable line holds no control character: straight to the interpreter
-        reply = fw.interpreter.execute(self.state, line) if line.isprintable() else self.reply(line)
         iv = fw.ivars.values
-        return frame(reply, int(iv[3]), int(iv[6]))
+        if self.framing is None:
+            reply = fw.interpreter.execute(self.state, line) if line.isprintable() else self.reply(line)
+            return frame(reply, int(iv[3]), int(iv[6]))
+        before = fw.resets
+        self.framing.before(int(iv[3]), int(iv[6]))
+        reply = fw.interpreter.execute(self.state, line) if line.isprintable() else self.reply(line)
+        if fw.resets != before:
+            self.framing.reset(int(iv[3]), int(iv[6]))
+            self.state.motor, self.state.cs = 1, 1
+        return frame(reply, *self.framing.modes(int(iv[3]), int(iv[6])))
 
     def control(self, ch: int) -> bytes:
         self.card.touched()
@@ -316,11 +329,12 @@ class PmacCard(Card):
         host-port channels answer at the access, not at the tick); None while the card has
         work: a home search, an in-position scan count still short of its Ixx88, conversion
         entries with memory or the A/D ring running, a velocity buffer still filling (I60's
-        slots hold different readings), armed compare."""
+        slots hold different readings), armed compare, backlash still being taken up."""
         fw = self.fw
         m = fw.motors
         if (m.homing.any_searching or fw.ect._stateful or fw.servo_ic._any_armed
-                or not (m._vbuf == m.core.axes.fb).all() or m.counting_to_inpos()):
+                or not (m._vbuf == m.core.axes.fb).all() or m.counting_to_inpos()
+                or (fw.comp1d.active and fw.comp1d.busy(fw.reports.commanded()))):
             return None
         core = m.core.rest_state()
         if core is None:
@@ -437,7 +451,7 @@ class PmacCard(Card):
         if not self.ethernet:
             return
         try:
-            self._server = await EthernetServer.start(self.ethernet, lambda: CommandPort(self),
+            self._server = await EthernetServer.start(self.ethernet, lambda: CommandPort(self, ethernet=True),
                                                       allow=self.allow)
         except OSError as exc:
             reason = os.strerror(exc.errno) if exc.errno else str(exc)

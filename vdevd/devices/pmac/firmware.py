@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from vdevd.devices.pmac.comp1d import Tables1D, is_one_dimensional
 from vdevd.devices.pmac.comp2d import CompError, CompTables
 from vdevd.devices.pmac.ect import ConversionTable, setup_address
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_PHASE, CommandError
@@ -74,6 +75,8 @@ class Firmware:
         self.servo_cycles = 0
         self.global_bits = 0
         self.locks = 0
+        #: resets so far ($$$, $$$***, power-up): a port sees whether a line reset the card
+        self.resets = 0
         self._comp_applied = False
         self._store = store
         #: called after a power-on or factory reset (the card resets its ports)
@@ -97,6 +100,11 @@ class Firmware:
         self.ect = ConversionTable(mem, self.ivars, self.servo_ic)
         self.gpio = GeneralIO(mem, self.ivars)
         self.comp = CompTables(self.ivars, self.ivars.motors)
+        #: hooks answering which TBUF/ROTARY/LOOKAHEAD/GATHER buffers exist (they block DEFINE COMP,
+        #: BLCOMP, TCOMP [spec §1.7]); the buffers' own modules register here
+        self.buffer_checks: list[Callable[[], set[str]]] = []
+        self.comp1d = Tables1D(self.ivars, self.ivars.motors, lambda: set(self.comp.tables),
+                               self.existing_buffers)
         self.feedback = FeedbackSelect(mem, self.ivars)
         self.interpreter = Interpreter(self)
 
@@ -106,7 +114,7 @@ class Firmware:
         table, I/O."""
         self.now_ns = now_ns
         self.servo_cycles += 1
-        if self.comp.tables or self._comp_applied or self.feedback.active:
+        if self.comp.tables or self._comp_applied or self.feedback.active or self.comp1d.active:
             self._offset_feedback()
         events = self.motors.tick()
         self.servo_ic.tick()
@@ -128,7 +136,9 @@ class Firmware:
         - Ixx03 pointed at another conversion-table result: the loop reads that result
           (feedback.py)."""
         core = self.motors.core
-        want = np.rint(self.comp.correction(self.reports.position(), self.reports.commanded()))
+        actual, commanded = self.reports.position(), self.reports.commanded()
+        want = np.rint(self.comp.correction(actual, commanded) + self.comp1d.leadscrew(actual, commanded)
+                       + self.comp1d.backlash(commanded))
         want[core.kinds != int(PlantKind.SERVO)] = 0
         self._comp_applied = bool(want.any())
         if self.feedback.active:
@@ -142,9 +152,11 @@ class Firmware:
 
     def comp_correction(self, motor: int) -> float:
         """Mxx69: the compensation tables' correction of `motor` (0-based), counts."""
-        if not self.comp.tables:
+        if not (self.comp.tables or self.comp1d.any_tables):
             return 0.0
-        return float(self.comp.correction(self.reports.position(), self.reports.commanded())[motor])
+        actual, commanded = self.reports.position(), self.reports.commanded()
+        return float(self.comp.correction(actual, commanded)[motor]
+                     + self.comp1d.leadscrew(actual, commanded)[motor])
 
     # -- on-line interface --------------------------------------------------------------------------
     def execute(self, port: PortState, line: str) -> Any:
@@ -259,7 +271,7 @@ class Firmware:
 
     def global_status(self) -> tuple[int, int]:
         bits = self.global_bits & ~(COMP_ACTIVE | CPU_DSP56311)
-        if self.ivars.values[51] and self.comp.tables:
+        if self.ivars.values[51] and (self.comp.tables or self.comp1d.any_tables):
             bits |= COMP_ACTIVE
         return bits, 0
 
@@ -327,35 +339,69 @@ class Firmware:
                 mem.write(space, addr + k, v)
 
     # -- compensation tables (DEFINE COMP) [A L3118-3219] ----------------------------------------------
-    def define_comp(self, motor: int, text: str) -> int:
-        """`#n DEFINE COMP ...`; the number of entries still expected."""
+    def existing_buffers(self) -> set[str]:
+        """The TBUF, ROTARY, LOOKAHEAD and GATHER buffers that exist (`buffer_checks`)."""
+        return set().union(*(check() for check in self.buffer_checks))
+
+    def define_comp(self, motor: int, text: str, kind: str = "COMP") -> int:
+        """`#n DEFINE COMP|BLCOMP|TCOMP ...` (COMP: 2-D with `{rows}.{columns}`, else 1-D); the
+        number of entries still expected."""
         try:
-            self.comp.define(motor, text)
+            if kind == "COMP" and not is_one_dimensional(text):
+                self.comp1d.check_define("COMP", motor)  # 1-D COMP owners and the buffers above
+                self.comp.define(motor, text)
+                self.comp1d.loading = None
+                return self.comp.pending
+            self.comp1d.define(kind, motor, text)
+            self.comp.loading = None
         except CompError as exc:
             raise CommandError(exc.code) from None
-        return self.comp.pending
+        return self.comp1d.pending
 
     def comp_entry(self, motor: int, value: int) -> int:
         """One entry constant; the number still expected."""
+        tables = self.comp1d if self.comp1d.loading is not None else self.comp
         try:
-            self.comp.feed(value)
+            tables.feed(value)
         except CompError as exc:
             raise CommandError(exc.code) from None
-        return self.comp.pending
+        return tables.pending
 
-    def delete_comp(self, motor: int) -> None:
+    def delete_comp(self, motor: int, kind: str = "COMP") -> None:
+        """`#n DELETE COMP|BLCOMP|TCOMP`: from low to high motor number (ERR007 otherwise)."""
         try:
-            self.comp.delete(motor)
+            if not self.comp1d.delete(kind, motor) and kind == "COMP" and motor in self.comp.tables:
+                if any(owner < motor for owner in self.comp1d.owners("COMP")):
+                    raise CompError(7, "DELETE COMP: delete tables from low to high motor number")
+                self.comp.delete(motor)
         except CompError as exc:
             raise CommandError(exc.code) from None
 
-    def list_comp(self, motor: int, definition: bool = False) -> list[str]:
+    def list_comp(self, motor: int, definition: bool = False, kind: str = "COMP") -> list[str]:
+        if motor in self.comp1d.tables[kind]:
+            if definition:
+                return [str(self.comp1d.list_definition(kind, motor))]
+            return self.comp1d.list_text(kind, motor) or []
+        if kind != "COMP":
+            return []
         text = self.comp.list_definition(motor) if definition else self.comp.list_text(motor)
         return [] if text is None else text.rstrip("\n").split("\n")
 
     def _comp_image(self) -> list[dict[str, Any]]:
         return [{"motor": m, "define": d.text(), "entries": self.comp.entries[m][1:].tolist()}
                 for m, d in sorted(self.comp.tables.items())]
+
+    def _comp1d_image(self) -> list[dict[str, Any]]:
+        t1 = self.comp1d
+        return [{"kind": k, "motor": m, "define": t.text().split(" ", 2)[2],
+                 "entries": t1.entries[k][m][1:].tolist(), "zero": float(t1.entries[k][m][0])}
+                for k in t1.tables for m, t in sorted(t1.tables[k].items())]
+
+    def _comp1d_restore(self, image: list[dict[str, Any]]) -> None:
+        """The saved 1-D tables, with their correction at 0 as it was downloaded (I30 then)."""
+        for table in image:
+            self.comp1d.restore(str(table["kind"]), int(table["motor"]), str(table["define"]),
+                                [float(v) for v in table["entries"]], float(table.get("zero", 0.0)))
 
     def _comp_restore(self, image: list[dict[str, Any]]) -> None:
         for table in sorted(image, key=lambda t: -int(t["motor"])):  # high to low [A L3139]
@@ -380,6 +426,7 @@ class Firmware:
             "p": {str(int(n)): float(self.p[n]) for n in np.nonzero(self.p)[0]},
             "q": {f"{int(c)},{int(n)}": float(self.q[c, n]) for c, n in np.argwhere(self.q)},
             "comp": self._comp_image(),
+            "comp1d": self._comp1d_image(),
         }
 
     def save(self) -> None:
@@ -401,6 +448,7 @@ class Firmware:
             c, n = (int(k) for k in key.split(","))
             self.q[c, n] = v
         self._comp_restore(image.get("comp", []))
+        self._comp1d_restore(image.get("comp1d", []))
         self._reset_hardware()
 
     def power_on_reset(self) -> None:
@@ -420,9 +468,12 @@ class Firmware:
         self.q[:] = 0
         self.feed[:] = 100
         self.comp.clear()
+        self.comp1d.clear()
         self.locks = 0
 
     def _reset_hardware(self) -> None:
+        self.resets += 1
+        self.comp1d.reset()
         self.memory.clear()
         self.motors.reset()
         for n in range(100, 100 * (self.ivars.motors + 1)):

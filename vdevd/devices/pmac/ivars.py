@@ -125,7 +125,10 @@ MOTOR: dict[int, IVar] = {
     75: _int(0, 16_777_215, 0),   # negative values are converted by the interpreter [A L2191]
     80: _int(0, 7, 0),
     81: _ADDR, 82: _ADDR, 83: _ADDR,
-    85: _int(0, 255, 0), 88: _int(0, 255, 0),
+    85: _int(0, 8_388_607, 0),   # backlash take-up rate, 1/16 count per cycle [Turbo SRM Ixx85]
+    86: _int(0, 8_388_607, 0),   # backlash size, 1/16 count [Turbo SRM Ixx86]
+    87: _int(0, 8_388_607, 64),  # backlash hysteresis, 1/16 count (PMAC(1) I99's default) [Turbo SRM Ixx87]
+    88: _int(0, 255, 0),
     90: IVar(0, 0, 1, integer=True),
     91: _ADDR, 92: IVar(10, 1, 8_388_607, integer=True),
     95: _ADDR, 96: _FLAG, 97: _int(0, 3, 0),

@@ -394,36 +394,38 @@ class Interpreter:
 
     def list_table(self, line: Line, port: PortState, out: list[str]) -> None:
         line.skip()
-        if line.take("COMP"):
+        kind = _table_kind(line)
+        if kind is not None:
             line.skip()
-            out.extend(self.fw.list_comp(port.motor, definition=line.take("DEF")))
+            out.extend(self.fw.list_comp(port.motor, definition=line.take("DEF"), kind=kind))
             return
         raise CommandError(ERR_DATA, "LIST of program buffers comes in a later issue")
 
     def define(self, line: Line, port: PortState, out: list[str]) -> None:
         line.take("INE")
         line.skip()
-        if not line.take("COMP"):
-            raise CommandError(ERR_DATA, "only DEFINE COMP is supported yet")
+        kind = _table_kind(line)
+        if kind is None:
+            raise CommandError(ERR_DATA, "only DEFINE COMP, BLCOMP and TCOMP are supported yet")
         end = len(line.s)
-        port.table_left = self.fw.define_comp(port.motor, line.s[line.i:end])
+        port.table_left = self.fw.define_comp(port.motor, line.s[line.i:end], kind)
         port.table_motor = port.motor
         line.i = end
 
     def delete(self, line: Line, port: PortState, out: list[str]) -> None:
         line.take("ETE")
         line.skip()
-        if line.take("COMP"):
-            self.fw.delete_comp(port.motor)
-        elif line.take("GATHER") or line.take("ROTARY") or line.take("ROT") \
-                or line.take("TCOMP") or line.take("BLCOMP") or line.take("TBUF"):
+        kind = _table_kind(line)
+        if kind is not None:
+            self.fw.delete_comp(port.motor, kind)
+        elif line.take("GATHER") or line.take("ROTARY") or line.take("ROT") or line.take("TBUF"):
             pass  # none of these buffers exists yet: deleting one is a no-op
         else:
             raise CommandError(ERR_DATA)
 
     def _table_entry(self, line: Line, port: PortState) -> None:
         value = line.signed()
-        if value is None:
+        if value is None or line.peek() == ".":  # entries are integers: a fraction stores nothing
             raise CommandError(ERR_DATA)
         port.table_left = self.fw.comp_entry(port.table_motor, value)
         line.skip()
@@ -516,6 +518,14 @@ def _longest_word(s: str, i: int) -> str:
         if word[:k] in _WORD_NAMES:
             return word[:k]
     return ""
+
+
+def _table_kind(line: Line) -> str | None:
+    """The compensation-table word after DEFINE/DELETE/LIST: COMP, BLCOMP or TCOMP (comp1d.py)."""
+    for kind in ("BLCOMP", "TCOMP", "COMP"):
+        if line.take(kind):
+            return kind
+    return None
 
 
 def compile_reports(text: str) -> Plan | None:
