@@ -106,16 +106,12 @@ class CommandPort:
         fw = self.card.fw
         # a printable line holds no control character: straight to the interpreter
         iv = fw.ivars.values
-        if self.framing is None:
-            reply = fw.interpreter.execute(self.state, line) if line.isprintable() else self.reply(line)
-            return frame(reply, int(iv[3]), int(iv[6]))
-        before = fw.resets
-        self.framing.before(int(iv[3]), int(iv[6]))
+        if self.framing is not None:  # the framing this line starts with, kept if it resets the card
+            self.framing.modes(int(iv[3]), int(iv[6]))
         reply = fw.interpreter.execute(self.state, line) if line.isprintable() else self.reply(line)
-        if fw.resets != before:
-            self.framing.reset(int(iv[3]), int(iv[6]))
-            self.state.motor, self.state.cs = 1, 1
-        return frame(reply, *self.framing.modes(int(iv[3]), int(iv[6])))
+        if self.framing is not None:
+            return frame(reply, *self.framing.modes(int(iv[3]), int(iv[6])))
+        return frame(reply, int(iv[3]), int(iv[6]))
 
     def control(self, ch: int) -> bytes:
         self.card.touched()
@@ -142,6 +138,7 @@ class CommandPort:
 
     def close(self) -> None:
         """Nothing is held per connection beyond the addressing (no program buffers yet)."""
+        self.card.ethernet_ports.discard(self)
 
 
 class DpramMemory:
@@ -180,6 +177,9 @@ class PmacCard(Card):
                                  help="client addresses allowed on a non-loopback Ethernet endpoint"),
         "plant": Option(str, "servo", choices=("servo", "ideal"),
                         help="servo: amplifier and motor model; ideal: motors follow exactly"),
+        "macro_stations": Option(list, [], choices=tuple(range(64)),
+                                 help="MACRO nodes (0-63) with a virtual station (MS, MSR, MSW); "
+                                      "I20-I23 then hold their MACRO ICs' bases"),
     }
 
     #: motors are numbered from 1 [SRM]
@@ -210,6 +210,7 @@ class PmacCard(Card):
                              "(the PMAC protocol has no authentication)")
         self.ethernet_endpoint = ""
         self._server: EthernetServer | None = None
+        self.ethernet_ports: set[CommandPort] = set()
         # passive (decision 0010): all but the two handshake control words, which have hooks
         self.dpram = self.add_region(Region(
             DPRAM, DPRAM_SIZE, widths=(1, 2, 4), endian="little",
@@ -228,6 +229,8 @@ class PmacCard(Card):
         store = ctx.nvram
         self.fw = Firmware(self.motors, float(self.period), opts.plant, Identity(cid=opts.cid),
                            store=self._store)
+        self.fw.macro.configure(opts.macro_stations)
+        self.fw.ivars.defaults[20:24] = self.fw.macro.ic_bases()  # I20-I23 [A L3228]
         self.make_world(self.motors)
         self._world_setup()
         self.fw.memory.mount(DPRAM_BASE, DPRAM_BASE + DPRAM_SIZE // 4 - 1, DpramMemory(self.dpram))
@@ -257,6 +260,11 @@ class PmacCard(Card):
         self._pulses = False
         self._sensing = False
 
+    def _open_ethernet_port(self) -> CommandPort:
+        port = CommandPort(self, ethernet=True)
+        self.ethernet_ports.add(port)
+        return port
+
     # -- power-up ---------------------------------------------------------------------------------
     def _firmware_reset(self) -> None:
         """After `$$$`, `$$$***` and at start: the host port, the interrupt controller and the
@@ -267,6 +275,11 @@ class PmacCard(Card):
         self.dpram_port.motor, self.dpram_port.cs = 1, 1
         self.host_port_state.state = PortState()
         self.fw.ivars.values[58] = 1
+        iv = self.fw.ivars.values
+        for port in self.ethernet_ports:  # they keep their framing (eth_framing.py)
+            port.state.motor, port.state.cs = 1, 1
+            if port.framing is not None:
+                port.framing.reset(int(iv[3]), int(iv[6]))
         if hasattr(self, "_prev_phys"):  # the inputs as the world has them, sensed now
             self._world_changed()
 
@@ -451,7 +464,7 @@ class PmacCard(Card):
         if not self.ethernet:
             return
         try:
-            self._server = await EthernetServer.start(self.ethernet, lambda: CommandPort(self, ethernet=True),
+            self._server = await EthernetServer.start(self.ethernet, self._open_ethernet_port,
                                                       allow=self.allow)
         except OSError as exc:
             reason = os.strerror(exc.errno) if exc.errno else str(exc)

@@ -8,12 +8,13 @@ The Ethernet protocol answers GETRESPONSE "exactly as a serial port would give i
 afterwards. A reset brings back the saved (or factory) I3 and I6, by default 1 and 1, which would
 frame the reset's own reply and every later one with line feeds.
 
-Rule (README "Ethernet after a reset"): an Ethernet connection that runs a line which resets the
-card goes on framing its replies, that line's included, with the I3/I6 in force before the line;
-it does so until the card's I3 or I6 changes again (a client that writes I3 or I6 gets what it
-wrote). The card's I3 and I6 themselves are what the reset made them (`I3` still reads the saved
-value), and the other ports frame with them. The connection's `#`/`&` addressing starts afresh at
-#1 and &1, as the other ports' does.
+Rule (README "Ethernet after a reset"): every Ethernet connection open when the card resets (by a
+line on any port, itself included) goes on framing its replies -- the resetting line's own reply
+included -- with the I3/I6 it framed its last reply with, until the card's I3 or I6 changes again
+(a client that writes I3 or I6 gets what it wrote). The card's I3 and I6 themselves are what the
+reset made them (`I3` reads the saved value), and the DPRAM, the host port and connections opened
+after the reset frame with them. The connections' `#`/`&` addressing starts afresh at #1 and &1,
+as the other ports' does.
 """
 
 from __future__ import annotations
@@ -22,12 +23,12 @@ from __future__ import annotations
 class KeptFraming:
     """One Ethernet connection's framing (I3, I6) across resets; no I/O."""
 
-    __slots__ = ("_after", "_before", "_kept")
+    __slots__ = ("_after", "_kept", "_last")
 
     def __init__(self) -> None:
         self._kept: tuple[int, int] | None = None   # the framing kept over a reset
         self._after: tuple[int, int] = (0, 0)       # the card's I3/I6 right after that reset
-        self._before: tuple[int, int] = (0, 0)
+        self._last: tuple[int, int] | None = None   # the framing of the connection's last reply
 
     @property
     def kept(self) -> tuple[int, int] | None:
@@ -37,12 +38,10 @@ class KeptFraming:
         """The (I3, I6) that frame a reply while the card has (`i3`, `i6`)."""
         if self._kept is not None and (i3, i6) != self._after:
             self._kept = None  # I3 or I6 written since the reset: the card's own values rule
-        return (i3, i6) if self._kept is None else self._kept
-
-    def before(self, i3: int, i6: int) -> None:
-        """A line is about to run with the card at (`i3`, `i6`)."""
-        self._before = self.modes(i3, i6)
+        self._last = (i3, i6) if self._kept is None else self._kept
+        return self._last
 
     def reset(self, i3: int, i6: int) -> None:
-        """The line reset the card, which now has (`i3`, `i6`)."""
-        self._kept, self._after = self._before, (i3, i6)
+        """The card was reset and now has (`i3`, `i6`)."""
+        if self._last is not None:
+            self._kept, self._after = self._last, (i3, i6)

@@ -22,6 +22,7 @@ from vdevd.devices.pmac.expr import ExprError
 from vdevd.devices.pmac.feedback import FeedbackSelect
 from vdevd.devices.pmac.gpio import GeneralIO
 from vdevd.devices.pmac.ivars import IVars
+from vdevd.devices.pmac.macro import MacroStations
 from vdevd.devices.pmac.memory import TOP, Memory
 from vdevd.devices.pmac.motor_reports import MotorReports
 from vdevd.devices.pmac.motors import MotorError, Motors
@@ -75,8 +76,6 @@ class Firmware:
         self.servo_cycles = 0
         self.global_bits = 0
         self.locks = 0
-        #: resets so far ($$$, $$$***, power-up): a port sees whether a line reset the card
-        self.resets = 0
         self._comp_applied = False
         self._store = store
         #: called after a power-on or factory reset (the card resets its ports)
@@ -106,6 +105,7 @@ class Firmware:
         self.comp1d = Tables1D(self.ivars, self.ivars.motors, lambda: set(self.comp.tables),
                                self.existing_buffers)
         self.feedback = FeedbackSelect(mem, self.ivars)
+        self.macro = MacroStations()
         self.interpreter = Interpreter(self)
 
     # -- time -------------------------------------------------------------------------------------
@@ -472,7 +472,6 @@ class Firmware:
         self.locks = 0
 
     def _reset_hardware(self) -> None:
-        self.resets += 1
         self.comp1d.reset()
         self.memory.clear()
         self.motors.reset()

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 
 from vdevd.devices.pmac import expr
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
-from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_MACRO, CommandError
+from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, CommandError
 from vdevd.devices.pmac.mvars import MDefError, parse_definition
 from vdevd.devices.pmac.numbers import format_value
 from vdevd.devices.pmac.reply import Reply
@@ -390,7 +390,49 @@ class Interpreter:
         """H: feed hold of the addressed C.S.; with no axes defined it holds nothing."""
 
     def macro_station(self, line: Line, port: PortState, out: list[str]) -> None:
-        raise CommandError(ERR_MACRO, "no MACRO ring on this card")
+        """MS{node},MI{n} reads and MS{node},MI{n}={v} writes a station's MI-variable (`I` for `MI`
+        as dls-pmaclib sends it); MSR{node},{address},{variable} reads a station register into a
+        variable, MSW{node},{address},{variable} writes one (macro.py) [Turbo SRM; spec §3.3]."""
+        fw = self.fw
+        op = "R" if line.take("R") else "W" if line.take("W") else ""
+        line.skip()
+        node = line.integer()
+        line.skip()
+        if node is None or not line.take(","):
+            raise CommandError(ERR_DATA)
+        line.skip()
+        if op:
+            if line.peek() in ("X", "Y") and line.peek(1) == ":":
+                line.i += 2
+            m = _HEXNUM.match(line.s, line.i)
+            if m is None:
+                raise CommandError(ERR_DATA)
+            address = int(m.group(1)[1:], 16) if m.group(1)[0] == "$" else int(m.group(1))
+            line.i = m.end()
+            line.skip()
+            if not line.take(","):
+                raise CommandError(ERR_DATA)
+            line.skip()
+            kind = line.peek()
+            line.i += 1
+            n = line.integer()
+            if kind not in VARIABLES or n is None or n >= fw.variable_count(kind):
+                raise CommandError(ERR_DATA)
+            if op == "R":
+                fw.set_variable(port, kind, n, fw.macro.read_register(node, address))
+            else:
+                fw.macro.write_register(node, address, fw.get_variable(port, kind, n))
+            return
+        line.take("M")
+        n = line.integer() if line.take("I") else None
+        if n is None:
+            raise CommandError(ERR_DATA)
+        line.skip()
+        if line.peek() == "=" and line.peek(1) != "=":
+            line.i += 1
+            fw.macro.write_mi(node, n, line.expression(fw.env(port)))
+            return
+        out.append(str(fw.macro.read_mi(node, n)))
 
     def list_table(self, line: Line, port: PortState, out: list[str]) -> None:
         line.skip()
