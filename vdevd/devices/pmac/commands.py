@@ -63,7 +63,7 @@ COMMANDS = CommandTable(
         _word("UNLOCK", "lock", True, section=f"{_S18} [A L3264]"),
         _word("MOVETIME", "movetime", section=f"{_S18} [A L3262]"),
         _word("SETPHASE", "setphase", section=f"{_S18} [A L3263]"),
-        _word("MS", "macro_station"),
+        _word("MS", "macro_station", section="Turbo SRM MS/MSR/MSW; §3.3"),
         # tables [§1.7]
         _word("DEFINE", "define", section=_S17), _word("DEF", "define", section=_S17),
         _word("DELETE", "delete", section=_S17), _word("DEL", "delete", section=_S17),

@@ -130,9 +130,10 @@ class Firmware:
     def _offset_feedback(self) -> None:
         """What the loops see beside their own encoder, as an offset of the motion core's encoder
         reading (to the nearest count):
-        - compensation tables: the target motor's loop runs at commanded + correction while P and
-          F report the commanded frame, as a leadscrew table does [A L3118-3219; README
-          "DEFINE COMP"] (I51 = 0 or no table: none; an ideal motor follows its command only);
+        - compensation tables (2-D, 1-D leadscrew) and backlash: the target motor's loop runs at
+          commanded + correction while P and F report the commanded frame [A L3118-3219; Turbo
+          SRM; README "Compensation tables"] (I51 = 0 or no table: none, backlash from Ixx85/86
+          alone; an ideal motor follows its command only);
         - Ixx03 pointed at another conversion-table result: the loop reads that result
           (feedback.py)."""
         core = self.motors.core
