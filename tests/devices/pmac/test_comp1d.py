@@ -269,3 +269,30 @@ def test_no_backlash_without_ixx85() -> None:
     c.raw("#1J=500")
     c.tick(3000)
     assert encoder(c) == 500
+
+
+# -- rest (decision 0008) -------------------------------------------------------------------------
+def test_tables_at_rest_cost_nothing_and_backlash_takeup_is_work() -> None:
+    """A card holding a leadscrew table and taken-up backlash rests once its motors settle (the
+    correction depends on positions only); while backlash is taken up it does not; resting and
+    cycle-by-cycle cards end alike."""
+    from tests.devices.pmac.test_cycle_runs import Twin
+
+    twin = Twin(True, "servo")
+    for line in ("#1 DEFINE COMP 4,#2D,#1,4000", "160 320 480 0", "I51=1 I185=1 I186=160",
+                 "#2J=1500 #1J=1000"):
+        twin.send(line)
+    twin.tick(6000)
+    twin.same()
+    fast = twin.cards[0]
+    assert fast.rest_state() is not None
+    twin.send("#1J=900")
+    twin.tick(2000)                                  # the move is over, 10 counts take 160 cycles
+    twin.same()
+    skipped = fast.quiet_skipped
+    twin.tick(3000)
+    twin.same()
+    assert fast.quiet_skipped > skipped              # at rest again, table and backlash held
+    assert fast.fw.comp1d.taken[0] == -10
+    core = fast.fw.motors.core
+    assert core.axes.encoder[0] + core.encoder_slip[0] == 900 + 15 - 10  # the stage's true count

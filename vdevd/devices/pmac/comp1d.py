@@ -140,6 +140,8 @@ class Tables1D:
         self._filled = 0
         base = 100 * np.arange(1, motors + 1)
         self._i85, self._i86, self._i87 = base + 85, base + 86, base + 87
+        self._rate = ivars.values[185:100 * motors + 86:100]   # a view: Ixx85 of every motor
+        self._held = False                                      # any backlash taken up now
         #: backlash per motor: last commanded direction (-1 negative), the extreme commanded position
         #: since, the backlash taken up now (counts, <= 0)
         self.direction = np.ones(motors)
@@ -230,6 +232,7 @@ class Tables1D:
         self.direction[:] = 1
         self.extreme[:] = 0
         self.taken[:] = 0
+        self._held = False
 
     def list_text(self, kind: str, motor: int) -> list[str] | None:
         """LIST {kind}: the entries as sent, one per line (ASSUMPTION: layout); None: no table."""
@@ -254,9 +257,7 @@ class Tables1D:
     @property
     def active(self) -> bool:
         """Whether the servo cycle has anything to compute: a table, backlash configured or held."""
-        v = self.ivars.values
-        return bool(self._comp.count or self._bl.count or self.taken.any()
-                    or (v[self._i85].any() and v[self._i86].any()))
+        return bool(self._comp.count or self._bl.count or self._held or self._rate.any())
 
     def leadscrew(self, actual: np.ndarray, desired: np.ndarray) -> np.ndarray:
         """The 1-D leadscrew tables' correction per motor (index motor-1), counts; 0 unless I51=1."""
@@ -297,6 +298,7 @@ class Tables1D:
         rate = v[self._i85] / 16.0
         step = np.clip(self._goal(desired, self.direction) - self.taken, -rate, rate)
         self.taken += step
+        self._held = bool(self.taken.any())
         return self.taken.copy()
 
     def busy(self, desired: np.ndarray) -> bool:
