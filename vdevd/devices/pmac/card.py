@@ -276,7 +276,7 @@ class PmacCard(Card):
         self.host_port_state.state = PortState()
         self.fw.ivars.values[58] = 1
         iv = self.fw.ivars.values
-        for port in self.ethernet_ports:  # they keep their framing (eth_framing.py)
+        for port in list(self.ethernet_ports):  # they keep their framing (eth_framing.py)
             port.state.motor, port.state.cs = 1, 1
             if port.framing is not None:
                 port.framing.reset(int(iv[3]), int(iv[6]))
