@@ -172,7 +172,7 @@ def test_a_moving_n_keeps_the_card_from_resting() -> None:
 
 
 @pytest.mark.parametrize("line", ["HMN", "MON", "SHN", "KPN=1", "KPN=?", "TE N", "GRN=2",
-                                  "FE N", "TD N"])
+                                  "FE N", "TD N", "SC N", "PR ,,,,100"])
 def test_commands_n_does_not_take_are_tc_4_and_the_card_serves_on(line: str) -> None:
     """N has no encoder, no DAC: the commands of a motor or an encoder naming it are `?`, TC 4
     "Operand error", and nothing changes."""
@@ -180,6 +180,14 @@ def test_commands_n_does_not_take_are_tc_4_and_the_card_serves_on(line: str) -> 
     assert rig.refused(line) == TC.OPERAND_ERROR
     assert rig.value("1+1") == 2 and rig.ints("RP N") == [0]
     assert "KPN" not in rig.fw.variables
+
+
+def test_jgn_during_a_pr_move_is_tc_13_and_an_unknown_operand_of_n_tc_57() -> None:
+    rig = Rig()
+    rig.cmd("PRN=100000;BGN")
+    assert rig.refused("JGN=100") == TC.JG_ONLY_IN_JOG_MODE
+    assert rig.refused("MG _TEN") == TC.BAD_FUNCTION
+    assert rig.value("_BGN") == 1
 
 
 def test_other_names_ending_in_n_are_still_variables() -> None:
@@ -298,3 +306,21 @@ def test_bgs_with_n_moving_on_its_own_is_tc_21_and_st_n_stops_the_plane() -> Non
     x, n0 = rig.value("_RPX"), rig.value("_RPN")
     assert 0 < x < 30000 and rig.value("_BGN") == 0
     assert n0 == pytest.approx(rig.fw.virtual.reference())
+
+
+def test_a_path_driving_n_the_ecam_master_goes_on_through_n_s_redefinitions() -> None:
+    """N on a VM path and the master of a cam at once: at the end of each of N's cycles its
+    position is redefined and the path goes on from there (no jump back)."""
+    rig = Rig()
+    rig.cmd("EAN;EMN=1000;EM 0,1000;EP 100,0")
+    for i in range(11):
+        rig.cmd(f"ET[{i}]=,{i * 100}")  # Y is N's position within the cycle, 1000 a cycle
+    rig.cmd("EB1;EG ,0;VMXN;VP 3000,2500;VE;VS 20000;BGS")
+    while rig.fw.coord.active:
+        rig.fw.step()
+        n = rig.fw.virtual.position()
+        assert 0 <= n < 1000
+    rig.fw.step()
+    assert rig.ints("RP XYN") == [3000, 500, 500]
+    physical = rig.fw.motion.core.physical()
+    assert physical[:2].tolist() == [3000, 2500]  # Y went on through two cycles, no jumps

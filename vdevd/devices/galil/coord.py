@@ -56,7 +56,7 @@ class Plane:
         self.track_idx = np.zeros(0, dtype=np.int64)
         self._dims: list[int] = []  # the path coordinate of each real axis of `track`
         self.virtual_dim: int | None = None  # the path coordinate of N while it runs
-        self.virtual_origin = 0.0  # N's commanded position at BGS
+        self.virtual_origin = 0.0  # N's commanded position at BGS, less its redefinitions
         self.tracking = False
 
     def set_mode(self, mode: str, axes: tuple[int, ...], tangent: int | None = None) -> None:
@@ -144,7 +144,7 @@ class Coordinated:
         plane.virtual_dim = None
         if virtual is not None and VIRTUAL in plane.axes:
             plane.virtual_dim = plane.axes.index(VIRTUAL)
-            plane.virtual_origin = virtual.reference()
+            plane.virtual_origin = virtual.reference() - virtual.shifted  # N's redefinitions
             virtual.track(plane.virtual_origin)
         smoothing = round(1.0 / plane.vt) if plane.vt > 0 else 1
         plane.seq.ratio = plane.vr
@@ -222,7 +222,7 @@ class Coordinated:
             target.append(plane.tangent_position(seq.heading()))
         vd = plane.virtual_dim
         if vd is not None and self.virtual is not None:
-            n_at = plane.virtual_origin + pos[vd]
+            n_at = plane.virtual_origin + self.virtual.shifted + pos[vd]
             if more:
                 self.virtual.track(n_at)
             else:

@@ -36,6 +36,7 @@ class VirtualAxis:
         self.mode = Mode.PR
         self.moving_flag = self.core.profile.moving  # a view: [0] is N's
         self.path = False  # a vector plane drives N now (coord.py)
+        self.shifted = 0.0  # the redefinitions of `shift` so far (a path adds them to its own)
 
     @property
     def moving(self) -> bool:
@@ -102,6 +103,7 @@ class VirtualAxis:
 
     def shift(self, counts: float) -> None:
         """A redefinition by `counts` that keeps the motion (the ECAM master's cycle end)."""
+        self.shifted += counts
         self.core.shift_position(0, counts)
 
     # -- the path of a vector plane (coord.py) ------------------------------------------------------
