@@ -6,7 +6,8 @@ A `Plane` holds its mode (LM axes, or VM's pair and tangent axis), VS VA VD VR V
 sample and feeds the axes their commanded positions through `MotionCore.track` (the profile
 generator then runs them in a straight line to that point at the next tick); at the end they
 hold the last point exactly (`MotionCore.hold`). The virtual axis N may be one of VM's pair: it
-takes part in the path and drives nothing [M Ch6 §Virtual Axis]. Stop codes (spec §4.4): 100
+takes part in the path and drives no motor; the path drives N's own commanded position
+(virtual.py) from where N stands at BGS [M Ch6 §Virtual Axis]. Stop codes (spec §4.4): 100
 while a sequence runs, 101 when it ended at its last vector, 4 after ST, 2/3 at a limit switch,
 7 after AB, 6 at the abort input.
 """
@@ -24,6 +25,7 @@ from vdevd.devices.galil.vector import MAX_LENGTH, Sequence
 
 if TYPE_CHECKING:
     from vdevd.devices.galil.motion import GalilMotion
+    from vdevd.devices.galil.virtual import VirtualAxis
 
 VIRTUAL = -1  # the N axis: no encoder, no DAC [M Ch6 §Virtual Axis]
 SC_VECTOR_RUNNING = 100  # "motors running in vector sequence" (spec §4.4)
@@ -53,6 +55,8 @@ class Plane:
         self.track: list[int] = []  # the card's axes the path drives (and the tangent axis)
         self.track_idx = np.zeros(0, dtype=np.int64)
         self._dims: list[int] = []  # the path coordinate of each real axis of `track`
+        self.virtual_dim: int | None = None  # the path coordinate of N while it runs
+        self.virtual_origin = 0.0  # N's commanded position at BGS, less its redefinitions
         self.tracking = False
 
     def set_mode(self, mode: str, axes: tuple[int, ...], tangent: int | None = None) -> None:
@@ -93,8 +97,9 @@ class Plane:
 class Coordinated:
     """The S and T planes of one card over its axis firmware."""
 
-    def __init__(self, motion: GalilMotion) -> None:
+    def __init__(self, motion: GalilMotion, virtual: VirtualAxis | None = None) -> None:
         self.motion = motion
+        self.virtual = virtual  # the N axis a VM plane may drive
         self.core = motion.core
         self.n = motion.n
         self.planes = {"S": Plane("S", motion.dt), "T": Plane("T", motion.dt)}
@@ -135,6 +140,12 @@ class Coordinated:
         plane.track_idx = np.asarray(plane.track, dtype=np.int64)
         plane.origin = np.rint(core.axes.cmd_pos[plane.track_idx])
         plane.origin_list = plane.origin.tolist()
+        virtual = self.virtual
+        plane.virtual_dim = None
+        if virtual is not None and VIRTUAL in plane.axes:
+            plane.virtual_dim = plane.axes.index(VIRTUAL)
+            plane.virtual_origin = virtual.reference() - virtual.shifted  # N's redefinitions
+            virtual.track(plane.virtual_origin)
         smoothing = round(1.0 / plane.vt) if plane.vt > 0 else 1
         plane.seq.ratio = plane.vr
         plane.seq.start(smoothing)
@@ -209,6 +220,13 @@ class Coordinated:
         target = [o + pos[d] for o, d in zip(plane.origin_list, plane._dims, strict=False)]
         if plane.tangent is not None:
             target.append(plane.tangent_position(seq.heading()))
+        vd = plane.virtual_dim
+        if vd is not None and self.virtual is not None:
+            n_at = plane.virtual_origin + self.virtual.shifted + pos[vd]
+            if more:
+                self.virtual.track(n_at)
+            else:
+                self.virtual.hold(round(n_at) if plane.stop_code == SC_VECTOR_DONE else n_at)
         if more:
             return target
         code = plane.stop_code
@@ -234,6 +252,9 @@ class Coordinated:
         self._end(plane)
 
     def _end(self, plane: Plane) -> None:
+        if plane.virtual_dim is not None and self.virtual is not None and self.virtual.path:
+            self.virtual.hold()  # cut or aborted: N stops where the path left it
+        plane.virtual_dim = None
         plane.running = plane.tracking = False
         plane.seq.done = True
         self._refresh()

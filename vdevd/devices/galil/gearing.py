@@ -14,6 +14,7 @@ import enum
 import numpy as np
 
 from vdevd.devices.galil.motion import GalilMotion
+from vdevd.devices.galil.virtual import VirtualAxis
 from vdevd.rt import PlantKind
 
 #: GR: +-127.9999 with a fractional resolution of .0001 [M Ch6 §Electronic Gearing]
@@ -33,9 +34,13 @@ class Source(enum.IntEnum):
 class Gearing:
     """The gearing state of one card's axes: master, source, ratio, gantry flag."""
 
-    def __init__(self, motion: GalilMotion) -> None:
+    def __init__(self, motion: GalilMotion, virtual: VirtualAxis | None = None) -> None:
         n = motion.n
         self.motion = motion
+        #: the virtual axis N, master number n (`GA N`): its commanded position for every
+        #: source (it has no encoder) [M Ch6 §Virtual Axis]
+        self.virtual = virtual
+        self._readings = np.zeros((4, n + 1))
         self.master = np.full(n, -1, dtype=np.int64)
         self.source = np.zeros(n, dtype=np.int64)
         self.ratio = np.zeros(n)
@@ -52,9 +57,13 @@ class Gearing:
         return bool(len(self._idx))
 
     def readings(self) -> np.ndarray:
-        """Per axis, what a follower of it would follow, by source (rows: Source)."""
-        m = self.motion
-        return np.stack([np.zeros(m.n), m.position(), m.core.axes.cmd_pos, m.auxiliary()])
+        """Per axis, what a follower of it would follow, by source (rows: Source); column n is
+        the virtual axis N (one buffer, rewritten at each call)."""
+        m, r = self.motion, self._readings
+        r[1, :-1], r[2, :-1], r[3, :-1] = m.position(), m.core.axes.cmd_pos, m.auxiliary()
+        if self.virtual is not None:
+            r[1:, -1] = self.virtual.position()
+        return r
 
     def set_master(self, axes: list[int], masters: list[int], sources: list[int]) -> None:
         """GA: the masters of `axes`; a follower already geared goes on from the new master's
@@ -90,7 +99,7 @@ class Gearing:
         idx = self._idx
         if not len(idx):
             return
-        shift = np.zeros(self.motion.n)
+        shift = np.zeros(self.motion.n + 1)  # [n]: the virtual axis N
         shift[axes] = counts
         moved = shift[self.master[idx]]
         if self.motion.plant_kind != PlantKind.STEPPER:  # TD does not move on a servo axis
