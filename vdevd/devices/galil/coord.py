@@ -46,6 +46,8 @@ class Plane:
         self.tangent: int | None = None  # VM's third axis
         self.tn_scale = 0.0  # TN m: counts per degree
         self.tn_offset = 0.0  # TN n: the tangent position at 0 degrees
+        self.es = (1.0, 1.0)  # ES m,n: the counts of VM's two axes for one path unit each
+        self._scale: list[float] = []  # per real axis of `track`: the ES factor taken at BGS
         self.vs, self.va, self.vd, self.vr, self.vt = 25_000.0, 256_000.0, 256_000.0, 1.0, 1.0
         self.seq = Sequence(1, dt)
         self.running = False
@@ -63,6 +65,15 @@ class Plane:
         """LM or VM: a new mode clears the sequence."""
         self.mode, self.axes, self.tangent = mode, axes, tangent
         self.seq = Sequence(len(axes), self.dt)
+
+    def dim_scale(self) -> list[float]:
+        """Per path coordinate, what ES multiplies it by: in vector mode the higher-resolution
+        axis by the ratio of the two counts, so that the path is in the lower resolution's
+        counts [M Ch6 §Compensating for Differences in Encoder Resolution]; 1 otherwise."""
+        if self.mode != "VM" or len(self.axes) != 2:
+            return [1.0] * len(self.axes)
+        low = min(self.es)
+        return [self.es[0] / low, self.es[1] / low]
 
     def fresh(self) -> Sequence:
         """The sequence new segments go into: a finished one gives way to a new one (its own
@@ -135,6 +146,8 @@ class Coordinated:
         real = [(d, a) for d, a in enumerate(plane.axes) if a != VIRTUAL]
         plane.track = [a for _, a in real]
         plane._dims = [d for d, _ in real]
+        scale = plane.dim_scale()
+        plane._scale = [scale[d] for d, _ in real]
         if plane.tangent is not None:
             plane.track.append(plane.tangent)
         plane.track_idx = np.asarray(plane.track, dtype=np.int64)
@@ -217,7 +230,8 @@ class Coordinated:
         if seq.speed is not None:
             plane.vs = seq.speed  # `<n` is VS n from its segment on [M Ch6]
         pos = seq.position()
-        target = [o + pos[d] for o, d in zip(plane.origin_list, plane._dims, strict=False)]
+        target = [o + k * pos[d]
+                  for o, d, k in zip(plane.origin_list, plane._dims, plane._scale, strict=False)]
         if plane.tangent is not None:
             target.append(plane.tangent_position(seq.heading()))
         vd = plane.virtual_dim
