@@ -138,6 +138,7 @@ class Firmware:
         self.ei_inputs = 0
         self.vector: int | None = None
         self.time_origin = self.ticks
+        self.at_reference: dict[int | None, int] = {}  # per thread (None: the command line)
         self._trip: Trippoint | None = None
         self._out = bytearray()
         self.ar_base: dict[int, float] = {}  # AR: where the last AR trippoint ended per axis
