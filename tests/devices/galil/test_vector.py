@@ -645,3 +645,22 @@ def test_es_scales_the_higher_resolution_axis_of_a_circle() -> None:
     assert rp(rig) == [1000, 2000, 0, 0]
     assert rig.send(b"ES 0,1\r") == b"?"
     assert rig.send(b"ES 1,70000\r") == b"?"
+
+
+def test_ga_s_gears_an_axis_to_the_distance_along_the_path() -> None:
+    """[M Ch6 §Electronic Gearing]: "n = S or T for gearing to coordinated motion": Z geared to
+    plane S at GR 0.5 moves half the path's length; a second sequence goes on from there (the
+    follower follows the increments, a new sequence's distance from 0 moves it no way back)."""
+    rig = Rig()
+    rig.send(b"GA ,,S;GR ,,0.5;VM XY;VP 3000,4000;VE;VS 20000;BGS\r")
+    while rig.fw.coord.active:
+        rig.sample()
+        x, y, z = rig.fw.motion.reference()[:3]
+        assert abs(z - 0.5 * math.hypot(x, y)) <= 1.0
+    rig.sample()
+    assert rp(rig)[:3] == [3000, 4000, 2500]
+    rig.send(b"VP 3000,0;VE;BGS\r")
+    for _ in range(2000):
+        rig.sample()
+    assert rp(rig)[:3] == [6000, 4000, 4000]
+    assert rig.send(b"GA ,,DS\r") == b"?"  # no auxiliary encoder of a plane

@@ -60,6 +60,10 @@ class Plane:
         self.virtual_dim: int | None = None  # the path coordinate of N while it runs
         self.virtual_origin = 0.0  # N's commanded position at BGS, less its redefinitions
         self.tracking = False
+        #: the distance along the path this plane has ever travelled (a follower geared to the
+        #: plane, `GA S`, follows its increments: a new sequence does not move it back)
+        self.travelled = 0.0
+        self._last_out = 0.0
 
     def set_mode(self, mode: str, axes: tuple[int, ...], tangent: int | None = None) -> None:
         """LM or VM: a new mode clears the sequence."""
@@ -163,6 +167,7 @@ class Coordinated:
         plane.seq.ratio = plane.vr
         plane.seq.start(smoothing)
         plane.running, plane.tracking = True, True
+        plane._last_out = plane.seq.out
         plane.stop_code = SC_VECTOR_DONE
         idx = plane.track_idx
         m.stop_code[idx] = SC_VECTOR_RUNNING
@@ -229,6 +234,8 @@ class Coordinated:
         more = seq.advance(plane.vs * plane.vr, plane.va, plane.vd)
         if seq.speed is not None:
             plane.vs = seq.speed  # `<n` is VS n from its segment on [M Ch6]
+        plane.travelled += seq.out - plane._last_out
+        plane._last_out = seq.out
         pos = seq.position()
         target = [o + k * pos[d]
                   for o, d, k in zip(plane.origin_list, plane._dims, plane._scale, strict=False)]

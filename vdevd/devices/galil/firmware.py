@@ -117,6 +117,8 @@ class Firmware:
         self.follow = Follow(self.motion, self.virtual)
         self.follow.spm.on_error = lambda: self.threads.automatic(POSERR)  # YS 2 [M Ch6 §SPM]
         self.coord = Coordinated(self.motion, self.virtual)  # the S and T planes (coord.py)
+        planes = self.coord.planes
+        self.follow.gearing.planes = lambda: (planes["S"].travelled, planes["T"].travelled)
         if old is not None:
             self.motion.core.zero[:] = -old.core.physical()
         self.variables: dict[str, float] = {}

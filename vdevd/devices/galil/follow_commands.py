@@ -78,7 +78,9 @@ class FollowCommands:
     def ga(self, arg: str) -> bytes:
         """GA: each follower's master: X (main encoder), CX (commanded), DX (auxiliary); N or
         CN the virtual axis's commanded position (master number n; it has no encoder)
-        [M Ch6 §Virtual Axis]."""
+        [M Ch6 §Virtual Axis]; S or T the distance the plane travels along its path (masters
+        n+1, n+2) [M Ch6 §Electronic Gearing: "n = S or T for gearing to coordinated
+        motion"]."""
         gear = self.follow.gearing
         axes, masters, sources = [], [], []
         for a, field in self.interp.per_axis(arg):
@@ -89,9 +91,10 @@ class FollowCommands:
             if len(text) == 2 and text[0] in "CD":
                 source = Source.COMMANDED if text[0] == "C" else Source.AUXILIARY
                 text = text[1:]
-            if text in ("S", "T"):
-                raise GalilError(TC.S_OPERAND_NOT_VALID, "gearing to vector motion")
-            if text == "N" and source != Source.AUXILIARY:
+            if text in ("S", "T") and source == Source.ENCODER:
+                # gearing to coordinated motion: the plane's distance along its path
+                master, source = self.n + 1 + "ST".index(text), Source.COMMANDED
+            elif text == "N" and source != Source.AUXILIARY:
                 master, source = self.n, Source.COMMANDED
             else:
                 master = _axis(text, self.n)

@@ -10,6 +10,7 @@ plan, so a PR/JG of the follower is superimposed on the gearing [M Ch6]. Vectori
 from __future__ import annotations
 
 import enum
+from collections.abc import Callable
 
 import numpy as np
 
@@ -40,7 +41,11 @@ class Gearing:
         #: the virtual axis N, master number n (`GA N`): its commanded position for every
         #: source (it has no encoder) [M Ch6 §Virtual Axis]
         self.virtual = virtual
-        self._readings = np.zeros((4, n + 1))
+        self._readings = np.zeros((4, n + 3))
+        #: the distances the planes S and T have travelled (masters n+1, n+2: `GA S`, `GA T`,
+        #: gearing to coordinated motion [M Ch6 §Electronic Gearing, Command Summary]); the
+        #: firmware connects it to its Coordinated planes
+        self.planes: Callable[[], tuple[float, float]] | None = None
         self.master = np.full(n, -1, dtype=np.int64)
         self.source = np.zeros(n, dtype=np.int64)
         self.ratio = np.zeros(n)
@@ -58,11 +63,16 @@ class Gearing:
 
     def readings(self) -> np.ndarray:
         """Per axis, what a follower of it would follow, by source (rows: Source); column n is
-        the virtual axis N (one buffer, rewritten at each call)."""
+        the virtual axis N, n+1 and n+2 the distances of the planes S and T (one buffer,
+        rewritten at each call)."""
         m, r = self.motion, self._readings
-        r[1, :-1], r[2, :-1], r[3, :-1] = m.position(), m.core.axes.cmd_pos, m.auxiliary()
+        n = m.n
+        r[1, :n], r[2, :n], r[3, :n] = m.position(), m.core.axes.cmd_pos, m.auxiliary()
         if self.virtual is not None:
-            r[1:, -1] = self.virtual.position()
+            r[1:, n] = self.virtual.position()
+        if self.planes is not None:
+            s, t = self.planes()
+            r[1:, n + 1], r[1:, n + 2] = s, t
         return r
 
     def set_master(self, axes: list[int], masters: list[int], sources: list[int]) -> None:
@@ -99,7 +109,7 @@ class Gearing:
         idx = self._idx
         if not len(idx):
             return
-        shift = np.zeros(self.motion.n + 1)  # [n]: the virtual axis N
+        shift = np.zeros(self.motion.n + 3)  # [n]: the virtual axis N; [n+1], [n+2]: S, T
         shift[axes] = counts
         moved = shift[self.master[idx]]
         if self.motion.plant_kind != PlantKind.STEPPER:  # TD does not move on a servo axis
