@@ -133,7 +133,8 @@ MOTOR: dict[int, IVar] = {
 
 #: coordinate-system Isx variables (x -> definition) [SRM via digest §2.2, §2.8]
 CS: dict[int, IVar] = {
-    11: IVar(0), 12: IVar(0), 13: IVar(0, 0, 8_388_607), 20: _int(0, 65535, 0),
+    11: _int(-8_388_608, 8_388_607), 12: _int(-8_388_608, 8_388_607),  # countdown timers
+    13: IVar(0, 0, 8_388_607), 20: _int(0, 65535, 0), 50: _FLAG,  # Isx50 kinematics enable
     87: IVar(0, 0, 8_388_607), 88: IVar(0, 0, 8_388_607), 89: IVar(0, 0, 8_388_607),
     90: IVar(1000, 0, 8_388_607), 93: _ADDR, 94: IVar(1644, 0, 8_388_607),
     95: IVar(1644, 0, 8_388_607),
