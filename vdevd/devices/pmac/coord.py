@@ -41,8 +41,8 @@ _TIMER_MOD = 1 << 24
 _TIMER_HALF = 1 << 23
 
 _NUM = r"(?:\d+\.?\d*|\.\d+)"
-_TERM = re.compile(rf"[ \t]*([+-]?)[ \t]*({_NUM})?[ \t]*([{AXES}])")
-_OFFSET = re.compile(rf"[ \t]*([+-])[ \t]*({_NUM})(?![ \t]*[{AXES}\d.])")
+_TERM = re.compile(rf"[ \t]*([+-]?)[ \t]*({_NUM})?([{AXES}])")
+_OFFSET = re.compile(rf"[ \t]*([+-])[ \t]*({_NUM})(?![{AXES}\d.])")
 _ZERO = re.compile(r"[ \t]*0+(?![\d.A-Z])")
 
 

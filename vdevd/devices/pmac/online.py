@@ -204,7 +204,8 @@ class Interpreter:
         line.skip()
         if line.take("->"):  # the axis definition in the addressed C.S. [§2.8; coord.py]
             line.skip()
-            if line.peek() in ("", "#", "&"):  # `#n->`: report it (EPICS asks `&1#1->`)
+            if line.peek() in ("", "#", "&") or (line.peek().isalpha() and line.peek(1).isalpha()):
+                # `#n->` alone or before a command word: report it (EPICS asks `&1#1->`)
                 out.append(self.fw.coord.query(port.cs, port.motor))
                 return
             line.i = self.fw.define_axis(port.cs, port.motor, line.s, line.i)
