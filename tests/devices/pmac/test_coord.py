@@ -230,3 +230,12 @@ def test_program_commands_answer_err015_with_axes_defined(card: Card, line: str)
     card.ask("&1#1->X")
     assert card.raw(line) == err(15)
     assert card.ask("&1#1->") == ["1X"]
+
+
+def test_homing_sets_the_bias_back_to_the_definition_offset(card: Card) -> None:
+    """Mxx64 "is set equal to the axis definition offset ... on power-up/reset and homing"
+    [A L932]."""
+    card.ask("#1J/ &1#1->10X+3 X=50")
+    assert card.ask("RD:$0000CC") == [str(-500 * 96 * 32)]   # 0 = 10·50 + bias
+    card.ask("#1HMZ")
+    assert card.ask("RD:$0000CC") == [str(3 * 96 * 32)]

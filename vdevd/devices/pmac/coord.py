@@ -174,6 +174,12 @@ class CoordSystems:
             if d is not None and not d.inverse:
                 self.bias[m] += d.scale_of(axis) * (old - value)
 
+    def rebias(self, motor: int) -> None:
+        """Homing: the position bias back to the definition's offset [A L932] (ASSUMPTION: when
+        the home command is given, not when the search ends)."""
+        d = self.defs[motor - 1]
+        self.bias[motor - 1] = d.offset if d is not None else 0.0
+
     # -- Isx11/Isx12 --------------------------------------------------------------------------------
     @staticmethod
     def is_timer(n: int) -> bool:

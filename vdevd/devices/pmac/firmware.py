@@ -237,6 +237,8 @@ class Firmware:
             getattr(self.motors, name)(motor - 1, *args)
         except MotorError as exc:
             raise CommandError(exc.code) from None
+        if name in ("home", "home_zero"):  # homing sets the bias to the offset [A L932]
+            self.coord.rebias(motor)
 
     def motor_report(self, what: str, motor: int) -> str:
         """P, F (counts, to 1/32) or V (counts per servo cycle, to 0.1); 0 for a motor that is not

@@ -7,9 +7,10 @@ the lines already produced stay in the reply. The `#n`/`&n` addressing and a pen
 download belong to the port (`PortState`), so each port addresses its own motor.
 
 The commands are the table of commands.py, bound to the interpreter's methods once per
-interpreter. Commands that belong to motion programs, PLCs, coordinate-system axis definitions and
-data gathering come in a later issue; until then those the parser recognises answer the error the
-card gives for a command it cannot execute (`commands.REFUSED`, README "Not yet").
+interpreter. Axis definitions and the rest of the coordinate systems are coord.py's (`&n#m->`).
+Commands that belong to motion programs, PLCs and data gathering come in a later issue; until
+then those the parser recognises answer the error the card gives for a command it cannot execute
+(`commands.REFUSED`, README "Not yet").
 
 Lines made only of reports and motor addressing (`#1P`, `#2?`, `#3?PVF`, `I130`, `P99`), what
 hosts poll, are compiled once into their steps and then run without the general parse; each step
