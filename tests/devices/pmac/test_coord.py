@@ -183,9 +183,9 @@ def test_timers_are_the_cs_block_words_x_y_002015(card: Card) -> None:
     card.ask("I5111=100 I5212=40")
     card.tick(10)
     assert card.ask("M1 M2") == ["90", "30"]
-    card.ask("M1=500")                             # writing the register sets the timer
+    card.ask("M1=500 M2=-3")                       # writing the register sets the timer
     card.tick(1)
-    assert card.ask("I5111") == ["499"]
+    assert card.ask("I5111 I5212") == ["499", "-4"]
 
 
 def test_isx_defaults_and_range(card: Card) -> None:

@@ -155,6 +155,9 @@ class CoordSystems:
         """The motors (1-based) defined in C.S. cs."""
         return [int(m) + 1 for m in np.flatnonzero(self.cs == cs)]
 
+    def has_members(self, cs: int) -> bool:
+        return bool((self.cs == cs).any())
+
     # -- axis positions and the position bias -----------------------------------------------------
     def axis_position(self, cs: int, axis: str, commanded: np.ndarray) -> float:
         """The axis position the first single-axis motor of it gives back from its commanded

@@ -270,6 +270,8 @@ class Firmware:
 
     def cs_status(self, cs: int) -> tuple[int, int, int]:
         """`&n??`: the three status words of C.S. n [§2.6] (coord.py)."""
+        if not self.coord.has_members(cs):  # no motors: in position, nothing else (no work)
+            return 0, 1 << 17, 0
         w1, w2 = self.reports.status_words()
         return self.coord.status(cs, w1, w2)
 
