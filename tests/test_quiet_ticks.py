@@ -158,7 +158,8 @@ def generic_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> N
 
 
 def galil_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
-    """Commands, a trippoint, the data record every 2^8 samples, TIME, a jog and its stop."""
+    """Commands, a trippoint, the data record every 2^8 samples, TIME, a jog and its stop, a
+    move of the virtual axis N."""
     h = ctypes.c_long()
     assert galil.DMCOpen(1, 0, ctypes.byref(h), endpoint=d.endpoint, events=d.events) == 0
     buf = ctypes.create_string_buffer(512)
@@ -180,6 +181,11 @@ def galil_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> Non
     rack.sim.step(ns=3 * S + 1)
     cmd("MG TIME")
     cmd("TD")
+    cmd("PRN=30000;SPN=20000;BGN")  # the virtual axis N moving: not at rest
+    rack.sim.step(seconds=0.8)
+    cmd("MG _RPN,_BGN")
+    rack.sim.step(seconds=2.0)
+    cmd("MG _RPN,_BGN,TIME")
     cmd("DR 7")  # at rest: a record every 128 samples, the one read after each step
     record = ctypes.create_string_buffer(1024)
     for ns in (S + 17, 333 * MS, 7 * MS):

@@ -115,7 +115,7 @@ def test_bad_gearing_commands_answer_with_their_tc() -> None:
     rig = Rig()
     assert rig.refused("GR 128") == TC.NUMBER_OUT_OF_RANGE
     assert rig.refused("GA X") == TC.GEAR_MASTER_AND_FOLLOWER  # X its own master
-    assert rig.refused("GA ,S") == TC.S_OPERAND_NOT_VALID  # gearing to a vector: not emulated
+    assert rig.refused("GA ,DS") == TC.OPERAND_ERROR  # a plane has no auxiliary encoder
     assert rig.refused("GA ,Q") == TC.OPERAND_ERROR
     assert rig.refused("GM 2") == TC.NUMBER_OUT_OF_RANGE
     assert rig.cmd("GR 127.99994;GR ?") == "127.9999"

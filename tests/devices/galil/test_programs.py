@@ -248,3 +248,27 @@ def test_ctrl_l_ctrl_k_locks_the_program_against_ul_ls_and_tr() -> None:
     rig.send(b"\x0c\x0babc,1\r")
     assert rig.send(b"\x12\x13\r") == b":"  # ^R^S
     assert rig.value("_LK") == 0 and rig.send(b"LS\r") == b":"
+
+
+def test_at_waits_from_its_reference_and_at_minus_n_moves_it() -> None:
+    """AT (the Galil command reference's example): AT 0 sets the reference, AT 50 and AT 100
+    wait 50 and 100 ms from it, AT -150 waits 150 ms and makes that the reference, AT 80 then
+    ends 230 ms after the first AT 0. TIME counts samples (1 ms at TM 1000)."""
+    rig = Rig()
+    rig.download("#A\nAT 0\nt0=TIME\nAT 50\nt1=TIME\nAT 100\nt2=TIME\nAT -150\nt3=TIME\n"
+                 "AT 80\nt4=TIME\nEN")
+    assert rig.send(b"XQ #A\r") == b":"
+    rig.until_halted()
+    t = [round(rig.value(f"t{k}")) for k in range(5)]
+    assert t[1] - t[0] in (49, 50)  # t0 is read in the sample after AT 0's (or in it)
+    assert [t[2] - t[1], t[3] - t[2], t[4] - t[3]] == [50, 50, 80]
+
+
+def test_at_holds_the_command_line_and_rejects_a_bad_time() -> None:
+    rig = Rig()
+    assert rig.send(b"AT 0;AT -20;AT 20\r") == b":"  # AT -20 holds the command line
+    assert rig.samples(19) == b""
+    assert rig.samples(1) == b":"  # 20 ms: the reference moves there
+    assert rig.samples(19) == b""
+    assert rig.samples(1) == b":"  # AT 20: 40 ms from the first AT 0
+    assert rig.send(b"AT 2.5\r") == b"?" and rig.tc() == 6

@@ -21,7 +21,8 @@ LINES = ["JG 20000,-25000,30000,-35000;BG ABCD", "JG -3000,4000;BG AB", "ST ABCD
          "PR 1000,-2000,300,40;BG ABCD", "PA 0,0,0,0;BG ABCD", "KP 1;ER 1,2,3,4", "KP 6;ER 50",
          "OE 1,0,1,0", "MO C", "SH ABCD", "EI 255", "EI 0", "DR 2", "DR 0", "DR 5", "TP", "TV",
          "BG A;AM A", "PR 500;BG A;MC A", "WT 30", "FE B;BG B", "HM C;BG C", "JG 500;BG A",
-         "IP 100", "PL 0.3", "PL 0", "AC 1000000;DC 1000000", "SP 3000"]
+         "IP 100", "PL 0.3", "PL 0", "AC 1000000;DC 1000000", "SP 3000",
+         "PRN=3000;SPN=20000;BGN", "JGN=-4000;BG AN", "ST N", "GA N;GR 2", "GR 0"]
 CONTROLS: list[tuple[str, dict[str, Any]]] = [
     ("set_home_window", {"axis": "B", "low": 300.0, "high": 900.0}),
     ("set_home_edge", {"axis": "B", "position": None}),
@@ -61,8 +62,9 @@ class Twin(TwinCards):
 
     @staticmethod
     def _state(card: GalilCard) -> bytes:
-        fw, m = card.firmware, card.firmware.motion
-        return b"".join((state_bytes(fw, m, m.core.axes, m.core.profile), fw.bus.record_pending,
+        fw, m, v = card.firmware, card.firmware.motion, card.firmware.virtual.core
+        return b"".join((state_bytes(fw, m, m.core.axes, m.core.profile, v.axes, v.profile),
+                         fw.bus.record_pending,
                          bytes(fw.bus.pending_interrupts), bytes(fw._out)))
 
 

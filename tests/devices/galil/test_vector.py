@@ -620,3 +620,47 @@ def test_bg_of_a_sequence_and_an_axis_is_checked_whole() -> None:
     for _ in range(100):
         rig.sample()
     assert rp(rig) == [1000, 1000, 500, 0]
+
+
+def test_es_scales_the_higher_resolution_axis_of_a_circle() -> None:
+    """[M Ch6 §Compensating for Differences in Encoder Resolution]: ES 1,2 (Y has two counts for
+    X's one): the path is in X's counts and Y moves twice its coordinate, so a CR of radius 1000
+    is, in counts, the ellipse x^2/1000^2 + (y/2)^2/1000^2 = 1 and ends where the circle does."""
+    rig = Rig()
+    assert rig.send(b"ES ?\r") == b"00001,00001\r\n:"
+    rig.send(b"VM XY;ES 1,2;CR 1000,180,360;VS 5000;VA 100000;VD 100000;VE;BGS\r")
+    worst = 0.0
+    while rig.fw.coord.active:
+        rig.sample()
+        x, y = rig.fw.motion.reference()[:2]
+        worst = max(worst, abs(math.hypot(x - 1000, y / 2) - 1000))
+    assert worst <= 1.0
+    assert rp(rig) == [0, 0, 0, 0]
+    assert rig.send(b"ES ?\r") == b"00001,00002\r\n:"
+    rig.send(b"VP 1000,1000;VE;BGS\r")
+    while rig.fw.coord.active:
+        rig.sample()
+        x, y = rig.fw.motion.reference()[:2]
+        assert abs(y - 2 * x) <= 1.0
+    assert rp(rig) == [1000, 2000, 0, 0]
+    assert rig.send(b"ES 0,1\r") == b"?"
+    assert rig.send(b"ES 1,70000\r") == b"?"
+
+
+def test_ga_s_gears_an_axis_to_the_distance_along_the_path() -> None:
+    """[M Ch6 §Electronic Gearing]: "n = S or T for gearing to coordinated motion": Z geared to
+    plane S at GR 0.5 moves half the path's length; a second sequence goes on from there (the
+    follower follows the increments, a new sequence's distance from 0 moves it no way back)."""
+    rig = Rig()
+    rig.send(b"GA ,,S;GR ,,0.5;VM XY;VP 3000,4000;VE;VS 20000;BGS\r")
+    while rig.fw.coord.active:
+        rig.sample()
+        x, y, z = rig.fw.motion.reference()[:3]
+        assert abs(z - 0.5 * math.hypot(x, y)) <= 1.0
+    rig.sample()
+    assert rp(rig)[:3] == [3000, 4000, 2500]
+    rig.send(b"VP 3000,0;VE;BGS\r")
+    for _ in range(2000):
+        rig.sample()
+    assert rp(rig)[:3] == [6000, 4000, 4000]
+    assert rig.send(b"GA ,,DS\r") == b"?"  # no auxiliary encoder of a plane

@@ -44,10 +44,6 @@ _PARAM_SECTIONS = {
 _NOT_EMULATED: tuple[tuple[tuple[str, ...], str, int], ...] = (
     (("ED",), "the on-board editor needs an operator terminal (use DL, UL, LS)",
      TC.UNRECOGNIZED_COMMAND),
-    (("ES",), "ellipse scale: the seed defers its definition to the command reference (ch. 11), "
-     "which it lacks", TC.UNRECOGNIZED_COMMAND),
-    (("AT",), "the time trippoint: its reference time is not in the seed nor the digest",
-     TC.UNRECOGNIZED_COMMAND),
     (("EW",), "ECAM widen segment: defined only in Application Note #2444, not in the manual",
      TC.UNRECOGNIZED_COMMAND),
 )
@@ -77,6 +73,7 @@ COMMANDS = CommandTable(
         Command("CS", "_cs", section=_LINEAR),
         Command("CA", "_ca", section="M Ch6 §Specifying the Coordinate Plane"),
         Command("TN", "_tn", section="M Ch6 §Tangent Motion"),
+        Command("ES", "_es", section="M Ch6 §Compensating for Differences in Encoder Resolution"),
         Command("AV", "_av", section="M Ch6 §Linear Interpolation Mode (#LMOVE)"),
         *(Command(name, "_vector_param", (name,), section=_LINEAR)
           for name in ("VS", "VA", "VD", "VR", "VT")),
@@ -91,6 +88,7 @@ COMMANDS = CommandTable(
         Command("AR", "_ar", section="spec §5.7"),
         Command("AS", "_as", section="M Ch6 §Operand Summary; spec §5.7"),
         Command("AI", "_ai", section="M Ch6 §Electronic Cam"),
+        Command("AT", "_at", section="spec §5.7; the Galil command reference (AT)"),
         Command("MF", "_mf", section="M Ch6 §Electronic Cam"),
         Command("MR", "_mr", section="spec §5.7"),
         Command("TW", "_tw", section="spec §4.4 (SC 99 MC timeout)"),

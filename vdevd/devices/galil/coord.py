@@ -6,7 +6,8 @@ A `Plane` holds its mode (LM axes, or VM's pair and tangent axis), VS VA VD VR V
 sample and feeds the axes their commanded positions through `MotionCore.track` (the profile
 generator then runs them in a straight line to that point at the next tick); at the end they
 hold the last point exactly (`MotionCore.hold`). The virtual axis N may be one of VM's pair: it
-takes part in the path and drives nothing [M Ch6 §Virtual Axis]. Stop codes (spec §4.4): 100
+takes part in the path and drives no motor; the path drives N's own commanded position
+(virtual.py) from where N stands at BGS [M Ch6 §Virtual Axis]. Stop codes (spec §4.4): 100
 while a sequence runs, 101 when it ended at its last vector, 4 after ST, 2/3 at a limit switch,
 7 after AB, 6 at the abort input.
 """
@@ -24,6 +25,7 @@ from vdevd.devices.galil.vector import MAX_LENGTH, Sequence
 
 if TYPE_CHECKING:
     from vdevd.devices.galil.motion import GalilMotion
+    from vdevd.devices.galil.virtual import VirtualAxis
 
 VIRTUAL = -1  # the N axis: no encoder, no DAC [M Ch6 §Virtual Axis]
 SC_VECTOR_RUNNING = 100  # "motors running in vector sequence" (spec §4.4)
@@ -44,6 +46,8 @@ class Plane:
         self.tangent: int | None = None  # VM's third axis
         self.tn_scale = 0.0  # TN m: counts per degree
         self.tn_offset = 0.0  # TN n: the tangent position at 0 degrees
+        self.es = (1.0, 1.0)  # ES m,n: the counts of VM's two axes for one path unit each
+        self._scale: list[float] = []  # per real axis of `track`: the ES factor taken at BGS
         self.vs, self.va, self.vd, self.vr, self.vt = 25_000.0, 256_000.0, 256_000.0, 1.0, 1.0
         self.seq = Sequence(1, dt)
         self.running = False
@@ -53,12 +57,27 @@ class Plane:
         self.track: list[int] = []  # the card's axes the path drives (and the tangent axis)
         self.track_idx = np.zeros(0, dtype=np.int64)
         self._dims: list[int] = []  # the path coordinate of each real axis of `track`
+        self.virtual_dim: int | None = None  # the path coordinate of N while it runs
+        self.virtual_origin = 0.0  # N's commanded position at BGS, less its redefinitions
         self.tracking = False
+        #: the distance along the path this plane has ever travelled (a follower geared to the
+        #: plane, `GA S`, follows its increments: a new sequence does not move it back)
+        self.travelled = 0.0
+        self._last_out = 0.0
 
     def set_mode(self, mode: str, axes: tuple[int, ...], tangent: int | None = None) -> None:
         """LM or VM: a new mode clears the sequence."""
         self.mode, self.axes, self.tangent = mode, axes, tangent
         self.seq = Sequence(len(axes), self.dt)
+
+    def dim_scale(self) -> list[float]:
+        """Per path coordinate, what ES multiplies it by: in vector mode the higher-resolution
+        axis by the ratio of the two counts, so that the path is in the lower resolution's
+        counts [M Ch6 §Compensating for Differences in Encoder Resolution]; 1 otherwise."""
+        if self.mode != "VM" or len(self.axes) != 2:
+            return [1.0] * len(self.axes)
+        low = min(self.es)
+        return [self.es[0] / low, self.es[1] / low]
 
     def fresh(self) -> Sequence:
         """The sequence new segments go into: a finished one gives way to a new one (its own
@@ -93,8 +112,9 @@ class Plane:
 class Coordinated:
     """The S and T planes of one card over its axis firmware."""
 
-    def __init__(self, motion: GalilMotion) -> None:
+    def __init__(self, motion: GalilMotion, virtual: VirtualAxis | None = None) -> None:
         self.motion = motion
+        self.virtual = virtual  # the N axis a VM plane may drive
         self.core = motion.core
         self.n = motion.n
         self.planes = {"S": Plane("S", motion.dt), "T": Plane("T", motion.dt)}
@@ -130,15 +150,24 @@ class Coordinated:
         real = [(d, a) for d, a in enumerate(plane.axes) if a != VIRTUAL]
         plane.track = [a for _, a in real]
         plane._dims = [d for d, _ in real]
+        scale = plane.dim_scale()
+        plane._scale = [scale[d] for d, _ in real]
         if plane.tangent is not None:
             plane.track.append(plane.tangent)
         plane.track_idx = np.asarray(plane.track, dtype=np.int64)
         plane.origin = np.rint(core.axes.cmd_pos[plane.track_idx])
         plane.origin_list = plane.origin.tolist()
+        virtual = self.virtual
+        plane.virtual_dim = None
+        if virtual is not None and VIRTUAL in plane.axes:
+            plane.virtual_dim = plane.axes.index(VIRTUAL)
+            plane.virtual_origin = virtual.reference() - virtual.shifted  # N's redefinitions
+            virtual.track(plane.virtual_origin)
         smoothing = round(1.0 / plane.vt) if plane.vt > 0 else 1
         plane.seq.ratio = plane.vr
         plane.seq.start(smoothing)
         plane.running, plane.tracking = True, True
+        plane._last_out = plane.seq.out
         plane.stop_code = SC_VECTOR_DONE
         idx = plane.track_idx
         m.stop_code[idx] = SC_VECTOR_RUNNING
@@ -205,10 +234,20 @@ class Coordinated:
         more = seq.advance(plane.vs * plane.vr, plane.va, plane.vd)
         if seq.speed is not None:
             plane.vs = seq.speed  # `<n` is VS n from its segment on [M Ch6]
+        plane.travelled += seq.out - plane._last_out
+        plane._last_out = seq.out
         pos = seq.position()
-        target = [o + pos[d] for o, d in zip(plane.origin_list, plane._dims, strict=False)]
+        target = [o + k * pos[d]
+                  for o, d, k in zip(plane.origin_list, plane._dims, plane._scale, strict=False)]
         if plane.tangent is not None:
             target.append(plane.tangent_position(seq.heading()))
+        vd = plane.virtual_dim
+        if vd is not None and self.virtual is not None:
+            n_at = plane.virtual_origin + self.virtual.shifted + pos[vd]
+            if more:
+                self.virtual.track(n_at)
+            else:
+                self.virtual.hold(round(n_at) if plane.stop_code == SC_VECTOR_DONE else n_at)
         if more:
             return target
         code = plane.stop_code
@@ -234,6 +273,9 @@ class Coordinated:
         self._end(plane)
 
     def _end(self, plane: Plane) -> None:
+        if plane.virtual_dim is not None and self.virtual is not None and self.virtual.path:
+            self.virtual.hold()  # cut or aborted: N stops where the path left it
+        plane.virtual_dim = None
         plane.running = plane.tracking = False
         plane.seq.done = True
         self._refresh()

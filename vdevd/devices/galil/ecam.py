@@ -17,6 +17,7 @@ import numpy as np
 
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.motion import GalilMotion
+from vdevd.devices.galil.virtual import VirtualAxis
 
 TABLE_POINTS = 257  # ET[0] ... ET[256] [M Ch6 §Electronic Cam Step 4]
 MASTER_CYCLE_LIMIT = 8_388_607  # [M Ch6 Step 2]
@@ -27,11 +28,14 @@ SC_RUNNING, SC_STOPPED = 60, 61  # SC while and after ECAM (spec §4.4)
 class Ecam:
     """The cam of one card: master, cycles, table, engagement per slave."""
 
-    def __init__(self, motion: GalilMotion) -> None:
+    def __init__(self, motion: GalilMotion, virtual: VirtualAxis | None = None) -> None:
         n = motion.n
         self.motion = motion
+        #: the virtual axis N, master number n (`EA N`) [M Ch6 §Virtual Axis]
+        self.virtual = virtual
         self.master = -1
-        self.cycle = np.zeros(n)  # EM: the master's entry is its cycle, slaves' their change
+        #: EM: the master's entry is its cycle, slaves' their change; entry n is N's (`EMN=`)
+        self.cycle = np.zeros(n + 1)
         self.interval = 0.0
         self.start = 0.0
         self.table = np.zeros((TABLE_POINTS, n))
@@ -119,6 +123,9 @@ class Ecam:
         self._release(np.asarray(now, dtype=np.int64))
 
     def _reading(self) -> float:
+        """The master's main encoder; N's commanded position (it has no encoder)."""
+        if self.virtual is not None and self.master == self.motion.n:
+            return self.virtual.position()
         return float(self.motion.position()[self.master])
 
     def _engage(self, idx: np.ndarray) -> None:
@@ -155,7 +162,11 @@ class Ecam:
         direction = np.where(self.table[last, idx] < self.table[0, idx], -1.0, 1.0)
         axes = np.concatenate(([self.master], idx)).astype(np.int64)
         counts = -turns * np.concatenate(([cycle], np.abs(self.cycle[idx]) * direction))
-        self.motion.core.shift_position(axes, counts)
+        if self.virtual is not None and self.master == self.motion.n:  # N redefines its own
+            self.virtual.shift(float(counts[0]))
+            self.motion.core.shift_position(axes[1:], counts[1:])
+        else:
+            self.motion.core.shift_position(axes, counts)
         if self.on_redefine is not None:
             self.on_redefine(axes, counts)
         self._prev -= turns * cycle

@@ -39,6 +39,8 @@ from vdevd.devices.galil.program_commands import ProgramCommands
 from vdevd.devices.galil.record import record_dtype
 from vdevd.devices.galil.recorder import Recorder
 from vdevd.devices.galil.threads import LIMSWI, POSERR, Threads
+from vdevd.devices.galil.virtual import VirtualAxis
+from vdevd.devices.galil.virtual_commands import operand as virtual_operand
 from vdevd.devices.rest import ticks_before_multiple
 from vdevd.rt import wrap_int32
 
@@ -111,9 +113,12 @@ class Firmware:
         old = getattr(self, "motion", None)
         self.motion = GalilMotion(self.n, self.period_ns, self.plant)
         self.motion.sense = self.sense
-        self.follow = Follow(self.motion)
+        self.virtual = VirtualAxis(self.period_ns)  # the N axis [M Ch6 §Virtual Axis]
+        self.follow = Follow(self.motion, self.virtual)
         self.follow.spm.on_error = lambda: self.threads.automatic(POSERR)  # YS 2 [M Ch6 §SPM]
-        self.coord = Coordinated(self.motion)  # the S and T planes (coord.py)
+        self.coord = Coordinated(self.motion, self.virtual)  # the S and T planes (coord.py)
+        planes = self.coord.planes
+        self.follow.gearing.planes = lambda: (planes["S"].travelled, planes["T"].travelled)
         if old is not None:
             self.motion.core.zero[:] = -old.core.physical()
         self.variables: dict[str, float] = {}
@@ -135,6 +140,7 @@ class Firmware:
         self.ei_inputs = 0
         self.vector: int | None = None
         self.time_origin = self.ticks
+        self.at_reference: dict[int | None, int] = {}  # per thread (None: the command line)
         self._trip: Trippoint | None = None
         self._out = bytearray()
         self.ar_base: dict[int, float] = {}  # AR: where the last AR trippoint ended per axis
@@ -151,6 +157,8 @@ class Firmware:
         self.ticks += 1
         if self.coord.active:
             self.coord.sample()
+        if self.virtual.moving:  # N first: its followers see it in the same sample
+            self.virtual.tick()
         self._after_motion(self.motion.tick())
 
     def _after_motion(self, done: np.ndarray | None) -> None:
@@ -196,12 +204,14 @@ class Firmware:
         which an axis completes or crosses ER runs the rest of its sample (interrupts, the
         interpreter) after `advance(k)`, the card's clock to it, and ends the run. `advance`
         sees the count run at the end; returned too."""
-        motion, coord = self.motion, self.coord
+        motion, coord, virtual = self.motion, self.coord, self.virtual
         tick, changed = motion.tick, motion.error_changed
         for k in range(1, room + 1):
             self.ticks += 1
             if coord.active:
                 coord.sample()
+            if virtual.moving:
+                virtual.tick()
             done = tick()
             if done is not None or changed():
                 advance(k)
@@ -214,9 +224,10 @@ class Firmware:
     def rest_state(self) -> bytes | None:
         """What a sample may change, as bytes, but the sample count; None while the interpreter
         has work (a command, a reply to send, a trippoint), records (RC), a program thread runs,
-        a coordinated plane runs or a home search runs."""
+        a coordinated plane runs, the virtual axis N moves or a home search runs."""
         if (self._out or self._trip is not None or self.bus.commands_waiting
-                or self.recorder.active or self.threads.active or self.coord.active):
+                or self.recorder.active or self.threads.active or self.coord.active
+                or self.virtual.moving):
             return None
         rest = self.motion.rest_state()
         return None if rest is None else rest + self.compare.state()
@@ -366,6 +377,7 @@ class Firmware:
         """The ABORT input: motion stops at once, OE1 axes turn off [M Ch3 §Abort Input]."""
         if active and not self.motion.abort_input:
             self.motion.abort(list(range(self.n)), StopCode.ABORT_INPUT)
+            self.virtual.abort()
             self.follow.aborted()
         self.motion.abort_input = bool(active)
 
@@ -543,6 +555,8 @@ class _Env:
         if name.startswith("TI") and (name[2:].isdigit() or name == "TI"):
             return float(fw.input_bank(int(name[2:] or 0)))  # _TI: bank 0, as TI
         cmd, letter = name[:2], name[2:]
+        if letter == "N":  # the virtual axis [M Ch6 §Virtual Axis]
+            return virtual_operand(fw, cmd)
         if len(letter) != 1 or letter not in "XYZWABCD":
             raise GalilError(TC.BAD_FUNCTION, name)
         a = "XYZWABCD".index(letter) % 4

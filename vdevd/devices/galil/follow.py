@@ -18,15 +18,16 @@ from vdevd.devices.galil.ecam import Ecam
 from vdevd.devices.galil.gearing import Gearing
 from vdevd.devices.galil.motion import GalilMotion
 from vdevd.devices.galil.spm import StepperMaintenance
+from vdevd.devices.galil.virtual import VirtualAxis
 
 
 class Follow:
     """Gearing, ECAM, contour, SPM and commutation of one card's motion."""
 
-    def __init__(self, motion: GalilMotion) -> None:
+    def __init__(self, motion: GalilMotion, virtual: VirtualAxis | None = None) -> None:
         self.motion = motion
-        self.gearing = Gearing(motion)
-        self.ecam = Ecam(motion)
+        self.gearing = Gearing(motion, virtual)
+        self.ecam = Ecam(motion, virtual)
         self.ecam.on_redefine = self.gearing.redefined
         self.contour = Contour(motion)
         self.spm = StepperMaintenance(motion)

@@ -76,7 +76,11 @@ class FollowCommands:
 
     # -- electronic gearing [M Ch6 §Electronic Gearing] --------------------------------------------
     def ga(self, arg: str) -> bytes:
-        """GA: each follower's master: X (main encoder), CX (commanded), DX (auxiliary)."""
+        """GA: each follower's master: X (main encoder), CX (commanded), DX (auxiliary); N or
+        CN the virtual axis's commanded position (master number n; it has no encoder)
+        [M Ch6 §Virtual Axis]; S or T the distance the plane travels along its path (masters
+        n+1, n+2) [M Ch6 §Electronic Gearing: "n = S or T for gearing to coordinated
+        motion"]."""
         gear = self.follow.gearing
         axes, masters, sources = [], [], []
         for a, field in self.interp.per_axis(arg):
@@ -87,9 +91,13 @@ class FollowCommands:
             if len(text) == 2 and text[0] in "CD":
                 source = Source.COMMANDED if text[0] == "C" else Source.AUXILIARY
                 text = text[1:]
-            if text in ("S", "T"):
-                raise GalilError(TC.S_OPERAND_NOT_VALID, "gearing to vector motion")
-            master = _axis(text, self.n)
+            if text in ("S", "T") and source == Source.ENCODER:
+                # gearing to coordinated motion: the plane's distance along its path
+                master, source = self.n + 1 + "ST".index(text), Source.COMMANDED
+            elif text == "N" and source != Source.AUXILIARY:
+                master, source = self.n, Source.COMMANDED
+            else:
+                master = _axis(text, self.n)
             if master == a:
                 raise GalilError(TC.GEAR_MASTER_AND_FOLLOWER)
             axes.append(a)
@@ -128,17 +136,18 @@ class FollowCommands:
 
     # -- ECAM [M Ch6 §Electronic Cam] ----------------------------------------------------------------
     def ea(self, arg: str) -> bytes:
-        """EA p: the master, by its main encoder (X..W)."""
+        """EA p: the master, by its main encoder (X..W), or the virtual axis N by its commanded
+        position (master number n) [M Ch6 §Virtual Axis "EAN"]."""
         ecam = self.follow.ecam
         text = arg.strip().upper()
         if text == "?":
-            return self.interp.data(_LETTERS[ecam.master] if ecam.master >= 0 else "")
+            return self.interp.data((_LETTERS[:self.n] + "N")[ecam.master] if ecam.master >= 0
+                                    else "")
         if not text:
             raise GalilError(TC.NOT_ENOUGH_FIELDS, "EA")
-        if text == "N":
-            raise GalilError(TC.OPERAND_ERROR, "the virtual axis N is not emulated")
+        master = self.n if text == "N" else _axis(text, self.n)
         ecam.check_idle()
-        ecam.master = _axis(text, self.n)
+        ecam.master = master
         return OK
 
     def em(self, arg: str) -> bytes:

@@ -10,10 +10,12 @@ plan, so a PR/JG of the follower is superimposed on the gearing [M Ch6]. Vectori
 from __future__ import annotations
 
 import enum
+from collections.abc import Callable
 
 import numpy as np
 
 from vdevd.devices.galil.motion import GalilMotion
+from vdevd.devices.galil.virtual import VirtualAxis
 from vdevd.rt import PlantKind
 
 #: GR: +-127.9999 with a fractional resolution of .0001 [M Ch6 §Electronic Gearing]
@@ -33,9 +35,17 @@ class Source(enum.IntEnum):
 class Gearing:
     """The gearing state of one card's axes: master, source, ratio, gantry flag."""
 
-    def __init__(self, motion: GalilMotion) -> None:
+    def __init__(self, motion: GalilMotion, virtual: VirtualAxis | None = None) -> None:
         n = motion.n
         self.motion = motion
+        #: the virtual axis N, master number n (`GA N`): its commanded position for every
+        #: source (it has no encoder) [M Ch6 §Virtual Axis]
+        self.virtual = virtual
+        self._readings = np.zeros((4, n + 3))
+        #: the distances the planes S and T have travelled (masters n+1, n+2: `GA S`, `GA T`,
+        #: gearing to coordinated motion [M Ch6 §Electronic Gearing, Command Summary]); the
+        #: firmware connects it to its Coordinated planes
+        self.planes: Callable[[], tuple[float, float]] | None = None
         self.master = np.full(n, -1, dtype=np.int64)
         self.source = np.zeros(n, dtype=np.int64)
         self.ratio = np.zeros(n)
@@ -52,9 +62,18 @@ class Gearing:
         return bool(len(self._idx))
 
     def readings(self) -> np.ndarray:
-        """Per axis, what a follower of it would follow, by source (rows: Source)."""
-        m = self.motion
-        return np.stack([np.zeros(m.n), m.position(), m.core.axes.cmd_pos, m.auxiliary()])
+        """Per axis, what a follower of it would follow, by source (rows: Source); column n is
+        the virtual axis N, n+1 and n+2 the distances of the planes S and T (one buffer,
+        rewritten at each call)."""
+        m, r = self.motion, self._readings
+        n = m.n
+        r[1, :n], r[2, :n], r[3, :n] = m.position(), m.core.axes.cmd_pos, m.auxiliary()
+        if self.virtual is not None:
+            r[1:, n] = self.virtual.position()
+        if self.planes is not None:
+            s, t = self.planes()
+            r[1:, n + 1], r[1:, n + 2] = s, t
+        return r
 
     def set_master(self, axes: list[int], masters: list[int], sources: list[int]) -> None:
         """GA: the masters of `axes`; a follower already geared goes on from the new master's
@@ -90,7 +109,7 @@ class Gearing:
         idx = self._idx
         if not len(idx):
             return
-        shift = np.zeros(self.motion.n)
+        shift = np.zeros(self.motion.n + 3)  # [n]: the virtual axis N; [n+1], [n+2]: S, T
         shift[axes] = counts
         moved = shift[self.master[idx]]
         if self.motion.plant_kind != PlantKind.STEPPER:  # TD does not move on a servo axis

@@ -20,6 +20,7 @@ from vdevd.devices.galil import syntax
 from vdevd.devices.galil.array_commands import ArrayCommands
 from vdevd.devices.galil.arrays import ArrayDownload
 from vdevd.devices.galil.commands import COMMANDS, NOT_EMULATED_CODES
+from vdevd.devices.galil.coord import VIRTUAL
 from vdevd.devices.galil.errors import TC, TEXTS, GalilError
 from vdevd.devices.galil.expr import evaluate
 from vdevd.devices.galil.extended_io import FIRST_POINT, LAST_POINT
@@ -35,6 +36,7 @@ from vdevd.devices.galil.numbers import (
 )
 from vdevd.devices.galil.params import MOTOR_TYPES, PARAMS
 from vdevd.devices.galil.vector_commands import VectorCommands
+from vdevd.devices.galil.virtual_commands import VirtualCommands, split_n
 from vdevd.rt import PlantKind
 
 if TYPE_CHECKING:
@@ -72,6 +74,7 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
             COMMANDS.bind(self, FollowCommands(self), *getattr(fw, "command_sets", ())))
         #: the program thread whose statement runs now, None on the command line (threads.py)
         self.thread: int | None = None
+        self.virtual_commands = VirtualCommands(self)  # `PRN=` ... (virtual_commands.py)
 
     # -- entry -------------------------------------------------------------------------------------
     def execute(self, text: str) -> bytes | Trippoint | ArrayDownload:
@@ -80,6 +83,10 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
             if not text.strip():
                 return OK
             stmt = _split_statement(text)
+            if stmt.arg[:1] == "N":  # `PR N=100`, `PRN=100`: the virtual axis
+                virtual = self.virtual_commands.route(stmt.name, stmt.arg)
+                if virtual is not None:
+                    return virtual
             handler = self.handlers.get(stmt.name)
             if handler is None:
                 raise GalilError(NOT_EMULATED_CODES.get(stmt.name, TC.UNRECOGNIZED_COMMAND), stmt.name)
@@ -124,6 +131,14 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
                 raise GalilError(TC.ONLY_ABCD_VALID, "the axis drives a second phase (BA)")
             return sel
         return replace(sel, axes=tuple(a for a in sel.axes if a not in freed))
+
+    def _sel_n(self, arg: str) -> tuple[syntax.AxisSet, bool]:
+        """`_sel` of an action command that may name the virtual axis N too (`BG XN`): the
+        real axes (none for `BG N` alone) and whether N was named [M Ch6 §Virtual Axis]."""
+        rest, named = split_n(arg)
+        if named and not rest.strip():
+            return syntax.AxisSet(()), True
+        return self._sel(rest), named
 
     def per_axis(self, arg: str) -> list[tuple[int, str | object]]:
         """(axis, field) pairs of `PR 1,,3` / `PRX=1` / `PR*=1` / `PR ?`; field text or QUERY."""
@@ -200,10 +215,17 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
 
     # -- motion ------------------------------------------------------------------------------------
     def _bg(self, arg: str) -> bytes:
-        """BG axes; BG S/T begins the plane's sequence (vector_commands)."""
-        axes = self._sel(arg)
+        """BG axes; BG S/T begins the plane's sequence (vector_commands); BG N the virtual axis
+        (TC 21 while it moves or a plane with it begins too, as an axis of a plane would)."""
+        axes, n_named = self._sel_n(arg)
         planes = self._check_sequences(axes.s, axes.t, axes.axes) if axes.s or axes.t else []
+        virtual = self.fw.virtual
+        if (n_named and virtual.moving) or any(
+                p.mode == "VM" and VIRTUAL in p.axes and (n_named or virtual.moving) for p in planes):
+            raise GalilError(TC.BEGIN_WHILE_RUNNING, "the virtual axis N moves")
         self.fw.motion.begin(list(axes.axes))
+        if n_named:
+            virtual.begin()
         for plane in planes:
             self.fw.coord.begin(plane)
         return OK
@@ -212,10 +234,15 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
         """ST axes; from the host without axes it halts the programs too [spec §4.5]; ST S/T
         (and ST alone, or an axis of a running plane) stops the sequence along its path at VD
         [M Ch6 §Specifying Linear Segments]."""
-        sel, coord = self._sel(arg), self.fw.coord
+        (sel, n_named), coord = self._sel_n(arg), self.fw.coord
         planes = [p for p in coord.planes_named(sel.s or not arg.strip(), sel.t or not arg.strip())
                   if p.running]
         planes += [p for a in sel.axes if (p := coord.plane_of(a)) is not None]
+        if n_named or not arg.strip():  # ST N: N's own move, or the plane that drives it
+            driving = [p for p in coord.planes.values() if p.running and p.virtual_dim is not None]
+            planes += driving
+            if not driving:
+                self.fw.virtual.stop()
         for plane in planes:
             coord.stop(plane)
         self.fw.motion.stop([a for a in sel.axes if all(a not in p.track for p in planes)])
@@ -230,6 +257,7 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
         if mode not in (0, 1):
             raise GalilError(TC.NUMBER_OUT_OF_RANGE)
         self.fw.motion.abort(list(range(self.n)), StopCode.ABORT_COMMAND)
+        self.fw.virtual.abort()
         self.fw.follow.aborted()
         if mode == 0:
             self.fw.threads.halt_all()
@@ -272,21 +300,25 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
 
     def _am(self, arg: str) -> Trippoint:
         """AM: wait until the profiles of the axes are complete; AM S/T until the plane's sequence
-        is [M Ch6]."""
-        sel, moving = self._sel(arg), self.fw.motion.core.profile.moving
+        is [M Ch6]; AM N until the virtual axis's is."""
+        (sel, n_named), moving = self._sel_n(arg), self.fw.motion.core.profile.moving
         axes, planes = list(sel.axes), self.fw.coord.planes_named(sel.s, sel.t)
-        return Trippoint(lambda: not moving[axes].any() and not any(p.running for p in planes))
+        n_moving = self.fw.virtual.moving_flag[:1] if n_named else moving[:0]
+        return Trippoint(lambda: not moving[axes].any() and not n_moving.any()
+                         and not any(p.running for p in planes))
 
     def _mc(self, arg: str) -> Trippoint:
         """MC: the profile complete and the axis in position: a stepper when its step count
         (TD) equals the reference [M Ch6 §Motion Complete Trippoint]; a servo within one count
-        of it (spec §4.5, open question 25)."""
-        motion, sel = self.fw.motion, self._sel(arg)
+        of it (spec §4.5, open question 25); the virtual axis N (no encoder) when its profile is."""
+        motion, (sel, n_named) = self.fw.motion, self._sel_n(arg)
         planes = self.fw.coord.planes_named(sel.s, sel.t)
         axes = sorted({*sel.axes, *(a for p in planes for a in p.track)})
+        n_moving = self.fw.virtual.moving_flag[:1] if n_named else motion.core.profile.moving[:0]
 
         def ready() -> bool:
-            if any(p.running for p in planes) or motion.core.profile.moving[axes].any():
+            if (any(p.running for p in planes) or motion.core.profile.moving[axes].any()
+                    or n_moving.any()):
                 return False
             if motion.plant_kind == PlantKind.STEPPER:
                 steps = np.rint(motion.core.axes.pos[axes])
@@ -314,10 +346,15 @@ class Interpreter(ArrayCommands, VectorCommands, FormatCommands, IoCommands):
 
     # -- reports -----------------------------------------------------------------------------------
     def _report(self, name: str, arg: str) -> bytes:
-        """TP, TE, RP, TD, RL, TV, TT, SC, TS: one value per axis named (spec §4.4)."""
+        """TP, TE, RP, TD, RL, TV, TT, SC, TS: one value per axis named (spec §4.4); RP and TP
+        of the virtual axis N (its commanded position: it has no encoder) after them."""
         digits, frac = REPORT_FORMATS[name]
         values = self.fw.report(name).tolist()
         lz = not self.fw.lz
+        if name in ("RP", "TP") and "N" in arg:
+            sel, _ = self._sel_n(arg)
+            at = [values[a] for a in sel.axes] + [self.fw.virtual.reference()]
+            return self.data(",".join([self.pos(v) for v in at]))
         if name in POSITION_REPORTS:  # PF [Galil command reference PF]
             pos = self.pos
             return self.data(",".join([pos(values[a]) for a in self._sel(arg).axes]))

@@ -229,6 +229,31 @@ class ProgramCommands:
         fw, bit, want = self.fw, 1 << (abs(int(n)) - 1), n > 0
         return Trippoint(lambda: bool(fw.inputs & bit) == want)
 
+    def _at(self, arg: str) -> bytes | Trippoint:
+        """AT n: AT 0 makes now the time reference; AT n waits until n ms after it; AT -n waits
+        as long, then moves the reference to that time, so a loop of AT -n runs every n ms
+        without drift (the Galil command reference; the seed names AT among the trippoints,
+        spec §5.7). One reference per thread, the command line being one; before an AT 0 it is
+        the power-up (or RS)."""
+        n = self._value(arg)
+        if n != int(n) or abs(n) > 2_147_483_647:
+            raise GalilError(TC.NUMBER_OUT_OF_RANGE, f"AT {n}")
+        fw, key = self.fw, self.fw.interp.thread
+        refs = fw.at_reference
+        if n == 0:
+            refs[key] = fw.now_ns
+            return OK
+        reset_ns = fw.now_ns - (fw.ticks - fw.time_origin) * fw.period_ns  # TIME's zero
+        end = refs.get(key, reset_ns) + int(abs(n)) * 1_000_000
+
+        def ready() -> bool:
+            if fw.now_ns < end:
+                return False
+            if n < 0:
+                refs[key] = end
+            return True
+        return Trippoint(ready)
+
     def _mf(self, arg: str) -> Trippoint:
         """MF: until the encoder (TP) has passed the position going forward [M Ch6 ECAM Ex]."""
         return self._passing(arg, 1.0)

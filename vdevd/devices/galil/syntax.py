@@ -19,6 +19,7 @@ from typing import Final, NamedTuple
 
 from vdevd.devices.galil.errors import TC, GalilError
 from vdevd.devices.galil.numbers import GALIL_REAL_SIZE, from_galil_real, galil_real
+from vdevd.devices.galil.params import PARAMS
 
 # ---------------------------------------------------------------------------------------------
 # Framing
@@ -113,6 +114,12 @@ AXIS_ALIASES: Final = "ABCDEFGH"  # A-D are X-W [M "Using This Manual"]; E-H are
 MAX_NAME_LENGTH = 8  # variable and array names [CR-DUMP "[,]"]
 _ASSIGNMENT_LHS = re.compile(r"([A-Za-z][A-Za-z0-9]*) *(\[)?")
 _COMMAND_AXIS_ASSIGN = re.compile(rf"[A-Z]{{2}}[{AXIS_LETTERS}{AXIS_ALIASES}]+ *=")
+#: the per-axis commands: `<cmd>N=` is the command for the virtual axis N (`PRN=1000`, `KPN=1`
+#: refused), not a variable of that name [M Ch6 §Virtual Axis]
+AXIS_ASSIGN_COMMANDS: Final = frozenset(PARAMS) | frozenset(
+    ("DP", "DE", "IP", "GA", "GR", "GM", "EM", "EG", "EQ", "YA", "YB", "YC", "YS", "YR", "BM",
+     "BI", "BB", "BZ", "BS", "AF", "CD", "OC"))
+_COMMAND_N_ASSIGN = re.compile(r"([A-Z]{2})N *=")
 
 
 def split_statement(text: str) -> Statement:
@@ -122,8 +129,9 @@ def split_statement(text: str) -> Statement:
     ("PR 1000,,-500" -> PR, "1000,,-500"; "KPX=10" -> KP, "X=10"). Also: labels (#), comments
     (' and REM), two control characters (^R^V = "\\x12\\x16") and variable or array assignments
     ("V1=V1+1000", "spx=100", "VX [COUNT]=N": name "=", arg the whole text). A name followed by
-    '=' is an assignment unless it is two upper-case letters and axis letters ("ACYH=400000") or
-    an INDEXED_COMMANDS entry ("ET[1]=40,20"). Anything else, lower-case commands included,
+    '=' is an assignment unless it is two upper-case letters and axis letters ("ACYH=400000"),
+    a per-axis command and N, the virtual axis ("PRN=100": PR, "N=100"), or an INDEXED_COMMANDS
+    entry ("ET[1]=40,20"). Anything else, lower-case commands included,
     is TC 1 [M Ch5 §Controller Response to DATA]. Empty text is Statement("", "").
     """
     text = text.lstrip(" ")
@@ -152,6 +160,9 @@ def _is_assignment(text: str) -> bool:
     if bracket:
         return name not in INDEXED_COMMANDS
     if text[lhs.end():].lstrip(" ")[:1] != "=":
+        return False
+    virtual = _COMMAND_N_ASSIGN.match(text)
+    if virtual is not None and virtual.group(1) in AXIS_ASSIGN_COMMANDS:
         return False
     return not _COMMAND_AXIS_ASSIGN.match(text)
 

@@ -249,6 +249,29 @@ class VectorCommands:
                 plane.seq.speed = None  # VS replaces a segment's `<n` in force
         return b":"
 
+    def _es(self, arg: str) -> bytes:
+        """ES m,n: the counts of VM's first and second axis for the same distance; the path is
+        then in the lower resolution's counts and the higher-resolution axis moves by the ratio
+        [M Ch6 §Compensating for Differences in Encoder Resolution]. Taken at the next BG S;
+        `ES ?` reports them. 1..65535 each (TC 6 outside)."""
+        plane = self.coord.plane
+        fields = syntax.parse_fields(arg, 2)
+        if not fields:
+            raise GalilError(TC.NOT_ENOUGH_FIELDS)
+        if any(f is syntax.QUERY for f in fields):
+            return self.data(",".join(self.fmt(v, 5, 0) for v in plane.es))
+        self._idle(plane)
+        es = list(plane.es)
+        for k, f in enumerate(fields):
+            if f is None:
+                continue
+            v = self.value(str(f))
+            if v != int(v) or not 1 <= v <= 65535:
+                raise GalilError(TC.NUMBER_OUT_OF_RANGE, f"ES {v}")
+            es[k] = float(v)
+        plane.es = (es[0], es[1])
+        return b":"
+
     def _tn(self, arg: str) -> bytes:
         """TN m,n: the tangent axis's scale (counts per degree) and its position at 0 degrees
         [M Ch6 §Tangent Motion]."""

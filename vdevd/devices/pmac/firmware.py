@@ -16,6 +16,7 @@ import numpy as np
 
 from vdevd.devices.pmac.comp1d import Tables1D, is_one_dimensional
 from vdevd.devices.pmac.comp2d import CompError, CompTables
+from vdevd.devices.pmac.coord import CoordSystems, parse_axis_def
 from vdevd.devices.pmac.ect import ConversionTable, setup_address
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_PHASE, CommandError
 from vdevd.devices.pmac.expr import ExprError
@@ -106,6 +107,8 @@ class Firmware:
                                self.existing_buffers)
         self.feedback = FeedbackSelect(mem, self.ivars)
         self.macro = MacroStations()
+        self.coord = CoordSystems(self.ivars, self.motors.cs, self.motors.axis_code,
+                                  lambda: self.servo_cycles)
         self.interpreter = Interpreter(self)
 
     # -- time -------------------------------------------------------------------------------------
@@ -176,6 +179,8 @@ class Firmware:
     def get_variable(self, port: PortState, kind: str, n: int) -> float:
         match kind:
             case "I":
+                if self.coord.is_timer(n):  # Isx11/Isx12 count down [§2.8]
+                    return self.coord.timer(n)
                 return float(self.ivars.values[n])
             case "P":
                 return float(self.p[n])
@@ -224,6 +229,8 @@ class Firmware:
             if n % 100 == 3:
                 core = self.motors.core
                 self.feedback.refresh(core.axes.encoder + core.encoder_slip)
+        elif 5100 <= n < 6700:
+            self.coord.on_ivar(n)
 
     def address_of_ivar(self, n: int) -> float:
         """`I{a}=@I{b}`: the address of I-variable b; only the conversion table's setup lines
@@ -243,6 +250,8 @@ class Firmware:
             getattr(self.motors, name)(motor - 1, *args)
         except MotorError as exc:
             raise CommandError(exc.code) from None
+        if name in ("home", "home_zero"):  # homing sets the bias to the offset [A L932]
+            self.coord.rebias(motor)
 
     def motor_report(self, what: str, motor: int) -> str:
         """P, F (counts, to 1/32) or V (counts per servo cycle, to 0.1); 0 for a motor that is not
@@ -263,12 +272,37 @@ class Firmware:
         return int(w1[motor - 1]), int(w2[motor - 1])
 
     def abort_cs(self, cs: int) -> None:
-        """`A` of a coordinate system: its motors. Axis definitions come in a later issue, so no
-        motor belongs to a coordinate system yet and the command acts on none."""
+        """`A` of a coordinate system: abort each of its motors [§2.5] (coord.py)."""
+        for motor in self.coord.members(cs):
+            self.motor_call("abort", motor)
+
+    def kill_cs(self, cs: int) -> None:
+        """`K` with a C.S. addressed: kill each of its motors (README "Coordinate systems")."""
+        for motor in self.coord.members(cs):
+            self.motor_call("kill", motor)
 
     def cs_status(self, cs: int) -> tuple[int, int, int]:
-        """`&n??`: word 2 bit 17 "in position" is the AND over the C.S.'s motors (none yet)."""
-        return 0, 1 << 17, 0
+        """`&n??`: the three status words of C.S. n [§2.6] (coord.py)."""
+        if not self.coord.has_members(cs):  # no motors: in position, nothing else (no work)
+            return 0, 1 << 17, 0
+        w1, w2 = self.reports.status_words()
+        return self.coord.status(cs, w1, w2)
+
+    def define_axis(self, cs: int, motor: int, text: str, start: int) -> int:
+        """`&cs#motor->{definition}`; where the definition ends in `text`."""
+        d, end = parse_axis_def(text, start)
+        self.coord.define(cs, motor, d)
+        return end
+
+    def set_axis(self, cs: int, axis: str, value: float) -> None:
+        """`{axis}={value}` on-line: a new position bias for the axis's motors [A L932]."""
+        self.coord.set_axis(cs, axis, value, self._commanded())
+
+    def axis_position(self, cs: int, axis: str) -> float:
+        return self.coord.axis_position(cs, axis, self._commanded())
+
+    def _commanded(self) -> np.ndarray:
+        return self.reports.commanded()
 
     def global_status(self) -> tuple[int, int]:
         bits = self.global_bits & ~(COMP_ACTIVE | CPU_DSP56311)
@@ -428,6 +462,7 @@ class Firmware:
             "q": {f"{int(c)},{int(n)}": float(self.q[c, n]) for c, n in np.argwhere(self.q)},
             "comp": self._comp_image(),
             "comp1d": self._comp1d_image(),
+            "axes": self.coord.image(),
         }
 
     def save(self) -> None:
@@ -450,6 +485,7 @@ class Firmware:
             self.q[c, n] = v
         self._comp_restore(image.get("comp", []))
         self._comp1d_restore(image.get("comp1d", []))
+        self.coord.restore(image.get("axes", []))
         self._reset_hardware()
 
     def power_on_reset(self) -> None:
@@ -470,6 +506,7 @@ class Firmware:
         self.feed[:] = 100
         self.comp.clear()
         self.comp1d.clear()
+        self.coord.undefine(None)
         self.locks = 0
 
     def _reset_hardware(self) -> None:
@@ -482,6 +519,7 @@ class Firmware:
         self.gpio.reset()
         self.ect.reset()
         self.feedback.reset()
+        self.coord.reset()
         core = self.motors.core
         self.feedback.refresh(core.axes.encoder + core.encoder_slip)
         if self.on_reset is not None:

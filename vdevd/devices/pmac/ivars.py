@@ -136,8 +136,9 @@ MOTOR: dict[int, IVar] = {
 
 #: coordinate-system Isx variables (x -> definition) [SRM via digest §2.2, §2.8]
 CS: dict[int, IVar] = {
-    11: IVar(0), 12: IVar(0), 13: IVar(0, 0, 8_388_607), 20: _int(0, 65535, 0),
-    87: IVar(0, 0, 8_388_607), 88: IVar(0, 0, 8_388_607), 89: IVar(0, 0, 8_388_607),
+    11: _int(-8_388_608, 8_388_607), 12: _int(-8_388_608, 8_388_607),  # countdown timers
+    13: IVar(0, 0, 8_388_607), 20: _int(0, 65535, 0), 50: _FLAG,  # Isx50 kinematics enable
+    87: IVar(0, 0, 8_388_607), 88: IVar(50, 0, 8_388_607), 89: IVar(1000, 0, 8_388_607),
     90: IVar(1000, 0, 8_388_607), 93: _ADDR, 94: IVar(1644, 0, 8_388_607),
     95: IVar(1644, 0, 8_388_607),
 }
@@ -173,7 +174,10 @@ def definition(n: int, motors: int = 8) -> IVar:
         default = _motor_default(motor, yy, motors)
         return spec if default is None else _with_default(spec, default)
     if 5100 <= n < 6700:
-        return CS.get(n % 100, _PLAIN)
+        spec = CS.get(n % 100, _PLAIN)
+        if n % 100 == 93:  # Isx93: the C.S.'s own host time base X:$002000+$100(s-1) (README)
+            return _with_default(spec, float(0x2000 + 0x100 * (n // 100 - 51)))
+        return spec
     if 7000 <= n < 8000:
         m, rest = divmod(n - 7000, 100)
         channel, k = divmod(rest, 10)

@@ -7,9 +7,10 @@ the lines already produced stay in the reply. The `#n`/`&n` addressing and a pen
 download belong to the port (`PortState`), so each port addresses its own motor.
 
 The commands are the table of commands.py, bound to the interpreter's methods once per
-interpreter. Commands that belong to motion programs, PLCs, coordinate-system axis definitions and
-data gathering come in a later issue; until then those the parser recognises answer the error the
-card gives for a command it cannot execute (`commands.REFUSED`, README "Not yet").
+interpreter. Axis definitions and the rest of the coordinate systems are coord.py's (`&n#m->`).
+Commands that belong to motion programs, PLCs and data gathering come in a later issue; until
+then those the parser recognises answer the error the card gives for a command it cannot execute
+(`commands.REFUSED`, README "Not yet").
 
 Lines made only of reports and motor addressing (`#1P`, `#2?`, `#3?PVF`, `I130`, `P99`), what
 hosts poll, are compiled once into their steps and then run without the general parse; each step
@@ -43,6 +44,7 @@ _MOTOR = re.compile(r"#(\d+)(?![\d \t]*->)")
 _WORD = re.compile(r"[A-Z]+")
 _SIGNED = re.compile(r"\s*(-?\d+)")
 _HEXNUM = re.compile(r"\s*(\$[0-9A-F]+|-?\d+)")
+_AXIS_SET = re.compile(r"([XYZUVWABC])[ \t]*=(?!=)[ \t]*")
 #: every word a run of letters may be: the table's and the refused ones [commands.py]
 _WORD_NAMES = frozenset(name for name, cmd in COMMANDS.items() if cmd.kind == WORD) | set(REFUSED)
 _LONGEST = max(map(len, _WORD_NAMES))
@@ -55,6 +57,7 @@ class PortState:
     motor: int = 1          # #n, 1-based
     cs: int = 1             # &n
     group: int = 1          # ##n: which eight motors ^B ^F ^P ^V report
+    cs_mode: bool = False   # the last address was &n: K acts on the C.S. (README)
     table_motor: int = 0    # a DEFINE COMP download in progress: its motor (0 = none)
     table_left: int = 0
 
@@ -190,6 +193,7 @@ class Interpreter:
             if not 1 <= motor <= 32:
                 raise CommandError(ERR_DATA)
             port.motor = motor
+            port.cs_mode = False
             line.i = m.end()
             return
         line.take("#")
@@ -197,19 +201,21 @@ class Interpreter:
             port.group = _select(line, out, port.group, 4)
             return
         port.motor = _select(line, out, port.motor, 32)
+        port.cs_mode = False
         line.skip()
-        if line.take("->"):
+        if line.take("->"):  # the axis definition in the addressed C.S. [§2.8; coord.py]
             line.skip()
-            if line.peek() in ("", "#", "&"):  # `#n->`: the axis definition, none yet (EPICS asks)
-                out.append("0")
+            if line.peek() in ("", "#", "&") or (line.peek().isalpha() and line.peek(1).isalpha()):
+                # `#n->` alone or before a command word: report it (EPICS asks `&1#1->`)
+                out.append(self.fw.coord.query(port.cs, port.motor))
                 return
-            # defining one waits for coordinate systems (a later issue)
-            raise CommandError(ERR_DATA, "axis definitions are not supported yet")
+            line.i = self.fw.define_axis(port.cs, port.motor, line.s, line.i)
 
     def address_cs(self, line: Line, port: PortState, out: list[str]) -> None:
         """&n addresses coordinate system n (1-16), & reports it [§2.5]."""
         line.take("&")
         port.cs = _select(line, out, port.cs, 16)
+        port.cs_mode = True
 
     # -- status ----------------------------------------------------------------------------------
     def status(self, line: Line, port: PortState, out: list[str]) -> None:
@@ -226,6 +232,11 @@ class Interpreter:
         s, i = line.s, line.i
         if s[i] in VARIABLES and i + 1 < len(s) and (s[i + 1].isdigit() or s[i + 1] == "("):
             self._variable(line, port, out)
+            return
+        m = _AXIS_SET.match(s, i)
+        if m is not None:  # `{axis}={v}`: a new position bias [A L932]
+            line.i = m.end()
+            self.fw.set_axis(port.cs, m.group(1), line.expression(self.fw.env(port)))
             return
         word = _longest_word(s, i)
         if not word:
@@ -338,7 +349,10 @@ class Interpreter:
         self.fw.motor_call("home_zero" if zero else "home", port.motor)
 
     def kill(self, line: Line, port: PortState, out: list[str]) -> None:
-        """K: kill the addressed motor [§2.5]."""
+        """K: kill the addressed motor, or with a C.S. addressed last (`&n`) its motors."""
+        if port.cs_mode:
+            self.fw.kill_cs(port.cs)
+            return
         self.fw.motor_call("kill", port.motor)
 
     def open_loop(self, line: Line, port: PortState, out: list[str]) -> None:
@@ -523,9 +537,9 @@ class Interpreter:
 
     def undefine(self, line: Line, port: PortState, out: list[str]) -> None:
         """UNDEFINE [ALL]: clears axis definitions, of the addressed C.S. only since V1.938
-        [A L3284]; none exist yet, so there is nothing to clear."""
+        [A L3284]."""
         line.skip()
-        line.take("ALL")
+        self.fw.coord.undefine(None if line.take("ALL") else port.cs)
 
     def setphase(self, line: Line, port: PortState, out: list[str]) -> None:
         """SETPHASE: Ixx75 into the phase position register [A L3263]; the motors here are not
@@ -618,6 +632,7 @@ def compile_reports(text: str) -> Plan | None:
 
 def _address_motor(motor: int, fw: Firmware, port: PortState, out: list[str]) -> None:
     port.motor = motor
+    port.cs_mode = False
 
 
 def _report_status(k: int, fw: Firmware, port: PortState, out: list[str]) -> None:

@@ -26,6 +26,10 @@ P_BASE, Q_BASE = 0x6000, 0x8000
 WORD = 0xFFFFFF
 #: motor-block D: registers -> the Motors report they show (0x10, Mxx69, is the firmware's)
 _FIXED = {0x08: "commanded", 0x0B: "position", 0x10: "", 0x47: "target"}
+#: L:+$4F/+$50/+$51 scale factor of X/U/A/B/C, Y/V, Z/W (Mxx91-93), +$52 offset (Mxx94) [§2.1]
+_AXIS_REGS = {0x4F: "XUABC", 0x50: "YV", 0x51: "ZW", 0x52: ""}
+#: C.S. block L:+$41.. the target positions of axes A B C U V W X Y Z [§2.8]
+_AXIS_TARGETS = {0x41 + k: axis for k, axis in enumerate("ABCUVWXYZ")}
 
 
 class GlobalRegisters:
@@ -86,6 +90,13 @@ class MotorBlocks:
         if off == 0x57:
             x, y = pmac_float_words(float(mot.jog_register[motor]))
             return x if space == "X" else y
+        if off == 0x4C:  # Mxx64 position bias, 1/(Ixx08·32) count [A L932]
+            scale = fw.ivars.values[100 * (motor + 1) + 8] * 32
+            v = wrap(round_to_int(fw.coord.bias[motor] * scale), 48, signed=False)
+            return v >> 24 if space == "X" else v & WORD
+        if off in _AXIS_REGS:  # Mxx91-Mxx94 axis scale factors and offset, L: floats
+            x, y = pmac_float_words(self.read_float(addr))
+            return x if space == "X" else y
         return self.words.get((space, addr), 0)
 
     def write_word(self, space: str, addr: int, value: int) -> None:
@@ -102,6 +113,13 @@ class MotorBlocks:
         motor, off = divmod(addr - MOTOR_BASE, MOTOR_STRIDE)
         if off == 0x57 and motor < self.fw.ivars.motors:
             return float(self.fw.motors.jog_register[motor])
+        if off in _AXIS_REGS:
+            d = self.fw.coord.defs[motor]
+            if d is None or d.inverse:
+                return 0.0
+            if off == 0x52:
+                return d.offset
+            return sum(d.scale_of(a) for a in _AXIS_REGS[off])
         return from_pmac_float_words(self.read_word("X", addr), self.read_word("Y", addr))
 
     def write_float(self, addr: int, value: float) -> None:
@@ -132,13 +150,30 @@ class CsBlocks:
             return fw.cs_status(cs + 1)[0]
         if space == "Y" and off == 0x3F:
             return fw.cs_status(cs + 1)[1]
+        if off == 0x15:  # X: Isx11, Y: Isx12 countdown timers [§2.8]
+            n = 5100 + 100 * cs + (11 if space == "X" else 12)
+            return round_to_int(fw.coord.timer(n)) & WORD
+        if off in _AXIS_TARGETS:
+            x, y = pmac_float_words(self.read_float(addr))
+            return x if space == "X" else y
         return self.words.get((space, addr), 0)
+
+    def read_float(self, addr: int) -> float:
+        cs, off = divmod(addr - CS_BASE, CS_STRIDE)
+        if off in _AXIS_TARGETS:
+            return self.fw.axis_position(cs + 1, _AXIS_TARGETS[off])
+        return from_pmac_float_words(self.read_word("X", addr), self.read_word("Y", addr))
 
     def write_word(self, space: str, addr: int, value: int) -> None:
         cs, off = divmod(addr - CS_BASE, CS_STRIDE)
         i10 = self.fw.ivars.values[10]
         if space == "X" and off == 0x00 and i10:
             self.fw.feed[cs] = value * 100 / i10
+            return
+        if off == 0x15:  # writing a timer sets Isx11/Isx12
+            n = 5100 + 100 * cs + (11 if space == "X" else 12)
+            v = value - (1 << 24) if value & (1 << 23) else value
+            self.fw.set_ivar(n, float(v))
             return
         self.words[(space, addr)] = value
 
