@@ -143,14 +143,16 @@ class Gather:
         if self.countdown:
             return
         self.countdown = self.period
-        if not self.capacity or (self.samples >= self.capacity and not self.wrap):
-            self.on = False  # full (I5000 = 0): gathering ends [PComm Gather.h GAT_RAM_NOWRAP]
+        if not self.capacity:  # not one sample fits
+            self.on = False
             return
         k = self.per_sample
         start = (self.samples % self.capacity) * k
         row = [read(space, addr) for read, space, addr in self._reads]
         self.words[start:start + len(row)] = row
         self.samples += 1
+        if self.samples >= self.capacity and not self.wrap:
+            self.on = False  # full (I5000 = 0): gathering ends [PComm Gather.h GAT_RAM_NOWRAP]
 
     # -- LIST GATHER -----------------------------------------------------------------------------
     def list_lines(self) -> list[str]:
