@@ -77,11 +77,11 @@ def test_dls_pmaccontrol_gather_sequence_reads_the_positions_of_two_moving_motor
     assert send("i5051=0 i5050=$3")[1]
     assert send("i5049=2")[0] == "\x06"
     for index, axis in enumerate((1, 2)):
-        addr = "$%X%05X" % (LONG, MOTOR_BASE[axis - 1] + ACTUAL)
-        assert send("i50%02d=%s" % (index + 1, addr))[0] == "\x06"
+        addr = f"${LONG:X}{MOTOR_BASE[axis - 1] + ACTUAL:05X}"  # "$%X%05X" [DLS-ctl]
+        assert send(f"i50{index + 1:02d}={addr}")[0] == "\x06"
     assert send("i5001")[0] == "$80008B\r\x06"
     samples, words = 100, 4
-    assert send("define gather %d" % (47 + (words / 2) * samples))[0] == "\x06"
+    assert send(f"define gather {int(47 + (words / 2) * samples)}")[0] == "\x06"  # "%d"
     assert send("i122=50 i119=5 i120=1 i121=0 i222=50 i219=5 i220=1 i221=0 #1j+ #2j-")[0] == "\x06"
     assert send("gather")[0] == "\x06"
     assert int(send("???")[0][:6], 16) & 1 << 19  # data gathering on [digest §2.1]
