@@ -309,7 +309,7 @@ def pmac_gather_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) 
 
     try:
         rack.sim.step(seconds=0.3)
-        ask("I5001=$400000 I5002=$80008B I5050=3 I5049=7 DEFINE GATHER 900 #1J=2000 GATHER")
+        ask("I5001=$400000 I5002=$80008B I5050=3 I5049=7 DEFINE GATHER 1800 #1J=2000 GATHER")
         rack.sim.step(seconds=1.5)
         ask("??? #1P")
         rack.sim.step(seconds=2.5)  # 900 samples x 7 cycles: full after 2.8 s, at rest after
