@@ -85,6 +85,29 @@ def test_a_24_bit_source_pads_each_sample_to_a_whole_48_bit_word(card: Card) -> 
     assert rows[-1][0] == card.fw.memory.read("X", 0x9D)
 
 
+def test_mixed_widths_and_long_samples_read_as_a_word_stream(card: Card) -> None:
+    """A 24-bit source then a 48-bit one: three words, padded to four; 20 48-bit sources: 40
+    words a sample, 16 48-bit words a line (a DPRAM response line holds 255 characters)."""
+    card.ask("I5001=$40009D I5002=$80008B I5050=3 I5049=1 DEFINE GATHER 100")
+    card.ask("I122=100 I119=10 I120=1 I121=0 #1J+ GATHER")
+    card.tick(5)
+    card.ask("ENDGATHER")
+    mem = card.fw.memory
+    rows = words(card.ask("LIST GATHER").split("\r"))
+    assert len(rows) == 5 and all(len(r) == 4 and r[3] == 0 for r in rows)
+    assert rows[-1][0] == mem.read("X", 0x9D)
+    assert fixed48(rows[-1][1], rows[-1][2]) == mem.read_fixed(0x8B)
+    card.ask("".join(f"I{5001 + k}=$C{0x6001 + k:05X}" for k in range(20)))
+    card.ask("I5050=$FFFFF P1..20=7 DEFINE GATHER 200 GATHER")
+    card.tick(2)
+    card.ask("ENDGATHER")
+    lines = card.ask("LIST GATHER").split("\r")
+    assert [len(line.split()) for line in lines] == [16, 4, 16, 4]
+    assert max(map(len, lines)) < 255
+    stream = [w for row in words(lines) for w in row]
+    assert [from_pmac_float_words(stream[i + 1], stream[i]) for i in range(0, 80, 2)] == [7.0] * 40
+
+
 def test_full_buffer_stops_or_wraps_by_i5000(card: Card) -> None:
     """I5000 = 0: gathering ends when the buffer is full (bit 19 clears); 1: it wraps to the
     start [PComm Gather.h GATMODE GAT_RAM_NOWRAP / GAT_RAM_WRAP]."""

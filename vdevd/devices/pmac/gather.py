@@ -20,7 +20,8 @@ DPRAM modes, are not emulated: the DPRAM gathering layout was not retrieved, dig
 
 A sample is the enabled sources' words in source order, padded with a zero word to a whole
 number of 48-bit words; `DEFINE GATHER n` reserves n 48-bit words. LIST GATHER prints each 48-bit
-word as 12 hex digits, X (high) then Y (low), one sample a line, so a host that splits the text
+word as 12 hex digits, X (high) then Y (low), one sample a line (16 words at most, a longer
+sample goes on over the next lines), so a host that splits the text
 and takes `[6:]` then `[:6]` of each word reads the words in the order the card wrote them, as
 dls-pmaccontrol's `collectData` does [DLS-ctl gather.py].
 """
@@ -39,6 +40,9 @@ ERR_BUFFER = 7  # buffer already in use [digest §2.4 error codes]
 #: the open buffer memory of a standard Turbo PMAC, README "Data gathering")
 MAX_WORDS = 0x30000
 SOURCES = 48
+#: 48-bit words a LIST GATHER line holds (12 digits and a space each: 207 characters, within the
+#: DPRAM response buffer's 255, digest §2.10); a longer sample goes on over the next lines
+LINE_WORDS = 16
 #: global status word 1 bits [digest §2.1, X:$000006]
 GATHER_ON_TRIGGER = 1 << 17
 GATHER_ON = 1 << 19
@@ -156,7 +160,7 @@ class Gather:
 
     # -- LIST GATHER -----------------------------------------------------------------------------
     def list_lines(self) -> list[str]:
-        """The gathered samples, one a line, each 48-bit word as 12 hex digits X then Y; after a
+        """The gathered samples, one a line (LINE_WORDS at most), each 48-bit word as 12 hex digits X then Y; after a
         wrap, the whole buffer in memory order."""
         if not self.defined or not self.per_sample:
             return []
@@ -164,7 +168,8 @@ class Gather:
         k = self.per_sample
         w = self.words[:n * k].reshape(n, k // 2, 2).astype(np.int64)
         longs = (w[:, :, 1] << 24) | w[:, :, 0]
-        return [" ".join(f"{int(v):012X}" for v in row) for row in longs]
+        return [" ".join(f"{int(v):012X}" for v in row[i:i + LINE_WORDS])
+                for row in longs for i in range(0, len(row), LINE_WORDS)]
 
 
 def _masked(read: Callable[[str, int], int]) -> Callable[[str, int], int]:
