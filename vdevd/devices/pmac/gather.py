@@ -160,8 +160,8 @@ class Gather:
 
     # -- LIST GATHER -----------------------------------------------------------------------------
     def list_lines(self) -> list[str]:
-        """The gathered samples, one a line (LINE_WORDS at most), each 48-bit word as 12 hex digits X then Y; after a
-        wrap, the whole buffer in memory order."""
+        """The gathered samples, one a line (LINE_WORDS at most), each 48-bit word as 12 hex
+        digits X then Y; after a wrap, the whole buffer in memory order."""
         if not self.defined or not self.per_sample:
             return []
         n = min(self.samples, self.capacity)
