@@ -110,6 +110,8 @@ class Gather:
         for k in range(SOURCES):
             if mask >> k & 1:
                 value = int(iv[5001 + k])
+                if not valid_source(value):  # only a restored image can hold one
+                    raise CommandError(ERR_DATA, f"I{5001 + k}: no such gather source")
                 addr = value & 0xFFFFF
                 dev = self.memory.device(addr)
                 read = self._plain() if dev is None else _masked(dev.read_word)
