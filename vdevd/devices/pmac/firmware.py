@@ -20,6 +20,7 @@ from vdevd.devices.pmac.ect import ConversionTable, setup_address
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_PHASE, CommandError
 from vdevd.devices.pmac.expr import ExprError
 from vdevd.devices.pmac.feedback import FeedbackSelect
+from vdevd.devices.pmac.gather import GATHER_ON, GATHER_ON_TRIGGER, Gather, valid_source
 from vdevd.devices.pmac.gpio import GeneralIO
 from vdevd.devices.pmac.ivars import IVars
 from vdevd.devices.pmac.memory import TOP, Memory
@@ -97,7 +98,8 @@ class Firmware:
         self.servo_ic = ServoIC(mem, self.ivars, _FineEncoders(self.reports))
         self.ect = ConversionTable(mem, self.ivars, self.servo_ic)
         self.gpio = GeneralIO(mem, self.ivars)
-        self.comp = CompTables(self.ivars, self.ivars.motors)
+        self.gather = Gather(mem, self.ivars.values)
+        self.comp = CompTables(self.ivars, self.ivars.motors, lambda: self.gather.defined)
         self.feedback = FeedbackSelect(mem, self.ivars)
         self.coord = CoordSystems(self.ivars, self.motors.cs, self.motors.axis_code,
                                   lambda: self.servo_cycles)
@@ -115,6 +117,8 @@ class Firmware:
         self.servo_ic.tick()
         self.ect.tick()
         self.gpio.tick()
+        if self.gather.on:  # after the cycle's motion: the values of this servo cycle
+            self.gather.tick()
         return events
 
     def skip(self, k: int) -> None:
@@ -207,6 +211,8 @@ class Firmware:
         stored = self.ivars.check(n, value)
         if stored is None:
             raise CommandError(ERR_DATA, f"I{n}={value} out of range")
+        if 5001 <= n <= 5048 and not valid_source(int(stored)):  # gather.py
+            raise CommandError(ERR_DATA, f"I{n}: no such gather source")
         self.ivars.values[n] = stored
         self.on_ivar(n)
 
@@ -292,7 +298,9 @@ class Firmware:
         return self.reports.commanded()
 
     def global_status(self) -> tuple[int, int]:
-        bits = self.global_bits & ~(COMP_ACTIVE | CPU_DSP56311)
+        bits = self.global_bits & ~(COMP_ACTIVE | CPU_DSP56311 | GATHER_ON | GATHER_ON_TRIGGER)
+        if self.gather.on:  # bit 19 data gathering on [digest §2.1 X:$000006]
+            bits |= GATHER_ON
         if self.ivars.values[51] and self.comp.tables:
             bits |= COMP_ACTIVE
         return bits, 0
@@ -469,6 +477,7 @@ class Firmware:
         self.ect.reset()
         self.feedback.reset()
         self.coord.reset()
+        self.gather.reset()
         core = self.motors.core
         self.feedback.refresh(core.axes.encoder + core.encoder_slip)
         if self.on_reset is not None:

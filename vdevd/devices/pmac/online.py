@@ -412,11 +412,20 @@ class Interpreter:
             line.skip()
             out.extend(self.fw.list_comp(port.motor, definition=line.take("DEF")))
             return
+        if line.take("GAT"):
+            line.take("HER")
+            out.extend(self.fw.gather.list_lines())
+            return
         raise CommandError(ERR_DATA, "LIST of program buffers comes in a later issue")
 
     def define(self, line: Line, port: PortState, out: list[str]) -> None:
         line.take("INE")
         line.skip()
+        if line.take("GAT"):  # DEFINE GATHER [n] (gather.py)
+            line.take("HER")
+            line.skip()
+            self.fw.gather.define(line.integer())
+            return
         if not line.take("COMP"):
             raise CommandError(ERR_DATA, "only DEFINE COMP is supported yet")
         end = len(line.s)
@@ -429,11 +438,30 @@ class Interpreter:
         line.skip()
         if line.take("COMP"):
             self.fw.delete_comp(port.motor)
-        elif line.take("GATHER") or line.take("ROTARY") or line.take("ROT") \
+        elif line.take("GAT"):
+            line.take("HER")
+            self.fw.gather.delete()
+        elif line.take("ROTARY") or line.take("ROT") \
                 or line.take("TCOMP") or line.take("BLCOMP") or line.take("TBUF"):
             pass  # none of these buffers exists yet: deleting one is a no-op
         else:
             raise CommandError(ERR_DATA)
+
+    def gather(self, line: Line, port: PortState, out: list[str]) -> None:
+        """GATHER: start data gathering (gather.py); GATHER TRIGGER is not emulated (ERR003)."""
+        line.skip()
+        if line.word().startswith("TRIG"):
+            raise CommandError(ERR_DATA, "GATHER TRIGGER is not emulated (README)")
+        self.fw.gather.start()
+
+    def end_gather(self, spaced: bool, line: Line, port: PortState, out: list[str]) -> None:
+        """ENDGATHER, ENDG, END GAT[HER]: stop data gathering."""
+        if spaced:
+            line.skip()
+            if not line.take("GAT"):
+                raise CommandError(ERR_DATA, "END without GATHER")
+            line.take("HER")
+        self.fw.gather.stop()
 
     def _table_entry(self, line: Line, port: PortState) -> None:
         value = line.signed()
