@@ -302,6 +302,35 @@ def pmac_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None
         pcomm.ClosePmacDevice(0)
 
 
+def pmac_gather_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
+    """Data gathering (the card's README "Data gathering"): the servo cycle counter and motor 1's
+    position every 7 cycles while a motor moves and after it stopped, until the buffer is full;
+    then the card rests again."""
+    assert pcomm.OpenPmacDevice(0, endpoint=d.endpoint)
+    buf = ctypes.create_string_buffer(pcomm.MAX_COMM_BUFFER)
+
+    def ask(text: str) -> None:
+        r = pcomm.PmacGetResponseA(0, buf, pcomm.MAX_COMM_BUFFER, text)
+        rec.add([text, int(r), buf.value])
+
+    try:
+        rack.sim.step(seconds=0.3)
+        ask("I5001=$400000 I5002=$80008B I5050=3 I5049=7 DEFINE GATHER 1800 #1J=2000 GATHER")
+        rack.sim.step(seconds=1.5)
+        ask("??? #1P")
+        rack.sim.step(seconds=2.5)  # 900 samples x 7 cycles: full after 2.8 s, at rest after
+        ask("??? LIST GATHER")
+        sources, samples = ctypes.c_uint(), ctypes.c_uint()
+        rec.add(pcomm.PmacCollectGatherData(0, ctypes.byref(sources), ctypes.byref(samples)))
+        rec.add([sources.value, samples.value])
+        assert (sources.value, samples.value) == (2, 900)
+        values: list[float] = []
+        pcomm.PmacGetGatherSamples(0, 1, None, values, 1000)
+        rec.add(values)
+    finally:
+        pcomm.ClosePmacDevice(0)
+
+
 def octavia_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
     """RTCs through the DPR: gains, moves with motion complete, PARREAD's 5 ms echo, INT5MS
     is off (standard firmware), an index search, reads after steps of odd lengths."""
@@ -529,10 +558,10 @@ def adlink_units_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder)
 @pytest.mark.parametrize(("scenario", "card"), [
     (generic_scenario, "servo0"), (galil_scenario, "galil0"), (galil_program_scenario, "galil0"),
     (galil_io_scenario, "galil0"), (maxk_scenario, "maxk0"),
-    (pmac_scenario, "pmac0"), (octavia_scenario, "octavia0"), (adlink_scenario, "adlink0"),
-    (adlink_units_scenario, "adlink0")],
-    ids=["generic", "galil", "galil-program", "galil-io", "maxk", "pmac", "octavia", "adlink",
-         "adlink-units"])
+    (pmac_scenario, "pmac0"), (pmac_gather_scenario, "pmac0"), (octavia_scenario, "octavia0"),
+    (adlink_scenario, "adlink0"), (adlink_units_scenario, "adlink0")],
+    ids=["generic", "galil", "galil-program", "galil-io", "maxk", "pmac", "pmac-gather", "octavia",
+         "adlink", "adlink-units"])
 def test_skipping_quiet_ticks_changes_no_reply(scenario: Callable[..., None], card: str,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
     both_ways(scenario, card, monkeypatch)

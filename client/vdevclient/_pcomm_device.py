@@ -84,6 +84,7 @@ class _Device:
         self.memo: dict[bytes, _Seen] = {}
         self.scale: dict[int, float] = {}  # motor -> Ixx08 * 32
         self.interrupts: _Interrupts | None = None
+        self.gather: Any = None  # PmacCollectGatherData's upload (_pcomm_gather.py)
         self.drain()
 
     # -- ops and batches ----------------------------------------------------------------------------

@@ -175,6 +175,18 @@ def test_gather_rotary_and_other_buffers_refuse_every_table(buffer: str) -> None
     assert c.raw("#1 DEFINE COMP 2,100") == b"\x06"
 
 
+def test_a_defined_gather_buffer_refuses_tables_until_deleted() -> None:
+    """The addendum's sequence: DEFINE COMP answers ERR007 while a GATHER buffer exists, and is
+    accepted after DELETE GATHER [A L3179-3190]."""
+    c = card()
+    c.raw("DEFINE GATHER 100")
+    assert c.raw("#2 DEFINE COMP 4,1000") == b"\x07ERR007\r"
+    assert c.raw("#2 DEFINE BLCOMP 4,1000") == b"\x07ERR007\r"
+    assert c.raw("#2 DEFINE COMP 1.1,#1,10,10") == b"\x07ERR007\r"
+    c.raw("DELETE GATHER")
+    assert c.raw("#2 DEFINE COMP 4,1000") == b"\x06"
+
+
 # -- status, SAVE, reset --------------------------------------------------------------------------
 def test_global_status_bit_14_with_a_table_and_i51() -> None:
     c = card()

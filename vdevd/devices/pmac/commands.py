@@ -8,8 +8,8 @@ commands are the longest word a run of letters starts with (after the variables 
 
 `COMMANDS.not_emulated` lists the on-line commands the digest documents that the card does not run
 yet, with the reason; `REFUSED` is the error number those the parser recognises answer (the others
-are unrecognised: ERR003). Motion programs, PLCs, coordinate-system axis definitions and data
-gathering come in issue 21 (README "Not yet").
+are unrecognised: ERR003). Motion programs, PLCs, coordinate-system axis definitions come in issue
+21 (data gathering: gather.py) (README "Not yet").
 """
 
 from __future__ import annotations
@@ -68,6 +68,10 @@ COMMANDS = CommandTable(
         _word("DEFINE", "define", section=_S17), _word("DEF", "define", section=_S17),
         _word("DELETE", "delete", section=_S17), _word("DEL", "delete", section=_S17),
         _word("LIST", "list_table", section=_S17),
+        # data gathering [§2.2 I5000-I5051, §3.3; gather.py]
+        _word("GATHER", "gather"), _word("GAT", "gather"),
+        _word("ENDGATHER", "end_gather", False), _word("ENDGAT", "end_gather", False),
+        _word("ENDG", "end_gather", False), _word("END", "end_gather", True),
         # memory words [§2.5, §2.1]
         *(_word(f"{rw}{space}", "memory", space, rw == "W")
           for rw in "RW" for space in "XYLD"),
@@ -86,8 +90,6 @@ COMMANDS = CommandTable(
         "ENA": "PLC control: PLCs come in issue 21",
         "DISABLE": "PLC control: PLCs come in issue 21",
         "DIS": "PLC control: PLCs come in issue 21",
-        "GATHER": "data gathering comes in issue 21",
-        "ENDGATHER": "data gathering comes in issue 21",
         "!": "the V1.936 axis-move command needs coordinate systems (issue 21): unrecognised",
         "^": "jog-until-trigger ({jog}^{c}) needs triggered moves: after a jog, ^ is unrecognised",
     },
@@ -96,7 +98,7 @@ COMMANDS = CommandTable(
 #: not emulated words the parser recognises -> the error number they answer (README "Not yet")
 REFUSED: dict[str, int] = {
     "OPEN": ERR_DATA, "CLOSE": ERR_NOT_OPEN, "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
-    "GATHER": ERR_DATA, "ENDGATHER": ERR_DATA, "ENABLE": ERR_DATA, "ENA": ERR_DATA,
+    "ENABLE": ERR_DATA, "ENA": ERR_DATA,
     "DISABLE": ERR_DATA, "DIS": ERR_DATA, "ABR": ERR_NO_PROGRAM,
     "B": ERR_NO_PROGRAM, "R": ERR_NO_PROGRAM, "S": ERR_NO_PROGRAM, "Q": ERR_NO_PROGRAM,
 }

@@ -21,6 +21,7 @@ from vdevd.devices.pmac.ect import ConversionTable, setup_address
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_PHASE, CommandError
 from vdevd.devices.pmac.expr import ExprError
 from vdevd.devices.pmac.feedback import FeedbackSelect
+from vdevd.devices.pmac.gather import GATHER_ON, GATHER_ON_TRIGGER, Gather, valid_source
 from vdevd.devices.pmac.gpio import GeneralIO
 from vdevd.devices.pmac.ivars import IVars
 from vdevd.devices.pmac.macro import MacroStations
@@ -99,10 +100,12 @@ class Firmware:
         self.servo_ic = ServoIC(mem, self.ivars, _FineEncoders(self.reports))
         self.ect = ConversionTable(mem, self.ivars, self.servo_ic)
         self.gpio = GeneralIO(mem, self.ivars)
-        self.comp = CompTables(self.ivars, self.ivars.motors)
+        self.gather = Gather(mem, self.ivars.values)
+        self.comp = CompTables(self.ivars, self.ivars.motors, lambda: self.gather.defined)
         #: hooks answering which TBUF/ROTARY/LOOKAHEAD/GATHER buffers exist (they block DEFINE COMP,
         #: BLCOMP, TCOMP [spec §1.7]); the buffers' own modules register here
-        self.buffer_checks: list[Callable[[], set[str]]] = []
+        self.buffer_checks: list[Callable[[], set[str]]] = [
+            lambda: {"GATHER"} if self.gather.defined else set()]
         self.comp1d = Tables1D(self.ivars, self.ivars.motors, lambda: set(self.comp.tables),
                                self.existing_buffers)
         self.feedback = FeedbackSelect(mem, self.ivars)
@@ -123,6 +126,8 @@ class Firmware:
         self.servo_ic.tick()
         self.ect.tick()
         self.gpio.tick()
+        if self.gather.on:  # after the cycle's motion: the values of this servo cycle
+            self.gather.tick()
         return events
 
     def skip(self, k: int) -> None:
@@ -220,6 +225,8 @@ class Firmware:
         stored = self.ivars.check(n, value)
         if stored is None:
             raise CommandError(ERR_DATA, f"I{n}={value} out of range")
+        if 5001 <= n <= 5048 and not valid_source(int(stored)):  # gather.py
+            raise CommandError(ERR_DATA, f"I{n}: no such gather source")
         self.ivars.values[n] = stored
         self.on_ivar(n)
 
@@ -305,7 +312,9 @@ class Firmware:
         return self.reports.commanded()
 
     def global_status(self) -> tuple[int, int]:
-        bits = self.global_bits & ~(COMP_ACTIVE | CPU_DSP56311)
+        bits = self.global_bits & ~(COMP_ACTIVE | CPU_DSP56311 | GATHER_ON | GATHER_ON_TRIGGER)
+        if self.gather.on:  # bit 19 data gathering on [digest §2.1 X:$000006]
+            bits |= GATHER_ON
         if self.ivars.values[51] and (self.comp.tables or self.comp1d.any_tables):
             bits |= COMP_ACTIVE
         return bits, 0
@@ -520,6 +529,7 @@ class Firmware:
         self.ect.reset()
         self.feedback.reset()
         self.coord.reset()
+        self.gather.reset()
         core = self.motors.core
         self.feedback.refresh(core.axes.encoder + core.encoder_slip)
         if self.on_reset is not None:

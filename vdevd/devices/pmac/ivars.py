@@ -143,6 +143,16 @@ CS: dict[int, IVar] = {
     95: IVar(1644, 0, 8_388_607),
 }
 
+#: data gathering I5000-I5051 [digest §2.2; DLS-ctl gather.py; PComm Gather.h GATMODE]: I5000 mode
+#: (0 stop when full, 1 wrap; the DPRAM modes 2-3 are not emulated), I5001-I5048 sources (hex:
+#: format digit + address), I5049 period in servo cycles, I5050/I5051 source masks (hex)
+GATHER: dict[int, IVar] = {
+    5000: _int(0, 1, 0),
+    **dict.fromkeys(range(5001, 5049), _ADDR),
+    5049: _int(0, 0x7FFFFF, 0),
+    5050: _ADDR, 5051: _ADDR,
+}
+
 #: Servo IC variables I7mn k (k -> definition) and IC-global I7m0k [SRM p.213, addendum §1.1]
 IC_CHANNEL: dict[int, IVar] = {
     0: _int(0, 15, 7),   # encoder decode: x4 quadrature, CW
@@ -173,6 +183,8 @@ def definition(n: int, motors: int = 8) -> IVar:
         spec = MOTOR.get(yy, _PLAIN)
         default = _motor_default(motor, yy, motors)
         return spec if default is None else _with_default(spec, default)
+    if 5000 <= n < 5100:
+        return GATHER.get(n, _PLAIN)
     if 5100 <= n < 6700:
         spec = CS.get(n % 100, _PLAIN)
         if n % 100 == 93:  # Isx93: the C.S.'s own host time base X:$002000+$100(s-1) (README)

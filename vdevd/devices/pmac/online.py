@@ -455,14 +455,23 @@ class Interpreter:
             line.skip()
             out.extend(self.fw.list_comp(port.motor, definition=line.take("DEF"), kind=kind))
             return
+        if line.take("GAT"):
+            line.take("HER")
+            out.extend(self.fw.gather.list_lines())
+            return
         raise CommandError(ERR_DATA, "LIST of program buffers comes in a later issue")
 
     def define(self, line: Line, port: PortState, out: list[str]) -> None:
         line.take("INE")
         line.skip()
+        if line.take("GAT"):  # DEFINE GATHER [n] (gather.py)
+            line.take("HER")
+            line.skip()
+            self.fw.gather.define(line.integer())
+            return
         kind = _table_kind(line)
         if kind is None:
-            raise CommandError(ERR_DATA, "only DEFINE COMP, BLCOMP and TCOMP are supported yet")
+            raise CommandError(ERR_DATA, "only DEFINE GATHER, COMP, BLCOMP and TCOMP are supported yet")
         end = len(line.s)
         port.table_left = self.fw.define_comp(port.motor, line.s[line.i:end], kind)
         port.table_motor = port.motor
@@ -474,10 +483,29 @@ class Interpreter:
         kind = _table_kind(line)
         if kind is not None:
             self.fw.delete_comp(port.motor, kind)
-        elif line.take("GATHER") or line.take("ROTARY") or line.take("ROT") or line.take("TBUF"):
+        elif line.take("GAT"):
+            line.take("HER")
+            self.fw.gather.delete()
+        elif line.take("ROTARY") or line.take("ROT") or line.take("TBUF"):
             pass  # none of these buffers exists yet: deleting one is a no-op
         else:
             raise CommandError(ERR_DATA)
+
+    def gather(self, line: Line, port: PortState, out: list[str]) -> None:
+        """GATHER: start data gathering (gather.py); GATHER TRIGGER is not emulated (ERR003)."""
+        line.skip()
+        if line.word().startswith("TRIG"):
+            raise CommandError(ERR_DATA, "GATHER TRIGGER is not emulated (README)")
+        self.fw.gather.start()
+
+    def end_gather(self, spaced: bool, line: Line, port: PortState, out: list[str]) -> None:
+        """ENDGATHER, ENDG, END GAT[HER]: stop data gathering."""
+        if spaced:
+            line.skip()
+            if not line.take("GAT"):
+                raise CommandError(ERR_DATA, "END without GATHER")
+            line.take("HER")
+        self.fw.gather.stop()
 
     def _table_entry(self, line: Line, port: PortState) -> None:
         value = line.signed()
