@@ -30,7 +30,7 @@ Internal = Callable[[Exception, str], VdevError]
 MAX_PENDING = 1024
 
 
-@dataclass(eq=False)
+@dataclass(eq=False, slots=True)
 class Waiter:
     """A pending `wait` (or a lockstep `sim step`): resolved by its condition or its deadline."""
 
@@ -92,7 +92,7 @@ def make_waiter(args: Mapping[str, Any], card: Card, region: Callable[[str], Reg
         w.offset, w.size = args["offset"], args.get("size", 4)
         if w.size not in (1, 2, 4, 8):
             raise VdevError(ErrorCode.BAD_WIDTH, f"wait on value: size {w.size} not 1/2/4/8")
-        w.region.peek(w.offset, w.size)  # bounds check now, not at every tick
+        w.region.get_peek(w.offset, w.size)  # bounds check now (and plan the peek), not at every tick
         full = (1 << (8 * w.size)) - 1
         w.mask = args.get("mask", full)
         w.value = args["value"]

@@ -34,6 +34,7 @@ Op = dict[str, Any] | list[Any]
 _RTC, _ARGS, _HOSTINT = int(Dpr.RTC), int(Dpr.ARGMNTS), int(Dpr.HOSTINT1)
 _LOCK, _UNLOCK = b"\x01", b"\x00"
 _ALL64 = (1 << 64) - 1
+_REFUSED = int(REFUSED)
 #: a change of the interrupt registers (see `acknowledged`)
 Change = Callable[[IntStatus], IntStatus]
 
@@ -177,7 +178,7 @@ class Mx4:
         for the host's interrupt routine (the card asserted the line)."""
         hostint = self.status.hostint if self.status is not None else None  # not read: kept
         status = self.status = IntStatus(res[at], hostint)
-        if not status.dspstat1 & REFUSED:
+        if not status.raw[0] & _REFUSED:  # (DSPSTAT1's byte: no flag object in every post)
             return
         while True:
             new = cleared(status.raw, status.dspstat1 & REFUSED, 0, True)

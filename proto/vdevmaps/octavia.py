@@ -261,7 +261,7 @@ class Truncated(ValueError):
     """The argument bytes end before the layout does."""
 
 
-def unpack(rtc: Rtc, args: bytes) -> tuple[dict[str, Any], list[tuple[int, dict[str, Any]]]]:
+def unpack(rtc: Rtc, args: bytes | memoryview) -> tuple[dict[str, Any], list[tuple[int, dict[str, Any]]]]:
     """Decode `args` (the bytes from 3C3h on): the head fields and (axis, group fields) per
     group. Truncated when `args` is too short."""
     hs = rtc.head_size
