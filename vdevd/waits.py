@@ -165,6 +165,23 @@ class Waits:
             due = self._timers[0][0]
         return due
 
+    def outlook(self) -> tuple[int | None, set[Card] | None]:
+        """`next_due_ns()`, and `watched()` when `needs_fine()` (else None), in one pass over
+        the pending waiters (the lockstep drive asks before every chunk)."""
+        due: int | None = None
+        watched: set[Card] | None = None
+        for w in self.pending:
+            if due is None or w.deadline_ns < due:
+                due = w.deadline_ns
+            if w.on != "step":
+                if watched is None:
+                    watched = set()
+                if w.card is not None:
+                    watched.add(w.card)
+        if self._timers and (due is None or self._timers[0][0] < due):
+            due = self._timers[0][0]
+        return due, watched
+
     def needs_fine(self) -> bool:
         """Whether a pending waiter must stop time at the exact tick its condition holds."""
         return any(w.on != "step" for w in self.pending)

@@ -59,6 +59,7 @@ class Mx4:
         #: the `seq` of the last interrupt assertion `wait_irq` returned
         self.irq_seq: int | None = None
         self._check_cache: dict[int, list[Op]] = {}
+        self._idle_cache: dict[int, dict[str, Any]] = {}
 
     # -- ops --------------------------------------------------------------------------------------
     def read(self, offset: int, size: int) -> Op:
@@ -118,7 +119,9 @@ class Mx4:
         code to 3C2h (last); then a wait for the card to clear 3C2h (it has
         executed the last one). Waits: len(posts) + 1."""
         ops: list[Op] = []
-        idle = self.wait(_RTC, 0, timeout_ns)
+        idle = self._idle_cache.get(timeout_ns)  # (the same op in every post: made once)
+        if idle is None:
+            idle = self._idle_cache[timeout_ns] = self.wait(_RTC, 0, timeout_ns)
         for p in posts:
             ops.append(idle)
             if p.stage:

@@ -252,7 +252,7 @@ def encode(name: str, head: Mapping[str, Any] | None = None, **per_axis: PerAxis
     mask = head[rtc.mask]
     if not 0 <= mask <= 0xFF:
         raise ValueError(f"{name}: mask {mask:#x} outside 00h..FFh")
-    axes = [a for a in range(MAX_AXES) if mask >> a & 1]
+    axes = _AXES_OF[mask] if type(mask) is int else [a for a in range(MAX_AXES) if mask >> a & 1]
     order = layout.group_order
     columns = [per_axis[f] for f in order]
     # one value for every axis (an int) is taken as it is; a sequence through _axis_value
@@ -320,6 +320,8 @@ class _Layout:
 _WRAP = {c: 1 << b for c, b in _BITS.items() if c.islower()}
 _HALF = {c: 1 << (b - 1) for c, b in _BITS.items() if c.islower()}
 _LAYOUTS: dict[str, _Layout] = {}
+#: mask -> its axes (0-based, increasing)
+_AXES_OF = [[a for a in range(MAX_AXES) if mask >> a & 1] for mask in range(0x100)]
 
 
 def _layout(name: str) -> _Layout:
