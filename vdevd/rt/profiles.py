@@ -242,8 +242,11 @@ class ProfileGenerator:
              jerk: float) -> None:
         """Point-to-point to the integer `target`, from the present commanded state."""
         p0, v0, a0 = self.state(axis)
-        p, v, first = self._prepare(axis, jerk)
-        segs = first + plan_move(p, v, float(target), vmax, acc, dec, jerk)
+        if jerk <= 0:  # `_prepare`'s trapezoid case: from the state as it is
+            segs = plan_move(p0, v0, float(target), vmax, acc, dec, jerk)
+        else:
+            p, v, first = self._prepare(axis, jerk)
+            segs = first + plan_move(p, v, float(target), vmax, acc, dec, jerk)
         self.load(axis, to_phases(self.t, p0, v0, a0, segs, hold=target),
                   mode=ProfileMode.SCURVE if jerk > 0 else ProfileMode.TRAPEZOID)
 
