@@ -256,14 +256,17 @@ class Rtc:
     def groups(self, head: Mapping[str, int]) -> list[int]:
         """The axes (1..8) the groups belong to, or 1..count for a counted list."""
         if self.mask is not None:
-            m = int(head[self.mask]) & 0xFF
-            return [a + 1 for a in range(8) if m >> a & 1]
+            return list(_MASK_AXES[int(head[self.mask]) & 0xFF])
         if self.count is not None:
             return list(range(1, int(head[self.count]) + 1))
         return []
 
     def size(self, head: Mapping[str, int]) -> int:
         return self.head_size + len(self.groups(head)) * self.group_size
+
+
+#: an axis mask -> its axes (1..8, increasing)
+_MASK_AXES = [tuple(a + 1 for a in range(8) if m >> a & 1) for m in range(0x100)]
 
 
 class Truncated(ValueError):
