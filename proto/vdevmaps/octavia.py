@@ -231,27 +231,27 @@ class Rtc:
     option: str | None = None
     _head_fmt: str = field(init=False, repr=False, compare=False)
     _group_fmt: str = field(init=False, repr=False, compare=False)
-    #: the head's and a group's struct and field names (`unpack` runs at every RTC the card takes)
-    _head_struct: struct.Struct = field(init=False, repr=False, compare=False)
-    _group_struct: struct.Struct = field(init=False, repr=False, compare=False)
+    #: the head's and a group's size and field names (`unpack` runs at every RTC the card takes)
+    _head_size: int = field(init=False, repr=False, compare=False)
+    _group_size: int = field(init=False, repr=False, compare=False)
     _head_names: tuple[str, ...] = field(init=False, repr=False, compare=False)
     _group_names: tuple[str, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "_head_fmt", "<" + "".join(c for _, c in self.head))
         object.__setattr__(self, "_group_fmt", "<" + "".join(c for _, c in self.group))
-        object.__setattr__(self, "_head_struct", struct.Struct(self._head_fmt))
-        object.__setattr__(self, "_group_struct", struct.Struct(self._group_fmt))
+        object.__setattr__(self, "_head_size", struct.calcsize(self._head_fmt))
+        object.__setattr__(self, "_group_size", struct.calcsize(self._group_fmt))
         object.__setattr__(self, "_head_names", tuple(n for n, _ in self.head))
         object.__setattr__(self, "_group_names", tuple(n for n, _ in self.group))
 
     @property
     def head_size(self) -> int:
-        return self._head_struct.size
+        return self._head_size
 
     @property
     def group_size(self) -> int:
-        return self._group_struct.size
+        return self._group_size
 
     def groups(self, head: Mapping[str, int]) -> list[int]:
         """The axes (1..8) the groups belong to, or 1..count for a counted list."""
@@ -276,17 +276,17 @@ class Truncated(ValueError):
 def unpack(rtc: Rtc, args: bytes | memoryview) -> tuple[dict[str, Any], list[tuple[int, dict[str, Any]]]]:
     """Decode `args` (the bytes from 3C3h on): the head fields and (axis, group fields) per
     group. Truncated when `args` is too short."""
-    hs = rtc._head_struct.size
+    hs = rtc._head_size
     if len(args) < hs:
         raise Truncated(f"{rtc.name}: {len(args)} argument bytes, the head needs {hs}")
-    head = dict(zip(rtc._head_names, rtc._head_struct.unpack_from(args), strict=True))
+    head = dict(zip(rtc._head_names, struct.unpack_from(rtc._head_fmt, args), strict=True))
     axes = rtc.groups(head)
-    gs = rtc._group_struct.size
+    gs = rtc._group_size
     need = hs + len(axes) * gs
     if len(args) < need:
         raise Truncated(f"{rtc.name}: {len(args)} argument bytes, {len(axes)} groups need {need}")
-    names, group = rtc._group_names, rtc._group_struct.unpack_from
-    groups = [(a, dict(zip(names, group(args, hs + i * gs), strict=True)))
+    names, fmt = rtc._group_names, rtc._group_fmt
+    groups = [(a, dict(zip(names, struct.unpack_from(fmt, args, hs + i * gs), strict=True)))
               for i, a in enumerate(axes)]
     return head, groups
 
