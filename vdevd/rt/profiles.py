@@ -344,13 +344,13 @@ class ProfileGenerator:
         self.k[axis] = 0
         # `_enter_one(axis)` of column 0, its values taken from the first phase (the same
         # floats the table holds) instead of read back from the table
-        first = phases[0]
+        t0, _, p0, v0, a0, j = phases[0]
         self.plans += 1
-        self.t0[axis] = first.t0
+        self.t0[axis] = t0
         self.t_end[axis] = self.pend[axis, 0]
-        self.p0[axis] = first.p0
-        self.v0[axis] = first.v0
-        a0, j = float(first.a0), float(first.j)
+        self.p0[axis] = p0
+        self.v0[axis] = v0
+        a0, j = float(a0), float(j)
         self.a0[axis] = a0
         self.a0_3[axis] = a0 / 3
         self.j[axis] = j
