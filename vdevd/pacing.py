@@ -301,12 +301,10 @@ class Pacer:
         budget up. Where slices end changes no result (every advance is exact); a rack at rest
         runs whole chunks in one slice, which its cards run in closed form (decision 0008)."""
         sched, clock = self.sched, self._clock
-        target = self.waits.next_due_ns()
+        target, watched = self.waits.outlook()
         chunk_end = sched.now_ns + LOCKSTEP_CHUNK_TICKS * sched.tick_ns
         target = max(sched.now_ns, chunk_end if target is None else min(target, chunk_end))
-        fine = self.waits.needs_fine()
-        stop = self.waits.any_fired if fine else None
-        watched = self.waits.watched() if fine else None
+        stop = self.waits.any_fired if watched is not None else None
         until = clock() + LOCKSTEP_BUDGET_NS
         # a slice holds enough ticks of every card for one at rest to skip the rest of them
         least = max(LOCKSTEP_SLICE_TICKS * sched.tick_ns, QUIET_MIN * sched.longest_ns)

@@ -243,8 +243,31 @@ def _batch_ops(ops: list[Any]) -> list[Request | Access]:
                     code = name[0].upper() if rep else name[0]
                     append((code, op["card"], op["region"], op["offset"], op[last]))
                     continue
+            elif name == "wait" and op.keys() == _WAIT_VALUE_KEYS and _wait_value_typed(op):
+                # a wait on a value with every field given (what clients send to poll a
+                # register): what `validate` accepts, in a few operations
+                args = dict(op)
+                del args["op"]
+                append(Request(None, "wait", args))
+                continue
         append(_validate_batch_op(i, op))
     return out
+
+
+#: a wait on a value with all its fields: the fields and their one type each (SCHEMA's)
+_WAIT_VALUE_TYPES = tuple((k, t) for k, t in (
+    ("card", str), ("on", str), ("timeout_ns", int), ("region", str), ("offset", int),
+    ("size", int), ("mask", int), ("value", int), ("cmp", str)))
+_WAIT_VALUE_KEYS = frozenset(["op", *(k for k, _ in _WAIT_VALUE_TYPES)])
+assert all(SCHEMA["wait"][k].types == {t} for k, t in _WAIT_VALUE_TYPES)
+
+
+def _wait_value_typed(op: dict[str, Any]) -> bool:
+    """Every field of a wait on a value (`_WAIT_VALUE_TYPES`) has its type."""
+    return (type(op["card"]) is str and type(op["on"]) is str and type(op["timeout_ns"]) is int
+            and type(op["region"]) is str and type(op["offset"]) is int
+            and type(op["size"]) is int and type(op["mask"]) is int
+            and type(op["value"]) is int and type(op["cmp"]) is str)
 
 
 def _validate_batch_op(index: int, op: Any) -> Request:

@@ -121,6 +121,9 @@ class Region:
         self._write_plans: dict[tuple[int, int], WritePlan] = {}
         self._read_rep_plans: dict[tuple[int, int], ReadPlan] = {}
         self._write_rep_plans: dict[tuple[int, int], WritePlan] = {}
+        #: (offset, size) -> whether `peek` of it is plain memory (no hook's peek serves it):
+        #: a wait's condition peeks at every tick it watches
+        self._peek_plain: dict[tuple[int, int], bool] = {}
         #: told of every host access (the card's `touched`: an input may have changed)
         self.on_access: Callable[[], None] | None = None
 
@@ -154,7 +157,7 @@ class Region:
             self._read_spans.append((offset, h.end))
             self._read_spans.sort()
         for plans in (self._read_plans, self._write_plans, self._read_rep_plans,
-                      self._write_rep_plans):
+                      self._write_rep_plans, self._peek_plain):
             plans.clear()
         return h
 
@@ -311,6 +314,14 @@ class Region:
 
     def get_peek(self, offset: int, size: int) -> int:
         """`peek` as an unsigned integer in the region's byte order."""
+        plain = self._peek_plain.get((offset, size))
+        if plain is None:  # checked once (bounds, hooks), as the host accesses' plans
+            self._check_bounds(offset, size)
+            h = self._hook_at(offset)
+            plain = _keep(self._peek_plain, (offset, size),
+                          h is None or h.peek is None or offset + size > h.end)
+        if plain:
+            return int.from_bytes(self.mem[offset:offset + size], self.endian)
         return int.from_bytes(self.peek(offset, size), self.endian)
 
     # -- typed access for the card's own firmware (no hooks, no checks beyond bounds) ----------

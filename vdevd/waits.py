@@ -30,7 +30,7 @@ Internal = Callable[[Exception, str], VdevError]
 MAX_PENDING = 1024
 
 
-@dataclass(eq=False)
+@dataclass(eq=False, slots=True)
 class Waiter:
     """A pending `wait` (or a lockstep `sim step`): resolved by its condition or its deadline."""
 
@@ -92,7 +92,7 @@ def make_waiter(args: Mapping[str, Any], card: Card, region: Callable[[str], Reg
         w.offset, w.size = args["offset"], args.get("size", 4)
         if w.size not in (1, 2, 4, 8):
             raise VdevError(ErrorCode.BAD_WIDTH, f"wait on value: size {w.size} not 1/2/4/8")
-        w.region.peek(w.offset, w.size)  # bounds check now, not at every tick
+        w.region.get_peek(w.offset, w.size)  # bounds check now (and plan the peek), not at every tick
         full = (1 << (8 * w.size)) - 1
         w.mask = args.get("mask", full)
         w.value = args["value"]
@@ -164,6 +164,23 @@ class Waits:
         if self._timers and (due is None or self._timers[0][0] < due):
             due = self._timers[0][0]
         return due
+
+    def outlook(self) -> tuple[int | None, set[Card] | None]:
+        """`next_due_ns()`, and `watched()` when `needs_fine()` (else None), in one pass over
+        the pending waiters (the lockstep drive asks before every chunk)."""
+        due: int | None = None
+        watched: set[Card] | None = None
+        for w in self.pending:
+            if due is None or w.deadline_ns < due:
+                due = w.deadline_ns
+            if w.on != "step":
+                if watched is None:
+                    watched = set()
+                if w.card is not None:
+                    watched.add(w.card)
+        if self._timers and (due is None or self._timers[0][0] < due):
+            due = self._timers[0][0]
+        return due, watched
 
     def needs_fine(self) -> bool:
         """Whether a pending waiter must stop time at the exact tick its condition holds."""

@@ -34,6 +34,7 @@ Op = dict[str, Any] | list[Any]
 _RTC, _ARGS, _HOSTINT = int(Dpr.RTC), int(Dpr.ARGMNTS), int(Dpr.HOSTINT1)
 _LOCK, _UNLOCK = b"\x01", b"\x00"
 _ALL64 = (1 << 64) - 1
+_REFUSED = int(REFUSED)
 #: a change of the interrupt registers (see `acknowledged`)
 Change = Callable[[IntStatus], IntStatus]
 
@@ -58,6 +59,7 @@ class Mx4:
         #: the `seq` of the last interrupt assertion `wait_irq` returned
         self.irq_seq: int | None = None
         self._check_cache: dict[int, list[Op]] = {}
+        self._idle_cache: dict[int, dict[str, Any]] = {}
 
     # -- ops --------------------------------------------------------------------------------------
     def read(self, offset: int, size: int) -> Op:
@@ -117,7 +119,9 @@ class Mx4:
         code to 3C2h (last); then a wait for the card to clear 3C2h (it has
         executed the last one). Waits: len(posts) + 1."""
         ops: list[Op] = []
-        idle = self.wait(_RTC, 0, timeout_ns)
+        idle = self._idle_cache.get(timeout_ns)  # (the same op in every post: made once)
+        if idle is None:
+            idle = self._idle_cache[timeout_ns] = self.wait(_RTC, 0, timeout_ns)
         for p in posts:
             ops.append(idle)
             if p.stage:
@@ -177,7 +181,7 @@ class Mx4:
         for the host's interrupt routine (the card asserted the line)."""
         hostint = self.status.hostint if self.status is not None else None  # not read: kept
         status = self.status = IntStatus(res[at], hostint)
-        if not status.dspstat1 & REFUSED:
+        if not status.raw[0] & _REFUSED:  # (DSPSTAT1's byte: no flag object in every post)
             return
         while True:
             new = cleared(status.raw, status.dspstat1 & REFUSED, 0, True)

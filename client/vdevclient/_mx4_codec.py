@@ -252,11 +252,16 @@ def encode(name: str, head: Mapping[str, Any] | None = None, **per_axis: PerAxis
     mask = head[rtc.mask]
     if not 0 <= mask <= 0xFF:
         raise ValueError(f"{name}: mask {mask:#x} outside 00h..FFh")
-    axes = [a for a in range(MAX_AXES) if mask >> a & 1]
-    columns = [per_axis[f] for f in layout.group_order]
-    rows = [[_axis_value(name, f, values, a) for f, values in zip(layout.group_order, columns, strict=True)]
+    axes = _AXES_OF[mask] if type(mask) is int else [a for a in range(MAX_AXES) if mask >> a & 1]
+    order = layout.group_order
+    columns = [per_axis[f] for f in order]
+    # one value for every axis (an int) is taken as it is; a sequence through _axis_value
+    rows = [[values if type(values) is int else _axis_value(name, f, values, a)
+             for f, values in zip(order, columns, strict=True)]
             for a in axes]
     per_post = layout.per_post
+    if 0 < per_post >= len(axes):  # one post (the usual case): its mask is the mask given
+        return [Post(name, rtc.code, layout.pack(head, rows))]
     return [Post(name, rtc.code, layout.pack({**head, rtc.mask: sum(1 << a for a in axes[i:i + per_post])},
                                              rows[i:i + per_post]))
             for i in range(0, max(len(axes), 1), per_post)]
@@ -273,6 +278,8 @@ class _Layout:
         self.group_names = frozenset(self.group_order) if rtc.mask is not None else frozenset()
         self.per_post = (ARG_BYTES - rtc.head_size) // rtc.group_size if rtc.group else 0
         self._codes = [c for _, c in rtc.head] + [c for _, c in rtc.group] * MAX_AXES
+        #: (position, code) of the signed fields among `_codes`
+        self._signed = [(i, c) for i, c in enumerate(self._codes) if c in _WRAP]
         self._structs: dict[int, struct.Struct] = {}
 
     def pack(self, head: dict[str, Any], rows: list[list[Any]]) -> bytes:
@@ -284,8 +291,12 @@ class _Layout:
             packer = self._structs[k] = struct.Struct("<" + "".join(
                 self._codes[:len(self.head_order) + k * len(self.group_order)]))
         values = [head[n] for n in self.head_order] + [v for row in rows for v in row]
-        values = [v - _WRAP[c] if c in _WRAP and _HALF[c] <= v < _WRAP[c] else v
-                  for v, c in zip(values, self._codes, strict=False)]
+        for i, c in self._signed:  # signed fields take a two's complement pattern too
+            if i >= len(values):
+                break
+            v = values[i]
+            if _HALF[c] <= v < _WRAP[c]:
+                values[i] = v - _WRAP[c]
         try:
             return packer.pack(*values)
         except struct.error:
@@ -309,6 +320,8 @@ class _Layout:
 _WRAP = {c: 1 << b for c, b in _BITS.items() if c.islower()}
 _HALF = {c: 1 << (b - 1) for c, b in _BITS.items() if c.islower()}
 _LAYOUTS: dict[str, _Layout] = {}
+#: mask -> its axes (0-based, increasing)
+_AXES_OF = [[a for a in range(MAX_AXES) if mask >> a & 1] for mask in range(0x100)]
 
 
 def _layout(name: str) -> _Layout:

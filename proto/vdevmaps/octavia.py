@@ -231,24 +231,32 @@ class Rtc:
     option: str | None = None
     _head_fmt: str = field(init=False, repr=False, compare=False)
     _group_fmt: str = field(init=False, repr=False, compare=False)
+    #: the head's and a group's size and field names (`unpack` runs at every RTC the card takes)
+    _head_size: int = field(init=False, repr=False, compare=False)
+    _group_size: int = field(init=False, repr=False, compare=False)
+    _head_names: tuple[str, ...] = field(init=False, repr=False, compare=False)
+    _group_names: tuple[str, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "_head_fmt", "<" + "".join(c for _, c in self.head))
         object.__setattr__(self, "_group_fmt", "<" + "".join(c for _, c in self.group))
+        object.__setattr__(self, "_head_size", struct.calcsize(self._head_fmt))
+        object.__setattr__(self, "_group_size", struct.calcsize(self._group_fmt))
+        object.__setattr__(self, "_head_names", tuple(n for n, _ in self.head))
+        object.__setattr__(self, "_group_names", tuple(n for n, _ in self.group))
 
     @property
     def head_size(self) -> int:
-        return struct.calcsize(self._head_fmt)
+        return self._head_size
 
     @property
     def group_size(self) -> int:
-        return struct.calcsize(self._group_fmt)
+        return self._group_size
 
     def groups(self, head: Mapping[str, int]) -> list[int]:
         """The axes (1..8) the groups belong to, or 1..count for a counted list."""
         if self.mask is not None:
-            m = int(head[self.mask]) & 0xFF
-            return [a + 1 for a in range(8) if m >> a & 1]
+            return list(_MASK_AXES[int(head[self.mask]) & 0xFF])
         if self.count is not None:
             return list(range(1, int(head[self.count]) + 1))
         return []
@@ -257,24 +265,28 @@ class Rtc:
         return self.head_size + len(self.groups(head)) * self.group_size
 
 
+#: an axis mask -> its axes (1..8, increasing)
+_MASK_AXES = [tuple(a + 1 for a in range(8) if m >> a & 1) for m in range(0x100)]
+
+
 class Truncated(ValueError):
     """The argument bytes end before the layout does."""
 
 
-def unpack(rtc: Rtc, args: bytes) -> tuple[dict[str, Any], list[tuple[int, dict[str, Any]]]]:
+def unpack(rtc: Rtc, args: bytes | memoryview) -> tuple[dict[str, Any], list[tuple[int, dict[str, Any]]]]:
     """Decode `args` (the bytes from 3C3h on): the head fields and (axis, group fields) per
     group. Truncated when `args` is too short."""
-    hs = rtc.head_size
+    hs = rtc._head_size
     if len(args) < hs:
         raise Truncated(f"{rtc.name}: {len(args)} argument bytes, the head needs {hs}")
-    head = dict(zip((n for n, _ in rtc.head), struct.unpack_from(rtc._head_fmt, args), strict=True))
+    head = dict(zip(rtc._head_names, struct.unpack_from(rtc._head_fmt, args), strict=True))
     axes = rtc.groups(head)
-    gs, need = rtc.group_size, hs + len(axes) * rtc.group_size
+    gs = rtc._group_size
+    need = hs + len(axes) * gs
     if len(args) < need:
         raise Truncated(f"{rtc.name}: {len(args)} argument bytes, {len(axes)} groups need {need}")
-    names = [n for n, _ in rtc.group]
-    groups = [(a, dict(zip(names, struct.unpack_from(rtc._group_fmt, args, hs + i * gs),
-                           strict=True)))
+    names, fmt = rtc._group_names, rtc._group_fmt
+    groups = [(a, dict(zip(names, struct.unpack_from(fmt, args, hs + i * gs), strict=True)))
               for i, a in enumerate(axes)]
     return head, groups
 

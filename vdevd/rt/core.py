@@ -31,6 +31,7 @@ Planner = Callable[[float, float, float, float], list[Phase]]
 
 _MOVING, _DONE = int(AxisFlag.MOVING), int(AxisFlag.DONE)
 _STOPPED, _ABORTED = int(AxisFlag.STOPPED_BY_LIMIT), int(AxisFlag.ABORTED)
+_NOT_STICKY = ~int(MOTION_STICKY)
 _FE_TRIP, _SERVO_ON = int(AxisFlag.FE_TRIP), int(AxisFlag.SERVO_ON)
 _HOMED = int(AxisFlag.HOMED)
 
@@ -382,14 +383,16 @@ class MotionCore:
         """`move_absolute` of one axis with plain numbers (a card's per-axis command, without
         the broadcasting); `commit=False` leaves `profile.commit()` to the caller, who plans
         several axes in a row."""
-        if not all(math.isfinite(x) and x > 0 for x in (vmax, acc, dec)):
+        isfinite = math.isfinite  # (no generator: a card's command runs this for every axis)
+        if not (isfinite(vmax) and vmax > 0 and isfinite(acc) and acc > 0 and isfinite(dec)
+                and dec > 0):
             raise ValueError("vmax, acc and dec must be positive and finite")
-        if not (math.isfinite(jerk) and jerk >= 0):
+        if not (isfinite(jerk) and jerk >= 0):
             raise ValueError("jerk must be >= 0 and finite")
-        if not math.isfinite(target):
+        if not isfinite(target):
             raise ValueError("targets must be finite")
         a = int(axis)
-        self.axes.flags[a] &= ~int(MOTION_STICKY)
+        self.axes.flags[a] &= _NOT_STICKY
         self.done_bits[a] = 0
         self._move_to(a, float(round(target)), vmax, acc, dec, jerk)
         if commit:

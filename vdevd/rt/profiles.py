@@ -34,6 +34,8 @@ import numpy as np
 from vdevd.rt.axes import Axes, ProfileMode
 
 INF = math.inf
+_nonzero = np.count_nonzero
+_min = np.minimum.reduce
 
 
 class Phase(NamedTuple):
@@ -145,10 +147,11 @@ def to_phases(t: float, p: float, v: float, a: float, segs: Iterable[Segment],
     """Absolute phases for `segs` from time t and state (p, v, a), then an endless last phase:
     a hold at `hold` if given (snapping the end exactly), else constant velocity."""
     phases: list[Phase] = []
+    make = Phase._make
     for dur, j, a0 in segs:
-        ph = Phase(t, dur, p, v, a0, j)
-        phases.append(ph)
-        p, v, a = ph.end_state()
+        phases.append(make((t, dur, p, v, a0, j)))
+        # Phase.end_state, inline (a command plans every axis it names)
+        p, v = p + dur * (v + dur * (a0 / 2 + j * dur / 6)), v + dur * (a0 + j * dur / 2)
         t += dur
     if hold is not None:
         phases.append(Phase(t, INF, float(hold), 0.0, 0.0, 0.0))
@@ -239,8 +242,11 @@ class ProfileGenerator:
              jerk: float) -> None:
         """Point-to-point to the integer `target`, from the present commanded state."""
         p0, v0, a0 = self.state(axis)
-        p, v, first = self._prepare(axis, jerk)
-        segs = first + plan_move(p, v, float(target), vmax, acc, dec, jerk)
+        if jerk <= 0:  # `_prepare`'s trapezoid case: from the state as it is
+            segs = plan_move(p0, v0, float(target), vmax, acc, dec, jerk)
+        else:
+            p, v, first = self._prepare(axis, jerk)
+            segs = first + plan_move(p, v, float(target), vmax, acc, dec, jerk)
         self.load(axis, to_phases(self.t, p0, v0, a0, segs, hold=target),
                   mode=ProfileMode.SCURVE if jerk > 0 else ProfileMode.TRAPEZOID)
 
@@ -336,7 +342,20 @@ class ProfileGenerator:
         tab[1] += rows[0]  # the end of each phase: t0 + dur
         self.pend[axis, m - 1:] = INF
         self.k[axis] = 0
-        self._enter_one(axis)
+        # `_enter_one(axis)` of column 0, its values taken from the first phase (the same
+        # floats the table holds) instead of read back from the table
+        t0, _, p0, v0, a0, j = phases[0]
+        self.plans += 1
+        self.t0[axis] = t0
+        self.t_end[axis] = self.pend[axis, 0]
+        self.p0[axis] = p0
+        self.v0[axis] = v0
+        a0, j = float(a0), float(j)
+        self.a0[axis] = a0
+        self.a0_3[axis] = a0 / 3
+        self.j[axis] = j
+        self._jstep[:, axis] = self._jcoef[:, 0] * j
+        self.axes.cmd_acc[axis] = a0
         self.moving[axis] = moving = m > 1 or endless
         self.mode[axis] = mode if moving else ProfileMode.IDLE
 
@@ -433,9 +452,11 @@ class ProfileGenerator:
         self.axes.cmd_acc[a] = a0
 
     def _refresh(self) -> None:
-        self.next_t = float(self.t_end.min())
-        self.jerky = bool(self.j.any())
-        self.active = bool(self.v0.any() or self.a0.any() or self.jerky)
+        # count_nonzero: the truth of `any` (NaN counts, -0.0 does not) without the method's
+        # Python layers, a quarter of its cost at every plan and phase boundary
+        self.next_t = float(_min(self.t_end))
+        self.jerky = jerky = bool(_nonzero(self.j))
+        self.active = bool(jerky or _nonzero(self.v0) or _nonzero(self.a0))
 
     def evaluate(self) -> None:
         """Commanded position, velocity and acceleration of every axis at `self.t`, in closed

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 
 Groups = list[tuple[int, dict[str, Any]]]
 TS = 200e-6
+_MOVE = int(Mode.MOVE)
 VMAX = 0xFFFFFF / 65536.0  # counts/sample: "maximum unsigned velocity 00FFFFFFh" [Ch5 AXMOVE]
 
 
@@ -48,9 +49,10 @@ def axmove(relative: str, shape: str, fw: Firmware, head: dict[str, Any], groups
     if not todo or fw.discarded([a for a, _ in todo], CONTOURING):
         return
     core = fw.core
+    cmd_pos, mode, prev = core.axes.cmd_pos, fw.mode, fw._prev_flags
     for a, g in todo:
         acc = acc_from_raw(g["acc"])
-        here = float(np.rint(core.axes.cmd_pos[a]))
+        here = _rint(float(cmd_pos[a]))
         target = here + g["pos"] if relative == "rel" else float(g["pos"])
         if shape == "timed":
             vel = min(move_time_velocity(acc, abs(target - here), float(g["tm"])), VMAX)
@@ -58,15 +60,22 @@ def axmove(relative: str, shape: str, fw: Firmware, head: dict[str, Any], groups
             vel = abs(vel_from_raw(g["vel"]))
         if acc <= 0 or vel <= 0:
             continue
-        fw.close_loop([a])
+        if fw.any_open:
+            fw.close_loop([a])
         a_s, v_s = acc / (TS * TS), vel / TS
         if shape == "s_curve":  # triangular acceleration pulses peaking at 2*acc [Ch5 AXMOVE_S]
             core.move_one(a, target, v_s, 2 * a_s, 2 * a_s, 4 * a_s * a_s / v_s, commit=False)
         else:
             core.move_one(a, target, v_s, a_s, a_s, commit=False)
-        fw.mode[a] = Mode.MOVE
-        fw._prev_flags[a] = 0
+        mode[a] = _MOVE
+        prev[a] = 0
     core.profile.commit()
+
+
+def _rint(x: float) -> float:
+    """`float(np.rint(x))` of a float, without numpy's scalar machinery: `round` rounds half to
+    even too (and is exact: a float beyond 2^52 is already whole)."""
+    return float(round(x)) if math.isfinite(x) else x
 
 
 def ddac(fw: Firmware, head: dict[str, Any], groups: Groups) -> None:

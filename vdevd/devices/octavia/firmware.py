@@ -70,6 +70,12 @@ _WATCH_KEPT = frozenset({
     "STOP", "DDAC", "MAXACC", "ESTOP_ACC", "CTRL", "CTRL_KA", "KILIMIT", "OUTGAIN",
     "TRQ_LIMIT", "PARREAD", "OUTP_ON", "OUTP_OFF", "EN_MOTCP"})
 _RTC, _ARGS = int(Dpr.RTC), int(Dpr.ARGMNTS)
+#: the registers `publish` touches at every batch, as ints (an IntEnum index costs more)
+_HOSTACC_ACTPOS, _HOSTACC_ACTVEL, _HOSTACC_ERROR = (
+    int(Dpr.HOSTACC_ACTPOS), int(Dpr.HOSTACC_ACTVEL), int(Dpr.HOSTACC_ERROR))
+_M4ACC_ACTPOS, _M4ACC_ACTVEL, _M4ACC_ERROR = (
+    int(Dpr.M4ACC_ACTPOS), int(Dpr.M4ACC_ACTVEL), int(Dpr.M4ACC_ERROR))
+_ENCSTAT, _ADC, _INPUT = int(Dpr.ENCSTAT), int(Dpr.ADC), int(Dpr.INPUT)
 #: DSPSTAT1 type bit -> its INTAXIS source byte (000h + bit number + 1) [Table 6-2]
 _SOURCE = {int(b): int(Dpr.DSPSTAT1) + 1 + int(b).bit_length() - 1 for b in DspStat1}
 
@@ -148,6 +154,13 @@ class Firmware:
         self._prev_flags = np.zeros(n, dtype=np.int64)
         self._published = np.zeros((3, n), dtype=np.int64)
         self._pub_tmp = np.zeros((2, n))
+        # publish's views, made once: ACTVEL's and ERROR's float rows, the int rows they go to,
+        # and each bank's columns with the rows of its axes
+        pub, k = self._published, min(n, 4)
+        self._pub_rows = (self._pub_tmp[0], self._pub_tmp[1], pub[1:])
+        bank1, bank2 = self.windows.state
+        self._pub_banks = ((bank1[:, :k], pub[:, :k]),) + (
+            ((bank2[:, :n - 4], pub[:, 4:n]),) if n > 4 else ())
         # the battery-backed board RAM and DSPL surface (RESET keeps them) and the cam and gear
         # slaves (follow.py); nv_dirty: the battery image changed since it was last taken
         self.ram = BoardRam()  # the on-board RAM: tables a reset keeps [Ch8]
@@ -265,7 +278,8 @@ class Firmware:
                 log.warning("octavia: RTC code %02Xh is not defined: cleared and ignored", code)
         else:
             try:
-                head, groups = unpack(rtc, bytes(buf[_ARGS:DPR_SIZE]))
+                with memoryview(buf) as view:  # read in place: no copy of the 7 KiB from 3C3h
+                    head, groups = unpack(rtc, view[_ARGS:DPR_SIZE])
             except Truncated as exc:  # cannot happen within 8 KiB: a guard
                 log.warning("octavia: %s", exc)
             else:
@@ -590,33 +604,32 @@ class Firmware:
         """ACTPOS, ACTVEL, ERROR, ENCSTAT and INPUT, each unless the host holds its window
         [Table 6-5; spec §2.5.1]."""
         ax, n, w, buf = self.core.axes, self.n, self.windows, self.buf
-        pub, tmp = self._published, self._pub_tmp
+        pub = self._published
+        vel, fe, rows = self._pub_rows
         pub[0] = ax.encoder  # ACTPOS, ACTVEL, ERROR: one (3, n) block in the DPR's row order
-        np.multiply(ax.vel, TS, out=tmp[0])
-        tmp[0] *= ACTVEL_SCALE
-        np.rint(tmp[0], out=tmp[0])
-        np.rint(ax.ferr, out=tmp[1])
-        pub[1:] = tmp  # counts as the card's int32 words: wrapping beyond 2^31 when stored
-        if (buf[Dpr.HOSTACC_ACTPOS] != 1 and buf[Dpr.HOSTACC_ACTVEL] != 1
-                and buf[Dpr.HOSTACC_ERROR] != 1):  # the usual case: one store a bank
-            buf[Dpr.M4ACC_ACTPOS] = buf[Dpr.M4ACC_ACTVEL] = buf[Dpr.M4ACC_ERROR] = 1
-            bank1, bank2 = w.state
-            bank1[:, :min(n, 4)] = pub[:, :4]
-            if n > 4:
-                bank2[:, :n - 4] = pub[:, 4:n]
-            buf[Dpr.M4ACC_ACTPOS] = buf[Dpr.M4ACC_ACTVEL] = buf[Dpr.M4ACC_ERROR] = 0
+        np.multiply(ax.vel, TS, out=vel)
+        vel *= ACTVEL_SCALE
+        np.rint(vel, out=vel)
+        np.rint(ax.ferr, out=fe)
+        rows[...] = self._pub_tmp  # counts as the card's int32 words: wrapping beyond 2^31 when stored
+        if (buf[_HOSTACC_ACTPOS] != 1 and buf[_HOSTACC_ACTVEL] != 1
+                and buf[_HOSTACC_ERROR] != 1):  # the usual case: one store a bank
+            buf[_M4ACC_ACTPOS] = buf[_M4ACC_ACTVEL] = buf[_M4ACC_ERROR] = 1
+            for bank, part in self._pub_banks:
+                bank[...] = part
+            buf[_M4ACC_ACTPOS] = buf[_M4ACC_ACTVEL] = buf[_M4ACC_ERROR] = 0
         else:
             w.put(Window.ACTPOS, w.actpos, pub[0].astype(np.int32), n)
             w.put(Window.ACTVEL, w.actvel, pub[1].astype(np.int32), n)
             w.put(Window.ERROR, w.error, pub[2].astype(np.int32), n)
-        if buf[Dpr.ENCSTAT] != self.encstat & 0xFF:
+        if buf[_ENCSTAT] != self.encstat & 0xFF:
             w.put_bytes(Window.ENC, Dpr.ENCSTAT, bytes((self.encstat & 0xFF,)))
-        if buf[Dpr.ADC:Dpr.ADC + 8] != self.adc.astype("<i2").tobytes():
+        if buf[_ADC:_ADC + 8] != self.adc.astype("<i2").tobytes():
             self.publish_adc()
         if self._deferred:
             self._deferred = [d for d in self._deferred if not w.put(d[1], d[0], d[2], n)]
         self.follow.publish()
-        self.buf[Dpr.INPUT:Dpr.INPUT + 4] = (self.inputs & 0xFFFFFFFF).to_bytes(4, "little")
+        buf[_INPUT:_INPUT + 4] = (self.inputs & 0xFFFFFFFF).to_bytes(4, "little")
 
 
 def _int32(values: np.ndarray) -> np.ndarray:
