@@ -1,6 +1,6 @@
 """PComm32's PmacDownloadA (spec pmac.md §3.1): a file of on-line commands preprocessed (`#define`,
-comments) and sent line by line through the DPRAM ASCII handshake, batched. Re-exported from
-`vdevclient.pcomm`."""
+`#undef`, `#ifdef`, `#include`, comments) and sent line by line through the DPRAM ASCII
+handshake, batched. Re-exported from `vdevclient.pcomm`."""
 
 from __future__ import annotations
 
@@ -32,15 +32,21 @@ def PmacDownloadA(dev: _Device, msgproc: Any, getproc: Any, progress: Any, filen
     `msgproc(str, newline)` receives the error ("file:line: text: ERRnnn") and a closing
     message, `progress(percent)` the progress after each batch. With an empty `filename`, lines
     come from `getproc(index, buffer, maxlen)` (a ctypes buffer it fills; 0 ends) instead.
-    Not supported (PreprocessError, reported through msgproc): #include, #ifdef and the other
-    conditionals, #undef, macros with arguments. `map` and `log` (the map and log files PComm
+    `#include "file"` (relative to the downloaded file's folder; not from getproc), `#undef`
+    and `#ifdef`/`#ifndef`/`#else`/`#endif` as PComm's preprocessor does them. Not supported
+    (PreprocessError, reported through msgproc): `#if`/`#elif` expressions, macros with
+    arguments. `map` and `log` (the map and log files PComm
     writes) are ignored. Lines go DOWNLOAD_CHUNK to a batch; a line that answers data or an
     error ends its batch early (a zero-time `wait` for the ACK gates the next line)."""
     name = _text(filename).decode("latin-1")
     say = _messenger(msgproc)
     try:
-        source = Path(name).read_text(encoding="latin-1") if name else _from_getproc(getproc)
-        lines = preprocess(source, bool(macro))
+        if name:
+            path = Path(name)
+            source = path.read_text(encoding="latin-1")
+            lines = preprocess(source, bool(macro), _read_include, str(path.resolve()))
+        else:
+            lines = preprocess(_from_getproc(getproc), bool(macro))
     except (OSError, PreprocessError) as exc:
         say(f"{name or 'download'}: {exc}")
         return 0
@@ -51,7 +57,7 @@ def PmacDownloadA(dev: _Device, msgproc: Any, getproc: Any, progress: Any, filen
         chunk = lines[i:i + DOWNLOAD_CHUNK]
         ops = dev.begin()
         marks = []
-        for _, text in chunk:
+        for _, text, _ in chunk:
             dev.command_ops(text.encode("latin-1")[:CMD_MAX - 1], ops)
             marks.append(len(ops))
             ops += (dev.slot, dev.gate, dev.ack)
@@ -67,9 +73,9 @@ def PmacDownloadA(dev: _Device, msgproc: Any, getproc: Any, progress: Any, filen
                 posted, done = dev.collect([], None, [first] if first else [], need_ack=first is not None)
             data, status = _reply(posted, done)
             if status != COMM_EOT:
-                number, text = chunk[k]
+                number, text, inner = chunk[k]
                 what = data.decode("latin-1").strip("\x07\r").split("\r")[-1] or "no response"
-                say(f"{name or 'download'}:{number}: {text}: {what}")
+                say(f"{inner or name or 'download'}:{number}: {text}: {what}")
                 return 0
             i += k + 1
             break
@@ -79,6 +85,19 @@ def PmacDownloadA(dev: _Device, msgproc: Any, getproc: Any, progress: Any, filen
             progress(100 * i // len(lines))
     say(f"{name or 'download'}: {len(lines)} lines downloaded")
     return 1
+
+
+#: the largest file #include reads (bounded input)
+MAX_INCLUDE_BYTES = 16 << 20
+
+
+def _read_include(name: str, where: str) -> tuple[str, str]:
+    """An #include's text and resolved path: `name` relative to the including file's folder
+    (`where`, a file's resolved path), as PComm's preprocessor looks for it first."""
+    path = (Path(where).parent / name).resolve()
+    if path.stat().st_size > MAX_INCLUDE_BYTES:
+        raise OSError(f"larger than {MAX_INCLUDE_BYTES} bytes")
+    return path.read_text(encoding="latin-1"), str(path)
 
 
 def _messenger(msgproc: Any) -> Callable[[str], None]:

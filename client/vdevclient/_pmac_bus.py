@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import re
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -145,16 +146,32 @@ def realtime_motor(motor: int) -> int:
 # -- PmacDownloadA's preprocessing --------------------------------------------------------------------------
 _DIRECTIVE = re.compile(r"#\s*([A-Za-z]+)\b\s*(.*)")
 _DEFINE = re.compile(r"([A-Za-z_]\w*)\s*(.*)")
+_NAME = re.compile(r"[A-Za-z_]\w*")
+_INCLUDE = re.compile(r'"([^"]+)"|<([^>]+)>')
 #: directives of the PComm32 preprocessor this client does not implement
-UNSUPPORTED = ("include", "ifdef", "ifndef", "if", "else", "elif", "endif", "undef", "pragma", "macro")
+UNSUPPORTED = ("if", "elif", "pragma", "macro")
+#: how deep #include may nest, and how many lines a download may have in all (bounded input)
+MAX_INCLUDE_DEPTH = 16
+MAX_LINES = 200_000
 
 
 class PreprocessError(ValueError):
-    """A line the download preprocessor cannot handle; `line` is its number (1-based)."""
+    """A line the download preprocessor cannot handle; `line` is its number (1-based), `file`
+    the file it is in ("" for the downloaded text itself)."""
 
-    def __init__(self, line: int, message: str) -> None:
-        super().__init__(f"line {line}: {message}")
+    def __init__(self, line: int, message: str, file: str = "") -> None:
+        super().__init__(f"{file + ':' if file else ''}line {line}: {message}")
         self.line = line
+        self.file = file
+
+
+class SourceLine(NamedTuple):
+    """A line PmacDownloadA sends: its number in its file (1-based), its text, the file ("" the
+    downloaded text itself, else the #include's name as written)."""
+
+    number: int
+    text: str
+    file: str = ""
 
 
 def strip_comment(text: str) -> str:
@@ -166,35 +183,112 @@ def strip_comment(text: str) -> str:
     return text.strip()
 
 
-def preprocess(source: str, macros: bool = True) -> list[tuple[int, str]]:
-    """The lines PmacDownloadA sends, each with its line number in `source` (1-based): comments
-    and blank lines dropped, `#define NAME value` lines taken out and (with `macros`) NAME
-    replaced as a whole word in the lines after it. `#1J+`-style lines are motor commands, not
-    directives. PreprocessError for the directives in UNSUPPORTED and `#define NAME(args)`."""
-    names: dict[str, str] = {}
-    pattern: re.Pattern[str] | None = None
-    out: list[tuple[int, str]] = []
-    for number, raw in enumerate(source.splitlines(), 1):
-        text = strip_comment(raw)
-        if not text:
-            continue
-        directive = _DIRECTIVE.fullmatch(text)
-        if directive:
-            word = directive.group(1).lower()
-            if word == "define":
+class _Preprocessor:
+    """The state of one download's preprocessing: the #define table, the #ifdef stack per file."""
+
+    def __init__(self, macros: bool, include: Callable[[str, str], tuple[str, str]] | None) -> None:
+        self.macros = macros
+        self.include = include
+        self.names: dict[str, str] = {}
+        self.pattern: re.Pattern[str] | None = None
+        self.out: list[SourceLine] = []
+        self.opened: list[str] = []  # the files being read, outermost first (cycles)
+
+    def substitute(self, text: str) -> str:
+        return self.pattern.sub(lambda m: self.names[m.group(1)], text) if self.pattern else text
+
+    def _names_changed(self) -> None:
+        ordered = sorted(self.names, key=len, reverse=True)
+        self.pattern = (re.compile(r"\b(" + "|".join(map(re.escape, ordered)) + r")\b")
+                        if ordered else None)
+
+    def run(self, source: str, file: str, where: str) -> None:
+        """Preprocess `source` (`file` its name as an error names it, `where` its resolved
+        place for the includes it makes)."""
+        active: list[bool] = []  # one entry per open #ifdef: whether its branch is taken
+        for number, raw in enumerate(source.splitlines(), 1):
+            def fail(message: str, number: int = number) -> PreprocessError:
+                return PreprocessError(number, message, file)
+            text = strip_comment(raw)
+            if not text:
+                continue
+            directive = _DIRECTIVE.fullmatch(text)
+            word = directive.group(1).lower() if directive else ""
+            if directive and word in ("ifdef", "ifndef", "else", "endif"):
+                arg = directive.group(2).strip()
+                if word in ("ifdef", "ifndef"):
+                    if not _NAME.fullmatch(arg):
+                        raise fail(f"#{word} needs a name: {text!r}")
+                    taken = (arg in self.names) == (word == "ifdef")
+                    active.append(taken and all(active))
+                elif not active:
+                    raise fail(f"#{word} without #ifdef")
+                elif word == "else":
+                    outer = all(active[:-1])
+                    active[-1] = outer and not active[-1]
+                else:
+                    active.pop()
+                continue
+            if not all(active):
+                continue  # a branch not taken
+            if directive and word == "define":
                 definition = _DEFINE.fullmatch(directive.group(2))
                 if not definition or definition.group(2).startswith("("):
-                    raise PreprocessError(number, f"unsupported #define: {text!r}")
-                value = definition.group(2).strip()
-                if pattern is not None:  # a value may use the names defined before it
-                    value = pattern.sub(lambda m: names[m.group(1)], value)
-                names[definition.group(1)] = value
-                ordered = sorted(names, key=len, reverse=True)
-                pattern = re.compile(r"\b(" + "|".join(map(re.escape, ordered)) + r")\b")
+                    raise fail(f"unsupported #define: {text!r}")
+                self.names[definition.group(1)] = self.substitute(definition.group(2).strip())
+                self._names_changed()
                 continue
-            if word in UNSUPPORTED:
-                raise PreprocessError(number, f"#{word} is not supported by this client")
-        if macros and pattern is not None:
-            text = pattern.sub(lambda m: names[m.group(1)], text)
-        out.append((number, text))
-    return out
+            if directive and word == "undef":
+                self.names.pop(directive.group(2).strip(), None)
+                self._names_changed()
+                continue
+            if directive and word == "include":
+                self._include(directive.group(2).strip(), fail, where)
+                continue
+            if directive and word in UNSUPPORTED:
+                raise fail(f"#{word} is not supported by this client")
+            if len(self.out) >= MAX_LINES:
+                raise fail(f"more than {MAX_LINES} lines")
+            self.out.append(SourceLine(number, self.substitute(text) if self.macros else text,
+                                       file))
+        if active:
+            raise PreprocessError(len(source.splitlines()), "#ifdef without #endif", file)
+
+    def _include(self, arg: str, fail: Callable[[str], PreprocessError], where: str) -> None:
+        named = _INCLUDE.fullmatch(arg)
+        if not named:
+            raise fail(f"#include needs \"file\" or <file>: {arg!r}")
+        name = named.group(1) or named.group(2)
+        if self.include is None:
+            raise fail(f"#include {name!r}: no file to include from (lines from getproc)")
+        if len(self.opened) >= MAX_INCLUDE_DEPTH:
+            raise fail(f"#include nested deeper than {MAX_INCLUDE_DEPTH}")
+        try:
+            text, place = self.include(name, where)
+        except OSError as exc:
+            raise fail(f"#include {name!r}: {exc.strerror or exc}") from None
+        if place in self.opened:
+            raise fail(f"#include {name!r} includes itself")
+        self.opened.append(place)
+        try:
+            self.run(text, name, place)
+        finally:
+            self.opened.pop()
+
+
+def preprocess(source: str, macros: bool = True,
+               include: Callable[[str, str], tuple[str, str]] | None = None,
+               where: str = "") -> list[SourceLine]:
+    """The lines PmacDownloadA sends, as PComm32's preprocessor makes them: comments and blank
+    lines dropped; `#define NAME value` taken out and (with `macros`) NAME replaced as a whole
+    word in the lines after it; `#undef NAME`; `#ifdef`/`#ifndef`/`#else`/`#endif` (nested)
+    keeping the lines of the branches taken; `#include "file"` (or `<file>`) read through
+    `include(name, where) -> (text, place)` (`where`: the including file's place) and
+    preprocessed in line, with the same #define table, at most MAX_INCLUDE_DEPTH deep, a
+    file including itself refused. `#1J+`-style lines are motor commands, not directives.
+    PreprocessError for `#if`, `#elif`, `#pragma`, `#macro` and `#define NAME(args)`."""
+    state = _Preprocessor(macros, include)
+    if where:
+        state.opened.append(where)
+    state.run(source, "", where)
+    return state.out

@@ -69,10 +69,10 @@ def test_command_bytes_clear_the_control_slot_and_never_make_a_misaligned_word()
 
 def test_preprocess_drops_comments_and_substitutes_defines_but_keeps_motor_commands() -> None:
     src = "; header\n#define SPEED 50\n#define FAST SPEED*2\n\nI122=FAST // jog\n#1J+\nP1=SPEEDY\n"
-    assert preprocess(src) == [(5, "I122=50*2"), (6, "#1J+"), (7, "P1=SPEEDY")]
-    assert preprocess(src, macros=False)[0] == (5, "I122=FAST")
-    with pytest.raises(PreprocessError, match="line 2: #include"):
-        preprocess("P1=1\n#include \"x.pmc\"\n")
+    assert preprocess(src) == [(5, "I122=50*2", ""), (6, "#1J+", ""), (7, "P1=SPEEDY", "")]
+    assert preprocess(src, macros=False)[0] == (5, "I122=FAST", "")
+    with pytest.raises(PreprocessError, match="line 2: #include 'x.pmc': no file"):
+        preprocess("P1=1\n#include \"x.pmc\"\n")  # no file to include from
 
 
 def test_dpr_float_and_fixed_convert_two_24_bit_halves() -> None:
@@ -223,14 +223,45 @@ def test_download_stops_at_the_first_error_and_reports_its_line(dev: int, tmp_pa
     assert response(dev, "P4")[1] == "34\r" and percent[-1] == 100
 
 
-def test_download_refuses_an_include(dev: int, tmp_path: Path) -> None:
-    path = tmp_path / "inc.pmc"
-    path.write_text('P1=1\n#include "other.pmc"\n')
+def test_download_includes_files_and_keeps_the_branches_taken(dev: int, tmp_path: Path) -> None:
+    """PComm's preprocessor: `#include "file"` (from the downloading file's folder) shares the
+    #define table; `#ifdef`/`#ifndef`/`#else`/`#endif` keep the branches taken; an error in an
+    included file names that file and its line."""
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "defs.pmc").write_text("#define GEO\n#define SCALE 4\n")
+    (tmp_path / "bad.pmc").write_text("P8=1\nP9=1 garbage\n")
+    path = tmp_path / "main.pmc"
+    path.write_text('#include "sub/defs.pmc"\n#ifdef GEO\nP1=SCALE*2\n#ifndef SCALE\nP2=99\n'
+                    '#else\nP2=SCALE\n#endif\n#else\nP1=-1\n#endif\n#undef SCALE\n'
+                    '#ifdef SCALE\nP3=99\n#endif\n')
+    assert pcomm.PmacDownloadA(dev, None, None, None, str(path), True, False, False, True) == 1
+    assert response(dev, "P1 P2 P3")[1] == "8\r4\r0\r"
+    path.write_text('P7=7\n#include "bad.pmc"\nP10=1\n')
     messages: list[str] = []
     assert pcomm.PmacDownloadA(dev, lambda t, n: messages.append(t), None, None, str(path),
                                True, False, False, True) == 0
-    assert "#include is not supported" in messages[0]
-    assert response(dev, "P1")[1] == "0\r"  # nothing sent
+    assert messages[0] == "bad.pmc:2: P9=1 garbage: ERR003"
+    assert response(dev, "P7 P8 P10")[1] == "7\r1\r0\r"
+
+
+def test_download_refuses_what_it_cannot_preprocess_and_sends_nothing(dev: int, tmp_path: Path
+                                                                       ) -> None:
+    """A missing include, a file including itself, an unclosed #ifdef, `#if`: the error through
+    msgproc, 0, and not one line sent."""
+    path = tmp_path / "inc.pmc"
+    cases = {'P1=1\n#include "other.pmc"\n': "other.pmc",
+             'P1=1\n#include "inc.pmc"\n': "includes itself",
+             "P1=1\n#ifdef X\nP2=2\n": "#ifdef without #endif",
+             "P1=1\n#endif\n": "#endif without #ifdef",
+             "P1=1\n#if 1\nP2=2\n#endif\n": "#if is not supported"}
+    messages: list[str] = []
+    for text, expected in cases.items():
+        path.write_text(text)
+        messages.clear()
+        assert pcomm.PmacDownloadA(dev, lambda t, n: messages.append(t), None, None, str(path),
+                                   True, False, False, True) == 0
+        assert expected in messages[0], (text, messages)
+        assert response(dev, "P1")[1] == "0\r"  # nothing sent
 
 
 # -- interrupts ---------------------------------------------------------------------------------------
