@@ -664,3 +664,22 @@ def test_ga_s_gears_an_axis_to_the_distance_along_the_path() -> None:
         rig.sample()
     assert rp(rig)[:3] == [6000, 4000, 4000]
     assert rig.send(b"GA ,,DS\r") == b"?"  # no auxiliary encoder of a plane
+
+
+def test_a_soft_limit_stops_the_path_at_vd_as_a_switch_does() -> None:
+    """FL [spec §4.5]: X's commanded position passing FL 2000 while the path carries it on
+    stops the whole path at VD (SC 2 on the plane's axes), the axes still on the line."""
+    rig = Rig()
+    rig.send(b"FL 2000;VM XY;VP 10000,5000;VE;VS 10000;VA 100000;VD 100000;BGS\r")
+    while rig.fw.coord.active:
+        rig.sample()
+        x, y = rig.fw.motion.reference()[:2]
+        assert abs(2 * y - x) <= 2.0
+    x, y = rp(rig)[:2]
+    # from 10000 counts/s at VD 100000: 500 counts past the point where X passed 2000
+    assert 2000 < x <= 2000 + 500 + 50
+    assert mg(rig, "_SCX", "_SCY") == [2.0, 2.0]
+    rig.send(b"FL 2147483647;VP 10000,5000;VE;BGS\r")  # no soft limit: the path runs to its end
+    while rig.fw.coord.active:
+        rig.sample()
+    assert rp(rig)[:2] == [x + 10000, y + 5000]

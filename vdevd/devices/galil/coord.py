@@ -27,6 +27,9 @@ if TYPE_CHECKING:
     from vdevd.devices.galil.motion import GalilMotion
     from vdevd.devices.galil.virtual import VirtualAxis
 
+#: FL/BL at (or beyond) the position range: no soft limit (their defaults, 2147483647 and its
+#: negative [spec §4.5])
+_NO_SOFT_LIMIT = 2147483647
 VIRTUAL = -1  # the N axis: no encoder, no DAC [M Ch6 §Virtual Axis]
 SC_VECTOR_RUNNING = 100  # "motors running in vector sequence" (spec §4.4)
 SC_VECTOR_DONE = 101  # "motors stopped at commanded vector" (spec §4.4)
@@ -60,6 +63,7 @@ class Plane:
         self.virtual_dim: int | None = None  # the path coordinate of N while it runs
         self.virtual_origin = 0.0  # N's commanded position at BGS, less its redefinitions
         self.tracking = False
+        self.soft = False  # a soft limit (FL/BL) is set on one of `track`'s axes at BGS
         #: the distance along the path this plane has ever travelled (a follower geared to the
         #: plane, `GA S`, follows its increments: a new sequence does not move it back)
         self.travelled = 0.0
@@ -156,6 +160,9 @@ class Coordinated:
             plane.track.append(plane.tangent)
         plane.track_idx = np.asarray(plane.track, dtype=np.int64)
         plane.origin = np.rint(core.axes.cmd_pos[plane.track_idx])
+        lim = core.limits
+        plane.soft = bool((lim.soft_hi[plane.track_idx] < _NO_SOFT_LIMIT).any()
+                          or (lim.soft_lo[plane.track_idx] > -_NO_SOFT_LIMIT).any())
         plane.origin_list = plane.origin.tolist()
         virtual = self.virtual
         plane.virtual_dim = None
@@ -228,6 +235,14 @@ class Coordinated:
             vel = core.axes.cmd_vel[idx]
             fwd, rev = m.forward_limit[idx] & (vel > 0), m.reverse_limit[idx] & (vel < 0)
             if fwd.any() or rev.any():  # a limit switch: a decelerated stop [M Ch3]
+                self.stop(plane, StopCode.FORWARD_LIMIT if fwd.any() else StopCode.REVERSE_LIMIT)
+        if plane.soft and not plane.seq.stopping:
+            # FL/BL: an axis whose commanded position has passed its soft limit, heading on,
+            # stops the path at VD as a limit switch does [spec §4.5]
+            pos, vel, lim = core.axes.cmd_pos[idx], core.axes.cmd_vel[idx], core.limits
+            fwd = (pos > lim.soft_hi[idx]) & (vel > 0)
+            rev = (pos < lim.soft_lo[idx]) & (vel < 0)
+            if fwd.any() or rev.any():
                 self.stop(plane, StopCode.FORWARD_LIMIT if fwd.any() else StopCode.REVERSE_LIMIT)
         seq = plane.seq
         seq.ratio = plane.vr
