@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pytest
 
+from tests.devices.pmac.test_cycle_runs import Twin
 from tests.devices.pmac.test_online import Card
 from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.plc import CMD_QUEUE
@@ -176,6 +177,24 @@ def test_and_or_conditions_and_single_line_if(card: Card) -> None:
     assert (p(card, 2), p(card, 3)) == (2, 1)
 
 
+def test_a_condition_continues_on_and_or_lines(card: Card) -> None:
+    """`IF (a)` then `AND (b)` / `OR (c)` lines extend the condition, each joining all before it."""
+    download(card, 1, "IF (P1 > 1)", "AND (P1 < 5)", "OR (P1 = 9)", "P2=P2+1", "ENDIF")
+    card.ask("ENABLE PLC 1")
+    period = int(card.fw.ivars[8]) + 1
+    for v in (0, 2, 5, 9):
+        card.fw.p[1] = v
+        card.tick(period)
+    assert p(card, 2) == 2
+
+
+def test_and_line_not_after_an_if_is_a_structure_error(card: Card) -> None:
+    card.ask("OPEN PLC 1 CLEAR")
+    card.ask("P1=1")
+    card.ask("AND (P1 = 1)")
+    assert card.raw("CLOSE") == b"\x07ERR009\r"
+
+
 def test_cmd_from_a_plc_jogs_a_motor_with_no_reply(card: Card) -> None:
     card.ask("#1J/")
     download(card, 5, "ADDRESS #2", "CMD\"J=1000\"", "DISABLE PLC 5")
@@ -236,3 +255,55 @@ def test_compare_array_plc_walks_the_array(card: Card) -> None:
     card.tick(60 * (int(card.fw.ivars[8]) + 1))
     assert p(card, 100) == 51
     assert p(card, 3202) == 1
+
+
+def test_jio_reset_plc_sets_the_output_directions_once(card: Card) -> None:
+    """[A L543]: I/O00-31 are inputs at power-up; 'usually PLC 1 acting as a reset PLC, scanning
+    through once' makes the outputs (M32 byte direction, M33 buffer direction) and disables
+    itself."""
+    card.ask("M32->X:$078400,0,8 M33->Y:$070800,0")
+    download(card, 1, "M32=255", "M33=1", "P1=P1+1", "DISABLE PLC 1")
+    card.ask("ENABLE PLC 1")
+    card.tick(10 * (int(card.fw.ivars[8]) + 1))
+    mem = card.fw.memory
+    assert mem.read("X", 0x078400) & 0xFF == 0xFF and mem.read("Y", 0x070800) & 1
+    assert p(card, 1) == 1  # one scan
+    assert not card.fw.plc.running
+
+
+def test_save_keeps_plcs_and_power_on_reset_starts_every_plc_with_a_program(card: Card) -> None:
+    download(card, 2, "P2=P2+1")
+    card.raw("$$$")
+    card.raw("I3=2")
+    assert card.ask("LIST PLC 2") == ""  # not saved: gone
+    download(card, 1, "P1=P1+1")
+    card.ask("SAVE")
+    card.raw("$$$")
+    card.raw("I3=2")
+    card.tick(int(card.fw.ivars[8]) + 1)
+    assert p(card, 1) == 1
+    card.raw("$$$***")
+    card.raw("I3=2")
+    assert card.ask("LIST PLC 1") == ""
+
+
+def test_a_card_with_a_plc_is_not_at_rest_and_batches_run_it_as_one_by_one() -> None:
+    """Decision 0008: a scanning PLC is work; batched cycles count as cycles one by one."""
+    twin = Twin(True, "servo")
+    twin.send("OPEN PLC 1 CLEAR")
+    twin.send("P1=P1+1")
+    twin.send("IF (P1 > 50) CMD\"#1J=200\"")
+    twin.send("CLOSE")
+    for c in twin.cards:
+        assert c.rest_state() is not None
+    twin.send("ENABLE PLC 1")
+    for c in twin.cards:
+        assert c.rest_state() is None
+    for n in [1, 2, 3, 5, 64, 200, 400]:
+        twin.tick(n)
+        twin.same()
+    assert twin.cards[0].fw.p[1] == twin.cards[1].fw.p[1] > 50
+    twin.send("DISABLE PLC 1")
+    twin.tick(3000)
+    for c in twin.cards:
+        assert c.rest_state() is not None

@@ -37,6 +37,7 @@ _END_IF = re.compile(rf"END{_SP}(?:IF|I)(?![A-Z])")
 _IF = re.compile(rf"IF{_SP}\(")
 _WHILE = re.compile(rf"WHILE{_SP}\(")
 _ELSE = re.compile(r"ELSE")
+_CONTINUE = re.compile(rf"(AND|OR){_SP}\(")
 _CMD = re.compile(rf"(?:COMMAND|CMD){_SP}\"([^\"]*)\"")
 _PLC_CONTROL = re.compile(rf"(ENABLE|ENA|DISABLE|DIS){_SP}PLC(?!C){_SP}(\d+(?:{_SP},{_SP}\d+)*)")
 _ADDRESS = re.compile(rf"(?:ADDRESS|ADR){_SP}(?:#{_SP}(\d+))?{_SP}(?:&{_SP}(\d+))?")
@@ -52,7 +53,8 @@ Op = tuple[Any, ...]
 
 @dataclass(frozen=True)
 class Statement:
-    """One statement of a line: `kind` is IF, WHILE, ELSE, ENDIF, ENDWHILE or OP."""
+    """One statement of a line: `kind` is IF, WHILE, ELSE, ENDIF, ENDWHILE, AND, OR (a
+    condition continued on its own line) or OP."""
 
     kind: str
     op: Op | None = None
@@ -82,6 +84,9 @@ def parse_statement(s: str, i: int) -> tuple[Statement, int]:
             return Statement(kind, cond=cond), j
     if m := _ELSE.match(s, i):
         return Statement("ELSE"), m.end()
+    if m := _CONTINUE.match(s, i):  # `AND (cond)` / `OR (cond)`: the condition goes on
+        cond, j = parse_condition(s, m.end())
+        return Statement(m.group(1), cond=cond), j
     if m := _CMD.match(s, i):
         return Statement("OP", ("cmd", m.group(1))), m.end()
     if m := _PLC_CONTROL.match(s, i):
@@ -196,6 +201,13 @@ def compile_lines(lines: list[str]) -> list[Op]:
                 stack.append(("ELSE", len(ops)))
                 ops.append(("jump", -1))
                 ops[at] = (*ops[at][:2], len(ops))
+            elif st.kind in ("AND", "OR"):  # only on the line after an IF or WHILE line
+                if k or not stack or stack[-1][1] != len(ops) - 1 or len(sts) > 1:
+                    raise error()
+                name, cond, target = ops[-1]
+                a, b = ("nested", cond), ("nested", st.cond)
+                joined = ((a, b),) if st.kind == "AND" else ((a,), (b,))
+                ops[-1] = (name, joined, target)
             elif st.kind == "ENDIF":
                 _close(ops, stack, ("IF", "ELSE"), error)
             elif st.kind == "ENDWHILE":

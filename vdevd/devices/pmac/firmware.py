@@ -479,6 +479,7 @@ class Firmware:
             "comp": self._comp_image(),
             "comp1d": self._comp1d_image(),
             "axes": self.coord.image(),
+            "plc": self.plc.image(),
         }
 
     def save(self) -> None:
@@ -502,6 +503,7 @@ class Firmware:
         self._comp_restore(image.get("comp", []))
         self._comp1d_restore(image.get("comp1d", []))
         self.coord.restore(image.get("axes", []))
+        self.plc.restore(image.get("plc", {}))
         self._reset_hardware()
 
     def power_on_reset(self) -> None:

@@ -244,6 +244,25 @@ class Plcs:
         self.on.clear()
 
 
+    def image(self) -> dict[str, list[str]]:
+        """What SAVE keeps: the closed buffers' lines (an open buffer as it stands)."""
+        return {str(n): list(plc.lines) for n, plc in enumerate(self.plcs) if plc.lines}
+
+    def restore(self, image: dict[str, list[str]]) -> None:
+        """Power-up: the saved buffers, compiled (one that no longer compiles stays empty)."""
+        self.clear_all()
+        for key, lines in image.items():
+            n = int(key)
+            if not 0 <= n < PLC_COUNT or len(lines) > MAX_LINES:
+                continue
+            try:
+                ops = buffers.compile_lines([buffers.normalise(line) for line in lines])
+            except CommandError:
+                continue
+            plc = self.plcs[n]
+            plc.lines, plc.ops = [buffers.normalise(line) for line in lines], ops
+
+
 def _control_word(s: str, i: int) -> str:
     for word in ("CLOSE", "CLEAR", "LIST", "OPEN"):
         if s.startswith(word, i):
