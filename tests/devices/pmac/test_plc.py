@@ -93,6 +93,16 @@ def test_open_from_the_same_port_closes_the_first_buffer_and_list_plc_n_reads_an
     assert (p(card, 1), p(card, 2)) == (1, 1)
 
 
+def test_a_port_that_goes_away_releases_its_open_buffer(card: Card) -> None:
+    gone = PortState()
+    assert card.fw.execute(gone, "OPEN PLC 4 CLEAR P4=P4+1").error is None
+    assert card.raw("OPEN PLC 1") == b"\x07ERR007\r"
+    card.fw.plc.release(gone)
+    card.ask("OPEN PLC 1 CLEAR CLOSE ENABLE PLC 4")
+    card.tick(int(card.fw.ivars[8]) + 1)
+    assert p(card, 4) == 1
+
+
 def test_buffer_size_is_bounded(card: Card) -> None:
     from vdevd.devices.pmac.buffers import MAX_LINES
     card.ask("OPEN PLC 1 CLEAR")
@@ -175,6 +185,16 @@ def test_and_or_conditions_and_single_line_if(card: Card) -> None:
         card.fw.p[1] = v
         card.tick(period)
     assert (p(card, 2), p(card, 3)) == (2, 1)
+
+
+def test_single_line_while_runs_one_pass_per_scan(card: Card) -> None:
+    download(card, 1, "WHILE (P1 < 4) P1=P1+1", "P2=P2+1")
+    card.ask("ENABLE PLC 1")
+    period = int(card.fw.ivars[8]) + 1
+    card.tick(4 * period)
+    assert (p(card, 1), p(card, 2)) == (4, 0)
+    card.tick(period)
+    assert (p(card, 1), p(card, 2)) == (4, 1)
 
 
 def test_a_condition_continues_on_and_or_lines(card: Card) -> None:

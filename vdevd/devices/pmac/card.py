@@ -137,7 +137,8 @@ class CommandPort:
         self.card.host_write(offset, value)
 
     def close(self) -> None:
-        """Nothing is held per connection beyond the addressing (no program buffers yet)."""
+        """A buffer this connection left open closes with it (plc.py `release`)."""
+        self.card.fw.plc.release(self.state)
         self.card.ethernet_ports.discard(self)
 
 

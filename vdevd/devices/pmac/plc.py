@@ -132,6 +132,15 @@ class Plcs:
         self.owner, self.open_n = None, -1
         plc.ops = buffers.compile_lines(plc.lines) if plc.lines else None
 
+    def release(self, port: PortState) -> None:
+        """The port is gone (an Ethernet connection closed): a buffer it left open closes, so
+        other ports can open buffers again (README assumption)."""
+        if self.owner is port:
+            try:
+                self.close()
+            except CommandError:
+                pass  # badly structured: closed, does not run
+
     def list_lines(self, n: int, start: int = 0, count: int | None = None) -> list[str]:
         """LIST PLC n[,start[,count]]: the stored lines."""
         if not 0 <= n < PLC_COUNT:
