@@ -8,8 +8,8 @@ commands are the longest word a run of letters starts with (after the variables 
 
 `COMMANDS.not_emulated` lists the on-line commands the digest documents that the card does not run
 yet, with the reason; `REFUSED` is the error number those the parser recognises answer (the others
-are unrecognised: ERR003). Motion programs, PLCs, coordinate-system axis definitions come in issue
-21 (data gathering: gather.py) (README "Not yet").
+are unrecognised: ERR003). Motion programs come in issue 21, later (data gathering: gather.py, PLCs:
+plc.py) (README "Not yet").
 """
 
 from __future__ import annotations

@@ -8,8 +8,9 @@ download belong to the port (`PortState`), so each port addresses its own motor.
 
 The commands are the table of commands.py, bound to the interpreter's methods once per
 interpreter. Axis definitions and the rest of the coordinate systems are coord.py's (`&n#m->`).
-Commands that belong to motion programs, PLCs and data gathering come in a later issue; until
-then those the parser recognises answer the error the card gives for a command it cannot execute
+PLC buffers and their run control are plc.py's (`OPEN PLC`, `ENABLE PLC`; while a port has a
+buffer open its lines go there). Commands that belong to motion programs come in a later issue;
+until then those the parser recognises answer the error the card gives for a command it cannot execute
 (`commands.REFUSED`, README "Not yet").
 
 Lines made only of reports and motor addressing (`#1P`, `#2?`, `#3?PVF`, `I130`, `P99`), what
