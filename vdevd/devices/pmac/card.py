@@ -137,7 +137,8 @@ class CommandPort:
         self.card.host_write(offset, value)
 
     def close(self) -> None:
-        """Nothing is held per connection beyond the addressing (no program buffers yet)."""
+        """A buffer this connection left open closes with it (plc.py `release`)."""
+        self.card.fw.plc.release(self.state)
         self.card.ethernet_ports.discard(self)
 
 
@@ -343,11 +344,11 @@ class PmacCard(Card):
         work: a home search, an in-position scan count still short of its Ixx88, conversion
         entries with memory or the A/D ring running, a velocity buffer still filling (I60's
         slots hold different readings), armed compare, data gathering on (gather.py), backlash
-        still being taken up (comp1d.py)."""
+        still being taken up (comp1d.py), a PLC scanning (plc.py)."""
         fw = self.fw
         m = fw.motors
         if (m.homing.any_searching or fw.ect._stateful or fw.servo_ic._any_armed or fw.gather.on
-                or not (m._vbuf == m.core.axes.fb).all() or m.counting_to_inpos()
+                or fw.plc.running or not (m._vbuf == m.core.axes.fb).all() or m.counting_to_inpos()
                 or (fw.comp1d.active and fw.comp1d.busy(fw.reports.commanded()))):
             return None
         core = m.core.rest_state()

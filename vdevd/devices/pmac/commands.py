@@ -8,14 +8,14 @@ commands are the longest word a run of letters starts with (after the variables 
 
 `COMMANDS.not_emulated` lists the on-line commands the digest documents that the card does not run
 yet, with the reason; `REFUSED` is the error number those the parser recognises answer (the others
-are unrecognised: ERR003). Motion programs, PLCs, coordinate-system axis definitions come in issue
-21 (data gathering: gather.py) (README "Not yet").
+are unrecognised: ERR003). Motion programs come in issue 21, later (data gathering: gather.py, PLCs:
+plc.py) (README "Not yet").
 """
 
 from __future__ import annotations
 
 from vdevd.devices.commands import Command, CommandTable
-from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, ERR_NOT_OPEN
+from vdevd.devices.pmac.errors import ERR_NO_PROGRAM, ERR_NOT_OPEN
 
 CHAR, WORD = "char", "word"
 #: the variable letters: followed by a number or `(`, a variable, not a word [§2.5]
@@ -72,24 +72,25 @@ COMMANDS = CommandTable(
         _word("GATHER", "gather"), _word("GAT", "gather"),
         _word("ENDGATHER", "end_gather", False), _word("ENDGAT", "end_gather", False),
         _word("ENDG", "end_gather", False), _word("END", "end_gather", True),
+        # PLC buffers and run control [§2.9; plc.py]
+        _word("OPEN", "open_buffer", section="§2.9"),
+        _word("ENABLE", "plc_control", True, section="§2.9"),
+        _word("ENA", "plc_control", True, section="§2.9"),
+        _word("DISABLE", "plc_control", False, section="§2.9"),
+        _word("DIS", "plc_control", False, section="§2.9"),
         # memory words [§2.5, §2.1]
         *(_word(f"{rw}{space}", "memory", space, rw == "W")
           for rw in "RW" for space in "XYLD"),
     ],
     not_emulated={
-        "OPEN": "program, PLC and rotary buffers: motion programs and PLCs come in issue 21",
-        "CLOSE": "no buffer can be open yet (issue 21)",
-        "CLEAR": "no buffer can be open yet (issue 21)",
+        "CLOSE": "only the port with a buffer open may CLOSE it (plc.py)",
+        "CLEAR": "only the port with a buffer open may CLEAR it (plc.py)",
         "LEARN": "no buffer can be open yet (issue 21)",
         "B": "program run control: motion programs come in issue 21",
         "R": "program run control: motion programs come in issue 21",
         "S": "program run control: motion programs come in issue 21",
         "Q": "program run control (quit; Q{n} is a variable): motion programs come in issue 21",
         "ABR": "abort and run a program: motion programs come in issue 21",
-        "ENABLE": "PLC control: PLCs come in issue 21",
-        "ENA": "PLC control: PLCs come in issue 21",
-        "DISABLE": "PLC control: PLCs come in issue 21",
-        "DIS": "PLC control: PLCs come in issue 21",
         "!": "the V1.936 axis-move command needs coordinate systems (issue 21): unrecognised",
         "^": "jog-until-trigger ({jog}^{c}) needs triggered moves: after a jog, ^ is unrecognised",
     },
@@ -97,8 +98,7 @@ COMMANDS = CommandTable(
 
 #: not emulated words the parser recognises -> the error number they answer (README "Not yet")
 REFUSED: dict[str, int] = {
-    "OPEN": ERR_DATA, "CLOSE": ERR_NOT_OPEN, "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
-    "ENABLE": ERR_DATA, "ENA": ERR_DATA,
-    "DISABLE": ERR_DATA, "DIS": ERR_DATA, "ABR": ERR_NO_PROGRAM,
+    "CLOSE": ERR_NOT_OPEN, "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
+    "ABR": ERR_NO_PROGRAM,
     "B": ERR_NO_PROGRAM, "R": ERR_NO_PROGRAM, "S": ERR_NO_PROGRAM, "Q": ERR_NO_PROGRAM,
 }

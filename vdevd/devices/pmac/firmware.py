@@ -31,6 +31,7 @@ from vdevd.devices.pmac.motors import MotorError, Motors
 from vdevd.devices.pmac.mvars import MVars
 from vdevd.devices.pmac.numbers import format_hex, format_value, quantize_float
 from vdevd.devices.pmac.online import Interpreter, PortState
+from vdevd.devices.pmac.plc import Plcs
 from vdevd.devices.pmac.registers import (
     CS_BASE,
     CS_STRIDE,
@@ -113,6 +114,7 @@ class Firmware:
         self.coord = CoordSystems(self.ivars, self.motors.cs, self.motors.axis_code,
                                   lambda: self.servo_cycles)
         self.interpreter = Interpreter(self)
+        self.plc = Plcs(self)
 
     # -- time -------------------------------------------------------------------------------------
     def tick(self, now_ns: int) -> int:
@@ -126,6 +128,8 @@ class Firmware:
         self.servo_ic.tick()
         self.ect.tick()
         self.gpio.tick()
+        if self.plc.running:  # PLC scans and their queued CMDs (plc.py)
+            self.plc.tick(self.servo_cycles)
         if self.gather.on:  # after the cycle's motion: the values of this servo cycle
             self.gather.tick()
         return events
@@ -358,7 +362,10 @@ class Firmware:
             case 0x18:  # ^X cancel: the port flushes; echoed when I63 = 1
                 port.table_left = 0
                 return "\x18" if self.ivars.values[63] else ""
-        return ""  # ^D ^O ^N ^Z and the rest: nothing to report
+            case 0x04:  # ^D disable all PLCs (plc.py)
+                self.plc.disable_all()
+                return ""
+        return ""  # ^O ^N ^Z and the rest: nothing to report
 
     # -- memory words (RX/WX ...) ----------------------------------------------------------------
     def read_words(self, space: str, addr: int, count: int) -> list[str]:
@@ -472,6 +479,7 @@ class Firmware:
             "comp": self._comp_image(),
             "comp1d": self._comp1d_image(),
             "axes": self.coord.image(),
+            "plc": self.plc.image(),
         }
 
     def save(self) -> None:
@@ -495,6 +503,7 @@ class Firmware:
         self._comp_restore(image.get("comp", []))
         self._comp1d_restore(image.get("comp1d", []))
         self.coord.restore(image.get("axes", []))
+        self.plc.restore(image.get("plc", {}))
         self._reset_hardware()
 
     def power_on_reset(self) -> None:
@@ -516,6 +525,7 @@ class Firmware:
         self.comp.clear()
         self.comp1d.clear()
         self.coord.undefine(None)
+        self.plc.clear_all()
         self.locks = 0
 
     def _reset_hardware(self) -> None:
@@ -530,6 +540,7 @@ class Firmware:
         self.feedback.reset()
         self.coord.reset()
         self.gather.reset()
+        self.plc.power_on()
         core = self.motors.core
         self.feedback.refresh(core.axes.encoder + core.encoder_slip)
         if self.on_reset is not None:

@@ -8,8 +8,9 @@ download belong to the port (`PortState`), so each port addresses its own motor.
 
 The commands are the table of commands.py, bound to the interpreter's methods once per
 interpreter. Axis definitions and the rest of the coordinate systems are coord.py's (`&n#m->`).
-Commands that belong to motion programs, PLCs and data gathering come in a later issue; until
-then those the parser recognises answer the error the card gives for a command it cannot execute
+PLC buffers and their run control are plc.py's (`OPEN PLC`, `ENABLE PLC`; while a port has a
+buffer open its lines go there). Commands that belong to motion programs come in a later issue;
+until then those the parser recognises answer the error the card gives for a command it cannot execute
 (`commands.REFUSED`, README "Not yet").
 
 Lines made only of reports and motor addressing (`#1P`, `#2?`, `#3?PVF`, `I130`, `P99`), what
@@ -138,6 +139,8 @@ class Interpreter:
 
     # -- entry ---------------------------------------------------------------------------------
     def execute(self, port: PortState, text: str) -> Reply:
+        if port is self.fw.plc.owner:  # a buffer is open on this port: its lines go there (plc.py)
+            return self.fw.plc.enter(port, text)
         plans = self._plans
         if text in plans:
             plan = plans[text]
@@ -459,7 +462,58 @@ class Interpreter:
             line.take("HER")
             out.extend(self.fw.gather.list_lines())
             return
-        raise CommandError(ERR_DATA, "LIST of program buffers comes in a later issue")
+        if line.take("PLC") and not line.take("C"):  # LIST PLC n[,start[,count]] (plc.py)
+            line.skip()
+            n = line.integer()
+            args: list[int] = []
+            while n is not None and len(args) < 2:
+                line.skip()
+                if not line.take(","):
+                    break
+                line.skip()
+                v = line.integer()
+                if v is None:
+                    raise CommandError(ERR_DATA)
+                args.append(v)
+            if n is None:
+                raise CommandError(ERR_DATA)
+            out.extend(self.fw.plc.list_lines(n, *args))
+            return
+        raise CommandError(ERR_DATA, "LIST of motion programs comes in a later issue")
+
+    def open_buffer(self, line: Line, port: PortState, out: list[str]) -> None:
+        """OPEN PLC n: the rest of the line and the port's next lines go into the buffer
+        (plc.py); OPEN PROG/ROT come with motion programs (ERR003)."""
+        line.skip()
+        if not line.take("PLC") or line.take("C"):
+            raise CommandError(ERR_DATA, "only OPEN PLC n is emulated yet")
+        line.skip()
+        n = line.integer()
+        if n is None:
+            raise CommandError(ERR_DATA)
+        self.fw.plc.open(port, n)
+        rest, line.i = line.s[line.i:], len(line.s)
+        reply = self.fw.plc.enter(port, rest)
+        out.extend(reply.lines)
+        if reply.error is not None:
+            raise CommandError(reply.error)
+
+    def plc_control(self, on: bool, line: Line, port: PortState, out: list[str]) -> None:
+        """ENABLE PLC n[,m...] / DISABLE PLC n[,m...] [§2.9]; PLCC (compiled) is not emulated."""
+        line.skip()
+        if not line.take("PLC") or line.take("C"):
+            raise CommandError(ERR_DATA, "only ENABLE/DISABLE PLC n is emulated")
+        plcs: list[int] = []
+        while True:
+            line.skip()
+            n = line.integer()
+            if n is None or not 0 <= n <= 31:
+                raise CommandError(ERR_DATA)
+            plcs.append(n)
+            line.skip()
+            if not line.take(","):
+                break
+        self.fw.plc.enable(tuple(plcs), on)
 
     def define(self, line: Line, port: PortState, out: list[str]) -> None:
         line.take("INE")
