@@ -5,22 +5,15 @@ from __future__ import annotations
 
 from typing import Any
 
-from vdevmaps.aps_defs import ERR_FunctionNotAvailable, ERR_NoError
+from vdevmaps.aps_defs import ERR_FunctionNotAvailable
 
-from vdevclient._aps_session import as_int, board, guarded, put
-
-
-def _get(board_id: Any, name: str, args: tuple[Any, ...], out: Any) -> int:
-    rc, vals = board(board_id).post(name, *(as_int(a) for a in args))
-    if rc == ERR_NoError:
-        put(out, vals[0])
-    return rc
+from vdevclient._aps_session import as_int, board, get_one, guarded
 
 
 @guarded
 def APS_read_d_input(Board_ID: int, DI_Group: int, DI_Data: Any) -> int:
     """The DI word after PRB_DI_LOGIC."""
-    return _get(Board_ID, "read_d_input", (DI_Group,), DI_Data)
+    return get_one(Board_ID, "read_d_input", (DI_Group,), DI_Data)
 
 
 @guarded
@@ -31,7 +24,7 @@ def APS_write_d_output(Board_ID: int, DO_Group: int, DO_Data: int) -> int:
 @guarded
 def APS_read_d_output(Board_ID: int, DO_Group: int, DO_Data: Any) -> int:
     """The DO word as written (PRB_DO_LOGIC inverts it at the connector)."""
-    return _get(Board_ID, "read_d_output", (DO_Group,), DO_Data)
+    return get_one(Board_ID, "read_d_output", (DO_Group,), DO_Data)
 
 
 @guarded
@@ -42,7 +35,7 @@ def APS_write_d_channel_output(Board_ID: int, DO_Group: int, Ch_No: int, DO_Data
 
 @guarded
 def APS_read_d_channel_output(Board_ID: int, DO_Group: int, Ch_No: int, DO_Data: Any) -> int:
-    return _get(Board_ID, "read_d_channel_output", (DO_Group, Ch_No), DO_Data)
+    return get_one(Board_ID, "read_d_channel_output", (DO_Group, Ch_No), DO_Data)
 
 
 def _no_analog(board_id: Any) -> int:

@@ -7,15 +7,8 @@ from typing import Any
 
 from vdevmaps.aps_defs import VAO_DATA_MAX_POINTS, ERR_NoError, ERR_ParametersInvalid
 
-from vdevclient._aps_session import as_int, board, guarded, ints, put
+from vdevclient._aps_session import as_int, board, get_one, guarded, ints, put
 from vdevclient._cargs import target
-
-
-def _get(board_id: Any, name: str, args: tuple[Any, ...], out: Any) -> int:
-    rc, vals = board(board_id).post(name, *(as_int(a) for a in args))
-    if rc == ERR_NoError:
-        put(out, vals[0])
-    return rc
 
 
 @guarded
@@ -27,7 +20,7 @@ def APS_set_vao_param(Board_ID: int, Param_No: int, Param_Val: int) -> int:
 
 @guarded
 def APS_get_vao_param(Board_ID: int, Param_No: int, Param_Val: Any) -> int:
-    return _get(Board_ID, "get_vao_param", (Param_No,), Param_Val)
+    return get_one(Board_ID, "get_vao_param", (Param_No,), Param_Val)
 
 
 @guarded
@@ -67,7 +60,7 @@ def APS_get_vao_status(Board_ID: int, Status: Any) -> int:
 def APS_check_vao_param(Board_ID: int, Table_No: int, Status: Any) -> int:
     """Status 0 when table Table_No can drive the output (vdevd's bits: 1 PWM_Config outside its
     mode's range, 2 no points, 4 a power outside the mode's range)."""
-    return _get(Board_ID, "check_vao_param", (Table_No,), Status)
+    return get_one(Board_ID, "check_vao_param", (Table_No,), Status)
 
 
 @guarded
@@ -108,7 +101,7 @@ def APS_set_pwm_frequency(Board_ID: int, PWM_Ch: int, Frequency: int) -> int:
 
 @guarded
 def APS_get_pwm_frequency(Board_ID: int, PWM_Ch: int, Frequency: Any) -> int:
-    return _get(Board_ID, "get_pwm_frequency", (PWM_Ch,), Frequency)
+    return get_one(Board_ID, "get_pwm_frequency", (PWM_Ch,), Frequency)
 
 
 @guarded
@@ -119,7 +112,7 @@ def APS_set_pwm_width(Board_ID: int, PWM_Ch: int, Width: int) -> int:
 
 @guarded
 def APS_get_pwm_width(Board_ID: int, PWM_Ch: int, Width: Any) -> int:
-    return _get(Board_ID, "get_pwm_width", (PWM_Ch,), Width)
+    return get_one(Board_ID, "get_pwm_width", (PWM_Ch,), Width)
 
 
 @guarded

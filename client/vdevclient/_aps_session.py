@@ -151,6 +151,15 @@ def put_array(param: Any, values: Sequence[Any]) -> None:
         dest[i] = v
 
 
+def get_one(board_id: Any, name: str, args: tuple[Any, ...], out: Any) -> int:
+    """A board command whose reply is one value: its I32 arguments posted, the value stored
+    where `out` points when the command succeeded; the return code."""
+    rc, vals = board(board_id).post(name, *(as_int(a) for a in args))
+    if rc == ERR_NoError:
+        put(out, vals[0])
+    return rc
+
+
 def asyncall(wait: Any, rc: int) -> int:
     """An ASYNCALL argument: NULL returns at once; otherwise its i32_ret takes the code (the
     command is accepted when the call returns; spec §4 ASSUMPTION)."""

@@ -11,7 +11,7 @@ from vdevmaps.adlink import Bar
 from vdevmaps.aps_defs import ERR_NoError, ERR_ParametersInvalid
 
 from vdevclient._aps_bus import Board
-from vdevclient._aps_session import ApsArgError, as_int, board, guarded, ints, put
+from vdevclient._aps_session import ApsArgError, as_int, board, get_one, guarded, ints, put
 
 #: compare points per mailbox post (an I32 array of a post stays under ARGS_MAX)
 TABLE_PART = 800
@@ -30,13 +30,6 @@ def _trg_channel(b: Board, ch: Any) -> int:
     return c
 
 
-def _get(board_id: Any, name: str, ch: Any, out: Any) -> int:
-    rc, vals = board(board_id).post(name, as_int(ch))
-    if rc == ERR_NoError:
-        put(out, vals[0])
-    return rc
-
-
 @guarded
 def APS_set_trigger_param(Board_ID: int, Param_No: int, Param_Val: int) -> int:
     """A trigger parameter TGR_* / TIMR_* [M §4.9.2; spec §2.16 table]."""
@@ -45,7 +38,7 @@ def APS_set_trigger_param(Board_ID: int, Param_No: int, Param_Val: int) -> int:
 
 @guarded
 def APS_get_trigger_param(Board_ID: int, Param_No: int, Param_Val: Any) -> int:
-    return _get(Board_ID, "get_trigger_param", Param_No, Param_Val)
+    return get_one(Board_ID, "get_trigger_param", (Param_No,), Param_Val)
 
 
 @guarded
@@ -90,12 +83,12 @@ def APS_set_trigger_table(Board_ID: int, TCmpCh: int, DataArr: Any, ArraySize: i
 @guarded
 def APS_get_trigger_linear_cmp(Board_ID: int, LCmpCh: int, CmpVal: Any) -> int:
     """The next compare value of a linear comparator (the last one when it has finished)."""
-    return _get(Board_ID, "get_trigger_linear_cmp", LCmpCh, CmpVal)
+    return get_one(Board_ID, "get_trigger_linear_cmp", (LCmpCh,), CmpVal)
 
 
 @guarded
 def APS_get_trigger_table_cmp(Board_ID: int, TCmpCh: int, CmpVal: Any) -> int:
-    return _get(Board_ID, "get_trigger_table_cmp", TCmpCh, CmpVal)
+    return get_one(Board_ID, "get_trigger_table_cmp", (TCmpCh,), CmpVal)
 
 
 @guarded
@@ -121,14 +114,14 @@ def APS_enable_trigger_fifo_cmp(Board_ID: int, FCmpCh: int, Enable: int) -> int:
 @guarded
 def APS_get_trigger_fifo_cmp(Board_ID: int, FCmpCh: int, CmpVal: Any) -> int:
     """The FIFO's next compare value (= APS_get_trigger_table_cmp)."""
-    return _get(Board_ID, "get_trigger_table_cmp", FCmpCh, CmpVal)
+    return get_one(Board_ID, "get_trigger_table_cmp", (FCmpCh,), CmpVal)
 
 
 @guarded
 def APS_get_trigger_fifo_status(Board_ID: int, FCmpCh: int, FifoSts: Any) -> int:
     """Bit 0 empty, bit 1 hardware FIFO full, bit 2 enabled, bits 16-23 the hardware FIFO's
     usage (vdevd's encoding)."""
-    return _get(Board_ID, "get_trigger_fifo_status", FCmpCh, FifoSts)
+    return get_one(Board_ID, "get_trigger_fifo_status", (FCmpCh,), FifoSts)
 
 
 @guarded
@@ -152,7 +145,7 @@ def APS_start_timer(Board_ID: int, TrgCh: int, Start: int) -> int:
 
 @guarded
 def APS_get_timer_counter(Board_ID: int, TmrCh: int, Cnt: Any) -> int:
-    return _get(Board_ID, "get_timer_counter", TmrCh, Cnt)
+    return get_one(Board_ID, "get_timer_counter", (TmrCh,), Cnt)
 
 
 @guarded
