@@ -57,3 +57,38 @@ class Piece:
     def end(self) -> tuple[np.ndarray, np.ndarray]:
         """Position and velocity at the end of the piece."""
         return self.at(self.dur)
+
+
+@dataclass(frozen=True)
+class Move:
+    """One move statement as the program runner resolved it: where it goes, in which mode, with
+    the coordinate system's move parameters at the time it was read [spec pmac.md §2.8].
+
+    `target` holds every axis (ABS/INC resolved, axes not named keep their position), `named` the
+    axes the statement names. `params` carries the mode's numbers by their program names, already
+    in seconds and user units per second where they are times or speeds: "TA", "TS", "TM", "F"
+    (and "FRAX" mask handling done by the runner), "PVT" (the segment time), "V" (per-axis
+    end velocities for PVT, an array), "IJK" (circle centre vector, an array), "R" (radius),
+    "NORMAL" (the circle plane normal, an array), "CIRCLE" (1 clockwise, 2 counter-clockwise),
+    "SEG" (Isx13 segmentation time, 0 off), "MAXV"/"MAXA" (per-axis limits, arrays) where used."""
+
+    target: np.ndarray
+    named: np.ndarray
+    params: dict[str, object]
+
+
+class Planner:
+    """A move mode's planner for one coordinate system (LINEAR, RAPID, CIRCLE, PVT, SPLINE): fed
+    the moves in program order, it returns the pieces that are final so far. A planner that
+    blends (LINEAR with TA/TS, SPLINE) holds back the end of its last move until the next move or
+    `flush` tells it how to leave; the runner calls `flush` at a mode change, a DWELL/DELAY, the
+    end of the program or a stop, and the pieces flushed end where the last move ends."""
+
+    def __init__(self, start: np.ndarray) -> None:
+        self.position = np.array(start, dtype=float)
+
+    def add(self, move: Move) -> list[Piece]:
+        raise NotImplementedError
+
+    def flush(self) -> list[Piece]:
+        return []
