@@ -16,7 +16,8 @@ from typing import Any, Literal
 
 from vdevd.devices import CARD_TYPES, DEFAULT_NAMES, card_class
 from vdevd.devices.options import CardOptions, parse_options
-from vdevd.security import CurveConfig, check_curve, is_local
+from vdevd.http_health import MetricsConfig, parse_metrics
+from vdevd.security import CurveConfig, check_curve, is_local, parse_networks
 
 DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
 DEFAULT_EVENTS = "tcp://127.0.0.1:5556"
@@ -55,10 +56,14 @@ class Config:
     #: where the shared memory of local clients is created ("": none; decision 0010)
     shm_dir: str = DEFAULT_SHM_DIR
     curve: CurveConfig | None = None
+    #: `[security] allow_unauthenticated_networks`: serve these networks without CURVE
+    open_networks: tuple[str, ...] = ()
+    #: `[metrics]`: the HTTP metrics and health endpoint (None: off)
+    metrics: MetricsConfig | None = None
     cards: list[CardSpec] = field(default_factory=list)
 
 
-_SECTIONS = {"server", "clock", "state", "security", "card"}
+_SECTIONS = {"server", "clock", "state", "security", "metrics", "card"}
 
 
 def load(path: str | Path | None) -> Config:
@@ -111,14 +116,32 @@ def parse(data: dict[str, Any]) -> Config:
     _only(state, "state", ("dir",))
     cfg.state_dir = _str(state, "state", "dir", None)
     security = _table(data, "security")
-    if "security" in data:
-        _only(security, "security", ("server_secret_key", "client_keys_dir"))
+    if "allow_unauthenticated_networks" in security:
+        _only(security, "security", ("server_secret_key", "client_keys_dir",
+                                     "allow_unauthenticated_networks"))
+        keys = [k for k in ("server_secret_key", "client_keys_dir") if k in security]
+        if keys:
+            raise ConfigError(f"security.allow_unauthenticated_networks: serves without CURVE, "
+                              f"so security.{keys[0]} cannot be set too")
+        try:
+            cfg.open_networks = parse_networks(security["allow_unauthenticated_networks"],
+                                               "security.allow_unauthenticated_networks")
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+    elif "security" in data:
+        _only(security, "security", ("server_secret_key", "client_keys_dir",
+                                     "allow_unauthenticated_networks"))
         cfg.curve = CurveConfig(
             _required(security, "security", "server_secret_key"),
             _required(security, "security", "client_keys_dir"),
         )
         try:
             check_curve(cfg.curve)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+    if "metrics" in data:
+        try:
+            cfg.metrics = parse_metrics(data["metrics"])
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
     cards = data.get("card", [])
@@ -150,10 +173,11 @@ def check_endpoints(cfg: Config) -> None:
     for key, ep in (("server.endpoint", cfg.endpoint), ("server.events", cfg.events)):
         if "://" not in ep:
             raise ConfigError(f"{key}: {ep!r} is not a ZeroMQ endpoint (tcp://host:port, ipc://path)")
-        if not is_local(ep) and cfg.curve is None:
+        if not is_local(ep) and cfg.curve is None and not cfg.open_networks:
             raise ConfigError(
                 f"{key}: {ep!r} is not loopback; add a [security] section "
-                "(server_secret_key, client_keys_dir) to serve it with CURVE"
+                "(server_secret_key, client_keys_dir) to serve it with CURVE, or name a "
+                "private network in [security] allow_unauthenticated_networks"
             )
 
 

@@ -17,7 +17,7 @@ from typing import Any, Protocol
 from vdevd.devices.base import Card
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.irq import IrqEvent
-from vdevd.metrics import Samples
+from vdevd.metrics import Samples, TaggedSamples
 from vdevd.pacing import ClockMode, Pacer, Waker
 from vdevd.protocol import (
     CAPABILITIES,
@@ -103,7 +103,7 @@ class Rack:
         self.started_monotonic_ns = time.monotonic_ns()
         self.requests: dict[str, int] = {}
         self.errors = 0
-        self.latency = Samples()
+        self.latency = TaggedSamples()  # tagged with the op (metrics.OP_TAGS)
         self.events_published = 0
         #: the ops a batch runs as requests (its plain accesses run inline)
         self._batchable: dict[str, Callable[[dict[str, Any], Reply], Any]] = {

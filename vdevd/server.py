@@ -20,8 +20,9 @@ import zmq
 from vdevd import protocol
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.irq import IrqEvent
+from vdevd.metrics import OP_TAGS
 from vdevd.rack import Rack
-from vdevd.security import CurveConfig, secure
+from vdevd.security import CurveConfig, allow_networks, secure
 
 log = logging.getLogger("vdevd.server")
 
@@ -33,6 +34,7 @@ _NOBLOCK = int(zmq.NOBLOCK)
 _NOBLOCK_MORE = int(zmq.NOBLOCK | zmq.SNDMORE)
 _EVENTS = int(zmq.EVENTS)
 _POLLIN = int(zmq.POLLIN)
+_READ_TAG = OP_TAGS["read"]
 
 
 class Publisher:
@@ -75,7 +77,10 @@ class Server:
         *,
         ctx: zmq.Context | None = None,
         curve: CurveConfig | None = None,
+        open_networks: tuple[str, ...] = (),
     ) -> None:
+        """`curve`: serve with CURVE; else `open_networks`: serve only peers on these networks
+        (and loopback) without it (`[security] allow_unauthenticated_networks`)."""
         if not isinstance(rack.sink, Publisher):
             raise TypeError("a served rack publishes through a server.Publisher sink")
         self.rack = rack
@@ -88,7 +93,9 @@ class Server:
             sock.linger = 0
         self.router.setsockopt(zmq.MAXMSGSIZE, protocol.HARD_MAX_MESSAGE)
         self.router.setsockopt(zmq.ROUTER_HANDOVER, 1)
-        self._auth = secure(self.ctx, [self.router, self.pub], curve) if curve else None
+        self._auth = secure(self.ctx, [self.router, self.pub], curve) if curve else (
+            allow_networks(self.ctx, [self.router, self.pub], open_networks)
+            if open_networks else None)
         #: the bound endpoints, once `start` has bound them
         self.endpoint = ""
         self.events = ""
@@ -207,7 +214,7 @@ class Server:
             read = protocol.read_fields(msg)
             if read is not None:
                 self._send(envelope, self._read(*read))
-                self.rack.latency.add(time.perf_counter_ns() - t0)
+                self.rack.latency.add(time.perf_counter_ns() - t0, _READ_TAG)
                 return
             req = protocol.request_from(msg)
             if req.op == "hello":
@@ -231,7 +238,7 @@ class Server:
             self._send(envelope, body)
 
         self.rack.execute(req, reply)
-        self.rack.latency.add(time.perf_counter_ns() - t0)
+        self.rack.latency.add(time.perf_counter_ns() - t0, OP_TAGS[req.op])
 
     def _read(self, req_id: Any, card: str, region: str, offset: int, size: int) -> bytes:
         """The reply to a register read (the hot path)."""

@@ -18,6 +18,7 @@ import zmq
 from vdevd.config import Config, default_config
 from vdevd.daemon import build_rack, shared_memory
 from vdevd.devices.base import Card, CardContext
+from vdevd.http_health import HealthServer, open_health
 from vdevd.rack import Rack
 from vdevd.server import Publisher, Server
 
@@ -51,6 +52,8 @@ class DaemonThread:
         self.endpoint = ""
         self.events = ""
         self.server: Server | None = None
+        #: the `[metrics]` HTTP endpoint (its `url`), when the configuration has one
+        self.health: HealthServer | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop: asyncio.Event | None = None
         self._ready = threading.Event()
@@ -84,18 +87,23 @@ class DaemonThread:
         rack = self._rack if self._rack is not None else build_rack(self.cfg,
                                                                       shared_memory(self.cfg))
         try:
-            self.server = Server(rack, self.cfg.endpoint, self.cfg.events,
-                                 ctx=self._ctx, curve=self.cfg.curve)
+            self.server = Server(rack, self.cfg.endpoint, self.cfg.events, ctx=self._ctx,
+                                 curve=self.cfg.curve, open_networks=self.cfg.open_networks)
         except BaseException:
             rack.stop()
             raise
         try:
+            self.health = open_health(self.cfg.metrics, rack, self._loop)
             await self.server.start(self._loop)
             self.endpoint, self.events = self.server.endpoint, self.server.events
+            if self.health is not None:
+                self.health.ready = True
             self._ready.set()
             await self._stop.wait()
         finally:
             await self.server.stop()
+            if self.health is not None:
+                self.health.stop()
 
     def stop(self) -> None:
         if self._loop is not None and self._stop is not None and self._thread.is_alive():

@@ -484,6 +484,9 @@ class PmacCard(Card):
     def listeners(self) -> dict[str, str]:
         return {"ethernet": self.ethernet_endpoint} if self.ethernet_endpoint else {}
 
+    def connections(self) -> int:
+        return self._server.connections if self._server is not None else 0
+
     def describe(self) -> dict[str, Any]:
         info = super().describe()
         info.update(device=self.device, motors=self.motors, ethernet=self.ethernet_endpoint)

@@ -1,0 +1,236 @@
+"""The `[metrics]` HTTP endpoint: Prometheus metrics, /healthz and /readyz, scraped from a live
+daemon (issue 22 "Operations"; vdevd/http_health.py, vdevd/prom.py)."""
+
+from __future__ import annotations
+
+import asyncio
+import socket
+import threading
+import urllib.error
+import urllib.request
+from collections.abc import Iterator
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+import vdevclient
+import zmq.auth
+from prometheus_client.parser import text_string_to_metric_families
+
+from tests.conftest import rack_config
+from vdevd.config import CardSpec, ConfigError, parse
+from vdevd.devices import card_class
+from vdevd.http_health import Liveness, MetricsConfig, parse_metrics
+from vdevd.security import CurveConfig
+from vdevd.testing import DaemonThread
+
+MS = 1_000_000
+
+
+def get(url: str) -> tuple[int, str]:
+    """(status, body) of a GET; an HTTP error status is an answer too."""
+    try:
+        with urllib.request.urlopen(url, timeout=10) as r:
+            return r.status, r.read().decode()
+    except urllib.error.HTTPError as exc:
+        return exc.code, exc.read().decode()
+
+
+def scrape(url: str) -> dict[tuple[str, tuple[tuple[str, str], ...]], float]:
+    """Every sample of /metrics: {(name, sorted labels): value}."""
+    status, body = get(url + "/metrics")
+    assert status == 200, body
+    return {(s.name, tuple(sorted(s.labels.items()))): s.value
+            for fam in text_string_to_metric_families(body) for s in fam.samples}
+
+
+def two_card_config(state_dir: Path | None = None, **metrics: object) -> object:
+    """servo0 (generic) and pmac0 (Turbo PMAC, Ethernet on a free loopback port), metrics on a
+    free loopback port."""
+    cfg = rack_config()
+    pmac = {key: opt.default for key, opt in card_class("pmac-turbo").options.items()}
+    pmac["ethernet"] = "tcp://127.0.0.1:*"
+    cfg.cards.append(CardSpec("pmac-turbo", "pmac0", pmac))
+    cfg.metrics = MetricsConfig(listen="127.0.0.1:0", **metrics)  # type: ignore[arg-type]
+    cfg.state_dir = str(state_dir) if state_dir else None
+    return cfg
+
+
+@pytest.fixture
+def served(tmp_path: Path) -> Iterator[DaemonThread]:
+    with DaemonThread(two_card_config(tmp_path)) as d:  # type: ignore[arg-type]
+        yield d
+
+
+def test_metrics_follow_the_rack(served: DaemonThread) -> None:
+    assert served.health is not None
+    url = served.health.url
+    with vdevclient.connect(served.endpoint, served.events) as rack:
+        bar0 = rack.card("servo0").region("bar0")
+        for _ in range(7):
+            bar0.read32(0)
+        rack.sim.step(ns=5 * MS)
+        rack.card("servo0").control("save")
+        stats = rack.stats()
+        assert served.server is not None
+        pmac_port = served.server.listeners()["cards"]["pmac0"]["ethernet"]
+        host, port = pmac_port.removeprefix("tcp://").rsplit(":", 1)
+        with socket.create_connection((host, int(port)), timeout=10):
+            rack.request("stats")  # the connection is accepted by now: the loop ran since
+            m = scrape(url)
+    assert all(name.startswith("vdevd_") for name, _ in m)
+    for card in ("servo0", "pmac0"):
+        label = (("card", card),)
+        assert m[("vdevd_card_ticks_total", label)] == stats["cards"][card]["ticks"] > 0
+        assert ("vdevd_card_lost_ticks_total", label) in m
+        assert ("vdevd_card_interrupts_total", label) in m
+    assert m[("vdevd_card_connections", (("card", "pmac0"),))] == 1
+    assert m[("vdevd_card_connections", (("card", "servo0"),))] == 0
+    assert m[("vdevd_card_nv_saves_total", (("card", "servo0"),))] == 1
+    assert m[("vdevd_card_nv_saves_total", (("card", "pmac0"),))] == 0
+    # the request counters and the latency histogram count the same requests
+    reads = m[("vdevd_requests_total", (("op", "read"),))]
+    assert reads >= 7
+    assert m[("vdevd_request_duration_seconds_count", (("op", "read"),))] == reads
+    assert m[("vdevd_request_duration_seconds_bucket", (("le", "+Inf"), ("op", "read")))] == reads
+    assert m[("vdevd_request_duration_seconds_sum", (("op", "read"),))] > 0
+    assert m[("vdevd_requests_total", (("op", "sim"),))] >= 1
+    assert m[("vdevd_simulated_time_seconds", ())] == pytest.approx(5e-3)
+    assert ("vdevd_process_resident_memory_bytes", ()) in m
+
+
+def test_errors_and_histograms_accumulate_between_scrapes(served: DaemonThread) -> None:
+    assert served.health is not None
+    url = served.health.url
+    with vdevclient.connect(served.endpoint, served.events) as rack:
+        first = scrape(url)
+        with pytest.raises(vdevclient.VdevClientError):
+            rack.card("servo0").region("bar0").read32(1 << 30)
+        for _ in range(3):
+            rack.request("sim", action="now")
+        second = scrape(url)
+    assert second[("vdevd_errors_total", ())] == first[("vdevd_errors_total", ())] + 1
+    key = ("vdevd_request_duration_seconds_count", (("op", "sim"),))
+    assert second[key] == first.get(key, 0) + 3
+
+
+def test_healthz_fails_while_the_loop_is_blocked(served: DaemonThread) -> None:
+    assert served.health is not None and served._loop is not None
+    url = served.health.url
+    assert get(url + "/healthz") == (200, "ok\n")
+    assert get(url + "/readyz") == (200, "ready\n")
+    release = threading.Event()
+    served._loop.call_soon_threadsafe(release.wait, 10)  # the loop is stuck in a callback
+    served.health.liveness.limit_s = 0.0  # any heartbeat not yet run is too late
+    try:
+        get(url + "/healthz")  # posts a heartbeat the blocked loop cannot run
+        status, body = get(url + "/healthz")
+        assert status == 503 and "unresponsive" in body
+    finally:
+        release.set()
+    with vdevclient.connect(served.endpoint) as rack:
+        rack.stats()  # a round trip through the loop: the heartbeat before it has run
+    assert get(url + "/healthz")[0] == 200
+
+
+def test_readyz_only_while_ready(served: DaemonThread) -> None:
+    assert served.health is not None
+    url = served.health.url
+    assert get(url + "/readyz")[0] == 200
+    served.health.ready = False  # as before the listeners are bound, and while stopping
+    assert get(url + "/readyz") == (503, "not ready\n")
+    assert get(url + "/healthz")[0] == 200  # alive all the same
+    assert get(url + "/nothing")[0] == 404
+
+
+def test_liveness_from_heartbeats() -> None:
+    """Sans-I/O with a clock of the test's: a heartbeat waits until the loop runs it."""
+    loop = asyncio.new_event_loop()
+    now = [100.0]
+    live = Liveness(loop, limit_s=5.0, clock=lambda: now[0])
+    try:
+        assert live.probe() == (True, 0.0)  # posts a heartbeat
+        now[0] += 4.0
+        assert live.probe() == (True, 4.0)  # still waiting, within the limit; no second one
+        now[0] += 2.0
+        assert live.probe() == (False, 6.0)
+        loop.call_soon(loop.stop)
+        loop.run_forever()  # the loop runs the heartbeat
+        assert live.last_beat == 106.0
+        assert live.probe() == (True, 0.0)
+    finally:
+        loop.close()
+    now[0] += 60.0
+    assert live.probe() == (False, 60.0)  # the heartbeat posted last never ran: the loop is gone
+
+
+def test_metrics_reachable_when_zeromq_requires_curve(tmp_path: Path) -> None:
+    allowed = tmp_path / "allowed"
+    allowed.mkdir()
+    _, server_secret = zmq.auth.create_certificates(tmp_path, "server")
+    client_public, _ = zmq.auth.create_certificates(tmp_path, "client")
+    Path(client_public).rename(allowed / "client.key")
+    cfg = rack_config()
+    cfg.curve = CurveConfig(str(server_secret), str(allowed))
+    cfg.metrics = MetricsConfig(listen="127.0.0.1:0")
+    with DaemonThread(cfg) as d:
+        assert d.health is not None
+        assert get(d.health.url + "/healthz")[0] == 200
+        assert get(d.health.url + "/readyz")[0] == 200
+        assert ("vdevd_card_ticks_total", (("card", "servo0"),)) in scrape(d.health.url)
+
+
+def own_address() -> str:
+    """A non-loopback IPv4 address of this machine (the route to a documentation network;
+    nothing is sent), or skip."""
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.connect(("203.0.113.1", 9))
+            address = str(s.getsockname()[0])
+    except OSError:
+        pytest.skip("no non-loopback address")
+    if address.startswith("127."):
+        pytest.skip("no non-loopback address")
+    return address
+
+
+def test_off_loopback_only_the_allowed_networks_are_answered() -> None:
+    address = own_address()
+    cfg = rack_config()
+    for allow, status in ((("10.0.0.0/8",), 403), ((f"{address}/32",), 200)):
+        cfg.metrics = MetricsConfig(listen="0.0.0.0:0", allow=allow)
+        with DaemonThread(cfg) as d:
+            assert d.health is not None
+            port = d.health.url.rsplit(":", 1)[1]
+            assert get(f"http://{address}:{port}/healthz")[0] == status
+            assert get(f"http://127.0.0.1:{port}/healthz")[0] == 200  # loopback always
+
+
+def test_metrics_configuration() -> None:
+    assert parse({}).metrics is None  # off by default
+    cfg = parse({"metrics": {}})
+    assert cfg.metrics == MetricsConfig("127.0.0.1:9750", (), 5.0)
+    assert parse({"metrics": {"listen": "[::1]:9000"}}).metrics is not None
+    ok = parse({"metrics": {"listen": "0.0.0.0:9750", "allow": ["10.0.0.0/8"]}}).metrics
+    assert ok is not None and ok.allow == ("10.0.0.0/8",)
+    for table, key in (({"listen": "0.0.0.0:9750"}, "metrics.listen"),
+                       ({"listen": "9750"}, "metrics.listen"),
+                       ({"listen": "example.org:9750"}, "metrics.listen"),
+                       ({"allow": ["not-a-net"]}, "metrics.allow"),
+                       ({"allow": "10.0.0.0/8"}, "metrics.allow"),
+                       ({"unresponsive_s": 0}, "metrics.unresponsive_s"),
+                       ({"port": 1}, "metrics.port")):
+        with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
+            parse({"metrics": table})
+    with pytest.raises(ValueError, match="must be a table"):
+        parse_metrics("127.0.0.1:9750")
+
+
+def test_a_metrics_port_in_use_stops_the_start() -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        cfg = replace(rack_config(), metrics=MetricsConfig(
+            listen=f"127.0.0.1:{taken.getsockname()[1]}"))
+        with pytest.raises(Exception, match="metrics.listen"):
+            DaemonThread(cfg).start()
