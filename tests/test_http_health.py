@@ -4,8 +4,13 @@ daemon (issue 22 "Operations"; vdevd/http_health.py, vdevd/prom.py)."""
 from __future__ import annotations
 
 import asyncio
+import json
+import signal
 import socket
+import subprocess
+import sys
 import threading
+import time
 import urllib.error
 import urllib.request
 from collections.abc import Iterator
@@ -234,3 +239,33 @@ def test_a_metrics_port_in_use_stops_the_start() -> None:
             listen=f"127.0.0.1:{taken.getsockname()[1]}"))
         with pytest.raises(Exception, match="metrics.listen"):
             DaemonThread(cfg).start()
+
+
+def test_vdevd_serve_announces_the_endpoint_in_its_ready_file(tmp_path: Path) -> None:
+    (tmp_path / "rack.toml").write_text('[clock]\nmode = "lockstep"\n[metrics]\n'
+                                        'listen = "127.0.0.1:0"\n[[card]]\n'
+                                        'type = "generic-servo"\nname = "servo0"\n')
+    ready = tmp_path / "ready.json"
+    log = (tmp_path / "vdevd.log").open("w")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "vdevd", "serve", "--config", str(tmp_path / "rack.toml"),
+         "--endpoint", "tcp://127.0.0.1:*", "--events", "tcp://127.0.0.1:*",
+         "--ready-file", str(ready)], stderr=log)
+    try:
+        deadline = time.monotonic() + 60  # a guard against a hung daemon, not a measured wait
+        while not ready.exists():
+            try:
+                code = proc.wait(timeout=0.01)
+            except subprocess.TimeoutExpired:
+                assert time.monotonic() < deadline, "no ready file"
+                continue
+            raise AssertionError(f"vdevd exited {code}: {(tmp_path / 'vdevd.log').read_text()}")
+        url = json.loads(ready.read_text())["metrics"]
+        assert get(url + "/readyz")[0] == 200 and get(url + "/healthz")[0] == 200
+        assert ("vdevd_card_ticks_total", (("card", "servo0"),)) in scrape(url)
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        code = proc.wait(30)
+        log.close()
+    assert code == 0
+    assert "metrics and health on http://127.0.0.1:" in (tmp_path / "vdevd.log").read_text()

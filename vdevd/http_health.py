@@ -25,6 +25,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable, Iterable
+from contextlib import suppress
 from dataclasses import dataclass
 from socketserver import ThreadingMixIn
 from typing import TYPE_CHECKING, Any
@@ -167,6 +168,7 @@ class HealthServer:
         self._metrics = make_wsgi_app(registry_of(rack, loop))
         self._httpd: WSGIServer | None = None
         self._thread: threading.Thread | None = None
+        self._stopping = False
         self.url = ""
 
     def start(self) -> HealthServer:
@@ -185,20 +187,28 @@ class HealthServer:
         bound_host, bound_port = httpd.server_address[:2]
         shown = f"[{bound_host}]" if family == socket.AF_INET6 else str(bound_host)
         self.url = f"http://{shown}:{bound_port}"
-        self._thread = threading.Thread(target=httpd.serve_forever, kwargs={"poll_interval": 0.5},
-                                        name="vdevd-http", daemon=True)
+        self._thread = threading.Thread(target=self._serve, args=(httpd,), name="vdevd-http",
+                                        daemon=True)
         self._thread.start()
         log.info("metrics and health on %s (/metrics, /healthz, /readyz)", self.url)
         return self
 
+    def _serve(self, httpd: WSGIServer) -> None:
+        """Accept until `stop`: blocked in accept between requests (no polling at rest)."""
+        while not self._stopping:
+            httpd.handle_request()
+
     def stop(self) -> None:
         self.ready = False
+        self._stopping = True
         if self._httpd is not None:
-            self._httpd.shutdown()
-            self._httpd.server_close()
-            self._httpd = None
+            with suppress(OSError):  # wakes the accept the thread is blocked in
+                self._httpd.socket.shutdown(socket.SHUT_RDWR)
         if self._thread is not None:
             self._thread.join(5)
+        if self._httpd is not None:
+            self._httpd.server_close()
+            self._httpd = None
 
     def _allows(self, peer: str) -> bool:
         try:
