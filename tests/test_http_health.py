@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import re
 import signal
 import socket
 import subprocess
@@ -269,3 +270,24 @@ def test_vdevd_serve_announces_the_endpoint_in_its_ready_file(tmp_path: Path) ->
         log.close()
     assert code == 0
     assert "metrics and health on http://127.0.0.1:" in (tmp_path / "vdevd.log").read_text()
+
+
+def test_the_image_health_check_asks_healthz(served: DaemonThread) -> None:
+    """docker/Dockerfile's HEALTHCHECK command, run as written: 0 while the loop answers,
+    non-zero when it does not."""
+    assert served.health is not None and served._loop is not None
+    dockerfile = (Path(__file__).resolve().parents[1] / "docker" / "Dockerfile").read_text()
+    cmd = json.loads(dockerfile.split("HEALTHCHECK", 1)[1].split("CMD", 1)[1].split("\n")[0])
+    default = re.search(r"^ENV VDEVD_HEALTH_URL=(\S+)", dockerfile, re.M)
+    assert default is not None and default.group(1).endswith(":9750/healthz")
+    cmd[0] = sys.executable if cmd[0] == "python" else cmd[0]
+    env = {"VDEVD_HEALTH_URL": served.health.url + "/healthz"}
+    assert subprocess.run(cmd, env=env, timeout=60).returncode == 0
+    release = threading.Event()
+    served._loop.call_soon_threadsafe(release.wait, 30)
+    served.health.liveness.limit_s = 0.0
+    try:
+        get(served.health.url + "/healthz")  # a heartbeat the blocked loop cannot run
+        assert subprocess.run(cmd, env=env, timeout=60, capture_output=True).returncode != 0
+    finally:
+        release.set()
