@@ -291,3 +291,38 @@ def test_the_image_health_check_asks_healthz(served: DaemonThread) -> None:
         assert subprocess.run(cmd, env=env, timeout=60, capture_output=True).returncode != 0
     finally:
         release.set()
+
+
+class _Ring:
+    """What `LatencyHistograms.update` reads of a rack: its tagged latency ring."""
+
+    def __init__(self, capacity: int) -> None:
+        from vdevd.metrics import TaggedSamples
+
+        self.latency = TaggedSamples(capacity)
+
+
+def test_latency_histograms_from_the_ring() -> None:
+    from vdevd.metrics import OP_TAGS
+    from vdevd.prom import LatencyHistograms
+
+    ring, hist = _Ring(8), LatencyHistograms()
+    read, write = OP_TAGS["read"], OP_TAGS["write"]
+    for ns, tag in ((4_000, read), (30_000, read), (2_000_000_000, write)):
+        ring.latency.add(ns, tag)
+    hist.update(ring)  # type: ignore[arg-type]
+    assert list(hist.buckets["read"][:4]) == [1, 0, 0, 1]  # <= 5, 10, 20, 50 us
+    assert hist.buckets["read"].sum() == 2 and hist.sum_ns["read"] == 34_000
+    assert hist.buckets["write"][-1] == 1  # above the last bucket: +Inf only
+    hist.update(ring)  # type: ignore[arg-type]
+    assert hist.buckets["read"].sum() == 2  # nothing new: nothing counted twice
+    for _ in range(20):  # more than the ring holds between two scrapes: scaled to the count
+        ring.latency.add(4_000, read)
+    hist.update(ring)  # type: ignore[arg-type]
+    assert hist.buckets["read"].sum() == 22 and hist.buckets["read"][0] == 21
+    assert hist.sum_ns["read"] == 34_000 + 20 * 4_000
+    samples = {(s.name, s.labels.get("op"), s.labels.get("le")): s.value
+               for s in hist.family().samples}
+    assert samples[("vdevd_request_duration_seconds_bucket", "read", "+Inf")] == 22
+    assert samples[("vdevd_request_duration_seconds_bucket", "read", "5e-06")] == 21
+    assert samples[("vdevd_request_duration_seconds_count", "read", None)] == 22
