@@ -78,3 +78,5 @@ def test_every_card_type_is_in_the_readme() -> None:
         assert f"`{ctype}`" in readme.split("| `[[card]] type` |")[1].split("\n")[0]
         for key in card_class(ctype).options:
             assert f"| `[[card]] {key}` | {ctype}: " in readme, (ctype, key)
+        assert re.search(rf"^\| `\w+0` \| `{ctype}` \|", readme, re.M), ctype  # the default rack
+        assert f"{ctype} (period " in readme  # the `vdevd types` sample

@@ -2,7 +2,7 @@
 
 `python -m vdevd.docs` rewrites, from the declarations:
 
-- README.md's key table and its `vdevd types` sample (between `<!-- generated: NAME -->` and
+- README.md's table of the default rack, its key table and its `vdevd types` sample (between `<!-- generated: NAME -->` and
   `<!-- end generated: NAME -->` markers), from `SETTINGS` below (the sections' keys, which
   vdevd/config.py parses) and every card type's `options` (vdevd/devices/options.py);
 - examples/rack.toml, every section and key, one card of each type with every key at its
@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from vdevd import config as configmod
 from vdevd.devices import CARD_TYPES, DEFAULT_NAMES, card_class
 from vdevd.devices.options import COMMON_OPTIONS, Option
 from vdevd.rt.world import AXIS_KEYS
@@ -134,6 +135,21 @@ def key_table() -> str:
     return "\n".join(rows)
 
 
+def default_rack() -> str:
+    """The README's table of the embedded default rack: one card of each type."""
+    rows = ["| card | type | what | period | configuration keys, registers, commands |",
+            "|---|---|---|---|---|"]
+    for spec in configmod.default_config().cards:
+        cls = card_class(spec.type)
+        module = sys.modules[cls.__module__]
+        what = (module.__doc__ or "").split(" (type", 1)[0].strip()
+        readme = Path(module.__file__ or "").parent / "README.md"
+        rows.append(f"| `{spec.name}` | `{spec.type}` | {_cell(what)} | "
+                    f"{float(cls.default_period_ns):.10g} ns | "
+                    f"`{readme.relative_to(ROOT).as_posix()}` |")
+    return "\n".join(rows)
+
+
 def _meaning(opt: Option) -> str:
     parts = []
     if opt.choices is not None and len(opt.choices) <= 8:
@@ -234,6 +250,7 @@ def replace_block(text: str, name: str, body: str) -> str:
 
 
 def readme(text: str) -> str:
+    text = replace_block(text, "default-rack", default_rack())
     text = replace_block(text, "keys", key_table())
     return replace_block(text, "types", "```console\n" + types_sample() + "\n```")
 
