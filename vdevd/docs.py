@@ -2,9 +2,10 @@
 
 `python -m vdevd.docs` rewrites, from the declarations:
 
-- README.md's table of the default rack, its key table and its `vdevd types` sample (between `<!-- generated: NAME -->` and
-  `<!-- end generated: NAME -->` markers), from `SETTINGS` below (the sections' keys, which
-  vdevd/config.py parses) and every card type's `options` (vdevd/devices/options.py);
+- README.md's table of the default rack, its key table and its `vdevd types` sample (between
+  `<!-- generated: NAME -->` and `<!-- end generated: NAME -->` markers), from `SETTINGS` below
+  (the sections' keys, which vdevd/config.py parses) and every card type's `options`
+  (vdevd/devices/options.py);
 - examples/rack.toml, every section and key, one card of each type with every key at its
   default.
 
