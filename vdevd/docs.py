@@ -170,11 +170,11 @@ def _default(opt: Option) -> str:
 
 def types_sample() -> str:
     """What `vdevd types` prints, as a console block's body."""
-    from vdevd.cli import _types
+    from vdevd.cli import main as vdevd
 
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        _types()
+        vdevd(["types"])
     return "$ vdevd types\n" + out.getvalue().rstrip("\n")
 
 

@@ -96,7 +96,8 @@ class RackCollector(Collector):
             nvram = card.ctx.nvram
             cards[card.name] = {"connections": card.connections(),
                                 "nv_saves": nvram.saves.get(card.name, 0) if nvram else 0}
-        return {"stats": self.rack.stats(), "cards": cards}
+        # the histogram family is built here too: a concurrent scrape's update runs on the loop
+        return {"stats": self.rack.stats(), "cards": cards, "latency": self.latency.family()}
 
     def _taken(self) -> dict[str, Any]:
         done: concurrent.futures.Future[dict[str, Any]] = concurrent.futures.Future()
@@ -171,7 +172,7 @@ class RackCollector(Collector):
         for op, n in sorted(requests["by_op"].items()):
             by_op.add_metric([op], n)
         yield by_op
-        yield self.latency.family()
+        yield snap["latency"]
         yield CounterMetricFamily("vdevd_errors", "requests answered with an error, and "
                                   "internal errors", value=requests["errors"])
         yield GaugeMetricFamily("vdevd_pending_waits", "waits not yet answered",
