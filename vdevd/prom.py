@@ -2,7 +2,8 @@
 
 Nothing here runs between scrapes: a scrape asks the rack's event loop for one snapshot of its
 counters (`Rack.stats`, the cards' counters), so the daemon at rest and per request pays nothing
-for the endpoint. The request latency histograms are filled at scrape time from the latency
+for the endpoint; a scrape costs the loop what a `stats` request does (its percentiles: a few ms
+once the sample rings are full). The request latency histograms are filled at scrape time from the latency
 ring the `stats` op already keeps (`metrics.TaggedSamples`, each sample tagged with its op): the
 samples added since the last scrape go to their buckets. When more requests than the ring holds
 (65,536) arrived between two scrapes, the buckets are scaled from the ones still held; the
