@@ -326,3 +326,22 @@ def test_latency_histograms_from_the_ring() -> None:
     assert samples[("vdevd_request_duration_seconds_bucket", "read", "+Inf")] == 22
     assert samples[("vdevd_request_duration_seconds_bucket", "read", "5e-06")] == 21
     assert samples[("vdevd_request_duration_seconds_count", "read", None)] == 22
+
+
+def test_tagged_samples_since_a_count_across_the_ring_wrap() -> None:
+    from vdevd.metrics import TaggedSamples
+
+    ring = TaggedSamples(5)
+    for i in range(1, 4):
+        ring.add(i * 10, i)
+    values, tags, added = ring.since(0)
+    assert (list(values), list(tags), added) == ([10, 20, 30], [1, 2, 3], 3)
+    for i in range(4, 9):
+        ring.add(i * 10, i)
+    assert [list(x) if not isinstance(x, int) else x for x in ring.since(3)] == [
+        [40, 50, 60, 70, 80], [4, 5, 6, 7, 8], 5]
+    values, _, added = ring.since(0)  # 8 added, the last 5 held
+    assert (list(values), added) == ([40, 50, 60, 70, 80], 8)
+    assert list(ring.since(6)[0]) == [70, 80]
+    assert (len(ring.since(8)[0]), ring.since(8)[2]) == (0, 0)
+    assert ring.summary()["count"] == 8 and ring.added == 8

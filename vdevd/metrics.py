@@ -75,8 +75,11 @@ class TaggedSamples(Samples):
             return empty, empty.astype(np.uint8), max(added, 0)
         values = np.frombuffer(self._buf, dtype=np.int64)
         tags = np.frombuffer(self._tags, dtype=np.uint8)
-        idx = np.arange(self._n - held, self._n) % self._capacity
-        return values[idx], tags[idx], added
+        start, end = (self._n - held) % self._capacity, self._n % self._capacity
+        if start < end:
+            return values[start:end].copy(), tags[start:end].copy(), added
+        return (np.concatenate((values[start:], values[:end])),
+                np.concatenate((tags[start:], tags[:end])), added)
 
     @property
     def added(self) -> int:
