@@ -95,12 +95,15 @@ BATCHABLE = frozenset({"read", "write", "wait", "control"})
 @dataclass(slots=True)
 class Request:
     """A validated request: `args` holds the op's fields, already type-checked; `local`, set by
-    the server, says the client is on this machine (a `hello` then announces the shared memory)."""
+    the server, says the client is on this machine (a `hello` then announces the shared memory);
+    `client`, set by the server, is who sent it (the ROUTER's peer identity), which the limits
+    per client count by."""
 
     id: Any
     op: str
     args: dict[str, Any]
     local: bool = False
+    client: bytes = b""
 
 
 _unpack = msgpack.unpackb  # str keys only (strict_map_key), str as str, arrays as lists

@@ -210,6 +210,7 @@ class Server:
                 self.rack.latency.add(time.perf_counter_ns() - t0)
                 return
             req = protocol.request_from(msg)
+            req.client = envelope[0]
             if req.op == "hello":
                 req.local = self._peer_local()
         except VdevError as exc:
