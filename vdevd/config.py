@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from vdevd.bounds import MAX_SCHEDULED, MAX_SCHEDULED_PER_CLIENT
 from vdevd.devices import CARD_TYPES, DEFAULT_NAMES, card_class
 from vdevd.devices.options import CardOptions, parse_options
 from vdevd.security import CurveConfig, check_curve, is_local
@@ -26,6 +27,10 @@ _NAME = re.compile(r"[A-Za-z0-9_-]+")  # a card name: ASCII letters, digits, - a
 WAKERS = ("thread", "timer")
 #: the servo periods a configuration may ask for, ns (a card built in code may use any)
 PERIOD_NS = (10_000, 1_000_000_000)
+#: the events socket's heartbeat period, wall seconds (default, bounds): subscribers call a
+#: daemon gone after three periods without one (PROTOCOL.md "Heartbeat")
+HEARTBEAT_S = 2.0
+HEARTBEAT_RANGE_S = (0.01, 3.0)
 
 
 class ConfigError(ValueError):
@@ -54,6 +59,11 @@ class Config:
     state_dir: str | None = None
     #: where the shared memory of local clients is created ("": none; decision 0010)
     shm_dir: str = DEFAULT_SHM_DIR
+    #: scheduled `control` actions one client, and all clients, may have pending
+    max_scheduled_per_client: int = MAX_SCHEDULED_PER_CLIENT
+    max_scheduled: int = MAX_SCHEDULED
+    #: the heartbeat period on the events socket, wall seconds
+    heartbeat_s: float = HEARTBEAT_S
     curve: CurveConfig | None = None
     cards: list[CardSpec] = field(default_factory=list)
 
@@ -91,10 +101,22 @@ def parse(data: dict[str, Any]) -> Config:
         raise ConfigError(f"{unknown[0]}: unknown section (sections: {', '.join(sorted(_SECTIONS))})")
     cfg = Config()
     server = _table(data, "server")
-    _only(server, "server", ("endpoint", "events", "shm_dir"))
+    _only(server, "server", ("endpoint", "events", "shm_dir", "max_scheduled_per_client",
+                             "max_scheduled", "heartbeat_s"))
     cfg.endpoint = _str(server, "server", "endpoint", cfg.endpoint)
     cfg.events = _str(server, "server", "events", cfg.events)
     cfg.shm_dir = _str(server, "server", "shm_dir", cfg.shm_dir)
+    for key in ("max_scheduled_per_client", "max_scheduled"):
+        value = server.get(key, getattr(cfg, key))
+        if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value <= 10**6:
+            raise ConfigError(f"server.{key}: {value!r} is not an integer in 0..1000000")
+        setattr(cfg, key, value)
+    beat = server.get("heartbeat_s", cfg.heartbeat_s)
+    low, high = HEARTBEAT_RANGE_S
+    if isinstance(beat, bool) or not isinstance(beat, (int, float)) or not low <= beat <= high:
+        raise ConfigError(f"server.heartbeat_s: {beat!r} is not a number of seconds in "
+                          f"{low}..{high}")
+    cfg.heartbeat_s = float(beat)
     clock = _table(data, "clock")
     _only(clock, "clock", ("mode", "wake_us", "waker", "skip_quiet"))
     cfg.clock = _choice(clock, "clock", "mode", CLOCK_MODES, cfg.clock)  # type: ignore[assignment]

@@ -24,7 +24,7 @@ HARD_MAX_MESSAGE = 4 * MAX_MESSAGE
 MAX_WAIT_NS = 86_400 * 1_000_000_000
 
 CAPABILITIES = ("read", "write", "rep", "batch", "batch.compact", "wait.irq", "wait.value", "sim",
-                "control", "stats", "sync", "shm")
+                "control", "stats", "sync", "shm", "heartbeat")
 
 
 
@@ -150,7 +150,19 @@ def unpack_message(payload: bytes) -> Any:
     try:
         return _unpack(payload)
     except Exception as exc:  # msgpack raises several unrelated types for bad input
-        raise _with_id(VdevError(ErrorCode.MALFORMED, f"not msgpack: {exc}"), None) from None
+        raise _with_id(VdevError(ErrorCode.MALFORMED, f"not msgpack: {_unpack_failure(exc, payload)}"),
+                       None) from None
+
+
+def _unpack_failure(exc: Exception, payload: bytes) -> str:
+    """What was wrong with a body msgpack could not unpack, never empty (msgpack's FormatError
+    and StackError carry no message)."""
+    reason = str(exc) or {"FormatError": "a byte that begins no msgpack object",
+                          "StackError": "nested too deep"}.get(type(exc).__name__,
+                                                               type(exc).__name__)
+    if not payload:
+        return f"{reason} (the body is empty)"
+    return f"{reason} (the body of {len(payload)} bytes begins {payload[:8].hex(' ')})"
 
 
 def read_fields(msg: Any) -> tuple[Any, str, str, int, int] | None:

@@ -259,6 +259,8 @@ class Rack:
             "capabilities": list(CAPABILITIES),
             "max_message": MAX_MESSAGE,
             "events": self.events_endpoint,
+            # a sink with no heartbeat (no events socket): 0
+            "heartbeat_ns": getattr(self.sink, "heartbeat_ns", 0),
             "clock": {"mode": self.mode, "now_ns": self.now_ns, "tick_ns": self.sched.tick_ns},
             "cards": [c.describe() for c in self.cards.values()],
         }

@@ -19,6 +19,8 @@ import zmq
 
 from vdevd import protocol
 from vdevd.errors import ErrorCode, VdevError
+from vdevd.heartbeat import TOPIC as HEARTBEAT_TOPIC
+from vdevd.heartbeat import Heartbeat
 from vdevd.irq import IrqEvent
 from vdevd.rack import Rack
 from vdevd.security import CurveConfig, secure
@@ -37,11 +39,13 @@ _POLLIN = int(zmq.POLLIN)
 
 class Publisher:
     """The rack's event sink (`vdevd.rack.EventSink`) on the PUB socket: events are dropped until
-    the server binds it, as a PUB socket drops them while no one subscribes."""
+    the server binds it, as a PUB socket drops them while no one subscribes. `heartbeat_ns`:
+    the period of the heartbeat the server publishes through it (0: none)."""
 
-    def __init__(self) -> None:
+    def __init__(self, heartbeat_ns: int = 2_000_000_000) -> None:
         self._sock: zmq.Socket | None = None
         self.endpoint = ""
+        self.heartbeat_ns = heartbeat_ns
 
     def attach(self, sock: zmq.Socket) -> None:
         """Publish on `sock`, bound already."""
@@ -53,6 +57,11 @@ class Publisher:
 
     def sync(self, card: str) -> None:
         self._send(card, {"kind": "sync", "card": card})
+
+    def heartbeat(self, seq: int) -> None:
+        """A heartbeat (PROTOCOL.md "Heartbeat") on its own topic."""
+        self._send(HEARTBEAT_TOPIC, {"kind": "heartbeat", "seq": seq,
+                                     "period_ns": self.heartbeat_ns})
 
     def _send(self, topic: str, body: dict[str, Any]) -> None:
         if self._sock is None:
@@ -98,6 +107,7 @@ class Server:
         self._drain_scheduled = False
         self._draining = False
         self._pack = msgpack.Packer(use_bin_type=True).pack  # this server's, for read replies
+        self._heartbeat = Heartbeat(self.publisher)
         # pyzmq's own send, without the Python wrapper of zmq.Socket (routing ids, groups and
         # Frame objects, none used here) that costs ~0.5 us a frame
         self._router_send = super(zmq.Socket, self.router).send  # type: ignore[misc]
@@ -113,6 +123,7 @@ class Server:
         self.pub.bind(events)
         self.publisher.attach(self.pub)
         self.events = self.publisher.endpoint
+        self._heartbeat.start(loop)
         self.router.bind(endpoint)
         self.endpoint = self.router.getsockopt_string(zmq.LAST_ENDPOINT)
         loop.add_reader(self.router.getsockopt(zmq.FD), self._on_readable)
@@ -127,6 +138,7 @@ class Server:
 
     async def stop(self) -> None:
         """Close the cards' own ports, stop the clock, close the sockets (what was started)."""
+        self._heartbeat.stop()
         await self.rack.close_services()
         self.rack.stop()
         if self._loop is not None and self._reading:

@@ -173,11 +173,8 @@ def _watch(rack: Any, args: argparse.Namespace) -> int:
         return 1
     for name in names:
         rack.card(name)  # KeyError for an unknown card
-    sub = rack.socket(zmq.SUB)
+    sub, liveness = rack.subscriber(names)
     try:
-        sub.connect(rack.events_endpoint)
-        for name in names:
-            sub.setsockopt(zmq.SUBSCRIBE, name.encode())
         for _ in range(100):  # until the subscription is live (PROTOCOL.md, sync)
             # the daemon takes subscriptions in order: once the last one is live, all are
             rack.request("sync", card=names[-1])
@@ -189,11 +186,11 @@ def _watch(rack: Any, args: argparse.Namespace) -> int:
         print(f"vdevctl: watching {', '.join(names)} on {rack.events_endpoint}; Ctrl-C stops",
               file=sys.stderr, flush=True)
         seen = 0
-        timeout_ms = None if args.irq_timeout is None else int(args.irq_timeout * 1000)
         while not args.count or seen < args.count:
-            if not sub.poll(timeout_ms):
+            got = liveness.receive(args.irq_timeout)  # DaemonGone once the daemon is silent
+            if got is None:
                 break
-            topic, body = sub.recv_multipart()
+            topic, body = got
             if topic.decode() not in names:
                 continue
             ev = msgpack.unpackb(body, raw=False)

@@ -24,6 +24,7 @@ from typing import Any, ClassVar, Literal
 import msgpack
 import zmq
 
+from vdevclient._liveness import Liveness
 from vdevclient.errors import RackClosed, RemoteError, RequestTooLarge, VdevTimeout
 
 log = logging.getLogger("vdevclient")
@@ -174,6 +175,8 @@ class Rack:
         #: the daemon takes a batch's reads and writes as arrays (PROTOCOL.md "Compact accesses")
         self.compact = "batch.compact" in self.info.get("capabilities", ())
         self.events_endpoint: str = events or self.info.get("events", "")
+        #: the period of the daemon's heartbeat on the events socket (0: it sends none)
+        self.heartbeat_ns: int = int(self.info.get("heartbeat_ns", 0))
         self._infos = {c["name"]: _card_info(c) for c in self.info["cards"]}
         #: the daemon's shared memory, mapped (None: every access is a request)
         self.shm: mmap.mmap | None = _map_segment(self.info.get("shm")) if shm else None
@@ -242,6 +245,21 @@ class Rack:
             sent = {**message, "ops": [compact(op) for op in message["ops"]]}
         packed = self._packb(sent)  # a fixmap: its first byte is 0x80 + the field count
         return Prepared(str(message["op"]), bytes((packed[0] + 1,)) + packed[1:], message)
+
+    def subscriber(self, topics: Sequence[str]) -> tuple[zmq.Socket[bytes], Liveness]:
+        """A SUB socket on the events endpoint subscribed to `topics` (card names), and the
+        watch on the daemon's heartbeat that receives from it (`Liveness.receive`)."""
+        if not self.events_endpoint:
+            raise RuntimeError("the daemon reported no events endpoint")
+        sub = self.socket(zmq.SUB)
+        try:
+            sub.connect(self.events_endpoint)
+            for topic in topics:
+                sub.setsockopt(zmq.SUBSCRIBE, topic.encode())
+            return sub, Liveness(sub, self.heartbeat_ns, self.events_endpoint)
+        except BaseException:
+            sub.close()
+            raise
 
     def socket(self, kind: int) -> zmq.Socket[bytes]:
         """A socket of this connection's context, with its CURVE keys when it has them."""
@@ -513,6 +531,7 @@ class Irq:
     def __init__(self, card: Card) -> None:
         self._card = card
         self._sub: zmq.Socket[bytes] | None = None
+        self._liveness: Liveness | None = None
         self.last_seq: int | None = None
 
     def wait(self, timeout_s: float, line: str | None = None) -> dict[str, Any] | None:
@@ -534,12 +553,7 @@ class Irq:
     def subscribe(self) -> Irq:
         """Start receiving every assertion of this card published on the events socket."""
         if self._sub is None:
-            endpoint = self._card.rack.events_endpoint
-            if not endpoint:
-                raise RuntimeError("the daemon reported no events endpoint")
-            self._sub = self._card.rack.socket(zmq.SUB)
-            self._sub.connect(endpoint)
-            self._sub.setsockopt(zmq.SUBSCRIBE, self._card.name.encode())
+            self._sub, self._liveness = self._card.rack.subscriber([self._card.name])
             try:
                 self._sync()
             except BaseException:
@@ -559,15 +573,17 @@ class Irq:
         raise VdevTimeout(f"no events from {self._card.rack.events_endpoint}")
 
     def events(self, timeout_s: float | None = None) -> Iterator[dict[str, Any]]:
-        """Yield published events as they come; stop after `timeout_s` without one."""
+        """Yield published events as they come; stop after `timeout_s` without one. A daemon
+        silent for three heartbeat periods raises `DaemonGone` (PROTOCOL.md "Heartbeat")."""
         if self._sub is None:
             self.subscribe()
-        assert self._sub is not None
+        assert self._liveness is not None
         name = self._card.name.encode()
         while True:
-            if not self._sub.poll(None if timeout_s is None else int(timeout_s * 1000)):
+            got = self._liveness.receive(timeout_s)
+            if got is None:
                 return
-            topic, body = self._sub.recv_multipart()
+            topic, body = got
             event = msgpack.unpackb(body, raw=False)
             if topic == name and event.get("kind") != "sync":
                 yield event
@@ -576,6 +592,7 @@ class Irq:
         if self._sub is not None:
             self._sub.close()
             self._sub = None
+            self._liveness = None
 
 
 def _card_info(c: dict[str, Any]) -> CardInfo:

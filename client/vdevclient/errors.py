@@ -20,6 +20,11 @@ class VdevTimeout(VdevClientError, TimeoutError):
     """No reply within the client's timeout."""
 
 
+class DaemonGone(VdevClientError):
+    """A subscription heard no heartbeat for three of the daemon's heartbeat periods
+    (proto/PROTOCOL.md, Heartbeat): the daemon has stopped, or its event loop is held."""
+
+
 class RackClosed(VdevClientError):
     """A request on a `Rack` after its `close()`."""
 
