@@ -93,8 +93,11 @@ class Server:
         self.ctx = ctx or zmq.Context.instance()
         self.router = self.ctx.socket(zmq.ROUTER)
         self.pub = self.ctx.socket(zmq.PUB)
-        for sock in (self.router, self.pub):
+        for sock, url in ((self.router, endpoint), (self.pub, events)):
             sock.linger = 0
+            # an IPv6 address (tcp://[::1]:PORT) needs it; not set otherwise, where it would
+            # report an IPv4 endpoint as IPv4-mapped IPv6 (tcp://[::ffff:127.0.0.1]:PORT)
+            sock.ipv6 = url.startswith("tcp://[")
         self.router.setsockopt(zmq.MAXMSGSIZE, protocol.HARD_MAX_MESSAGE)
         self.router.setsockopt(zmq.ROUTER_HANDOVER, 1)
         self._auth = secure(self.ctx, [self.router, self.pub], curve) if curve else None

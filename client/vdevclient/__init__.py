@@ -3,6 +3,7 @@ vendor libraries do."""
 
 from vdevclient.core import Card, CardInfo, Irq, Rack, Region, RegionInfo, Sim, connect
 from vdevclient.errors import (
+    ConfigurationError,
     DaemonGone,
     RackClosed,
     RemoteError,
@@ -14,6 +15,7 @@ from vdevclient.errors import (
 __all__ = [
     "Card",
     "CardInfo",
+    "ConfigurationError",
     "DaemonGone",
     "Irq",
     "Rack",

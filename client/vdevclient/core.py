@@ -24,6 +24,7 @@ from typing import Any, ClassVar, Literal
 import msgpack
 import zmq
 
+from vdevclient._curve import curve_keys
 from vdevclient._liveness import Liveness
 from vdevclient.errors import RackClosed, RemoteError, RequestTooLarge, VdevTimeout
 
@@ -49,16 +50,19 @@ def connect(
     `events` to $VDEVD_EVENTS, else what `hello` reports. `timeout` is in wall seconds.
 
     For a CURVE-secured daemon, `server_key` is the server's public certificate file and
-    `client_key` this client's secret certificate file ($VDEVD_SERVER_KEY, $VDEVD_CLIENT_KEY).
+    `client_key` this client's secret certificate file ($VDEVD_SERVER_KEY, $VDEVD_CLIENT_KEY):
+    both or neither, else `ConfigurationError` naming the one missing or unusable.
 
     `shm`: access passive memory through the daemon's shared memory when the daemon offers it
     (a client on its machine); default true unless $VDEVD_SHM is 0, no, off or false.
     """
     endpoint = endpoint or os.environ.get("VDEVD_ENDPOINT") or DEFAULT_ENDPOINT
     events = events or os.environ.get("VDEVD_EVENTS") or None
-    server_key = server_key or os.environ.get("VDEVD_SERVER_KEY") or None
-    client_key = client_key or os.environ.get("VDEVD_CLIENT_KEY") or None
-    curve = (server_key, client_key) if server_key and client_key else None
+    curve = curve_keys(
+        ("server_key", server_key) if server_key else
+        ("$VDEVD_SERVER_KEY", os.environ.get("VDEVD_SERVER_KEY") or None),
+        ("client_key", client_key) if client_key else
+        ("$VDEVD_CLIENT_KEY", os.environ.get("VDEVD_CLIENT_KEY") or None))
     if shm is None:
         shm = os.environ.get("VDEVD_SHM", "1").strip().lower() not in _OFF
     return Rack(endpoint, events, timeout, curve=curve, shm=shm)
@@ -274,6 +278,7 @@ class Rack:
             keys = (server_public, public, secret)
         sock = self._ctx.socket(kind)
         sock.linger = 0
+        sock.ipv6 = True  # a daemon on tcp://[::1]:PORT too
         if keys is not None:
             sock.curve_serverkey, sock.curve_publickey, sock.curve_secretkey = keys
         return sock
