@@ -9,7 +9,7 @@ the request's fields.
 
 from __future__ import annotations
 
-from collections.abc import Hashable, Sequence
+from collections.abc import Callable, Hashable, Sequence
 from typing import Any
 
 from vdevd.errors import ErrorCode, VdevError
@@ -21,6 +21,9 @@ READ_REPLY_OVERHEAD = 1 + 3 + 1 + 3 + 5
 MAX_READ = MAX_MESSAGE - READ_REPLY_OVERHEAD
 #: the fewest bytes of a batch reply beside its results: {"id": nil, "ok": array32}
 BATCH_REPLY_OVERHEAD = 1 + 3 + 1 + 3 + 5
+#: the hook calls of repeated accesses (`rep`) one request may make, a batch's summed: a FIFO
+#: port's hook costs 1-2 us a call, so 65536 of them hold the event loop about 0.1 s
+MAX_REP_HOOK_CALLS = 65_536
 #: scheduled `control` actions one client may have pending, and all clients together (defaults)
 MAX_SCHEDULED_PER_CLIENT = 1_000
 MAX_SCHEDULED = 10_000
@@ -33,31 +36,68 @@ def check_read(size: int) -> None:
                         f"max_message ({MAX_MESSAGE} bytes; at most {MAX_READ} bytes a read)")
 
 
+def check_rep_work(calls: int) -> None:
+    """Repeated accesses (`rep`) that would call registers' hooks more than MAX_REP_HOOK_CALLS
+    times: `too_large`, before the first call."""
+    if calls > MAX_REP_HOOK_CALLS:
+        raise VdevError(ErrorCode.TOO_LARGE, f"repeated accesses of {calls} single accesses "
+                        f"through register hooks exceed {MAX_REP_HOOK_CALLS} a request (a FIFO "
+                        "port: read or write it in pieces)")
+
+
 def _bin_size(n: int) -> int:
     """The bytes of a msgpack bin of `n` bytes (its header and the data)."""
     return n + (2 if n < 0x100 else 3 if n < 0x10000 else 5)
 
 
-def batch_reply_floor(ops: Sequence[Request | Sequence[Any]]) -> int:
-    """The fewest bytes the reply to a batch of `ops` (protocol.Access or Request) can take: every
-    read's data with its header, one byte (at least) for any other result."""
-    total = BATCH_REPLY_OVERHEAD
+#: (card, region, offset, size, write) -> the hook calls of that repeated access
+#: (`Region.rep_hook_calls`; 0 for a region that does not exist: it fails when it runs)
+HookCalls = Callable[[str, str, int, int, bool], int]
+
+_KINDS = {"r": (True, False, False), "R": (True, True, False), "w": (False, False, True),
+          "W": (False, True, True)}
+
+
+def batch_cost(ops: Sequence[Request | Sequence[Any]], hook_calls: HookCalls) -> tuple[int, int]:
+    """What a batch of `ops` (protocol.Access or Request) costs before it runs: the fewest
+    bytes its reply can take (every read's data with its header, one byte at least for any other
+    result), and the hook calls of its repeated accesses."""
+    total, calls = BATCH_REPLY_OVERHEAD, 0
     for op in ops:
         if isinstance(op, Request):
-            size = op.args["size"] if op.op == "read" else None
+            if op.op not in ("read", "write"):
+                total += 1
+                continue
+            args = op.args
+            read, rep = op.op == "read", bool(args.get("rep"))
+            card, region, offset = args["card"], args["region"], args["offset"]
+            size = args["size"] if read else len(args["data"])
         else:
-            size = op[4] if op[0] in ("r", "R") else None
-        total += _bin_size(size) if isinstance(size, int) and size > 0 else 1
-    return total
+            kind = _KINDS.get(op[0])
+            if kind is None:
+                total += 1
+                continue
+            read, rep, _ = kind
+            card, region, offset, last = op[1], op[2], op[3], op[4]
+            size = last if read else len(last)
+        total += _bin_size(size) if read and size > 0 else 1
+        if rep:
+            calls += hook_calls(card, region, offset, size, not read)
+    return total, calls
 
 
-def check_batch(ops: Sequence[Request | Sequence[Any]]) -> None:
-    """A batch whose reply cannot fit `max_message`: `too_large` before any of its ops runs."""
-    floor = batch_reply_floor(ops)
+def check_batch(ops: Sequence[Request | Sequence[Any]], hook_calls: HookCalls) -> None:
+    """A batch whose reply cannot fit `max_message`, or whose repeated accesses would call
+    hooks more than MAX_REP_HOOK_CALLS times: `too_large` before any of its ops runs."""
+    floor, calls = batch_cost(ops, hook_calls)
     if floor > MAX_MESSAGE:
         raise VdevError(ErrorCode.TOO_LARGE, f"batch of {len(ops)} ops: its reply would take "
                         f"at least {floor} bytes, over max_message ({MAX_MESSAGE} bytes); "
                         "nothing was run")
+    if calls > MAX_REP_HOOK_CALLS:
+        raise VdevError(ErrorCode.TOO_LARGE, f"batch of {len(ops)} ops: its repeated accesses "
+                        f"make {calls} single accesses through register hooks, over "
+                        f"{MAX_REP_HOOK_CALLS} a request; nothing was run")
 
 
 class ScheduledCount:

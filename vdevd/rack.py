@@ -21,6 +21,7 @@ from vdevd.bounds import (
     ScheduledCount,
     check_batch,
     check_read,
+    check_rep_work,
 )
 from vdevd.devices.base import Card
 from vdevd.errors import ErrorCode, VdevError
@@ -293,6 +294,7 @@ class Rack:
         check_read(args["size"])
         region = self._region_of(args)
         if args.get("rep"):
+            check_rep_work(region.rep_hook_calls(args["offset"], args["size"], False))
             return region.read_rep(args["offset"], args["size"])
         return region.read(args["offset"], args["size"])
 
@@ -316,6 +318,7 @@ class Rack:
     def op_write(self, args: dict[str, Any], reply: Reply) -> Any:
         region = self._region_of(args)
         if args.get("rep"):
+            check_rep_work(region.rep_hook_calls(args["offset"], len(args["data"]), True))
             region.write_rep(args["offset"], args["data"])
         else:
             region.write(args["offset"], args["data"])
@@ -323,10 +326,15 @@ class Rack:
 
     def op_batch(self, args: dict[str, Any], reply: Reply) -> Any:
         ops: list[Request | Access] = args["ops"]
-        check_batch(ops)
+        check_batch(ops, self._rep_hook_calls)
         results: list[Any] = []
         self._run_batch(ops, 0, results, reply)
         return _DEFERRED
+
+    def _rep_hook_calls(self, card: str, region: str, offset: int, size: int, write: bool) -> int:
+        """`Region.rep_hook_calls` by name (0 for no such region: the op fails when it runs)."""
+        r = self._regions.get((card, region))
+        return r.rep_hook_calls(offset, size, write) if r is not None else 0
 
     def _run_batch(self, ops: list[Request | Access], start: int, results: list[Any],
                    reply: Reply) -> None:

@@ -1,6 +1,7 @@
 """Issue 22 defects 1 and 3: a request is held to the daemon's limits before any work is done
-for it (PROTOCOL.md "Size", "control"). A read or a batch whose reply cannot fit `max_message`
-is `too_large` without touching a register, and other clients are served meanwhile; scheduled
+for it (PROTOCOL.md "Size", "control"). A read or a batch whose reply cannot fit `max_message`,
+or whose repeated accesses would call register hooks more than MAX_REP_HOOK_CALLS times, is
+`too_large` without touching a register, and other clients are served meanwhile; scheduled
 backdoor actions are bounded per client and in all (`busy`), and counted in `stats`."""
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ import msgpack
 import pytest
 
 from tests.conftest import RawClient, error_code, rack_config
-from vdevd.bounds import MAX_READ, MAX_SCHEDULED, MAX_SCHEDULED_PER_CLIENT
+from vdevd.bounds import MAX_READ, MAX_REP_HOOK_CALLS, MAX_SCHEDULED, MAX_SCHEDULED_PER_CLIENT
 from vdevd.devices.base import Card, CardContext, control
 from vdevd.protocol import MAX_MESSAGE
 from vdevd.region import Region
@@ -22,17 +23,19 @@ DAY_NS = 86_400 * 1_000_000_000
 
 
 class CountingFifo(Card):
-    """A byte FIFO port at offset 0 of a D08 window that counts the reads it serves, 2 MiB of
-    plain memory, and a backdoor action that counts its runs."""
+    """A byte FIFO port at offset 0 of a D08 window (the rest plain memory) that counts the
+    reads and writes it serves, 2 MiB of plain memory, and a backdoor action that counts its
+    runs."""
 
     type_name = "counting-fifo"
 
     def __init__(self, name: str, ctx: CardContext) -> None:
         super().__init__(name, {}, ctx)
         self.pops = 0
+        self.pushes = 0
         self.runs = 0
         port = self.add_region(Region("port", 16, widths=(1,), block=False))
-        port.hook(0, 1, on_read=self._pop)
+        port.hook(0, 1, on_read=self._pop, on_write=self._push)
         self.add_region(Region("mem", 2 << 20, widths=(1, 2, 4)))
 
     @control()
@@ -43,6 +46,9 @@ class CountingFifo(Card):
     def _pop(self, offset: int, size: int) -> bytes:
         self.pops += 1
         return b"\x00"
+
+    def _push(self, offset: int, data: bytes) -> None:
+        self.pushes += 1
 
 
 @pytest.fixture
@@ -78,8 +84,29 @@ def test_the_largest_repeated_read_whose_reply_fits_is_served(
         fifo: tuple[DaemonThread, CountingFifo]) -> None:
     d, card = fifo
     c = client(d)
-    reply = c.call(op="read", card="f0", region="port", offset=0, size=MAX_READ, rep=True)
-    assert reply["ok"] == bytes(MAX_READ) and card.pops == MAX_READ
+    c.call(op="write", card="f0", region="port", offset=1, data=b"\x5a")
+    reply = c.call(op="read", card="f0", region="port", offset=1, size=MAX_READ, rep=True)
+    assert reply["ok"] == b"\x5a" * MAX_READ and card.pops == 0  # plain memory, again and again
+    c.close()
+
+
+def test_repeated_accesses_through_a_hook_are_bounded_before_the_first_call(
+        fifo: tuple[DaemonThread, CountingFifo]) -> None:
+    d, card = fifo
+    c = client(d)
+    over = MAX_REP_HOOK_CALLS + 1
+    reply = c.call(op="read", card="f0", region="port", offset=0, size=over, rep=True)
+    assert error_code(reply) == "too_large" and str(MAX_REP_HOOK_CALLS) in reply["error"]["message"]
+    reply = c.call(op="write", card="f0", region="port", offset=0, data=bytes(over), rep=True)
+    assert error_code(reply) == "too_large"
+    assert (card.pops, card.pushes) == (0, 0)
+    half = ["R", "f0", "port", 0, MAX_REP_HOOK_CALLS // 2 + 1]  # two of them: one call over
+    reply = c.call(op="batch", ops=[half, ["W", "f0", "port", 1, bytes(over)], half])
+    assert error_code(reply) == "too_large" and "nothing was run" in reply["error"]["message"]
+    assert (card.pops, card.pushes) == (0, 0)
+    assert len(c.call(op="read", card="f0", region="port", offset=0, size=MAX_REP_HOOK_CALLS,
+                      rep=True)["ok"]) == MAX_REP_HOOK_CALLS
+    assert card.pops == MAX_REP_HOOK_CALLS
     c.close()
 
 
@@ -103,17 +130,19 @@ def test_a_batch_whose_reads_add_up_beyond_max_message_runs_none_of_its_ops(
     part = 64 << 10  # 17 reads of 64 KiB: each fits, together they do not
     if form == "compact":
         ops: list[object] = [["w", "f0", "mem", 0, b"\x01"]]
-        ops += [["R", "f0", "port", 0, part]] * 17
+        ops += [["r", "f0", "mem", 0, part]] * 16 + [["R", "f0", "port", 0, 2]]
     else:
         ops = [{"op": "write", "card": "f0", "region": "mem", "offset": 0, "data": b"\x01"}]
-        ops += [{"op": "read", "card": "f0", "region": "port", "offset": 0, "size": part,
-                 "rep": True}] * 17
+        ops += [{"op": "read", "card": "f0", "region": "mem", "offset": 0, "size": part}] * 16
+        ops += [{"op": "read", "card": "f0", "region": "port", "offset": 0, "size": 2,
+                 "rep": True}]
     reply = c.call(op="batch", ops=ops)
     assert error_code(reply) == "too_large" and "nothing was run" in reply["error"]["message"]
     assert card.pops == 0
     assert c.call(op="read", card="f0", region="mem", offset=0, size=1)["ok"] == b"\x00"
-    ok = c.call(op="batch", ops=ops[:16])  # 15 reads of 64 KiB fit
-    assert [len(r) for r in ok["ok"][1:]] == [part] * 15 and card.pops == 15 * part
+    ok = c.call(op="batch", ops=ops[:15] + ops[-1:])  # 14 reads of 64 KiB fit
+    assert [len(r) for r in ok["ok"][1:]] == [part] * 14 + [2] and card.pops == 2
+    assert ok["ok"][1][:1] == b"\x01"
     c.close()
 
 
