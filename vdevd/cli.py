@@ -37,7 +37,7 @@ def parser() -> argparse.ArgumentParser:
         description="Run the rack until SIGINT or SIGTERM. Without --config: the embedded "
                     "default rack (one card of each type), requests on "
                     f"{configmod.DEFAULT_ENDPOINT}, events on {configmod.DEFAULT_EVENTS}, "
-                    f"clock {_default_clock()}, PMAC Ethernet on tcp://127.0.0.1:1025. "
+                    f"clock {_default_clock()}, PMAC Ethernet on {_default_pmac_port()}. "
                     "The options override the file.")
     serve.add_argument("--config", metavar="FILE",
                        help="rack configuration, TOML (default: the embedded default rack)")
@@ -69,6 +69,13 @@ def parser() -> argparse.ArgumentParser:
                        help="log messages of this level and above, to stderr (default: INFO)")
     sub.add_parser("types", help="list the card types and their configuration keys")
     return p
+
+
+def _default_pmac_port() -> str:
+    """The default rack's PMAC Ethernet endpoint (the port `--card-port` moves)."""
+    from vdevd.devices import card_class
+
+    return str(card_class("pmac-turbo").options["ethernet"].default)
 
 
 def _default_clock() -> str:

@@ -17,6 +17,7 @@ from typing import Any, Literal
 from vdevd.bounds import MAX_SCHEDULED, MAX_SCHEDULED_PER_CLIENT
 from vdevd.devices import CARD_TYPES, DEFAULT_NAMES, card_class
 from vdevd.devices.options import CardOptions, parse_options
+from vdevd.heartbeat import PERIOD_NS as HEARTBEAT_NS
 from vdevd.security import CurveConfig, check_curve, is_local
 
 DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
@@ -29,7 +30,7 @@ WAKERS = ("thread", "timer")
 PERIOD_NS = (10_000, 1_000_000_000)
 #: the events socket's heartbeat period, wall seconds (default, bounds): subscribers call a
 #: daemon gone after three periods without one (PROTOCOL.md "Heartbeat")
-HEARTBEAT_S = 2.0
+HEARTBEAT_S = HEARTBEAT_NS / 1e9
 HEARTBEAT_RANGE_S = (0.01, 3.0)
 
 

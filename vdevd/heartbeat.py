@@ -7,6 +7,8 @@ from __future__ import annotations
 import asyncio
 from typing import Protocol
 
+#: the default period, wall ns (`[server] heartbeat_s`)
+PERIOD_NS = 2_000_000_000
 #: the topic of heartbeat events: not a card name (those are letters, digits, - and _), and no
 #: card name is a prefix of it, so a subscription to a card does not receive it
 TOPIC = ".heartbeat"

@@ -19,6 +19,7 @@ import zmq
 
 from vdevd import protocol
 from vdevd.errors import ErrorCode, VdevError
+from vdevd.heartbeat import PERIOD_NS as HEARTBEAT_NS
 from vdevd.heartbeat import TOPIC as HEARTBEAT_TOPIC
 from vdevd.heartbeat import Heartbeat
 from vdevd.irq import IrqEvent
@@ -42,7 +43,7 @@ class Publisher:
     the server binds it, as a PUB socket drops them while no one subscribes. `heartbeat_ns`:
     the period of the heartbeat the server publishes through it (0: none)."""
 
-    def __init__(self, heartbeat_ns: int = 2_000_000_000) -> None:
+    def __init__(self, heartbeat_ns: int = HEARTBEAT_NS) -> None:
         self._sock: zmq.Socket | None = None
         self.endpoint = ""
         self.heartbeat_ns = heartbeat_ns
