@@ -31,7 +31,8 @@ def parser() -> argparse.ArgumentParser:
         epilog="exit status: 0 stopped by SIGINT/SIGTERM, 1 a listener or ready file that "
                "cannot be opened, 2 a usage or configuration error")
     p.add_argument("--version", action="version", version=f"vdevd {_version()}")
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                           help="what to do (required; COMMAND --help for its arguments)")
     serve = sub.add_parser(
         "serve", help="run the rack (the embedded default rack without --config)",
         description="Run the rack until SIGINT or SIGTERM. Without --config: the embedded "

@@ -41,7 +41,8 @@ def parser() -> argparse.ArgumentParser:
                         "reports in hello)")
     p.add_argument("--timeout", type=_seconds, default=10.0, metavar="S",
                    help="reply timeout, wall seconds (default: 10)")
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                           help="what to do (required; COMMAND --help for its arguments)")
     sub.add_parser("cards", help="list the cards, their regions and irq lines")
     sub.add_parser("lspci", help="list the PCI cards' IDs as lspci -n does")
     peek = sub.add_parser("peek", help="read a region: CARD REGION OFFSET [SIZE]")
@@ -54,7 +55,7 @@ def parser() -> argparse.ArgumentParser:
                       help="bytes in bus order, e.g. 01000000 or 01:00:00:00 (required)")
     irq = sub.add_parser("irq", help="print interrupt events until interrupted")
     irq.add_argument("card", nargs="?", help="one card's name (default: every card)")
-    irq.add_argument("--count", type=int, default=0, metavar="N",
+    irq.add_argument("--count", type=_count, default=0, metavar="N",
                      help="stop after N events (default: 0, no limit)")
     irq.add_argument("--timeout", dest="irq_timeout", type=_seconds, default=None, metavar="S",
                      help="stop after S wall seconds without an event (default: no limit; a "
@@ -108,6 +109,16 @@ def _int(text: str) -> int:
         return int(text, 0)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number (decimal or 0x hex)") from None
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a count >= 0")
+    return value
 
 
 def _seconds(text: str) -> float:

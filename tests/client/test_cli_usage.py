@@ -55,6 +55,7 @@ def every_argument(p: argparse.ArgumentParser, where: str = "") -> Iterator[
         tuple[str, argparse.Action]]:
     for action in p._actions:
         if isinstance(action, argparse._SubParsersAction):
+            assert action.help, f"{where} COMMAND: no help"
             for name, sub in action.choices.items():
                 yield from every_argument(sub, f"{where} {name}")
         elif not isinstance(action, (argparse._HelpAction, argparse._VersionAction)):
