@@ -25,6 +25,9 @@ DEFAULT_EVENTS = "tcp://127.0.0.1:5556"
 DEFAULT_SHM_DIR = "/dev/shm"
 CLOCK_MODES = ("realtime", "lockstep")
 _NAME = re.compile(r"[A-Za-z0-9_-]+")  # a card name: ASCII letters, digits, - and _
+#: what `check_endpoints` takes: tcp://HOST:PORT (HOST a name, an IPv4 address, [IPv6] or *;
+#: PORT 0..65535 or *), ipc://PATH, inproc://NAME
+_ENDPOINT = re.compile(r"tcp://(\[[0-9A-Fa-f:.%\w]+\]|[\w.*-]+):(\*|\d{1,5})|(ipc|inproc)://.+")
 WAKERS = ("thread", "timer")
 #: the servo periods a configuration may ask for, ns (a card built in code may use any)
 PERIOD_NS = (10_000, 1_000_000_000)
@@ -171,8 +174,9 @@ def parse(data: dict[str, Any]) -> Config:
 def check_endpoints(cfg: Config) -> None:
     """Non-loopback endpoints need CURVE keys (DESIGN.md "Security")."""
     for key, ep in (("server.endpoint", cfg.endpoint), ("server.events", cfg.events)):
-        if "://" not in ep:
-            raise ConfigError(f"{key}: {ep!r} is not a ZeroMQ endpoint (tcp://host:port, ipc://path)")
+        if not _ENDPOINT.fullmatch(ep):
+            raise ConfigError(f"{key}: {ep!r} is not a ZeroMQ endpoint (tcp://HOST:PORT with "
+                              "PORT a number or *, [IPv6]:PORT, ipc://PATH)")
         if not is_local(ep) and cfg.curve is None:
             raise ConfigError(
                 f"{key}: {ep!r} is not loopback; add a [security] section "
