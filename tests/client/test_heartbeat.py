@@ -23,8 +23,9 @@ import zmq
 
 from vdevd.config import HEARTBEAT_RANGE_S
 from vdevd.heartbeat import TOPIC
+from vdevd.rack import Rack
 from vdevd.server import Publisher
-from vdevd.testing import DaemonThread, rack_of
+from vdevd.testing import DaemonThread
 
 HEARTBEAT_S = 0.1
 #: a guard only: without the heartbeat the subscriber would wait this long, then fail the test
@@ -62,7 +63,8 @@ def daemon_process(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[bytes], di
 
 
 def test_the_events_socket_carries_a_heartbeat_on_its_own_topic() -> None:
-    with DaemonThread(rack=rack_of(mode="lockstep")) as d:
+    period_ns = 50_000_000
+    with DaemonThread(rack=Rack([], "lockstep", sink=Publisher(heartbeat_ns=period_ns))) as d:
         sub = zmq.Context.instance().socket(zmq.SUB)
         sub.linger = 0
         sub.rcvtimeo = 10_000
@@ -73,7 +75,7 @@ def test_the_events_socket_carries_a_heartbeat_on_its_own_topic() -> None:
     for topic, body in beats:
         assert topic == TOPIC.encode()
         beat = msgpack.unpackb(body)
-        assert beat["kind"] == "heartbeat" and beat["period_ns"] == Publisher().heartbeat_ns
+        assert beat["kind"] == "heartbeat" and beat["period_ns"] == period_ns
     assert msgpack.unpackb(beats[1][1])["seq"] == msgpack.unpackb(beats[0][1])["seq"] + 1
 
 
