@@ -35,8 +35,8 @@ GUARD_S = 30.0
 def start_daemon(tmp_path: Path) -> tuple[subprocess.Popen[bytes], dict[str, Any]]:
     """`vdevd serve` of one lockstep servo card with a 100 ms heartbeat, once it is ready."""
     config = tmp_path / "rack.toml"
-    config.write_text(f'[server]\nheartbeat_s = {HEARTBEAT_S}\n[clock]\nmode = "lockstep"\n'
-                      '[[card]]\ntype = "generic-servo"\nname = "servo0"\n')
+    config.write_text(f'[server]\nheartbeat_s = {HEARTBEAT_S}\nshm_dir = ""\n'  # killed: no cleanup
+                      '[clock]\nmode = "lockstep"\n[[card]]\ntype = "generic-servo"\nname = "servo0"\n')
     ready = tmp_path / "ready.json"
     proc = subprocess.Popen(
         [sys.executable, "-m", "vdevd", "serve", "--config", str(config), "--endpoint",
