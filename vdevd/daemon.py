@@ -34,8 +34,10 @@ def build_rack(cfg: Config, memory: Segment | None = None) -> Rack:
     rack removes it at `stop`; here too if a card cannot be built)."""
     try:
         nvram = NvramStore(cfg.state_dir) if cfg.state_dir else None
-        rack = Rack([], cfg.clock, sink=Publisher(), wake_ns=cfg.wake_us * 1000, waker=cfg.waker,
-                    skip_quiet=cfg.skip_quiet, memory=memory)
+        rack = Rack([], cfg.clock, sink=Publisher(heartbeat_ns=round(cfg.heartbeat_s * 1e9)),
+                    wake_ns=cfg.wake_us * 1000, waker=cfg.waker, skip_quiet=cfg.skip_quiet,
+                    memory=memory, max_scheduled_per_client=cfg.max_scheduled_per_client,
+                    max_scheduled=cfg.max_scheduled)
         for spec in cfg.cards:
             ctx = CardContext(emit=rack.emit, nvram=nvram, memory=memory)
             rack.add_card(card_class(spec.type)(spec.name, spec.options, ctx))

@@ -9,6 +9,7 @@ each Ethernet connection have their own `#n`/`&n` addressing (online.PortState).
 
 from __future__ import annotations
 
+import ipaddress
 import logging
 import os
 import re
@@ -41,7 +42,7 @@ from vdevmaps.pmac import (
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
 from vdevd.devices.pmac.eth_framing import KeptFraming
-from vdevd.devices.pmac.ethernet_server import EthernetServer
+from vdevd.devices.pmac.ethernet_server import EthernetServer, parse_endpoint
 from vdevd.devices.pmac.firmware import Firmware, Identity
 from vdevd.devices.pmac.hostport import HostPort, InterruptController
 from vdevd.devices.pmac.online import PortState
@@ -198,6 +199,31 @@ class PmacCard(Card):
         if opts.period_ns is not None:
             raise ValueError(f"{where}.period_ns: a pmac-turbo runs at its servo period I10/2^23 "
                              "ms (I10 default 3713707)")
+        cls._check_ethernet(opts, where)
+
+    @staticmethod
+    def _check_ethernet(opts: CardOptions, where: str) -> None:
+        """`ethernet` is tcp://HOST:PORT (or empty), each `ethernet_allow` entry an address or
+        network, and a non-loopback endpoint has an allow-list (the protocol has no
+        authentication): each refused naming its key, before anything is bound."""
+        allow = opts.ethernet_allow or []
+        for i, entry in enumerate(allow):
+            try:
+                ipaddress.ip_network(str(entry), strict=False)
+            except ValueError:
+                raise ValueError(f"{where}.ethernet_allow[{i}]: {entry!r} is not an IP address "
+                                 "or network (\"192.168.1.0/24\", \"10.0.0.5\")") from None
+        if not opts.ethernet:
+            return
+        try:
+            parse_endpoint(opts.ethernet)
+        except ValueError:
+            raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not tcp://HOST:PORT "
+                             "(empty: off)") from None
+        if not is_local(opts.ethernet) and not allow:
+            raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not loopback: add "
+                             "ethernet_allow, the client addresses allowed (the PMAC protocol "
+                             "has no authentication)")
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         super().__init__(name, config, ctx)
