@@ -90,6 +90,9 @@ def test_metrics_follow_the_rack(served: DaemonThread) -> None:
         assert m[("vdevd_card_ticks_total", label)] == stats["cards"][card]["ticks"] > 0
         assert ("vdevd_card_lost_ticks_total", label) in m
         assert ("vdevd_card_interrupts_total", label) in m
+        # the scheduler's stalls (issue 22 defect 8), the rack's one scheduler for every card
+        assert m[("vdevd_stalls_total", label)] == stats["scheduler"]["stalls"]["count"]
+        assert ("vdevd_stall_longest_seconds", label) in m
     assert m[("vdevd_card_connections", (("card", "pmac0"),))] == 1
     assert m[("vdevd_card_connections", (("card", "servo0"),))] == 0
     assert m[("vdevd_card_nv_saves_total", (("card", "servo0"),))] == 1

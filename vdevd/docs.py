@@ -56,6 +56,13 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("server", "shm_dir", "where the shared memory of local clients is created (an "
             "owner-only file named after the endpoint, removed at exit; `\"\"`: none)",
             "`/dev/shm`", '"/dev/shm"'),
+    Setting("server", "max_scheduled_per_client", "scheduled `control` actions (`at_ns`/"
+            "`after_ns`) one client may have pending; past it `busy`", "`1000`", "1000"),
+    Setting("server", "max_scheduled", "scheduled `control` actions all clients together may "
+            "have pending; past it `busy`", "`10000`", "10000"),
+    Setting("server", "heartbeat_s", "period of the heartbeat on the events socket, wall "
+            "seconds, 0.01..3: a subscriber that hears nothing for three periods takes the "
+            "daemon for gone", "`2.0`", "2.0"),
     Setting("clock", "mode", "`realtime` (locked to wall time) or `lockstep` (moves only on "
             "`step` and during waits)", "`realtime`", '"realtime"'),
     Setting("clock", "wake_us", "realtime: scheduler wake period, 100..100000 us", "`1000`",
