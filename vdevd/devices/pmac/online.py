@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 
 from vdevd.devices.pmac import expr
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
-from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, CommandError
+from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_NOT_OPEN, CommandError
 from vdevd.devices.pmac.mvars import MDefError, parse_definition
 from vdevd.devices.pmac.numbers import format_value
 from vdevd.devices.pmac.reply import Reply
@@ -61,6 +61,35 @@ class PortState:
     cs_mode: bool = False   # the last address was &n: K acts on the C.S. (README)
     table_motor: int = 0    # a DEFINE COMP download in progress: its motor (0 = none)
     table_left: int = 0
+
+
+_JOG_CONSTANT = re.compile(r"-?(?:\$[0-9A-F]+|\d+\.?\d*|\.\d+)")
+
+
+def _jog_value(line: Line, env: expr.Env) -> float | None:
+    """A constant (decimal or $hex) or a parenthesised expression at the cursor, or None."""
+    s, i = line.s, line.i
+    if s.startswith("(", i):
+        depth = 0
+        for j in range(i, len(s)):
+            depth += {"(": 1, ")": -1}.get(s[j], 0)
+            if depth == 0:
+                try:
+                    value = expr.evaluate(s[i:j + 1], env)
+                except expr.ExprError as exc:
+                    raise CommandError(exc.code) from None
+                line.i = j + 1
+                return value
+        raise CommandError(ERR_DATA, "unbalanced (")
+    m = _JOG_CONSTANT.match(s, i)
+    if m is None:
+        return None
+    line.i = m.end()
+    text = m.group()
+    negative = text.startswith("-")
+    digits = text.lstrip("-")
+    v = float(int(digits[1:], 16)) if digits.startswith("$") else float(digits)
+    return -v if negative else v
 
 
 class Line:
@@ -334,6 +363,8 @@ class Interpreter:
         elif c == "!":
             fw.motor_call("round_commanded", m)
         elif c in "=:^":
+            if self._jog_until_trigger(c, line, port):
+                return
             if line.take("*"):
                 fw.motor_call("jog_variable", m, c)
             elif c == "=" and not (line.peek().isdigit() or line.peek() in "-.$(PQIM"):
@@ -346,6 +377,28 @@ class Interpreter:
                     fw.motor_call("jog_relative", m, value, c == "^")
         else:
             raise CommandError(ERR_DATA, "J needs + - / ! = : or ^")
+
+    def _jog_until_trigger(self, c: str, line: Line, port: PortState) -> bool:
+        """`{jog}^{c}` after J=, J:, J^ (c the letter after J): the definite jog `J=`, `J={c}`,
+        `J=*`, `J:{c}`, `J:*`, `J^{c}`, `J^*` with `^{c}`, the distance from the trigger to end
+        at (counts) [PMAC1-SRM p.241, UM "Jog-until-trigger"]. True if it was one (and ran);
+        False leaves the line where it was. Values are constants or `(expressions)`, since `^`
+        is also the XOR operator."""
+        start, fw = line.i, self.fw
+        env = fw.env(port)
+        value: float | None = None
+        variable = line.take("*")
+        if not variable and not (c == "=" and line.peek() == "^"):
+            value = _jog_value(line, env)
+        if value is None and not variable and c != "=" or line.peek() != "^":
+            line.i = start
+            return False
+        line.i += 1
+        distance = _jog_value(line, env)
+        if distance is None:
+            raise CommandError(ERR_DATA, "^ needs the post-trigger distance")
+        fw.motor_call("jog_trigger", port.motor, c, value, distance, variable)
+        return True
 
     def home(self, zero: bool, line: Line, port: PortState, out: list[str]) -> None:
         """HM/HOME home search, HMZ/HOMEZ zero-move homing [§2.7]."""
@@ -497,6 +550,20 @@ class Interpreter:
         out.extend(reply.lines)
         if reply.error is not None:
             raise CommandError(reply.error)
+
+    def trigger_alone(self, line: Line, port: PortState, out: list[str]) -> None:
+        """`^{c}` belongs to a definite jog (`J=^{c}`, `J:{c}^{c}` ..., parsed by `jog`); on its
+        own, or after J+/J- (which cannot be triggered [PMAC1-SRM p.241]), it is ERR003."""
+        raise CommandError(ERR_DATA, "^ follows a definite jog")
+
+    def close_nothing(self, line: Line, port: PortState, out: list[str]) -> None:
+        """CLOSE with no buffer open on this port (the opening port's CLOSE is plc.py's): nothing
+        to close, no error; the SRM's examples start every download with CLOSE "to make sure no
+        other buffers have been left open" [SRM OPEN PROGRAM], and so do pmac_motorhome's PLCs.
+        While another port has a buffer open only that port may CLOSE it: ERR005 [A L3234]."""
+        if self.fw.plc.owner is not None:
+            raise CommandError(ERR_NOT_OPEN, "another port has the buffer open")
+        line.take(" ALL")
 
     def plc_control(self, on: bool, line: Line, port: PortState, out: list[str]) -> None:
         """ENABLE PLC n[,m...] / DISABLE PLC n[,m...] [§2.9]; PLCC (compiled) is not emulated."""
