@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from vdevd.devices.pmac import expr
+from vdevd.devices.pmac.buffers import PLCC_BASE
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_NOT_OPEN, CommandError
 from vdevd.devices.pmac.mvars import MDefError, parse_definition
@@ -538,13 +539,14 @@ class Interpreter:
         """OPEN PLC n: the rest of the line and the port's next lines go into the buffer
         (plc.py); OPEN PROG/ROT come with motion programs (ERR003)."""
         line.skip()
-        if not line.take("PLC") or line.take("C"):
-            raise CommandError(ERR_DATA, "only OPEN PLC n is emulated yet")
+        if not line.take("PLC"):
+            raise CommandError(ERR_DATA, "only OPEN PLC n and OPEN PLCC n are emulated yet")
+        compiled = line.take("C")
         line.skip()
         n = line.integer()
         if n is None:
             raise CommandError(ERR_DATA)
-        self.fw.plc.open(port, n)
+        self.fw.plc.open(port, n, compiled)
         rest, line.i = line.s[line.i:], len(line.s)
         reply = self.fw.plc.enter(port, rest)
         out.extend(reply.lines)
@@ -566,17 +568,18 @@ class Interpreter:
         line.take(" ALL")
 
     def plc_control(self, on: bool, line: Line, port: PortState, out: list[str]) -> None:
-        """ENABLE PLC n[,m...] / DISABLE PLC n[,m...] [§2.9]; PLCC (compiled) is not emulated."""
+        """ENABLE PLC n[,m...] / DISABLE PLC n[,m...], and PLCC for the compiled PLCs [§2.9]."""
         line.skip()
-        if not line.take("PLC") or line.take("C"):
-            raise CommandError(ERR_DATA, "only ENABLE/DISABLE PLC n is emulated")
+        if not line.take("PLC"):
+            raise CommandError(ERR_DATA, "ENABLE/DISABLE PLC n or PLCC n")
+        base = PLCC_BASE if line.take("C") else 0
         plcs: list[int] = []
         while True:
             line.skip()
             n = line.integer()
             if n is None or not 0 <= n <= 31:
                 raise CommandError(ERR_DATA)
-            plcs.append(n)
+            plcs.append(base + n)
             line.skip()
             if not line.take(","):
                 break

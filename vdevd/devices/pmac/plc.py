@@ -29,6 +29,9 @@ if TYPE_CHECKING:
     from vdevd.devices.pmac.firmware import Firmware
 
 PLC_COUNT = 32
+#: compiled PLC n (PLCC n) is program PLC_COUNT + n of `Plcs.plcs`
+PLCC = PLC_COUNT
+PROGRAMS = 2 * PLC_COUNT
 #: on-line commands PLCs may have queued (CMD"..."): a PLC meeting a full queue waits there
 CMD_QUEUE = 64
 ERR_IN_USE = 7
@@ -47,22 +50,26 @@ class Plc:
 
 
 class Plcs:
-    """The card's 32 PLC programs."""
+    """The card's 32 PLC programs and 32 compiled PLCs (PLCC n at index 32 + n): a compiled PLC
+    takes the same text, runs the same statements and scans at the same rate as the PLC of its
+    number (PLCC 0 in the foreground with PLC 0, PLCC 1-31 in the background), after it (README
+    assumption)."""
 
     def __init__(self, fw: Firmware) -> None:
         self.fw = fw
-        self.plcs = [Plc() for _ in range(PLC_COUNT)]
+        self.plcs = [Plc() for _ in range(PROGRAMS)]
         self.owner: PortState | None = None   # the port that has a buffer open
         self.open_n = -1
         self.queue: deque[tuple[PortState, str]] = deque()
         self.on: set[int] = set()   # enabled PLCs with a program: what scans (I5 permitting)
 
     # -- buffers ------------------------------------------------------------------------------
-    def open(self, port: PortState, n: int) -> None:
-        """OPEN PLC n: the PLC stops (ENABLE restarts it after CLOSE); ERR007 if another port has
-        a buffer open (V1.936 [A L3234])."""
+    def open(self, port: PortState, n: int, compiled: bool = False) -> None:
+        """OPEN PLC n (OPEN PLCC n, `compiled`): the PLC stops (ENABLE restarts it after CLOSE);
+        ERR007 if another port has a buffer open (V1.936 [A L3234])."""
         if not 0 <= n < PLC_COUNT:
             raise CommandError(ERR_DATA, "PLC number 0-31")
+        n += PLCC if compiled else 0
         if self.owner is not None and self.owner is not port:
             raise CommandError(ERR_IN_USE, "another port has a buffer open")
         if self.owner is port:  # another buffer of this port: it closes first
@@ -142,7 +149,8 @@ class Plcs:
                 pass  # badly structured: closed, does not run
 
     def list_lines(self, n: int, start: int = 0, count: int | None = None) -> list[str]:
-        """LIST PLC n[,start[,count]]: the stored lines."""
+        """LIST PLC n[,start[,count]]: the stored lines (PLC 0-31 only: a compiled PLC is
+        machine code on the card, nothing to list)."""
         if not 0 <= n < PLC_COUNT:
             raise CommandError(ERR_DATA)
         lines = self.plcs[n].lines
@@ -168,7 +176,10 @@ class Plcs:
         self.on.clear()
 
     def _runnable(self, i5: int) -> list[Plc]:
-        return [self.plcs[n] for n in sorted(self.on) if i5 & (1 if n == 0 else 2)]
+        """The foreground (PLC 0, PLCC 0: I5 bit 0) then the background (PLC 1-31, PLCC 1-31:
+        I5 bit 1) programs that scan."""
+        order = sorted(self.on, key=lambda n: (n % PLC_COUNT != 0, n))
+        return [self.plcs[n] for n in order if i5 & (1 if n % PLC_COUNT == 0 else 2)]
 
     @property
     def running(self) -> bool:
@@ -178,7 +189,7 @@ class Plcs:
         if not self.on:
             return False
         i5 = int(self.fw.ivars.values[5])
-        return any(i5 & (1 if n == 0 else 2) for n in self.on)
+        return any(i5 & (1 if n % PLC_COUNT == 0 else 2) for n in self.on)
 
     def tick(self, cycle: int) -> None:
         """The scans due in this servo cycle, then the queued CMD commands."""
@@ -247,7 +258,7 @@ class Plcs:
 
     def clear_all(self) -> None:
         """$$$***: every buffer empty."""
-        self.plcs = [Plc() for _ in range(PLC_COUNT)]
+        self.plcs = [Plc() for _ in range(PROGRAMS)]
         self.owner, self.open_n = None, -1
         self.queue.clear()
         self.on.clear()
@@ -262,7 +273,7 @@ class Plcs:
         self.clear_all()
         for key, lines in image.items():
             n = int(key)
-            if not 0 <= n < PLC_COUNT or len(lines) > MAX_LINES:
+            if not 0 <= n < PROGRAMS or len(lines) > MAX_LINES:
                 continue
             try:
                 ops = buffers.compile_lines([buffers.normalise(line) for line in lines])
