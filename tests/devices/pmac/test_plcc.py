@@ -134,3 +134,17 @@ def test_a_plc_that_loops_forever_never_holds_the_card(card: Card, kind: str) ->
     card.ask(f"DISABLE {kind} 0")
     scans(card, 3)
     assert p(card, 1) == 1000
+
+
+def test_send_statements_are_plc_statements_and_without_a_host_go_nowhere(card: Card) -> None:
+    """SEND/SENDS/SENDP "text" (case- and space-insensitive); a firmware with no port behind it
+    drops them, so the PLC never waits; DISPLAY (the display port) is not emulated: ERR003."""
+    card.ask("OPEN PLC 1 CLEAR")
+    card.ask('send"A" SendS "B"')
+    card.ask('SEND P"C" P1=P1+1')
+    assert card.raw('DISPLAY 0 "X"') == b"\x07ERR003\r"
+    assert card.raw("SEND X") == b"\x07ERR003\r"
+    card.ask("CLOSE ENABLE PLC 1")
+    scans(card, 200)
+    assert p(card, 1) == 200
+    assert not card.fw.plc.messages

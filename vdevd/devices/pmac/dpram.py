@@ -144,6 +144,16 @@ class AsciiChannel:
         if not (mem[RESP_CONTROL] or mem[RESP_CONTROL + 1]):
             self._post_next()
 
+    def post_message(self, text: str, backlog: int) -> bool:
+        """An unsolicited line (a program's SEND): posted as a data line, no ACK after it; False
+        (not taken) while `backlog` lines already wait for the host."""
+        if len(self.pending) >= backlog:
+            return False
+        self.pending.append(slot(text, CR))
+        if not (self.mem[RESP_CONTROL] or self.mem[RESP_CONTROL + 1]):
+            self._post_next()
+        return True
+
     def _post_next(self) -> None:
         if not self.pending:
             return

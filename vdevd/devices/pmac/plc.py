@@ -14,6 +14,7 @@ with no reply [SRM p.424].
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -34,6 +35,8 @@ PLCC = PLC_COUNT
 PROGRAMS = 2 * PLC_COUNT
 #: on-line commands PLCs may have queued (CMD"..."): a PLC meeting a full queue waits there
 CMD_QUEUE = 64
+#: SEND messages waiting for their port: a PLC meeting a full queue waits there
+MESSAGE_QUEUE = 64
 ERR_IN_USE = 7
 VARIABLES = 8192
 
@@ -61,6 +64,11 @@ class Plcs:
         self.owner: PortState | None = None   # the port that has a buffer open
         self.open_n = -1
         self.queue: deque[tuple[PortState, str]] = deque()
+        #: SEND/SENDS/SENDP messages (port "", "S", "P"; text) not yet taken by their port
+        self.messages: deque[tuple[str, str]] = deque()
+        #: the card's ports: takes a message (True) or has no room yet (False); None: no port
+        #: (a firmware without a host), messages are dropped
+        self.on_message: Callable[[str, str], bool] | None = None
         self.on: set[int] = set()   # enabled PLCs with a program: what scans (I5 permitting)
 
     # -- buffers ------------------------------------------------------------------------------
@@ -184,7 +192,7 @@ class Plcs:
     @property
     def running(self) -> bool:
         """A PLC that scans, or a queued CMD: the card is not at rest (decision 0008)."""
-        if self.queue:
+        if self.queue or self.messages:
             return True
         if not self.on:
             return False
@@ -202,6 +210,11 @@ class Plcs:
         while self.queue:
             port, text = self.queue.popleft()
             execute(port, text)  # no ACK, no reply [SRM p.424]
+        deliver = self.on_message
+        while self.messages:
+            if deliver is not None and not deliver(*self.messages[0]):
+                break  # the port has no room: the message waits
+            self.messages.popleft()
 
     def _scan(self, plc: Plc) -> None:
         fw, ops, port = self.fw, plc.ops, plc.port
@@ -232,6 +245,11 @@ class Plcs:
                     plc.pc = pc - 1
                     return
                 self.queue.append((port, op[1]))
+            elif name == "send":
+                if len(self.messages) >= MESSAGE_QUEUE:
+                    plc.pc = pc - 1
+                    return
+                self.messages.append((op[1], op[2]))
             elif name in ("enable", "disable"):
                 self.enable(op[1], name == "enable")
                 if not plc.enabled:
@@ -252,6 +270,7 @@ class Plcs:
             self.plcs[self.open_n].lines.clear()
         self.owner, self.open_n = None, -1
         self.queue.clear()
+        self.messages.clear()
         for plc in self.plcs:
             plc.enabled, plc.pc, plc.port = plc.ops is not None, 0, PortState()
         self.on = {n for n, plc in enumerate(self.plcs) if plc.ops}
@@ -261,6 +280,7 @@ class Plcs:
         self.plcs = [Plc() for _ in range(PROGRAMS)]
         self.owner, self.open_n = None, -1
         self.queue.clear()
+        self.messages.clear()
         self.on.clear()
 
 
