@@ -9,8 +9,8 @@ While`, `ENDWHILE`, `ENDW`, `Endif`, `ENDI`).
 Compiled operations (`Op`) are tuples whose first element names them:
 ``("set", kind, index, value)``, ``("if", cond, target)`` (jump to `target` when false),
 ``("jump", target)``, ``("while", cond, target)``, ``("endwhile", target)`` (back to the WHILE;
-the scan ends there), ``("cmd", text)``, ``("send", port, text)`` (port "", "S" or "P"), ``("enable", plcs)``, ``("disable", plcs)``,
-``("address", motor, cs)``.
+the scan ends there), ``("cmd", text)``, ``("send", port, text)`` (port "", "S" or "P"),
+``("enable", plcs)``, ``("disable", plcs)``, ``("address", motor, cs)``.
 """
 
 from __future__ import annotations
