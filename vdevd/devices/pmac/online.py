@@ -441,6 +441,7 @@ class Interpreter:
             if not 0 <= value <= 838.8607:
                 raise CommandError(ERR_DATA)
             self.fw.feed[port.cs - 1] = value
+            self.fw.timebase.command(port.cs - 1, value)  # the present value slews (Isx94)
         else:
             out.append(format_value(round(self.fw.feed[port.cs - 1], 1)))
 

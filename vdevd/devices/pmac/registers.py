@@ -150,8 +150,9 @@ class CsBlocks:
     def read_word(self, space: str, addr: int) -> int:
         cs, off = divmod(addr - CS_BASE, CS_STRIDE)
         fw = self.fw
-        if space == "X" and off in (0x00, 0x02):
-            return round_to_int(fw.ivars.values[10] * fw.feed[cs] / 100) & WORD
+        if space == "X" and off in (0x00, 0x02):  # commanded / present (slewing, timebase.py)
+            pct = fw.feed[cs] if off == 0 else fw.timebase.present(cs)
+            return round_to_int(fw.ivars.values[10] * pct / 100) & WORD
         if space == "X" and off == 0x40:
             return fw.cs_status(cs + 1)[0]
         if space == "Y" and off == 0x3F:
@@ -175,6 +176,7 @@ class CsBlocks:
         i10 = self.fw.ivars.values[10]
         if space == "X" and off == 0x00 and i10:
             self.fw.feed[cs] = value * 100 / i10
+            self.fw.timebase.command(cs, float(self.fw.feed[cs]))
             return
         if off == 0x15:  # writing a timer sets Isx11/Isx12
             n = 5100 + 100 * cs + (11 if space == "X" else 12)
