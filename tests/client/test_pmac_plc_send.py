@@ -42,6 +42,7 @@ def test_send_posts_a_line_without_ack_and_sends_goes_nowhere(card: Pmac) -> Non
     pc("ENABLE PLC 2")
     card.step(10)
     assert pcomm.PmacReadReady(DEVICE)
+    assert card.card.region("dpram").read(0x0F40, 2) == b"\x0d\x02"  # SEND: 0x020D
     assert line() == ("HOMED 1", len("HOMED 1"))  # a data line: no COMM_EOT, no ACK follows
     assert line() == ("ON THE BUS", len("ON THE BUS"))
     assert not pcomm.PmacReadReady(DEVICE)
