@@ -21,13 +21,14 @@ from pathlib import Path
 
 import pytest
 from pmac_motorhome.commands import ControllerType, group, motor, plc
-from pmac_motorhome.sequences import home_hsw, home_hsw_hlim, home_limit
+from pmac_motorhome.sequences import home_hsw, home_hsw_hlim, home_hsw_hstop, home_limit
 from vdevclient import pcomm
 
 from tests.devices.pmac.conftest import Pmac
 from tests.devices.pmac.test_acceptance import DEVICE, pmac_pcomm
 
 STATE_DONE = 7  # pmac_motorhome's StateDone, StatusDone
+STATE_FAST_SEARCH = 8
 STATUS_DONE, STATUS_HOMING = 0, 1
 HOME_COMPLETE = 1 << 10  # word 2 bit 10 [§2.6]
 MAX_STEPS = 80
@@ -145,3 +146,51 @@ def test_hsw_hlim_sequence_with_jdist_backs_off_by_jdist_and_homes(
     assert int(ask("M345")) == 1
     ask("M301->X:$078011,0,24,S")
     assert int(ask("M301")) == -4600
+
+
+@pytest.fixture
+def servo_world(request: pytest.FixtureRequest) -> Iterator[Pmac]:
+    with pmac_pcomm(plant="servo", axis=request.param) as host:
+        yield host
+
+
+def state(plc_num: int) -> int:
+    return int(float(ask(f"P{100 * plc_num}")))
+
+
+@pytest.mark.parametrize("servo_world", [[{}, {}, {}, {}, {"home": [3000, 3400]}]], indirect=True,
+                         ids=["axes"])
+def test_hard_stop_sequence_triggers_on_the_following_error(
+        servo_world: Pmac, tmp_path: Path) -> None:
+    """HSW_HSTOP (a stage with hard stops, no limit switches): the PLC sets Ixx97 = 3 and jogs
+    - until the warning following error (Ixx12) trips against the stop (the world's `jam`),
+    which ends the move where the stage stands (software capture + 0); then + to the home flag,
+    retrace, HM: motor 0 at the flag's edge [SRM Ixx97, Ixx12; UM "Jog-until-trigger"]."""
+    host = servo_world
+    suggested_mvars(5)
+    ask("I523=32 I526=0 I7112=2 I7113=0 I512=1600 I519=4 I520=10 I521=0")
+    download(generate(tmp_path, 15, 5, 0, home_hsw_hstop))
+    assert "I597 = 3" in ask("LIST PLC 15")
+    ask("P1502=1 ENABLE PLC 15")
+    for _ in range(200):
+        host.step_ms(10)
+        if float(ask("#5P")) < -2000:
+            break
+    host.control("jam", axis=5)  # the hard stop
+    for _ in range(200):
+        host.step_ms(10)
+        if state(15) == STATE_FAST_SEARCH:
+            break
+    assert state(15) == STATE_FAST_SEARCH
+    stop = int(float(ask("M573")))  # the trigger: where the stage stood, read by software
+    assert -2000 - 200 < stop < -2000 + 100
+    assert ask("I597") == "0"  # the PLC put the hardware trigger back
+    host.control("jam", axis=5, active=False)
+    for _ in range(MAX_STEPS):
+        host.step_ms(250)
+        if state(15) == STATE_DONE:
+            break
+    assert int(float(ask("P1501"))) == STATUS_DONE
+    assert int(float(ask("M573"))) == 3000
+    assert abs(float(ask("#5P"))) < 5
+    assert int(ask("M545")) == 1

@@ -148,3 +148,22 @@ def test_send_statements_are_plc_statements_and_without_a_host_go_nowhere(card: 
     scans(card, 200)
     assert p(card, 1) == 200
     assert not card.fw.plc.messages
+
+
+def test_what_homing_plcs_do_timer_waits_i_variable_writes_cmd_and_disable(card: Card) -> None:
+    """pmac_motorhome's constructs in one PLC: a C.S. countdown timer set in milliseconds
+    (`* 8388608/I10`, servo cycles) and waited on, I-variable writes, CMD"#1HMZ" and the PLC
+    disabling itself [§2.8 Isx11; SRM p.424]."""
+    card.ask("M145->Y:$0000C0,10 #1J/")
+    card.ask("OPEN PLC 1 CLEAR")
+    card.ask("I5111 = 20 * 8388608/I10")
+    card.ask("WHILE (I5111 > 0)")
+    card.ask("ENDWHILE")
+    card.ask('P2 = 1 I122 = 16 CMD"#1HMZ"')
+    card.ask("DISABLE PLC 1")
+    card.ask("CLOSE ENABLE PLC 1")
+    card.tick(42)  # 20 ms = 45.2 servo cycles
+    assert p(card, 2) == 0 and card.ask("M145") == "0"
+    card.tick(9)
+    assert p(card, 2) == 1 and card.ask("M145") == "1" and card.ask("I122") == "16"
+    assert not card.fw.plc.running
