@@ -21,7 +21,13 @@ from pathlib import Path
 
 import pytest
 from pmac_motorhome.commands import ControllerType, group, motor, plc
-from pmac_motorhome.sequences import home_hsw, home_hsw_hlim, home_hsw_hstop, home_limit
+from pmac_motorhome.sequences import (
+    home_hsw,
+    home_hsw_hlim,
+    home_hsw_hstop,
+    home_limit,
+    home_rlim,
+)
 from vdevclient import pcomm
 
 from tests.devices.pmac.conftest import Pmac
@@ -146,6 +152,24 @@ def test_hsw_hlim_sequence_with_jdist_backs_off_by_jdist_and_homes(
     assert int(ask("M345")) == 1
     ask("M301->X:$078011,0,24,S")
     assert int(ask("M301")) == -4600
+
+
+@pytest.mark.parametrize("world", [AXES + [{"limits": [-20000, 20000]}]], indirect=True,
+                         ids=["axes"])
+def test_release_of_limit_sequence_homes_where_the_limit_releases(
+        world: Pmac, tmp_path: Path) -> None:
+    """RLIM (hdir +, I7mn2 = 10: the flag I7mn3 = 2, -LIM, low): jog - onto the -LIM (a limit
+    stop, Mxx30), + until it releases at -20000, back onto it (I7mn2 ^$C: the flag high), HM +
+    to its release: motor 0 at -20000 + Ixx26/16."""
+    suggested_mvars(4)
+    ask("I423=32 I426=320 I7042=10 I7043=2")
+    download(generate(tmp_path, 14, 4, 0, home_rlim))
+    run_to_completion(world, 14)
+    assert int(float(ask("M473"))) == -20000
+    assert float(ask("#4P")) == 0
+    assert int(ask("M445")) == 1 and ask("I7042") == "10"
+    ask("M401->X:$078019,0,24,S")
+    assert int(ask("M401")) == -20000 + 20
 
 
 @pytest.fixture

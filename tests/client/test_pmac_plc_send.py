@@ -13,7 +13,7 @@ from collections.abc import Iterator
 import pytest
 from vdevclient import pcomm
 
-from tests.devices.pmac.conftest import Pmac
+from tests.devices.pmac.conftest import Pmac, pmac_card
 from tests.devices.pmac.test_acceptance import DEVICE, pc, pmac_pcomm
 
 
@@ -65,3 +65,22 @@ def test_a_host_that_never_reads_holds_the_plc_and_its_next_reply_carries_them(
     assert p3 == 1 + 64 + 64 + 1  # + the PLC queue + the scan that waits at its SEND
     card.step(3 * 10)
     assert float(pc("P3")[-1]) > p3  # read: it goes on
+
+
+def test_with_i58_0_send_goes_to_the_host_port_characters() -> None:
+    """I58 = 0 (no DPRAM ASCII): SEND's text and a CR come out of the host port's data register
+    (README "PLCs"); the Ethernet connection that set it up sees none of it."""
+    with pmac_card(plant="ideal") as host:
+        dls = host.dls()
+        for command in ("I58=0", "OPEN PLC 4 CLEAR", 'SEND"AT HOME" DISABLE PLC 4', "CLOSE"):
+            reply, ok = dls.sendCommand(command)
+            assert ok, (command, reply)
+        port = host.card.region("host")
+        assert not port.read(2, 1)[0] & 1
+        dls.sendCommand("ENABLE PLC 4")
+        host.step(10)
+        out = bytearray()
+        while port.read(2, 1)[0] & 1:
+            out += port.read(7, 1)
+        assert bytes(out) == b"AT HOME\r"
+        assert dls.sendCommand("P1")[0] == "0\r\x06"
