@@ -366,6 +366,7 @@ class Motors:
         self._home_found(self.homing.check(initial=True))
 
     def closed_loop(self, m: int) -> bool:
+        """Whether motor m's servo loop is closed."""
         return bool(self._closed()[m])
 
     def abort(self, m: int) -> None:

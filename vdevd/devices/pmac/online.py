@@ -73,7 +73,10 @@ def _jog_value(line: Line, env: expr.Env) -> float | None:
     if s.startswith("(", i):
         depth = 0
         for j in range(i, len(s)):
-            depth += {"(": 1, ")": -1}.get(s[j], 0)
+            if s[j] == "(":
+                depth += 1
+            elif s[j] == ")":
+                depth -= 1
             if depth == 0:
                 try:
                     value = expr.evaluate(s[i:j + 1], env)
@@ -391,7 +394,7 @@ class Interpreter:
         variable = line.take("*")
         if not variable and not (c == "=" and line.peek() == "^"):
             value = _jog_value(line, env)
-        if value is None and not variable and c != "=" or line.peek() != "^":
+        if line.peek() != "^" or (value is None and not variable and c != "="):
             line.i = start
             return False
         line.i += 1
