@@ -172,6 +172,26 @@ def test_release_of_limit_sequence_homes_where_the_limit_releases(
     assert int(ask("M401")) == -20000 + 20
 
 
+@pytest.mark.parametrize("world", [AXES], indirect=True, ids=["axes"])
+def test_a_group_of_two_motors_homes_both_at_once(world: Pmac, tmp_path: Path) -> None:
+    """HSW for motors 1 (hdir +) and 3 (hdir -) in one group: one CMD line jogs both
+    (`#1J^*^0 #3J^*^0`) and the waits AND/OR their status bits (`m140&m340=0`)."""
+    for n in (1, 3):
+        suggested_mvars(n)
+    ask("I123=32 I126=0 I7012=2 I7013=0 I323=-32 I326=0 I7032=2 I7033=0")
+    path = tmp_path / "plc16.pmc"
+    with plc(plc_num=16, controller=ControllerType.brick, filepath=path):
+        with group(group_num=2):
+            motor(axis=1)
+            motor(axis=3)
+            home_hsw()
+    download(path)
+    run_to_completion(world, 16)
+    assert (int(float(ask("M173"))), int(float(ask("M373")))) == (4000, -4600)
+    assert (float(ask("#1P")), float(ask("#3P"))) == (0, 0)
+    assert ask("M145") == "1" and ask("M345") == "1"
+
+
 @pytest.fixture
 def servo_world(request: pytest.FixtureRequest) -> Iterator[Pmac]:
     with pmac_pcomm(plant="servo", axis=request.param) as host:
