@@ -180,11 +180,10 @@ def test_a_group_of_two_motors_homes_both_at_once(world: Pmac, tmp_path: Path) -
         suggested_mvars(n)
     ask("I123=32 I126=0 I7012=2 I7013=0 I323=-32 I326=0 I7032=2 I7033=0")
     path = tmp_path / "plc16.pmc"
-    with plc(plc_num=16, controller=ControllerType.brick, filepath=path):
-        with group(group_num=2):
-            motor(axis=1)
-            motor(axis=3)
-            home_hsw()
+    with plc(plc_num=16, controller=ControllerType.brick, filepath=path), group(group_num=2):
+        motor(axis=1)
+        motor(axis=3)
+        home_hsw()
     download(path)
     run_to_completion(world, 16)
     assert (int(float(ask("M173"))), int(float(ask("M373")))) == (4000, -4600)
