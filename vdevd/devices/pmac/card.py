@@ -61,6 +61,8 @@ _CONTROL = re.compile("[\x01-\x1a]")  # control characters act at once, wherever
 #: I10 default 3,713,707 / 8,388,608 ms = 0.44271 ms [PMAC1-SRM p.46], exact (Card.set_period)
 SERVO_PERIOD_NS = Fraction(3_713_707 * 1_000_000, 1 << 23)
 _ASCII_READY = int(HostIrq.ASCII_READY)  # plain ints: IntFlag operators are slow on 3.11
+#: lines (DPRAM) a PLC's SEND messages may leave waiting for the host before the PLC waits
+MESSAGE_BACKLOG = 64
 #: the sources evaluated each servo cycle while their mask bit is set
 _MOTOR_SOURCES = int(HostIrq.IN_POSITION | HostIrq.WARNING_FOLLOWING_ERROR
                      | HostIrq.FATAL_FOLLOWING_ERROR | HostIrq.COMPARE_EQU1 | HostIrq.COMPARE_EQU5)
@@ -269,6 +271,7 @@ class PmacCard(Card):
         self.reporting = Reporting(self.dpram.buf)
         self.host_port_state = CommandPort(self)
         self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)
+        self.fw.plc.on_message = self._plc_message
         self._last_status2 = np.zeros(self.motors, dtype=np.int64)
         self.fw.restore((store.load(name) if store is not None else None) or {})
         self.fw.on_reset = self._firmware_reset
@@ -286,6 +289,21 @@ class PmacCard(Card):
         self._chc = np.zeros(n, dtype=bool)
         self._pulses = False
         self._sensing = False
+
+    def _plc_message(self, port: str, text: str) -> bool:
+        """A PLC's SEND (the response port) or SENDP (the bus host port): with I58 = 1 a data line
+        of the DPRAM ASCII response buffer, without ACK (IR4 raised as for any line); with
+        I58 = 0 the host port's characters, text and CR. SENDS (the serial port, which this card
+        does not have) goes nowhere. False (the PLC waits) while 64 lines wait for the host
+        (README "PLCs", assumptions)."""
+        if port == "S":
+            return True
+        if self.fw.ivars.values[58]:
+            return self.ascii.post_message(text, MESSAGE_BACKLOG)
+        if len(self.hostport.out) >= MESSAGE_BACKLOG * 256:
+            return False
+        self.hostport.out.extend(text.encode("latin-1") + b"\r")
+        return True
 
     def _open_ethernet_port(self) -> CommandPort:
         port = CommandPort(self, ethernet=True)
