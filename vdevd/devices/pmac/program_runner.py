@@ -426,7 +426,9 @@ class CsProgram:
         mo.core.track(self.members, counts)
 
     def _finish(self, counts: np.ndarray) -> None:
-        """Calculation ended and the motion drained: the motors hold the last point."""
+        """Calculation ended and the motion drained: the motors hold the programmed end point
+        (exactly, free of the pieces' rounding)."""
+        self.exec_pos = self.pos.copy()
         self._stop_tracking(hold=True)
 
     # -- the calculator ----------------------------------------------------------------------------------
@@ -480,6 +482,8 @@ class CsProgram:
                 go = self._statement(op, program)
             except (CommandError, ExprError, MDefError):
                 self._runtime_error()
+                return
+            if self.wait or self.stopping:
                 return
             if go == "back":
                 jumps += 1
