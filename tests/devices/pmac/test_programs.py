@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.devices.pmac.test_cycle_runs import Twin
 from tests.devices.pmac.test_online import PERIOD_NS, Card
 from vdevd.devices.pmac.online import PortState
 
@@ -472,3 +473,22 @@ def test_programs_survive_save_and_reset(card: Card) -> None:
     card.port = PortState()
     card.raw("I3=2")
     assert card.ask("LIST PROG 13") == "LINEAR ABS TA100 TS0 F5\rX1"
+
+
+# -- rest (decision 0008) ------------------------------------------------------------------------------
+def test_a_running_program_is_not_at_rest_and_batches_match_cycles_one_by_one() -> None:
+    """A card running a program has work at every cycle: a card run in batches and one run
+    cycle by cycle end each batch alike, and both rest once the program has ended."""
+    twin = Twin(True, "servo")
+    for line in ("&1#1->1000X", "#1J/", "I116=1000 I117=10", "OPEN PROG 1 CLEAR",
+                 "LINEAR INC TA50 TS10 F20", "X1 DWELL20 X-1", "CLOSE", "&1B1R"):
+        twin.send(line)
+    fast = twin.cards[0]
+    assert fast.rest_state() is None
+    for n in [1, 2, 3, 5, 7, 11, 13, 17, 19, 23] * 12:
+        twin.tick(n)
+        twin.same()
+    assert not fast.fw.motion.active
+    twin.tick(2000)
+    twin.same()
+    assert fast.rest_state() is not None
