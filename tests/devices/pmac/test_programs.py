@@ -404,6 +404,39 @@ def test_motor_commands_and_b_are_refused_while_the_program_runs(card: Card) -> 
     assert running(card)
 
 
+def test_axis_definitions_are_refused_while_the_program_runs(card: Card) -> None:
+    download(card, 9, "LINEAR ABS TA100 TS0 F2", "X4")
+    card.ask("&1B9R")
+    card.tick()
+    assert card.raw("&1#3->1000Z") == b"\x07ERR001\r"
+    assert card.raw("&1UNDEFINE") == b"\x07ERR001\r"
+    assert card.ask("&2#3->1000Z") == ""    # another C.S.
+    assert card.ask("&1#1->") == "1000X"
+
+
+def test_movetime_is_the_time_left_in_the_present_move(card: Card) -> None:
+    """MOVETIME (V1.937 [A L3262]): X4 at F2 from rest is T + TA = 2.1 s of pieces; 0.5 s in,
+    1.6 s are left; 0 once the program has ended."""
+    download(card, 9, "LINEAR ABS TA100 TS0 F2", "X4")
+    assert card.ask("&1MOVETIME") == "0"
+    card.ask("&1B9R")
+    seconds(card, 0.5)
+    assert float(card.ask("&1MOVETIME")) == pytest.approx(1600.0, abs=1.0)
+    trace(card, 3.0)
+    assert card.ask("&1MOVETIME") == "0"
+
+
+def test_control_o_holds_every_program(card: Card) -> None:
+    download(card, 9, "LINEAR ABS TA100 TS0 F2", "X4")
+    card.ask("&1B9R")
+    seconds(card, 0.5)
+    card.fw.control(card.port, 0x0F)
+    seconds(card, 2.0)
+    held = xy(card)
+    seconds(card, 0.5)
+    assert xy(card) == held and running(card)
+
+
 # -- faults during a program -------------------------------------------------------------------------------
 def test_a_limit_on_the_way_aborts_the_program_with_a_run_time_error(card: Card) -> None:
     download(card, 9, "LINEAR ABS TA100 TS0 F2", "X4")
