@@ -289,6 +289,29 @@ def test_home_in_a_program_waits_for_the_motor_and_goes_on(card: Card) -> None:
     assert int(card.ask("#1?")[6:], 16) & (1 << 10)   # home complete
 
 
+def test_while_wait_holds_the_program_until_the_condition_clears(card: Card) -> None:
+    """`WHILE (P30 = 0) WAIT`: the move before comes to a stop, the program waits, then goes on
+    when P30 is written on-line [SRM WAIT]."""
+    download(card, 16, "LINEAR ABS TA100 TS0 F5", "X1", "WHILE (P30 = 0) WAIT", "X0")
+    card.ask("&1B16R")
+    seconds(card, 1.0)
+    assert running(card) and xy(card)[0] == 1000.0
+    card.ask("P30=1")
+    trace(card, 1.0)
+    assert not running(card) and xy(card)[0] == 0.0
+
+
+def test_pset_renames_the_present_position_without_moving(card: Card) -> None:
+    """PSET X0 after X1: motor 1 stays at 1000 counts, X reads 0 there, X1 then moves it to
+    2000 [SRM PSET]."""
+    download(card, 17, "LINEAR ABS TA100 TS0 F5", "X1", "PSET X0", "P9=1", "X1")
+    card.ask("&1B17R")
+    trace(card, 3.0)
+    assert not running(card)
+    assert card.fw.p[9] == 1
+    assert xy(card)[0] == 2000.0
+
+
 def test_cmd_from_a_program_runs_on_line(card: Card) -> None:
     download(card, 15, 'CMD"P50=7"', "P51=1")
     card.ask("&1B15R")

@@ -541,9 +541,12 @@ class CsProgram:
         fw, env = self.fw, self.fw.env(self.port)
         name = op[0]
         if name == "set":
-            index = int(op[2].eval(env))
-            if 0 <= index < 8192:
-                fw.set_variable(self.port, op[1], index, op[3].eval(env))
+            try:
+                index = int(op[2].eval(env))
+                if 0 <= index < 8192:
+                    fw.set_variable(self.port, op[1], index, op[3].eval(env))
+            except (CommandError, ExprError, MDefError):
+                pass  # a value the variable refuses: no effect, as in PLCs (README)
         elif name in ("if", "while"):
             if not _true(op[1], env):
                 self.pc = op[2]
@@ -613,6 +616,17 @@ class CsProgram:
         elif name == "stop":
             self._end()
             return "stop"
+        elif name == "wait":  # the calculation pauses until the next servo cycle [SRM WAIT]
+            self._flush()
+            self.wait = "drain"
+            return "stop"
+        elif name == "pset":
+            self._flush()
+            if self.cur is not None or self.queue:  # once the motion before has drained
+                self.pc -= 1
+                self.wait = "drain"
+                return "stop"
+            self._pset(op[1], env)
         elif name == "cmd":
             plc = fw.plc
             if len(plc.queue) >= CMD_QUEUE:
@@ -622,6 +636,17 @@ class CsProgram:
         elif name in ("enable", "disable"):
             fw.plc.enable(op[1], name == "enable")
         return ""
+
+    def _pset(self, axes: tuple[tuple[int, Any], ...], env: Any) -> None:
+        """PSET: the axes' present positions become the values, through the motors' position
+        bias; nothing moves [SRM PSET; A L932]."""
+        fw = self.fw
+        for k, e in axes:
+            value = float(e.eval(env))
+            fw.coord.set_axis(self.cs, AXES[k], value, fw.reports.commanded())
+            self.pos[k] = value
+        self.exec_pos = self.pos.copy()
+        self._restart_planner()
 
     def _label(self, program: Program, n: float) -> int:
         label = int(n)
