@@ -289,9 +289,12 @@ class CsProgram:
 
     # -- motors <-> axes --------------------------------------------------------------------------
     def _map_motors(self) -> None:
-        """The C.S.'s motors and their scale matrix (counts per axis unit)."""
+        """The C.S.'s motors and their scale matrix (counts per axis unit); inverse-kinematic
+        motors (`#m->I`) are not driven from the axes here."""
         fw = self.fw
-        members = [m - 1 for m in fw.coord.members(self.cs) if m <= fw.ivars.motors]
+        defs = fw.coord.defs
+        members = [m - 1 for m in fw.coord.members(self.cs) if m <= fw.ivars.motors
+                   and not getattr(defs[m - 1], "inverse", False)]
         self.members = np.array(members, dtype=np.intp)
         self.scale = np.zeros((len(members), NAXES))
         for r, m in enumerate(members):
@@ -373,15 +376,17 @@ class CsProgram:
         return {"MAXV": vmax, "MAXA": amax, "JERK": jerk}
 
     # -- the servo cycle -------------------------------------------------------------------------------
-    def tick(self, dt: float) -> None:
+    def tick(self, dt: float) -> np.ndarray | None:
+        """One servo cycle: the motors' commanded positions (core counts) to track, None when
+        nothing is to be tracked this cycle."""
         if not self.running:
-            return
+            return None
         if not self._motors_ok():
-            return
+            return None
         self._calculate()
         if not self.running:
-            return
-        self._execute(dt)
+            return None
+        return self._execute(dt)
 
     def _motors_ok(self) -> bool:
         """A killed motor or a limit on the way aborts the program with a run-time error."""
@@ -404,7 +409,7 @@ class CsProgram:
                 return False
         return True
 
-    def _execute(self, dt: float) -> None:
+    def _execute(self, dt: float) -> np.ndarray | None:
         fw = self.fw
         if self.hold != self.hold_target:
             iv = fw.ivars.values
@@ -436,15 +441,13 @@ class CsProgram:
                 self.cur = None
         pos = self.cur.piece.at(self.tau)[0] if self.cur is not None else self.exec_pos
         if self.wait == "home":
-            return
-        mo = fw.motors
-        counts = self._counts(pos) + mo.origin[self.members]
+            return None
         if self.cur is None and not self.queue and self.stopping:
-            self._finish(counts)
-            return
-        mo.core.track(self.members, counts)
+            self._finish()
+            return None
+        return self._counts(pos) + fw.motors.origin[self.members]
 
-    def _finish(self, counts: np.ndarray) -> None:
+    def _finish(self) -> None:
         """Calculation ended and the motion drained: the motors hold the programmed end point
         (exactly, free of the pieces' rounding)."""
         self.exec_pos = self.pos.copy()
@@ -768,8 +771,19 @@ class Motion:
         return bool(self.running) and int(self.fw.coord.cs[motor - 1]) in self.running
 
     def tick(self) -> None:
+        """Each running C.S. one servo cycle; their motors tracked in one call."""
+        idx: list[np.ndarray] = []
+        counts: list[np.ndarray] = []
         for cs in sorted(self.running):
-            self.cs[cs - 1].tick(self._dt)
+            r = self.cs[cs - 1]
+            out = r.tick(self._dt)
+            if out is not None and len(r.members):
+                idx.append(r.members)
+                counts.append(out)
+        if len(idx) == 1:
+            self.fw.motors.core.track(idx[0], counts[0])
+        elif idx:
+            self.fw.motors.core.track(np.concatenate(idx), np.concatenate(counts))
 
     def abort_motors(self, cs: int) -> None:
         """The C.S.'s closed-loop motors stop at Ixx15."""
