@@ -435,6 +435,20 @@ def test_status_bits_while_running_and_after(card: Card) -> None:
     assert not w1 & RUNNING and w2 & IN_POSITION
 
 
+def test_modal_state_shows_in_word_1(card: Card) -> None:
+    """INC(X), TM, ABS(R), NORMAL: word 1 bits 18 (X incremental), 3 (move time mode), 5 (radius
+    vectors incremental) [SRM ??]."""
+    download(card, 18, "INC(X) TM100 ABS(R) NORMAL K-1 X1")
+    card.ask("&1B18")
+    w1 = cs_words(card)[0]
+    assert w1 & (1 << 5) and not w1 & (1 << 18) and not w1 & 8  # B: INC(R), ABS, F mode
+    card.ask("&1R")
+    trace(card, 1.0)
+    w1 = cs_words(card)[0]
+    assert w1 & (1 << 18) and w1 & 8 and not w1 & (1 << 5)
+    assert xy(card)[0] == 1000.0
+
+
 def test_motor_commands_and_b_are_refused_while_the_program_runs(card: Card) -> None:
     """ERR001: command not allowed during program execution [§2.4]."""
     download(card, 9, "LINEAR ABS TA100 TS0 F2", "X4")

@@ -14,7 +14,8 @@ Operations (the tuples buffers.compile_lines strings together), besides buffers.
 ``("absinc", inc, axes | None)``, ``("param", "TA"|"TS"|"TM"|"F", expr)``, ``("frax", axes)``,
 ``("dwell", expr)``, ``("delay", expr)``, ``("home", zero, motors)``, ``("label", n)``,
 ``("goto", expr)``, ``("gosub", expr, args)``, ``("call", expr, args)``, ``("return",)``,
-``("read", letters)``, ``("stop",)``, ``("wait",)``, ``("pset", ((axis, expr), ...))``; `args`
+``("read", letters)``, ``("stop",)``, ``("wait",)``, ``("pset", ((axis, expr), ...))``,
+``("normal", ((vector, expr), ...))``, ``("radius", inc)`` (ABS(R)/INC(R)); `args`
 are ((letter, expr), ...) after GOSUB/CALL.
 """
 
@@ -45,6 +46,8 @@ _READ = re.compile(rf"READ{_SP}\(")
 _LABEL = re.compile(rf"([NO]){_SP}(\d+)(?![\d.])")
 _STOP = re.compile(r"STOP(?![A-Z])")
 _WAIT = re.compile(r"WAIT(?![A-Z])")
+_NORMAL = re.compile(rf"NORMAL{_SP}")
+_RADIUS_MODE = re.compile(rf"(ABS|INC){_SP}\({_SP}R{_SP}\)")
 _PSET = re.compile(rf"PSET{_SP}")
 _AXIS = re.compile(rf"([{AXES}]){_SP}(?=[0-9.(\-+$])")
 _VECTOR = re.compile(rf"([IJKR]){_SP}(?=[0-9.(\-+$])")
@@ -63,6 +66,20 @@ def parse_statement(s: str, i: int) -> tuple[Statement, int]:
     if m := _PVT.match(s, i):
         e, j = _data(s, m.end())
         return _op("mode", "PVT", e), j
+    if m := _RADIUS_MODE.match(s, i):  # ABS(R)/INC(R): circle centre vectors [SRM]
+        return _op("radius", m.group(1) == "INC"), m.end()
+    if m := _NORMAL.match(s, i):
+        vectors: list[tuple[str, expr.Expr]] = []
+        j = m.end()
+        while v := _VECTOR.match(s, j):
+            if v.group(1) == "R" or any(n == v.group(1) for n, _ in vectors):
+                raise CommandError(ERR_DATA, "NORMAL takes I, J, K once each")
+            e, j = _data(s, v.end())
+            vectors.append((v.group(1), e))
+            j = buffers.skip(s, j)
+        if not vectors:
+            raise CommandError(ERR_DATA, "NORMAL needs a vector")
+        return _op("normal", tuple(vectors)), j
     if m := _ABSINC.match(s, i):
         axes, j = _axis_list(s, m.end(), optional=True)
         return _op("absinc", m.group(1) == "INC", axes), j

@@ -70,6 +70,7 @@ DEFAULT_FRAX = np.array([a in "XYZ" for a in AXES])
 
 # C.S. status bits this module sets [SRM "??", digest §2.6]
 W1_RUNNING, W1_SINGLE_STEP, W1_CONTINUOUS, W1_TM_MODE, W1_RUN_REQUEST = 1, 2, 4, 8, 16
+W1_RADIUS_INC = 32
 W2_RAPID, W2_CIRCLE, W2_PVT_SPLINE, W2_DWELL, W2_IN_POSITION = 2, 1, 16, 1 << 12, 1 << 17
 W2_RUNTIME_ERROR = 1 << 22
 _MODE_BITS = {"LINEAR": 0, "RAPID": W2_RAPID, "CIRCLE1": W2_CIRCLE, "CIRCLE2": W2_CIRCLE | W2_RAPID,
@@ -135,6 +136,8 @@ class CsProgram:
         self.ta, self.ts = float(iv[base + 87]), float(iv[base + 88])
         self.f, self.tm = float(iv[base + 89]), 0.0
         self.tm_mode = False
+        self.normal = np.array([0.0, 0.0, -1.0])  # NORMAL K-1: the XY plane [SRM NORMAL]
+        self.radius_inc = True                     # INC(R): centres from the move's start
 
     # -- state -------------------------------------------------------------------------------------
     @property
@@ -356,6 +359,8 @@ class CsProgram:
             prm["PVT"] = self.mode_arg / 1000
         if self.mode.startswith("CIRCLE"):
             prm["CIRCLE"] = int(self.mode[-1])
+        prm["NORMAL"] = self.normal.copy()
+        prm["IJK_INC"] = self.radius_inc
         return prm
 
     def _rapid_limits(self) -> dict[str, np.ndarray]:
@@ -581,6 +586,11 @@ class CsProgram:
                 self.tm, self.tm_mode = min(max(value, 0.0), MAX_TIME_MS), True
             else:
                 self.f, self.tm_mode = abs(value), False
+        elif name == "normal":
+            vec = dict((v, float(e.eval(env))) for v, e in op[1])
+            self.normal = np.array([vec.get(c, 0.0) for c in "IJK"])
+        elif name == "radius":
+            self.radius_inc = bool(op[1])
         elif name == "frax":
             self.frax = np.isin(np.arange(NAXES), op[1])
         elif name in ("dwell", "delay"):
@@ -812,6 +822,8 @@ class Motion:
                 w1 |= 1 << (7 + 2 * k)
         if r.tm_mode:
             w1 |= W1_TM_MODE
+        if r.radius_inc:
+            w1 |= W1_RADIUS_INC
         w2 = _MODE_BITS.get(r.mode, 0) | (W2_RUNTIME_ERROR if r.error else 0)
         if r.running:
             w1 |= W1_RUNNING
