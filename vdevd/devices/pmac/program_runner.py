@@ -403,11 +403,10 @@ class CsProgram:
             return False
         if self.wait == "home":
             return True
-        lim = fw.reports.limit_bits_now()[idx]
-        if lim.any():
+        lim = mo.core.limits  # hardware (unless Ixx24 bit 17) and software limits, as pushed
+        pos_hit, neg_hit = lim.hard_pos[idx], lim.hard_neg[idx]
+        if pos_hit.any() or neg_hit.any():
             v = mo.core.axes.cmd_vel[idx]
-            pos_hit = (lim & (1 << 21)) != 0
-            neg_hit = (lim & (1 << 22)) != 0
             if (pos_hit & (v > 0)).any() or (neg_hit & (v < 0)).any():
                 self.abort(error=True)
                 fw.motion.abort_motors(self.cs)
@@ -444,7 +443,11 @@ class CsProgram:
                 real -= need
                 self.exec_pos = q.piece.end()[0]
                 self.cur = None
-        pos = self.cur.piece.at(self.tau)[0] if self.cur is not None else self.exec_pos
+        if self.cur is not None:
+            c, tau = self.cur.piece.coef, self.tau
+            pos = c[0] + tau * (c[1] + tau * (c[2] + tau * c[3]))  # Piece.at's position
+        else:
+            pos = self.exec_pos
         if self.wait == "home":
             return None
         if self.cur is None and not self.queue and self.stopping:
