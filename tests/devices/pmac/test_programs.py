@@ -514,6 +514,18 @@ def test_a_limit_on_the_way_aborts_the_program_with_a_run_time_error(card: Card)
     assert not cs_words(card)[1] & RUNTIME_ERROR
 
 
+def test_a_software_limit_on_the_way_aborts_the_program(card: Card) -> None:
+    """Ixx13 = 2000 counts: the program stops with the run-time error bit when motor 1 passes it,
+    the motor stopping at Ixx15 just beyond [§2.7 "Software limits"]."""
+    card.ask("I113=2000")
+    download(card, 9, "LINEAR ABS TA100 TS0 F2", "X4")
+    card.ask("&1B9R")
+    seconds(card, 2.0)
+    assert not running(card)
+    assert cs_words(card)[1] & RUNTIME_ERROR
+    assert 2000.0 < xy(card)[0] < 2020.0
+
+
 def test_fatal_following_error_kills_and_stops_the_program() -> None:
     """A servo motor asked to follow a move it cannot: Ixx11 trips, the motor is killed and the
     program stops with the run-time error bit [§2.7]."""
