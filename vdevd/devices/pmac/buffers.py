@@ -181,19 +181,21 @@ def parse_line(text: str) -> list[Statement]:
 
 
 def compile_lines(lines: list[str],
-                  parse: Callable[[str], list[Statement]] | None = None) -> list[Op]:
+                  parse: Callable[[str], list[Statement]] | None = None,
+                  line_of: list[int] | None = None) -> list[Op]:
     """The buffer's operations; CommandError(9) for an unmatched IF/ELSE/ENDIF/WHILE/ENDWHILE.
     `parse` parses one line (motion programs: prog_statements.parse_line; default PLC lines).
 
     A line `IF (c) stmts` or `WHILE (c) stmts` with statements after the condition is a
-    single-line IF or WHILE: it needs no ENDIF/ENDWHILE and takes no ELSE (README assumption)."""
+    single-line IF or WHILE: it needs no ENDIF/ENDWHILE and takes no ELSE (README assumption).
+    `line_of`, when given, receives the line number of each operation (PC/PE reports)."""
     ops: list[Op] = []
     stack: list[tuple[str, int]] = []  # ("IF"|"ELSE"|"WHILE", index of the op to patch)
 
     def error() -> CommandError:
         return CommandError(ERR_STRUCTURE, "unmatched IF/ELSE/ENDIF/WHILE/ENDWHILE")
 
-    for line in lines:
+    for number, line in enumerate(lines):
         sts = (parse or parse_line)(line)
         single = bool(sts) and sts[0].kind in ("IF", "WHILE") and len(sts) > 1
         if single and any(st.kind != "OP" for st in sts[1:]):
@@ -227,6 +229,8 @@ def compile_lines(lines: list[str],
                 ops.append(st.op)
             if single and k == len(sts) - 1:
                 _close(ops, stack, (sts[0].kind, ), error)
+        if line_of is not None:
+            line_of.extend([number] * (len(ops) - len(line_of)))
     if stack:
         raise error()
     return ops

@@ -15,7 +15,7 @@ and program_runner.py (README "Not yet").
 from __future__ import annotations
 
 from vdevd.devices.commands import Command, CommandTable
-from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, ERR_NOT_OPEN
+from vdevd.devices.pmac.errors import ERR_NOT_OPEN
 
 CHAR, WORD = "char", "word"
 #: the variable letters: followed by a number or `(`, a variable, not a word [§2.5]
@@ -60,6 +60,10 @@ COMMANDS = CommandTable(
         _word("R", "run", False, section="§2.8"),
         _word("S", "run", True, section="§2.8"),
         _word("Q", "quit", section="§2.8"),
+        _word("ABR", "abort_run", section="§2.8 [A L3261]"),
+        _word("PC", "program_report", "PC", section="§2.8"),
+        _word("PE", "program_report", "PE", section="§2.8"),
+        _word("PR", "program_report", "PR", section="§2.8"),
         _word("UNDEFINE", "undefine", section=f"{_S25} [A L3284]"),
         _word("UNDEF", "undefine", section=f"{_S25} [A L3284]"),
         # global
@@ -92,10 +96,6 @@ COMMANDS = CommandTable(
     not_emulated={
         "CLEAR": "only the port with a buffer open may CLEAR it (plc.py)",
         "LEARN": "LEARN (program the present positions) is not emulated",
-        "ABR": "abort and run a program: motion programs come in issue 21",
-        "PR": "program lines remaining (rotary buffers) is not emulated: ERR003, not P then R",
-        "PC": "the program counter report is not emulated: ERR003",
-        "PE": "the program execution line report is not emulated: ERR003",
         "!": "the V1.936 axis-move command needs coordinate systems (issue 21): unrecognised",
     },
 )
@@ -103,5 +103,4 @@ COMMANDS = CommandTable(
 #: not emulated words the parser recognises -> the error number they answer (README "Not yet")
 REFUSED: dict[str, int] = {
     "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
-    "ABR": ERR_NO_PROGRAM, "PR": ERR_DATA, "PC": ERR_DATA, "PE": ERR_DATA,
 }

@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from vdevd.devices.pmac import expr
+from vdevd.devices.pmac import expr, prog_reports
 from vdevd.devices.pmac.buffers import PLCC_BASE
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_NOT_OPEN, CommandError
@@ -485,6 +485,32 @@ class Interpreter:
     def run(self, step: bool, line: Line, port: PortState, out: list[str]) -> None:
         """R (run) / S (single step) of the addressed C.S.'s program [SRM R, S]."""
         self.fw.motion.runner(port.cs).run(step)
+
+    def abort_run(self, line: Line, port: PortState, out: list[str]) -> None:
+        """ABR[{n}[.label]]: abort the addressed C.S.'s program and run PROG n, or the one
+        pointed to from its top (program_runner.py) [A L3261]."""
+        line.skip()
+        value = None
+        if line.peek().isdigit() or line.peek() == ".":
+            m = re.compile(r"\d*\.?\d*").match(line.s, line.i)
+            assert m is not None
+            line.i = m.end()
+            try:
+                value = float(m.group())
+            except ValueError:
+                raise CommandError(ERR_DATA) from None
+        self.fw.motion.runner(port.cs).abort_and_run(value)
+
+    def program_report(self, name: str, line: Line, port: PortState, out: list[str]) -> None:
+        """PC (program counter), PE (executing line): `P{prog}:{offset}`; PR (rotary lines
+        remaining) of the addressed C.S. (prog_reports.py) [SRM PC, PE, PR]."""
+        r = self.fw.motion.runner(port.cs)
+        if name == "PC":
+            out.append(prog_reports.program_counter(r))
+        elif name == "PE":
+            out.append(prog_reports.execution_line(r))
+        else:
+            out.append(str(prog_reports.lines_remaining(r)))
 
     def quit(self, line: Line, port: PortState, out: list[str]) -> None:
         """Q: quit at the end of the moves already calculated [SRM Q]."""

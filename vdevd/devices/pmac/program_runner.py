@@ -123,6 +123,8 @@ class CsProgram:
         self.members = np.zeros(0, dtype=np.intp)
         self.scale = np.zeros((0, NAXES))
         self.planner: Planner | None = None
+        self.move_at: dict[int, tuple[int, int]] = {}  # move number -> (prog, op) (PE)
+        self.exec_at = (0, 0)                          # (prog, op) executing or last executed
         self.reset_modes()
 
     def reset_modes(self) -> None:
@@ -188,10 +190,28 @@ class CsProgram:
         program = self.fw.motion.store.runnable(prog)
         if label and program is not None and program.ops is not None:
             self.pc = program.labels.get(label, 0)
+        self.exec_at = (self.prog, self.pc)
         self.reset_modes()
 
-    def run(self, step: bool) -> None:
-        """R / S: start (after the checks of [UM]), resume a held, quitting or stepping run."""
+    def abort_and_run(self, n: float | None) -> None:
+        """ABR[{n}]: abort the program (motors stop at Ixx15), point to PROG n (`n.label` as B;
+        without n the program pointed to, from its top) and run it [A L3261]: the calculation
+        starts once the motors have stopped, from where they stopped (ASSUMPTION). The R
+        checks apply but for ERR011 (moving: the motors are in their abort stop)."""
+        if self.running:
+            self.abort()
+            self.fw.motion.abort_motors(self.cs)
+        self.point(n if n is not None else float(self.prog))
+        try:
+            self._check_start()
+        except CommandError as exc:
+            if exc.code != ERR_MOVING:
+                raise
+        self.run(step=False, after_abort=True)
+
+    def run(self, step: bool, after_abort: bool = False) -> None:
+        """R / S: start (after the checks of [UM]), resume a held, quitting or stepping run;
+        `after_abort` (ABR): checked already, the motors may still be stopping."""
         if self.running:
             if step:
                 self.state = "step" if self.state == "run" else self.state
@@ -202,12 +222,14 @@ class CsProgram:
                 if self.wait == "" and self.planner is None:
                     self._restart_planner()
             return
-        self._check_start()
+        if not after_abort:
+            self._check_start()
         self.error = False
         self.hold = self.hold_target = 1.0
         self.state = "step" if step else "run"
         self.stopping = False
         self.calc = self.started = 0
+        self.move_at.clear()
         self.wait = ""
         self._map_motors()
         self._read_position()
@@ -215,6 +237,10 @@ class CsProgram:
         self._restart_planner()
         motors = self.fw.motors
         motors.timed[self.members] = True
+        if after_abort and motors.core.profile.moving[self.members].any():
+            self.wait, self.homing = "home", self.members.tolist()  # until they stop
+            self.planner = None
+            return
         motors.abort_decel[self.members] = False
 
     def _check_start(self) -> None:
@@ -430,6 +456,7 @@ class CsProgram:
                 self.cur, self.tau = self.queue.popleft(), 0.0
                 if self.cur.starts:
                     self.started = max(self.started, self.cur.starts)
+                    self.exec_at = self.move_at.pop(self.cur.starts, self.exec_at)
                     self._calculate()
             q = self.cur
             rate = tb if q.scaled else 1.0
@@ -508,11 +535,16 @@ class CsProgram:
                     self._end()
                     return
             self.pc += 1
+            calc = self.calc
             try:
                 go = self._statement(op, program)
             except (CommandError, ExprError, MDefError):
                 self._runtime_error()
                 return
+            if self.calc != calc:  # a move: where it is, for PE
+                self.move_at[self.calc] = (self.prog, self.pc - 1)
+                if len(self.move_at) > 64:
+                    self.move_at.pop(min(self.move_at))
             if self.wait or self.stopping:
                 return
             if go == "back":

@@ -38,11 +38,14 @@ class Program:
     ops: list[Op] | None = None
     labels: dict[int, int] = field(default_factory=dict)  # N/O label -> op index
     bad: bool = False  # CLOSE found it badly structured (ERR009)
+    line_of: list[int] = field(default_factory=list)  # op index -> line number (PC, PE)
 
 
-def compile_program(lines: list[str]) -> tuple[list[Op], dict[int, int]]:
-    """The operations and label table of a program's lines (CommandError(9) for structure)."""
-    ops = buffers.compile_lines(lines, prog_statements.parse_line)
+def compile_program(lines: list[str], line_of: list[int] | None = None
+                    ) -> tuple[list[Op], dict[int, int]]:
+    """The operations and label table of a program's lines (CommandError(9) for structure);
+    `line_of` receives each operation's line number."""
+    ops = buffers.compile_lines(lines, prog_statements.parse_line, line_of)
     labels = {op[1]: k for k, op in enumerate(ops) if op[0] == "label"}
     return ops, labels
 
@@ -138,8 +141,9 @@ class ProgramStore:
         n = self.open_n
         prog = self.programs[n]
         self.owner, self.open_n = None, 0
+        prog.line_of = []
         try:
-            prog.ops, prog.labels = compile_program(prog.lines)
+            prog.ops, prog.labels = compile_program(prog.lines, prog.line_of)
         except CommandError:
             prog.ops, prog.labels, prog.bad = None, {}, True
             raise
@@ -189,8 +193,9 @@ class ProgramStore:
                 continue
             lines = [buffers.normalise(line) for line in lines]
             try:
-                ops, labels = compile_program(lines)
-                self.programs[n] = Program(lines, ops, labels)
+                line_of: list[int] = []
+                ops, labels = compile_program(lines, line_of)
+                self.programs[n] = Program(lines, ops, labels, line_of=line_of)
             except CommandError:
                 self.programs[n] = Program(lines, None, {}, True)
 
