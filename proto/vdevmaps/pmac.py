@@ -57,6 +57,11 @@ BG_CS, BG_CS_SIZE = 0x069C, 128  # $0601A7 + $20(s-1): thirty-two 32-bit words p
 #: (`??` word 3, word 1), 9 axis positions (48-bit), program status (`??` word 2), remaining
 #: program lines, move time left, TA/TS time left, executing line, 3 spares
 CS_FEED, CS_TIMEBASE, CS_STATUS3, CS_STATUS1, CS_STATUS2 = 0, 2, 4, 5, 24
+#: the time-base pointer (bits 0-18 the address of the % source, 21 slewing, 22 feed hold), the
+#: first axis position (A; Z at +16), lines remaining, move time left, TA/TS time left, executing
+#: line [dprbkg.h backcTURBO fdptr, cpos, pr, timrem, tats, pe; bkfdptrTURBO]
+CS_FDPTR, CS_AXES, CS_PR, CS_TIMREM, CS_TATS, CS_PE = 3, 6, 25, 26, 27, 28
+FDPTR_SLEW, FDPTR_HOLD = 1 << 21, 1 << 22
 CS_COUNT = 16
 READY = 0x8000  # bit 15 of the host-busy and data-ready words
 

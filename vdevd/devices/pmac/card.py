@@ -40,6 +40,7 @@ from vdevmaps.pmac import (
 )
 
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
+from vdevd.devices.pmac import prog_dpram
 from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
 from vdevd.devices.pmac.eth_framing import KeptFraming
 from vdevd.devices.pmac.ethernet_server import EthernetServer, parse_endpoint
@@ -449,7 +450,8 @@ class PmacCard(Card):
         n = self.reporting.cs_count()
         self.reporting.background(cycle, fw.global_status(),
                                   [fw.cs_status(c) for c in range(1, n + 1)],
-                                  fw.feed[:n] * fw.ivars.values[10] / 100)
+                                  fw.feed[:n] * fw.ivars.values[10] / 100,
+                                  prog_dpram.program_words(fw, n))
 
     def _irq_sources(self) -> None:
         """Rising edges of in-position and following-error bits of any motor, compare outputs."""

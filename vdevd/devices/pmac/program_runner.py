@@ -301,6 +301,7 @@ class CsProgram:
             if closed.any():
                 mo.core.hold(self.members[closed], (counts + mo.origin[self.members])[closed])
         mo.timed[self.members] = False
+        mo.dwell[self.members] = False
         self.state, self.stopping, self.wait = "idle", False, ""
         self.queue.clear()
         self.cur, self.tau = None, 0.0
@@ -470,6 +471,7 @@ class CsProgram:
                 real -= need
                 self.exec_pos = q.piece.end()[0]
                 self.cur = None
+        fw.motors.dwell[self.members] = self.cur is not None and not self.cur.scaled
         if self.cur is not None:
             c, tau = self.cur.piece.coef, self.tau
             pos = c[0] + tau * (c[1] + tau * (c[2] + tau * c[3]))  # Piece.at's position
