@@ -10,7 +10,8 @@ Compiled operations (`Op`) are tuples whose first element names them:
 ``("set", kind, index, value)``, ``("if", cond, target)`` (jump to `target` when false),
 ``("jump", target)``, ``("while", cond, target)``, ``("endwhile", target)`` (back to the WHILE;
 the scan ends there), ``("cmd", text)``, ``("send", port, text)`` (port "", "S" or "P"),
-``("enable", plcs)``, ``("disable", plcs)``, ``("address", motor, cs)``.
+``("enable", plcs)``, ``("disable", plcs)``, ``("pause", plcs)``, ``("resume", plcs)``,
+``("address", motor, cs)``.
 """
 
 from __future__ import annotations
@@ -41,7 +42,8 @@ _ELSE = re.compile(r"ELSE")
 _CONTINUE = re.compile(rf"(AND|OR){_SP}\(")
 _CMD = re.compile(rf"(?:COMMAND|CMD){_SP}\"([^\"]*)\"")
 _SEND = re.compile(rf"SEND{_SP}([SP]?){_SP}\"([^\"]*)\"")
-_PLC_CONTROL = re.compile(rf"(ENABLE|ENA|DISABLE|DIS){_SP}PLC(C?){_SP}(\d+(?:{_SP},{_SP}\d+)*)")
+_PLC_CONTROL = re.compile(
+    rf"(ENABLE|ENA|DISABLE|DIS|PAUSE|RESUME){_SP}PLC(C?){_SP}(\d+(?:{_SP},{_SP}\d+)*)")
 #: compiled PLC n is program PLCC_BASE + n (plc.py)
 PLCC_BASE = 32
 _ADDRESS = re.compile(rf"(?:ADDRESS|ADR){_SP}(?:#{_SP}(\d+))?{_SP}(?:&{_SP}(\d+))?")
@@ -101,7 +103,8 @@ def parse_statement(s: str, i: int) -> tuple[Statement, int]:
             raise CommandError(ERR_DATA, "PLC number above 31")
         if m.group(2):  # ENABLE/DISABLE PLCC n
             plcs = tuple(PLCC_BASE + n for n in plcs)
-        return Statement("OP", ("enable" if m.group(1).startswith("E") else "disable", plcs)), m.end()
+        name = {"E": "enable", "D": "disable", "P": "pause", "R": "resume"}[m.group(1)[0]]
+        return Statement("OP", (name, plcs)), m.end()
     if (m := _ADDRESS.match(s, i)) and (m.group(1) or m.group(2)):
         motor = int(m.group(1)) if m.group(1) else 0
         cs = int(m.group(2)) if m.group(2) else 0

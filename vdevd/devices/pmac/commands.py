@@ -89,6 +89,8 @@ COMMANDS = CommandTable(
         _word("ENA", "plc_control", True, section="§2.9"),
         _word("DISABLE", "plc_control", False, section="§2.9"),
         _word("DIS", "plc_control", False, section="§2.9"),
+        _word("PAUSE", "plc_pause", False, section="§2.9; Turbo SRM PAUSE PLC"),
+        _word("RESUME", "plc_pause", True, section="§2.9; Turbo SRM RESUME PLC"),
         # memory words [§2.5, §2.1]
         *(_word(f"{rw}{space}", "memory", space, rw == "W")
           for rw in "RW" for space in "XYLD"),

@@ -644,21 +644,12 @@ class Interpreter:
 
     def plc_control(self, on: bool, line: Line, port: PortState, out: list[str]) -> None:
         """ENABLE PLC n[,m...] / DISABLE PLC n[,m...], and PLCC for the compiled PLCs [§2.9]."""
-        line.skip()
-        if not line.take("PLC"):
-            raise CommandError(ERR_DATA, "ENABLE/DISABLE PLC n or PLCC n")
-        base = PLCC_BASE if line.take("C") else 0
-        plcs: list[int] = []
-        while True:
-            line.skip()
-            n = line.integer()
-            if n is None or not 0 <= n <= 31:
-                raise CommandError(ERR_DATA)
-            plcs.append(base + n)
-            line.skip()
-            if not line.take(","):
-                break
-        self.fw.plc.enable(tuple(plcs), on)
+        self.fw.plc.enable(_plc_numbers(line), on)
+
+    def plc_pause(self, resume: bool, line: Line, port: PortState, out: list[str]) -> None:
+        """PAUSE PLC n[,m...] stops PLCs where they are, RESUME PLC n[,m...] goes on from there
+        (PLCC too) [Turbo SRM PAUSE PLC, RESUME PLC; plc.py]."""
+        self.fw.plc.pause(_plc_numbers(line), resume)
 
     def define(self, line: Line, port: PortState, out: list[str]) -> None:
         line.take("INE")
@@ -778,6 +769,25 @@ class Interpreter:
     def passthrough(self, line: Line, port: PortState, out: list[str]) -> None:
         """A word accepted and ignored (PASSWORD on a card without one)."""
         line.i = len(line.s)
+
+
+def _plc_numbers(line: Line) -> tuple[int, ...]:
+    """`PLC n[,m...]` or `PLCC n[,m...]` after ENABLE/DISABLE/PAUSE/RESUME (PLCC n: PLCC_BASE + n)."""
+    line.skip()
+    if not line.take("PLC"):
+        raise CommandError(ERR_DATA, "ENABLE/DISABLE PLC n or PLCC n")
+    base = PLCC_BASE if line.take("C") else 0
+    plcs: list[int] = []
+    while True:
+        line.skip()
+        n = line.integer()
+        if n is None or not 0 <= n <= 31:
+            raise CommandError(ERR_DATA)
+        plcs.append(base + n)
+        line.skip()
+        if not line.take(","):
+            break
+    return tuple(plcs)
 
 
 def status_text(fw: Firmware, port: PortState, k: int) -> str:

@@ -181,6 +181,19 @@ class Plcs:
             else:
                 self.on.discard(n)
 
+    def pause(self, plcs: tuple[int, ...], resume: bool) -> None:
+        """PAUSE PLC n: the PLC stops where it is; RESUME PLC n: it goes on from there (from the
+        top after a DISABLE, which leaves it there) [Turbo SRM PAUSE PLC, RESUME PLC]."""
+        for n in plcs:
+            plc = self.plcs[n]
+            if resume and self.open_n == n:
+                continue
+            plc.enabled = resume
+            if resume and plc.ops:
+                self.on.add(n)
+            else:
+                self.on.discard(n)
+
     def disable_all(self) -> None:
         """^D: every PLC off."""
         for plc in self.plcs:
@@ -258,6 +271,11 @@ class Plcs:
                 self.enable(op[1], name == "enable")
                 if not plc.enabled:
                     plc.pc = 0
+                    return
+            elif name in ("pause", "resume"):
+                self.pause(op[1], name == "resume")
+                if not plc.enabled:  # paused itself: on from the next statement at RESUME
+                    plc.pc = pc
                     return
             elif name == "address":
                 if op[1]:

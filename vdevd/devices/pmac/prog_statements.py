@@ -46,6 +46,7 @@ _READ = re.compile(rf"READ{_SP}\(")
 _LABEL = re.compile(rf"([NO]){_SP}(\d+)(?![\d.])")
 _STOP = re.compile(r"STOP(?![A-Z])")
 _WAIT = re.compile(r"WAIT(?![A-Z])")
+_BLOCK = re.compile(rf"BLOCK{_SP}(START|STOP)(?![A-Z])")
 _NORMAL = re.compile(rf"NORMAL{_SP}")
 _RADIUS_MODE = re.compile(rf"(ABS|INC){_SP}\({_SP}R{_SP}\)")
 _PSET = re.compile(rf"PSET{_SP}")
@@ -109,6 +110,8 @@ def parse_statement(s: str, i: int) -> tuple[Statement, int]:
         return _op("stop"), m.end()
     if m := _WAIT.match(s, i):
         return _op("wait"), m.end()
+    if m := _BLOCK.match(s, i):  # BLOCKSTART/BLOCKSTOP: one S runs the block [SRM]
+        return _op("block", m.group(1) == "START"), m.end()
     if m := _PSET.match(s, i):
         st, j = _move(s, m.end())
         assert st.op is not None
@@ -160,6 +163,7 @@ def _move(s: str, i: int) -> tuple[Statement, int]:
     """`X10 Y(P1) Z5:20 I3 J4`: the axes (each once), their PVT velocities, then the circle
     vector and radius."""
     axes: list[tuple[int, expr.Expr, expr.Expr | None]] = []
+    triggers: dict[int, expr.Expr] = {}
     seen: set[int] = set()
     while (m := _AXIS.match(s, i)) and not _is_keyword(s, i):
         k = AXES.index(m.group(1))
@@ -167,10 +171,16 @@ def _move(s: str, i: int) -> tuple[Statement, int]:
             raise CommandError(ERR_DATA, "an axis twice in one move")
         seen.add(k)
         value, j = _data(s, m.end())
+        caret = _top_level_caret(s, m.end(), j)
+        if caret >= 0:  # `X10^2`: the trigger's `^`, not XOR (XOR in parentheses: `X(10^2)`)
+            value, j = _data(s[:caret], m.end())
         vel = None
         j2 = buffers.skip(s, j)
         if s.startswith(":", j2):
             vel, j = _data(s, j2 + 1)
+        elif s.startswith("^", j2):  # move until trigger [SRM "{axis}{data}^{data}"]
+            trigger, j = _data(s, j2 + 1)
+            triggers[k] = trigger
         axes.append((k, value, vel))
         i = buffers.skip(s, j)
     vectors: list[tuple[str, expr.Expr]] = []
@@ -180,7 +190,22 @@ def _move(s: str, i: int) -> tuple[Statement, int]:
         value, j = _data(s, m.end())
         vectors.append((m.group(1), value))
         i = buffers.skip(s, j)
+    if triggers:  # every axis with its post-trigger distance, nothing else (ASSUMPTION)
+        if vectors or len(triggers) != len(axes):
+            raise CommandError(ERR_DATA, "a move until trigger gives ^ for each axis")
+        return _op("trigmove", tuple((k, e, triggers[k]) for k, e, _ in axes)), i
     return _op("move", tuple(axes), tuple(vectors)), i
+
+
+def _top_level_caret(s: str, i: int, j: int) -> int:
+    """Where the first `^` outside parentheses is in s[i:j], else -1."""
+    depth = 0
+    for k in range(i, j):
+        c = s[k]
+        depth += (c == "(") - (c == ")")
+        if c == "^" and depth == 0:
+            return k
+    return -1
 
 
 def _axis_list(s: str, i: int, optional: bool) -> tuple[tuple[int, ...] | None, int]:

@@ -41,7 +41,8 @@ from vdevd.devices.pmac.linear import LinearPlanner, RapidPlanner
 from vdevd.devices.pmac.mvars import MDefError
 from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.pieces import NAXES, Move, Piece, Planner
-from vdevd.devices.pmac.plc import CMD_QUEUE, _true
+from vdevd.devices.pmac.plc import CMD_QUEUE, MESSAGE_QUEUE, _true
+from vdevd.devices.pmac.prog_trigger import start_trigger_move
 from vdevd.devices.pmac.programs import Program, ProgramStore
 
 if TYPE_CHECKING:
@@ -77,7 +78,7 @@ _MODE_BITS = {"LINEAR": 0, "RAPID": W2_RAPID, "CIRCLE1": W2_CIRCLE, "CIRCLE2": W
               "PVT": W2_PVT_SPLINE, "SPLINE1": W2_PVT_SPLINE | W2_CIRCLE,
               "SPLINE2": W2_PVT_SPLINE | W2_CIRCLE}
 #: the kinds of operation that are moves for the look-ahead count
-_MOVES = ("move", "dwell", "delay")
+_MOVES = ("move", "dwell", "delay", "trigmove")
 
 
 @dataclass
@@ -125,6 +126,7 @@ class CsProgram:
         self.planner: Planner | None = None
         self.move_at: dict[int, tuple[int, int]] = {}  # move number -> (prog, op) (PE)
         self.exec_at = (0, 0)                          # (prog, op) executing or last executed
+        self.block = False                             # between BLOCKSTART and BLOCKSTOP
         self.reset_modes()
 
     def reset_modes(self) -> None:
@@ -230,6 +232,7 @@ class CsProgram:
         self.stopping = False
         self.calc = self.started = 0
         self.move_at.clear()
+        self.block = False
         self.wait = ""
         self._map_motors()
         self._read_position()
@@ -533,7 +536,7 @@ class CsProgram:
                 busy = self.cur is not None or bool(self.queue)
                 if self.calc >= self.started + self._ahead() and busy:
                     return
-                if self.state == "step" and self.calc > 0:
+                if self.state == "step" and self.calc > 0 and not self.block:
                     self._end()
                     return
             self.pc += 1
@@ -685,6 +688,30 @@ class CsProgram:
             plc.queue.append((PortState(), op[1]))  # &1 #1 unless it says [SRM CMD]
         elif name in ("enable", "disable"):
             fw.plc.enable(op[1], name == "enable")
+        elif name in ("pause", "resume"):
+            fw.plc.pause(op[1], name == "resume")
+        elif name == "send":  # as a PLC's SEND (plc.py); a full queue holds the calculation
+            if len(fw.plc.messages) >= MESSAGE_QUEUE:
+                self.pc -= 1
+                return "stop"
+            fw.plc.messages.append((op[1], op[2]))
+        elif name == "block":  # a step ends before a BLOCKSTART: the next S runs the block
+            if op[1] and self.state == "step" and self.calc > 0 and not self.block:
+                self.pc -= 1
+                self._end()
+                return "stop"
+            self.block = bool(op[1])
+        elif name == "trigmove":
+            self._flush()
+            if self.cur is not None or self.queue:  # once the motion before has drained
+                self.pc -= 1
+                self.wait = "drain"
+                return "stop"
+            self.calc += 1
+            self.started = self.calc
+            self.exec_at = (self.prog, self.pc - 1)
+            start_trigger_move(self, op[1], env)
+            return "stop"
         return ""
 
     def _pset(self, axes: tuple[tuple[int, Any], ...], env: Any) -> None:
