@@ -553,6 +553,8 @@ class Firmware:
         self.coord.undefine(None)
         self.plc.clear_all()
         self.motion.store.clear_all()
+        for runner in self.motion.cs:  # the lookahead buffers go with the other buffers
+            runner.lookahead_buffer = None
         self.locks = 0
 
     def _reset_hardware(self) -> None:

@@ -659,6 +659,19 @@ class Interpreter:
             line.skip()
             self.fw.gather.define(line.integer())
             return
+        if line.take("LOOK"):  # DEFINE LOOKAHEAD {segments}[,{outputs}] (lookahead.py)
+            line.take("AHEAD")
+            line.skip()
+            segments = line.integer()
+            line.skip()
+            outputs: int | None = 0
+            if line.take(","):
+                line.skip()
+                outputs = line.integer()
+            if segments is None or outputs is None:
+                raise CommandError(ERR_DATA, "DEFINE LOOKAHEAD {segments},{outputs}")
+            self.fw.motion.runner(port.cs).define_lookahead(segments, outputs)
+            return
         kind = _table_kind(line)
         if kind is None:
             raise CommandError(ERR_DATA, "only DEFINE GATHER, COMP, BLCOMP and TCOMP are supported yet")
@@ -676,6 +689,9 @@ class Interpreter:
         elif line.take("GAT"):
             line.take("HER")
             self.fw.gather.delete()
+        elif line.take("LOOK"):  # DELETE LOOKAHEAD: the addressed C.S.'s (lookahead.py)
+            line.take("AHEAD")
+            self.fw.motion.runner(port.cs).define_lookahead(None, 0)
         elif line.take("ROTARY") or line.take("ROT") or line.take("TBUF"):
             pass  # none of these buffers exists yet: deleting one is a no-op
         else:

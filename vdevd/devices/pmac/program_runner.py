@@ -38,6 +38,7 @@ from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, CommandError
 from vdevd.devices.pmac.expr import ExprError
 from vdevd.devices.pmac.jog_profile import jog_accel
 from vdevd.devices.pmac.linear import LinearPlanner, RapidPlanner
+from vdevd.devices.pmac.lookahead import MAX_OUTPUTS, MAX_SEGMENTS, Segmenter
 from vdevd.devices.pmac.mvars import MDefError
 from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.pieces import NAXES, Move, Piece, Planner
@@ -74,6 +75,7 @@ W1_RUNNING, W1_SINGLE_STEP, W1_CONTINUOUS, W1_TM_MODE, W1_RUN_REQUEST = 1, 2, 4,
 W1_RADIUS_INC = 32
 W2_RAPID, W2_CIRCLE, W2_PVT_SPLINE, W2_DWELL, W2_IN_POSITION = 2, 1, 16, 1 << 12, 1 << 17
 W2_RUNTIME_ERROR = 1 << 22
+W2_LOOKAHEAD = 1 << 23
 _MODE_BITS = {"LINEAR": 0, "RAPID": W2_RAPID, "CIRCLE1": W2_CIRCLE, "CIRCLE2": W2_CIRCLE | W2_RAPID,
               "PVT": W2_PVT_SPLINE, "SPLINE1": W2_PVT_SPLINE | W2_CIRCLE,
               "SPLINE2": W2_PVT_SPLINE | W2_CIRCLE}
@@ -127,6 +129,8 @@ class CsProgram:
         self.move_at: dict[int, tuple[int, int]] = {}  # move number -> (prog, op) (PE)
         self.exec_at = (0, 0)                          # (prog, op) executing or last executed
         self.block = False                             # between BLOCKSTART and BLOCKSTOP
+        self.lookahead_buffer: tuple[int, int] | None = None  # DEFINE LOOKAHEAD segments, outputs
+        self.segmenter: Segmenter | None = None        # Isx13 segments of LINEAR moves
         self.reset_modes()
 
     def reset_modes(self) -> None:
@@ -309,6 +313,7 @@ class CsProgram:
         self.queue.clear()
         self.cur, self.tau = None, 0.0
         self.planner = None
+        self.segmenter = None
         self.homing = []
 
     def _hold_motors(self, idx: np.ndarray) -> None:
@@ -355,13 +360,59 @@ class CsProgram:
     def _restart_planner(self) -> None:
         cls = PLANNERS.get(self.mode)
         self.planner = cls(self.pos) if cls is not None else None
+        self._release_segments(final=True)
+        self.segmenter = self._new_segmenter()
+
+    def _new_segmenter(self) -> Segmenter | None:
+        """LINEAR with Isx13 > 0: Isx13 ms segments, through the lookahead's Ixx16/Ixx17 limits
+        when the C.S. has a lookahead buffer and Isx20 > 0 (lookahead.py)."""
+        iv, base = self.fw.ivars.values, 5000 + 100 * self.cs
+        seg_ms = float(iv[base + 13])
+        if self.mode != "LINEAR" or seg_ms <= 0:
+            return None
+        depth = 0
+        motors = 100 * (self.members + 1)
+        vmax, amax = np.full(len(self.members), np.inf), np.zeros(len(self.members))
+        if self.lookahead_buffer is not None and iv[base + 20] > 0:
+            depth = int(min(iv[base + 20], self.lookahead_buffer[0]))
+            v = iv[motors + 16] * 1000.0
+            vmax = np.where(v > 0, v, np.inf)
+            amax = iv[motors + 17] * 1e6
+        return Segmenter(self.pos, seg_ms / 1000, depth, self.scale, vmax, amax)
+
+    def define_lookahead(self, segments: int | None, outputs: int) -> None:
+        """DEFINE LOOKAHEAD {segments},{outputs} (None: DELETE LOOKAHEAD) of this C.S. [SRM]:
+        ERR001 while it runs a program, ERR003 outside 1-65535 / 0-65535 (ASSUMPTION)."""
+        if self.running:
+            raise CommandError(ERR_RUNNING, "the C.S. runs a program")
+        if segments is None:
+            self.lookahead_buffer = None
+            return
+        if not 1 <= segments <= MAX_SEGMENTS or not 0 <= outputs <= MAX_OUTPUTS:
+            raise CommandError(ERR_DATA, "DEFINE LOOKAHEAD segments, outputs")
+        self.lookahead_buffer = (segments, outputs)
+
+    def _release_segments(self, final: bool) -> None:
+        seg = self.segmenter
+        if seg is not None:
+            for piece, starts in seg.release(final):
+                self.queue.append(_Queued(piece, True, starts))
 
     def _flush(self) -> None:
         if self.planner is not None:
             self._enqueue(self.planner.flush(), starts=0)
+        self._release_segments(final=True)
 
     def _enqueue(self, pieces: list[Piece], starts: int, scaled: bool = True,
                  begin: int = 0) -> None:
+        seg = self.segmenter
+        if seg is not None:
+            if scaled:
+                seg.add(pieces[:begin])
+                seg.add(pieces[begin:], starts)
+                self._release_segments(final=False)
+                return
+            self._release_segments(final=True)
         for k, piece in enumerate(pieces):
             self.queue.append(_Queued(piece, scaled, starts if k == begin else 0))
 
@@ -380,9 +431,10 @@ class CsProgram:
         motors = 100 * (self.members + 1)
         if iv[base + 13] == 0:
             prm["MOTOR_MAXV"] = iv[motors + 16] * 1000
-        else:
+            prm["MOTOR_MAXA"] = iv[motors + 17] * 1e6
+        else:  # segmented: Ixx16/Ixx17 are the lookahead's (lookahead.py) [SRM Ixx16, Ixx17]
             prm["MOTOR_MAXV"] = np.zeros(0)
-        prm["MOTOR_MAXA"] = iv[motors + 17] * 1e6
+            prm["MOTOR_MAXA"] = np.zeros(0)
         if self.mode == "RAPID":
             prm.update(self._rapid_limits())
         if self.mode == "PVT":
@@ -534,7 +586,11 @@ class CsProgram:
             name = op[0]
             if name in _MOVES:
                 busy = self.cur is not None or bool(self.queue)
-                if self.calc >= self.started + self._ahead() and busy:
+                seg = self.segmenter
+                if seg is not None and seg.lookahead:  # keep Isx20 segments buffered
+                    if seg.full() and busy:
+                        return
+                elif self.calc >= self.started + self._ahead() and busy:
                     return
                 if self.state == "step" and self.calc > 0 and not self.block:
                     self._end()
@@ -889,6 +945,8 @@ class Motion:
         if r.radius_inc:
             w1 |= W1_RADIUS_INC
         w2 = _MODE_BITS.get(r.mode, 0) | (W2_RUNTIME_ERROR if r.error else 0)
+        if r.running and r.segmenter is not None and r.segmenter.lookahead:
+            w2 |= W2_LOOKAHEAD
         if r.running:
             w1 |= W1_RUNNING
             if r.state == "step":
