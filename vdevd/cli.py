@@ -66,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
 
         if isinstance(exc, (StartError, zmq.ZMQError, OSError, ValueError)):
             print(f"vdevd: cannot start: {exc}", file=sys.stderr)
-            return 1
+            return 2 if isinstance(exc, StartError) else 1  # 2: restarting cannot fix it
         raise
     return 0
 

@@ -10,7 +10,6 @@ each Ethernet connection have their own `#n`/`&n` addressing (online.PortState).
 from __future__ import annotations
 
 import logging
-import os
 import re
 from collections.abc import Mapping
 from fractions import Fraction
@@ -49,10 +48,10 @@ from vdevd.devices.pmac.reply import Reply, frame
 from vdevd.devices.pmac.servo_ic import ChannelFlag
 from vdevd.devices.pmac.status import MotorStatus2
 from vdevd.devices.rest import state_bytes, ticks_before_multiple
-from vdevd.errors import StartError
 from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region, passive_except
 from vdevd.security import is_local
+from vdevd.tcp_listener import listener_options
 
 log = logging.getLogger("vdevd.pmac")
 _CONTROL = re.compile("[\x01-\x1a]")  # control characters act at once, wherever they are
@@ -176,6 +175,7 @@ class PmacCard(Card):
                            help="endpoint of the Ethernet protocol; empty: off"),
         "ethernet_allow": Option(list, None,
                                  help="client addresses allowed on a non-loopback Ethernet endpoint"),
+        **listener_options(),
         "plant": Option(str, "servo", choices=("servo", "ideal"),
                         help="servo: amplifier and motor model; ideal: motors follow exactly"),
         "macro_stations": Option(list, [], choices=tuple(range(64)),
@@ -465,13 +465,10 @@ class PmacCard(Card):
         """Listen for the Ethernet protocol; a port that cannot be bound is a `StartError`."""
         if not self.ethernet:
             return
-        try:
-            self._server = await EthernetServer.start(self.ethernet, self._open_ethernet_port,
-                                                      allow=self.allow)
-        except OSError as exc:
-            reason = os.strerror(exc.errno) if exc.errno else str(exc)
-            raise StartError(f"{self.name} ethernet {self.ethernet}: "
-                             f"{reason[:1].lower()}{reason[1:]}") from None
+        self._server = await EthernetServer.start(
+            self.ethernet, self._open_ethernet_port, allow=self.allow,
+            name=f"{self.name} ethernet", max_connections=self.opts.max_connections,
+            idle_timeout_s=self.opts.idle_timeout_s)
         self.ethernet_endpoint = self._server.endpoint
         log.info("%s: PMAC Ethernet protocol on %s", self.name, self.ethernet_endpoint)
 
