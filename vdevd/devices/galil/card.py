@@ -25,6 +25,7 @@ from vdevd.devices.galil.channel import CommandChannel
 from vdevd.devices.galil.ethernet import MAX_CONNECTIONS, EthernetServer, parse_endpoint
 from vdevd.devices.galil.firmware import Firmware
 from vdevd.devices.galil.interpreter import revision
+from vdevd.devices.galil.nv_image import check_image
 from vdevd.devices.galil.params import COUNTS_PER_VOLT
 from vdevd.devices.galil.syntax import AXIS_ALIASES, AXIS_LETTERS
 from vdevd.nvram import NvramWriter
@@ -123,7 +124,8 @@ class GalilCard(Card):
         # the flash (BP BV BN): one image in the state directory, restored at power-up
         store = ctx.nvram
         self._writer = NvramWriter(store, name) if store is not None else None
-        saved = store.load(name) if store is not None else None
+        saved = (store.load(name, lambda image: check_image(self.n, image))  # issue 22 §4
+                 if store is not None else None)
         self._flash: dict[str, Any] | None = saved.get("flash") if isinstance(saved, dict) else None
         self.firmware = Firmware(self.n, self.period_ns, self.plant, self.configured_tm_us, self.bus,
                                  raise_irq=self._raise_irq, clear_irq=self.irq.clear,

@@ -38,6 +38,7 @@ from vdevmaps.pmac import (
 )
 
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
+from vdevd.devices.pmac import nv_image
 from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
 from vdevd.devices.pmac.eth_framing import KeptFraming
 from vdevd.devices.pmac.ethernet_server import EthernetServer
@@ -244,7 +245,7 @@ class PmacCard(Card):
         self.host_port_state = CommandPort(self)
         self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)
         self._last_status2 = np.zeros(self.motors, dtype=np.int64)
-        self.fw.restore((store.load(name) if store is not None else None) or {})
+        nv_image.restore(self.fw, store, name)  # a saved image checked first (issue 22 §4)
         self.fw.on_reset = self._firmware_reset
         self.dpram.buf[:] = bytes(DPRAM_SIZE)
         self.ascii.reset()
