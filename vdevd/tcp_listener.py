@@ -105,7 +105,7 @@ class Connection(asyncio.Protocol):
         self.transport: asyncio.Transport | None = None
         self.peer: Any = None
         self.admitted = False
-        self._input = False  # input since the idle timer was armed
+        self._last_input = 0.0  # the loop's time of the last input (or of the admission)
         self._idle_timer: asyncio.TimerHandle | None = None
 
     # -- the card's part ---------------------------------------------------------------------------
@@ -140,14 +140,19 @@ class Connection(asyncio.Protocol):
         sock = transport.get_extra_info("socket")
         if sock is not None:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self._arm(self.listener.idle_timeout_s)
+        loop = self.listener.loop
+        if loop is not None and self.listener.idle_timeout_s > 0:
+            self._last_input = loop.time()
+            self._idle_timer = loop.call_later(self.listener.idle_timeout_s, self._idle)
         if not self.opened():
             transport.close()
 
     def data_received(self, data: bytes) -> None:
         if not self.admitted:
             return
-        self._input = True
+        loop = self.listener.loop
+        if self._idle_timer is not None and loop is not None:
+            self._last_input = loop.time()
         self.received(data)
 
     def connection_lost(self, exc: Exception | None) -> None:
@@ -165,22 +170,21 @@ class Connection(asyncio.Protocol):
         if self.transport is not None:
             self.transport.close()
 
-    # -- the idle timer: one timer a connection, re-armed at most once per timeout -----------------
-    def _arm(self, delay: float) -> None:
-        loop = self.listener.loop
-        if loop is not None and self.listener.idle_timeout_s > 0:
-            self._input = False
-            self._idle_timer = loop.call_later(delay, self._idle)
-
+    # -- the idle timer: one a connection, moved on lazily (at most once per timeout) -----------
     def _idle(self) -> None:
         self._idle_timer = None
-        if self.transport is None or self.transport.is_closing():
+        loop, timeout = self.listener.loop, self.listener.idle_timeout_s
+        if loop is None or self.transport is None or self.transport.is_closing():
             return
-        if self._input or self.busy:
-            self._arm(self.listener.idle_timeout_s)
+        now = loop.time()
+        if self.busy:
+            self._last_input = now
+        left = self._last_input + timeout - now
+        if left > 0:
+            self._idle_timer = loop.call_later(left, self._idle)
             return
         log.info("%s: connection from %s closed, idle for %gs (idle_timeout_s)",
-                 self.listener.name, self.peer_name, self.listener.idle_timeout_s)
+                 self.listener.name, self.peer_name, timeout)
         self.transport.close()
 
 

@@ -11,7 +11,7 @@ from collections.abc import Iterator
 import pytest
 import vdevclient
 from vdevclient import galil, gclib
-from vdevclient._galil_bus import DmcBus
+from vdevclient._galil_bus import DmcBus, fifo_pieces, too_long
 from vdevmaps.galil import FIFO_SIZE
 
 from tests.client.galil import GALIL, card, rack_config
@@ -83,3 +83,21 @@ def test_gcommand_refuses_a_command_the_fifo_cannot_take_and_keeps_working(g: gc
     assert g.GCommand("MG 1") == "0000000001.0000"
     assert g.GCommand(FITS) == "0000000264.0000"
     assert g.GCommand("TC1").startswith("0")
+
+
+@pytest.mark.parametrize("sizes", [[4] * 200, [511, 5, 300, 300], [100] * 11, [511] * 3, [1]])
+def test_fifo_pieces_cut_a_line_after_terminators_into_pieces_the_fifo_holds(
+        sizes: list[int]) -> None:
+    line = b"".join(b"M" * (n - 1) + b";" for n in sizes)
+    pieces = fifo_pieces(line)
+    assert b"".join(pieces) == line
+    assert all(len(p) <= FIFO_SIZE and p.endswith(b";") for p in pieces)
+    for piece, after in zip(pieces, pieces[1:], strict=False):  # full: the next command would not fit
+        assert len(piece) + after.index(b";") + 1 > FIFO_SIZE
+
+
+def test_too_long_is_a_command_longer_than_511_characters() -> None:
+    assert not too_long(b"M" * 511 + b"\r")
+    assert too_long(b"M" * 512 + b"\r")
+    assert too_long(b"MG 1;" + b"M" * 512)
+    assert not too_long(b"MG 1;" * 500)
