@@ -82,8 +82,8 @@ def test_a_second_rack_on_a_taken_card_port_exits_2_naming_card_and_key_before_r
     try:
         host, port = first.port("pmac0")
         taken = f"tcp://{host}:{port}"
-        rack = (PMAC_RACK.replace("tcp://127.0.0.1:0", taken).format(keys="") if second == "pmac"
-                else GALIL_RACK.format(endpoint=taken))
+        rack = (GALIL_RACK.format(endpoint=taken) if second == "galil"
+                else PMAC_RACK.replace("tcp://127.0.0.1:0", taken).format(keys=""))
         (tmp_path / "rack.toml").write_text(rack)
         notify, env = notify_socket(tmp_path)
         with notify:
@@ -92,8 +92,8 @@ def test_a_second_rack_on_a_taken_card_port_exits_2_naming_card_and_key_before_r
                  "--endpoint", "tcp://127.0.0.1:*", "--events", "tcp://127.0.0.1:*"],
                 capture_output=True, text=True, timeout=GUARD_S, env=env)
             sent = notifications(notify)
-        card = "card[1] (pmac0)" if second == "pmac" else "card[0] (galil0)"
-        assert proc.returncode == 2
+        card = "card[0] (galil0)" if second == "galil" else "card[1] (pmac0)"
+        assert proc.returncode == 2, proc.stderr
         assert proc.stderr.splitlines()[-1] == (
             f"vdevd: cannot start: {card} ethernet: {host}:{port} already in use")
         assert b"READY=1" not in sent

@@ -81,3 +81,36 @@ def test_peers_outside_the_allow_list_are_closed_and_logged_by_the_budget(
         assert not open_one(listener, "::ffff:10.1.2.4")[1].closed  # IPv4-mapped
     assert len(caplog.records) == 8
     assert listener.connections and len(listener.connections) == 2
+
+
+def test_a_host_whose_every_address_is_not_bound_is_a_start_error() -> None:
+    """A name that resolves to 127.0.0.1 and ::1 (`localhost` on most hosts), ::1's port taken
+    by another process: serving 127.0.0.1 alone would send the clients that reach ::1 to the
+    other process's card. The listener refuses to start instead (issue 22 §5)."""
+    import asyncio
+    import socket
+
+    from vdevd.errors import StartError
+
+    async def main() -> str:
+        loop = asyncio.get_running_loop()
+        with socket.socket(socket.AF_INET6) as taken:
+            taken.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            taken.bind(("::1", 0))
+            taken.listen()
+            port = taken.getsockname()[1]
+            both = [(socket.AF_INET, socket.SOCK_STREAM, 6, "", ("127.0.0.1", port)),
+                    (socket.AF_INET6, socket.SOCK_STREAM, 6, "", ("::1", port, 0, 0))]
+
+            async def getaddrinfo(*args: Any, **kwargs: Any) -> list[Any]:
+                return both
+
+            loop.getaddrinfo = getaddrinfo  # type: ignore[method-assign]
+            listener = TcpListener("pmac0 ethernet")
+            with pytest.raises(StartError) as err:
+                await listener.listen(f"tcp://127.0.0.1:{port}", lambda: Connection(listener))
+            assert listener._server is not None and not listener._server.is_serving()
+            return f"{err.value}|{port}"
+
+    message, port = asyncio.run(main()).split("|")
+    assert message == f"ethernet: [::1]:{port} already in use"

@@ -210,20 +210,28 @@ class TcpListener:
 
     async def listen(self, endpoint: str, make: Callable[[], Connection],
                      key: str = "ethernet") -> None:
-        """Listen on `endpoint` on the running loop; a port that cannot be bound is a
-        `StartError` naming `key` and the address (`ethernet: 127.0.0.1:1025 already in use`)."""
+        """Listen on `endpoint` on the running loop, on every address its host names (`localhost`:
+        127.0.0.1 and ::1); an address that cannot be bound is a `StartError` naming `key` and
+        the address (`ethernet: 127.0.0.1:1025 already in use`), not a port served on the other
+        addresses only while another process has this one."""
         host, port = parse_endpoint(endpoint, key)
-        self.loop = asyncio.get_running_loop()
+        self.loop = loop = asyncio.get_running_loop()
         try:
-            self._server = await self.loop.create_server(make, host, port)
+            self._server = await loop.create_server(make, host, port)
         except OSError as exc:
-            where = f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
-            if exc.errno == errno.EADDRINUSE:
-                reason = "already in use"
-            else:
-                text = os.strerror(exc.errno) if exc.errno else str(exc)
-                reason = text[:1].lower() + text[1:]
-            raise StartError(f"{key}: {where} {reason}") from None
+            raise StartError(f"{key}: {_where(host, port)} {_reason(exc.errno, exc)}") from None
+        bound = {(s.family, s.getsockname()[0]) for s in self._server.sockets}
+        try:
+            wanted = await loop.getaddrinfo(host, port, type=socket.SOCK_STREAM,
+                                            flags=socket.AI_PASSIVE)
+        except OSError:
+            return
+        for family, _, _, _, address in wanted:
+            if (family, address[0]) not in bound:
+                code = _bind_error(family, address)
+                if code is not None and code != errno.EADDRNOTAVAIL:  # not: a family disabled
+                    self._server.close()
+                    raise StartError(f"{key}: {_where(str(address[0]), port)} {_reason(code)}")
 
     @property
     def endpoint(self) -> str:
@@ -272,6 +280,29 @@ class TcpListener:
         self.connections.discard(connection)
         if not self.connections:
             self._idle.set()
+
+
+def _where(host: str, port: int) -> str:
+    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+
+
+def _reason(code: int | None, exc: OSError | None = None) -> str:
+    """`already in use`, or the system's text for `code`, lower case."""
+    if code == errno.EADDRINUSE:
+        return "already in use"
+    text = os.strerror(code) if code else str(exc)
+    return text[:1].lower() + text[1:]
+
+
+def _bind_error(family: int, address: Any) -> int | None:
+    """Why a listening socket of `family` cannot bind `address` (an errno), None if it can."""
+    try:
+        with socket.socket(family, socket.SOCK_STREAM) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            probe.bind(address)
+    except OSError as exc:
+        return exc.errno
+    return None
 
 
 def _peer(peer: Any) -> str:
