@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import signal
 import socket
 import subprocess
@@ -23,7 +24,8 @@ GUARD_S = 60.0  # a guard against a hung daemon, never a measured wait
 class Served:
     """`vdevd serve --config RACK` until `stop`; `info` is its ready file."""
 
-    def __init__(self, tmp_path: Path, rack: str) -> None:
+    def __init__(self, tmp_path: Path, rack: str, nofile: int | None = None) -> None:
+        """`nofile`: the daemon's file limit (RLIMIT_NOFILE), else the test's."""
         self.dir = tmp_path
         (tmp_path / "rack.toml").write_text(rack)
         ready = tmp_path / "ready.json"
@@ -32,7 +34,9 @@ class Served:
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "vdevd", "serve", "--config", str(tmp_path / "rack.toml"),
              "--endpoint", "tcp://127.0.0.1:*", "--events", "tcp://127.0.0.1:*",
-             "--ready-file", str(ready)], stderr=self._log)
+             "--ready-file", str(ready)], stderr=self._log,
+            preexec_fn=None if nofile is None else lambda: resource.setrlimit(
+                resource.RLIMIT_NOFILE, (nofile, nofile)))
         deadline = time.monotonic() + GUARD_S
         while not ready.exists():
             try:  # polls the file while watching for an early exit

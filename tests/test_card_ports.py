@@ -147,6 +147,25 @@ def test_connections_past_max_connections_are_refused_and_logged_once_per_episod
     assert "pmac0 ethernet: accepting connections again; 40 refused meanwhile" in log
 
 
+def test_idle_connections_past_the_limit_do_not_starve_the_zeromq_clients(tmp_path: Path) -> None:
+    """Issue 22 §7 as reported: a daemon with a file limit of 256 and 300 idle PMAC connections
+    still serves a new ZeroMQ client (on main every descriptor went to the PMAC port)."""
+    served = Served(tmp_path, pmac_rack(), nofile=256)
+    idle: list[socket.socket] = []
+    try:
+        address = served.port("pmac0")
+        for _ in range(300):
+            idle.append(connect(address))
+        assert pmac_ask(idle[0], "i6=1 i3=2 cid") == b"603382\r\x06"  # among the 64 served
+        with vdevclient.connect(served.info["endpoint"], timeout=10) as rack:
+            assert rack.sim.step(ns=1_000_000) > 0
+    finally:
+        for s in idle:
+            s.close()
+        log = served.stop()
+    assert len([line for line in log.splitlines() if "refusing more" in line]) == 1
+
+
 def test_a_connection_idle_for_idle_timeout_s_is_closed_and_logged(tmp_path: Path) -> None:
     served = Served(tmp_path, pmac_rack(idle_timeout_s=0.2))
     try:
