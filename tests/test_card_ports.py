@@ -247,6 +247,17 @@ def test_replies_never_fetched_close_the_connection_past_the_bound(tmp_path: Pat
     assert f"passed {MAX_PENDING} bytes" in closing[0]
 
 
+def test_max_pending_sets_the_bound(tmp_path: Path) -> None:
+    served = Served(tmp_path, pmac_rack(max_pending_kib=64))
+    try:
+        with connect(served.port("pmac0")) as flood:
+            _send_quietly(flood, sendline("P0..8191") * 10)  # 16 KiB of output each
+            assert closed_by_peer(flood)
+    finally:
+        log = served.stop()
+    assert "pending output passed 65536 bytes" in log
+
+
 def _send_quietly(s: socket.socket, data: bytes) -> None:
     """sendall, the daemon closing the connection part-way being expected."""
     try:

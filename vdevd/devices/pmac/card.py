@@ -41,6 +41,7 @@ from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.pmac import nv_image
 from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
 from vdevd.devices.pmac.eth_framing import KeptFraming
+from vdevd.devices.pmac.ethernet import MAX_PENDING
 from vdevd.devices.pmac.ethernet_server import EthernetServer
 from vdevd.devices.pmac.firmware import Firmware, Identity
 from vdevd.devices.pmac.hostport import HostPort, InterruptController
@@ -177,6 +178,9 @@ class PmacCard(Card):
         "ethernet_allow": Option(list, None,
                                  help="client addresses allowed on a non-loopback Ethernet endpoint"),
         **listener_options(),
+        "max_pending_kib": Option(int, MAX_PENDING >> 10, min=2, max=65536,
+                                  help="KiB of output an Ethernet connection leaves unfetched "
+                                       "(SENDLINE replies) before it is closed"),
         "plant": Option(str, "servo", choices=("servo", "ideal"),
                         help="servo: amplifier and motor model; ideal: motors follow exactly"),
         "macro_stations": Option(list, [], choices=tuple(range(64)),
@@ -469,7 +473,7 @@ class PmacCard(Card):
         self._server = await EthernetServer.start(
             self.ethernet, self._open_ethernet_port, allow=self.allow,
             name=f"{self.name} ethernet", max_connections=self.opts.max_connections,
-            idle_timeout_s=self.opts.idle_timeout_s)
+            idle_timeout_s=self.opts.idle_timeout_s, max_pending=self.opts.max_pending_kib << 10)
         self.ethernet_endpoint = self._server.endpoint
         log.info("%s: PMAC Ethernet protocol on %s", self.name, self.ethernet_endpoint)
 
