@@ -156,6 +156,11 @@ class EthernetServer:
             if connection.channel is not None:
                 connection.channel.reset()
 
+    @property
+    def connections(self) -> int:
+        """Open connections (the metrics endpoint)."""
+        return len(self.listener.connections)
+
     def close(self) -> None:
         """Stop listening and drop every connection."""
         self.listener.close()

@@ -8,14 +8,14 @@ commands are the longest word a run of letters starts with (after the variables 
 
 `COMMANDS.not_emulated` lists the on-line commands the digest documents that the card does not run
 yet, with the reason; `REFUSED` is the error number those the parser recognises answer (the others
-are unrecognised: ERR003). Motion programs come in issue 21, later (data gathering: gather.py, PLCs:
-plc.py) (README "Not yet").
+are unrecognised: ERR003). Data gathering: gather.py, PLCs: plc.py, motion programs: programs.py
+and program_runner.py (README "Not yet").
 """
 
 from __future__ import annotations
 
 from vdevd.devices.commands import Command, CommandTable
-from vdevd.devices.pmac.errors import ERR_NO_PROGRAM, ERR_NOT_OPEN
+from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, ERR_NOT_OPEN
 
 CHAR, WORD = "char", "word"
 #: the variable letters: followed by a number or `(`, a variable, not a word [§2.5]
@@ -42,6 +42,7 @@ COMMANDS = CommandTable(
         _char("?", "status"),                 # ? ?? ??? [§2.6]
         _char("$", "dollar"),                 # $ $* $$ $$* $$$ $$$***
         _char("%", "feed"),                   # % %{v}
+        _char("^", "trigger_alone"),          # {jog}^{c}: J's (online.jog); alone ERR003
         # identity [§2.4 "Number formatting"]
         *(_word(name, "identity", name, section=_S24) for name in IDENTITY),
         # motor commands and reports [§2.5, §2.7]
@@ -54,6 +55,11 @@ COMMANDS = CommandTable(
         # coordinate system [§2.5, §2.8]
         _word("A", "abort"),
         _word("H", "hold"),
+        # motion-program run control [§2.5, §2.8; program_runner.py]
+        _word("B", "begin", section="§2.8"),
+        _word("R", "run", False, section="§2.8"),
+        _word("S", "run", True, section="§2.8"),
+        _word("Q", "quit", section="§2.8"),
         _word("UNDEFINE", "undefine", section=f"{_S25} [A L3284]"),
         _word("UNDEF", "undefine", section=f"{_S25} [A L3284]"),
         # global
@@ -74,6 +80,7 @@ COMMANDS = CommandTable(
         _word("ENDG", "end_gather", False), _word("END", "end_gather", True),
         # PLC buffers and run control [§2.9; plc.py]
         _word("OPEN", "open_buffer", section="§2.9"),
+        _word("CLOSE", "close_nothing", section="§2.9"),
         _word("ENABLE", "plc_control", True, section="§2.9"),
         _word("ENA", "plc_control", True, section="§2.9"),
         _word("DISABLE", "plc_control", False, section="§2.9"),
@@ -83,22 +90,18 @@ COMMANDS = CommandTable(
           for rw in "RW" for space in "XYLD"),
     ],
     not_emulated={
-        "CLOSE": "only the port with a buffer open may CLOSE it (plc.py)",
         "CLEAR": "only the port with a buffer open may CLEAR it (plc.py)",
-        "LEARN": "no buffer can be open yet (issue 21)",
-        "B": "program run control: motion programs come in issue 21",
-        "R": "program run control: motion programs come in issue 21",
-        "S": "program run control: motion programs come in issue 21",
-        "Q": "program run control (quit; Q{n} is a variable): motion programs come in issue 21",
+        "LEARN": "LEARN (program the present positions) is not emulated",
         "ABR": "abort and run a program: motion programs come in issue 21",
+        "PR": "program lines remaining (rotary buffers) is not emulated: ERR003, not P then R",
+        "PC": "the program counter report is not emulated: ERR003",
+        "PE": "the program execution line report is not emulated: ERR003",
         "!": "the V1.936 axis-move command needs coordinate systems (issue 21): unrecognised",
-        "^": "jog-until-trigger ({jog}^{c}) needs triggered moves: after a jog, ^ is unrecognised",
     },
 )
 
 #: not emulated words the parser recognises -> the error number they answer (README "Not yet")
 REFUSED: dict[str, int] = {
-    "CLOSE": ERR_NOT_OPEN, "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
-    "ABR": ERR_NO_PROGRAM,
-    "B": ERR_NO_PROGRAM, "R": ERR_NO_PROGRAM, "S": ERR_NO_PROGRAM, "Q": ERR_NO_PROGRAM,
+    "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
+    "ABR": ERR_NO_PROGRAM, "PR": ERR_DATA, "PC": ERR_DATA, "PE": ERR_DATA,
 }

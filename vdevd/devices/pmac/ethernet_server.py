@@ -156,6 +156,11 @@ class EthernetServer:
         """The bound address, `tcp://127.0.0.1:NNNNN`."""
         return self.listener.endpoint
 
+    @property
+    def connections(self) -> int:
+        """Open connections (the metrics endpoint)."""
+        return len(self.listener.connections)
+
     def close(self) -> None:
         """Stop listening and drop every connection (each port is closed as its connection goes)."""
         self.listener.close()

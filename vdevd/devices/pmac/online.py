@@ -28,8 +28,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from vdevd.devices.pmac import expr
+from vdevd.devices.pmac.buffers import PLCC_BASE
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
-from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, CommandError
+from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_NOT_OPEN, CommandError
 from vdevd.devices.pmac.mvars import MDefError, parse_definition
 from vdevd.devices.pmac.numbers import format_value
 from vdevd.devices.pmac.reply import Reply
@@ -61,6 +62,38 @@ class PortState:
     cs_mode: bool = False   # the last address was &n: K acts on the C.S. (README)
     table_motor: int = 0    # a DEFINE COMP download in progress: its motor (0 = none)
     table_left: int = 0
+
+
+_JOG_CONSTANT = re.compile(r"-?(?:\$[0-9A-F]+|\d+\.?\d*|\.\d+)")
+
+
+def _jog_value(line: Line, env: expr.Env) -> float | None:
+    """A constant (decimal or $hex) or a parenthesised expression at the cursor, or None."""
+    s, i = line.s, line.i
+    if s.startswith("(", i):
+        depth = 0
+        for j in range(i, len(s)):
+            if s[j] == "(":
+                depth += 1
+            elif s[j] == ")":
+                depth -= 1
+            if depth == 0:
+                try:
+                    value = expr.evaluate(s[i:j + 1], env)
+                except expr.ExprError as exc:
+                    raise CommandError(exc.code) from None
+                line.i = j + 1
+                return value
+        raise CommandError(ERR_DATA, "unbalanced (")
+    m = _JOG_CONSTANT.match(s, i)
+    if m is None:
+        return None
+    line.i = m.end()
+    text = m.group()
+    negative = text.startswith("-")
+    digits = text.lstrip("-")
+    v = float(int(digits[1:], 16)) if digits.startswith("$") else float(digits)
+    return -v if negative else v
 
 
 class Line:
@@ -141,6 +174,8 @@ class Interpreter:
     def execute(self, port: PortState, text: str) -> Reply:
         if port is self.fw.plc.owner:  # a buffer is open on this port: its lines go there (plc.py)
             return self.fw.plc.enter(port, text)
+        if port is self.fw.motion.store.owner:  # a PROG buffer (programs.py)
+            return self.fw.motion.store.enter(port, text)
         plans = self._plans
         if text in plans:
             plan = plans[text]
@@ -334,6 +369,8 @@ class Interpreter:
         elif c == "!":
             fw.motor_call("round_commanded", m)
         elif c in "=:^":
+            if self._jog_until_trigger(c, line, port):
+                return
             if line.take("*"):
                 fw.motor_call("jog_variable", m, c)
             elif c == "=" and not (line.peek().isdigit() or line.peek() in "-.$(PQIM"):
@@ -346,6 +383,28 @@ class Interpreter:
                     fw.motor_call("jog_relative", m, value, c == "^")
         else:
             raise CommandError(ERR_DATA, "J needs + - / ! = : or ^")
+
+    def _jog_until_trigger(self, c: str, line: Line, port: PortState) -> bool:
+        """`{jog}^{c}` after J=, J:, J^ (c the letter after J): the definite jog `J=`, `J={c}`,
+        `J=*`, `J:{c}`, `J:*`, `J^{c}`, `J^*` with `^{c}`, the distance from the trigger to end
+        at (counts) [PMAC1-SRM p.241, UM "Jog-until-trigger"]. True if it was one (and ran);
+        False leaves the line where it was. Values are constants or `(expressions)`, since `^`
+        is also the XOR operator."""
+        start, fw = line.i, self.fw
+        env = fw.env(port)
+        value: float | None = None
+        variable = line.take("*")
+        if not variable and not (c == "=" and line.peek() == "^"):
+            value = _jog_value(line, env)
+        if line.peek() != "^" or (value is None and not variable and c != "="):
+            line.i = start
+            return False
+        line.i += 1
+        distance = _jog_value(line, env)
+        if distance is None:
+            raise CommandError(ERR_DATA, "^ needs the post-trigger distance")
+        fw.motor_call("jog_trigger", port.motor, c, value, distance, variable)
+        return True
 
     def home(self, zero: bool, line: Line, port: PortState, out: list[str]) -> None:
         """HM/HOME home search, HMZ/HOMEZ zero-move homing [§2.7]."""
@@ -387,6 +446,7 @@ class Interpreter:
             if not 0 <= value <= 838.8607:
                 raise CommandError(ERR_DATA)
             self.fw.feed[port.cs - 1] = value
+            self.fw.timebase.command(port.cs - 1, value)  # the present value slews (Isx94)
         else:
             out.append(format_value(round(self.fw.feed[port.cs - 1], 1)))
 
@@ -404,7 +464,31 @@ class Interpreter:
         raise CommandError(code, f"{name} comes in a later issue")
 
     def hold(self, line: Line, port: PortState, out: list[str]) -> None:
-        """H: feed hold of the addressed C.S.; with no axes defined it holds nothing."""
+        """H: feed hold of the addressed C.S.'s program (program_runner.py); with none running it
+        holds nothing."""
+        self.fw.motion.runner(port.cs).feed_hold()
+
+    def begin(self, line: Line, port: PortState, out: list[str]) -> None:
+        """B{n}[.label] points the addressed C.S. to PROG n; B alone back to its top [SRM B]."""
+        line.skip()
+        value = None
+        if line.peek().isdigit() or line.peek() == ".":
+            m = re.compile(r"\d*\.?\d*").match(line.s, line.i)
+            assert m is not None
+            line.i = m.end()
+            try:
+                value = float(m.group())
+            except ValueError:
+                raise CommandError(ERR_DATA) from None
+        self.fw.motion.runner(port.cs).point(value)
+
+    def run(self, step: bool, line: Line, port: PortState, out: list[str]) -> None:
+        """R (run) / S (single step) of the addressed C.S.'s program [SRM R, S]."""
+        self.fw.motion.runner(port.cs).run(step)
+
+    def quit(self, line: Line, port: PortState, out: list[str]) -> None:
+        """Q: quit at the end of the moves already calculated [SRM Q]."""
+        self.fw.motion.runner(port.cs).quit()
 
     def macro_station(self, line: Line, port: PortState, out: list[str]) -> None:
         """MS{node},MI{n} reads and MS{node},MI{n}={v} writes a station's MI-variable (`I` for `MI`
@@ -479,37 +563,72 @@ class Interpreter:
                 raise CommandError(ERR_DATA)
             out.extend(self.fw.plc.list_lines(n, *args))
             return
-        raise CommandError(ERR_DATA, "LIST of motion programs comes in a later issue")
+        if line.take("PROG"):  # LIST PROG n[,start[,count]] (programs.py)
+            line.take("RAM")
+            n, args = _list_numbers(line)
+            out.extend(self.fw.motion.store.list_lines(n, *args))
+            return
+        raise CommandError(ERR_DATA, "LIST of this buffer is not emulated")
 
     def open_buffer(self, line: Line, port: PortState, out: list[str]) -> None:
-        """OPEN PLC n: the rest of the line and the port's next lines go into the buffer
-        (plc.py); OPEN PROG/ROT come with motion programs (ERR003)."""
+        """OPEN PLC n / OPEN PROG n: the rest of the line and the port's next lines go into the
+        buffer (plc.py, programs.py)."""
         line.skip()
-        if not line.take("PLC") or line.take("C"):
-            raise CommandError(ERR_DATA, "only OPEN PLC n is emulated yet")
+        if line.take("PROG"):
+            line.take("RAM")
+            line.skip()
+            n = line.integer()
+            if n is None:
+                raise CommandError(ERR_DATA)
+            store = self.fw.motion.store
+            store.open(port, n)
+            rest, line.i = line.s[line.i:], len(line.s)
+            reply = store.enter(port, rest)
+            out.extend(reply.lines)
+            if reply.error is not None:
+                raise CommandError(reply.error)
+            return
+        if not line.take("PLC"):
+            raise CommandError(ERR_DATA, "only OPEN PLC n and OPEN PLCC n are emulated yet")
+        compiled = line.take("C")
         line.skip()
         n = line.integer()
         if n is None:
             raise CommandError(ERR_DATA)
-        self.fw.plc.open(port, n)
+        self.fw.plc.open(port, n, compiled)
         rest, line.i = line.s[line.i:], len(line.s)
         reply = self.fw.plc.enter(port, rest)
         out.extend(reply.lines)
         if reply.error is not None:
             raise CommandError(reply.error)
 
+    def trigger_alone(self, line: Line, port: PortState, out: list[str]) -> None:
+        """`^{c}` belongs to a definite jog (`J=^{c}`, `J:{c}^{c}` ..., parsed by `jog`); on its
+        own, or after J+/J- (which cannot be triggered [PMAC1-SRM p.241]), it is ERR003."""
+        raise CommandError(ERR_DATA, "^ follows a definite jog")
+
+    def close_nothing(self, line: Line, port: PortState, out: list[str]) -> None:
+        """CLOSE with no buffer open on this port (the opening port's CLOSE is plc.py's): nothing
+        to close, no error; the SRM's examples start every download with CLOSE "to make sure no
+        other buffers have been left open" [SRM OPEN PROGRAM], and so do pmac_motorhome's PLCs.
+        While another port has a buffer open only that port may CLOSE it: ERR005 [A L3234]."""
+        if self.fw.plc.owner is not None or self.fw.motion.store.owner is not None:
+            raise CommandError(ERR_NOT_OPEN, "another port has the buffer open")
+        line.take(" ALL")
+
     def plc_control(self, on: bool, line: Line, port: PortState, out: list[str]) -> None:
-        """ENABLE PLC n[,m...] / DISABLE PLC n[,m...] [§2.9]; PLCC (compiled) is not emulated."""
+        """ENABLE PLC n[,m...] / DISABLE PLC n[,m...], and PLCC for the compiled PLCs [§2.9]."""
         line.skip()
-        if not line.take("PLC") or line.take("C"):
-            raise CommandError(ERR_DATA, "only ENABLE/DISABLE PLC n is emulated")
+        if not line.take("PLC"):
+            raise CommandError(ERR_DATA, "ENABLE/DISABLE PLC n or PLCC n")
+        base = PLCC_BASE if line.take("C") else 0
         plcs: list[int] = []
         while True:
             line.skip()
             n = line.integer()
             if n is None or not 0 <= n <= 31:
                 raise CommandError(ERR_DATA)
-            plcs.append(n)
+            plcs.append(base + n)
             line.skip()
             if not line.take(","):
                 break
@@ -613,15 +732,18 @@ class Interpreter:
         self.fw.p[p] = 1.0 if held else 0.0
 
     def movetime(self, line: Line, port: PortState, out: list[str]) -> None:
-        """MOVETIME: time left in the C.S.'s present move, ms (V1.937 [A L3262]); no program
-        runs yet, so 0."""
-        out.append("0")
+        """MOVETIME: time left in the C.S.'s present move, ms (V1.937 [A L3262]), 0 with no
+        program running (program_runner.py)."""
+        out.append(format_value(round(self.fw.motion.runner(port.cs).move_time_left(), 3)))
 
     def undefine(self, line: Line, port: PortState, out: list[str]) -> None:
         """UNDEFINE [ALL]: clears axis definitions, of the addressed C.S. only since V1.938
         [A L3284]."""
         line.skip()
-        self.fw.coord.undefine(None if line.take("ALL") else port.cs)
+        every = line.take("ALL")
+        if self.fw.motion.any_running() if every else self.fw.motion.runner(port.cs).running:
+            raise CommandError(1, "a coordinate system runs a program")
+        self.fw.coord.undefine(None if every else port.cs)
 
     def setphase(self, line: Line, port: PortState, out: list[str]) -> None:
         """SETPHASE: Ixx75 into the phase position register [A L3263]; the motors here are not
@@ -656,6 +778,25 @@ def _longest_word(s: str, i: int) -> str:
         if word[:k] in _WORD_NAMES:
             return word[:k]
     return ""
+
+
+def _list_numbers(line: Line) -> tuple[int, list[int]]:
+    """`n[,start[,count]]` after LIST PROG."""
+    line.skip()
+    n = line.integer()
+    if n is None:
+        raise CommandError(ERR_DATA)
+    args: list[int] = []
+    while len(args) < 2:
+        line.skip()
+        if not line.take(","):
+            break
+        line.skip()
+        v = line.integer()
+        if v is None:
+            raise CommandError(ERR_DATA)
+        args.append(v)
+    return n, args
 
 
 def _table_kind(line: Line) -> str | None:
