@@ -9,7 +9,8 @@ A flooding client never stalls the daemon (issue 22): one request runs per turn 
 scheduler's ticks and the other clients served between two requests, and the connection is not
 read while requests wait their turn or while its replies are not read (the transport's buffer
 past its high-water mark; TCP flow control does the rest). A session whose pending output passes
-its bound (`MAX_PENDING`: SENDLINE replies never fetched) is closed, logged once.
+its bound (the card's `max_pending_kib`, default `MAX_PENDING`: SENDLINE replies never fetched)
+is closed, logged once.
 """
 
 from __future__ import annotations
