@@ -178,6 +178,26 @@ def test_a_connection_idle_for_idle_timeout_s_is_closed_and_logged(tmp_path: Pat
     assert "closed, idle for 0.2s (idle_timeout_s)" in log
 
 
+def test_a_galil_connection_held_by_a_trippoint_is_not_idle(tmp_path: Path) -> None:
+    """A connection waiting on `WT` (lockstep: the card's time stands still) is waiting on the
+    card, not idle: it outlives `idle_timeout_s`, while a connection opened after it that sent
+    nothing is closed (its deadline falls after the held one's)."""
+    rack = GALIL_RACK.format(endpoint="tcp://127.0.0.1:0") + "idle_timeout_s = 0.2\n"
+    served = Served(tmp_path, rack)
+    try:
+        address = served.port("galil0")
+        with connect(address) as held:
+            held.sendall(b"WT 100000\r")
+            with connect(address) as idle:
+                assert closed_by_peer(idle)
+            held.setblocking(False)
+            with pytest.raises(BlockingIOError):  # open, nothing to read: the WT still holds it
+                held.recv(16)
+    finally:
+        log = served.stop()
+    assert log.count("closed, idle for 0.2s (idle_timeout_s)") == 1
+
+
 def test_the_systemd_unit_opens_files_for_every_connection_the_default_rack_allows() -> None:
     """LimitNOFILE covers the default rack's card ports at their max_connections, with room for
     the ZeroMQ clients and the daemon's own files."""
