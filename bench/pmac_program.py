@@ -124,6 +124,44 @@ def lost_ticks(rack: Any) -> int:
     return int(rack.stats()["scheduler"]["lost_ticks"])
 
 
+def card_cost(cycles: int = 3000, repeats: int = 3) -> dict[str, Any]:
+    """The card's own work per servo cycle, in process (a `Firmware`, no sockets): us per cycle
+    (median of `repeats`, perf_counter_ns) with the card idle, with PROG 1 running, with PROG 1
+    and PLC 1 and 2, and with the PLCs alone; and the share of the 442.7 us period it takes."""
+    from vdevd.devices.pmac.firmware import Firmware
+    from vdevd.devices.pmac.online import PortState
+
+    period = 442_708
+    fw = Firmware(8, period, "servo")
+    fw.restore({})
+    port = PortState()
+    for line in SETUP + PROGRAM + PLCS:
+        if fw.execute(port, line).error is not None:
+            raise RuntimeError(f"{line!r} refused in process")
+
+    def per_cycle() -> float:
+        runs = []
+        for _ in range(repeats):
+            t0 = time.perf_counter_ns()
+            for _ in range(cycles):
+                fw.tick(fw.now_ns + period)
+            runs.append((time.perf_counter_ns() - t0) / cycles / 1000)
+        return float(sorted(runs)[len(runs) // 2])
+
+    out: dict[str, Any] = {"period_us": period / 1000}
+    out["idle"] = per_cycle()
+    fw.execute(port, "&1B1R")
+    out["program"] = per_cycle()
+    fw.execute(port, "ENABLE PLC 1,2")
+    out["program + PLCs"] = per_cycle()
+    fw.execute(port, "&1A")
+    fw.tick(fw.now_ns + period * 1000)
+    out["PLCs"] = per_cycle()
+    if not fw.motion.any_running() and fw.p[20] > 0:
+        return out
+    raise RuntimeError("the in-process program did not stop or the PLCs did not scan")
+
+
 def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin: str = "split",
         seed: int = 1) -> dict[str, Any]:
     with warnings.catch_warnings():
@@ -211,6 +249,7 @@ def run(n: int = 3000, repeats: int = 3, warmup: int = 1000, block: int = 5, pin
     params = {"n": n, "repeats": repeats, "warmup": warmup, "block": block, "command": COMMAND,
               "clock": "realtime", "transport": "tcp loopback"}
     return {"figure": "pmac-program", "placement": where, "params": params, "phases": figures,
+            "card_us_per_cycle": card_cost(),
             "ratios": {f"{ETHERNET}, {p}": f["ratios"][ETHERNET] for p, f in figures.items()},
             "pass": bool(figures["busy"]["pass"])}
 
@@ -229,6 +268,10 @@ def report(r: dict[str, Any]) -> None:
         print(f"vs raw pyzmq REQ/REP: p50 {z['p50']:.2f}x, p99 {z['p99']:.2f}x; lost ticks "
               f"{f['lost_ticks']}; daemon CPU {f['daemon_cpu_percent']:.0f} % of a core while "
               f"timed (serving included){extra}")
+    cost = r["card_us_per_cycle"]
+    table(["card state", "us per servo cycle", "% of the period"],
+          [[k, v, 100 * v / cost["period_us"]] for k, v in cost.items() if k != "period_us"],
+          title="the card's own work per servo cycle, in process (Firmware.tick, perf_counter_ns)")
     busy = r["phases"]["busy"]["ratios"][ETHERNET]
     ok = "PASS" if r["pass"] else "FAIL"
     print(f"busy / raw TCP: p50 {busy['p50']:.2f}x (goal <= {GOAL_P50}), p99 {busy['p99']:.2f}x"
