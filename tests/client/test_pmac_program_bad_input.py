@@ -139,3 +139,10 @@ def test_bad_input_gets_the_cards_errors_and_the_other_cs_keeps_its_timing(
     assert eth("#3P")[0] == "8000\r" + ACK
     assert not int(eth("???")[0][:6], 16) & WATCHDOG
     assert float(eth("P50")[0].split()[0]) > scans       # the PLC still loops, one pass a scan
+    # decision 0008: the endless PLC keeps the card out of rest; disabled, the card rests again
+    quiet = host.rack.stats()["cards"]["pmac0"]["quiet_ticks"]
+    host.step(300)
+    assert host.rack.stats()["cards"]["pmac0"]["quiet_ticks"] == quiet
+    assert eth("DISABLE PLC 5")[0] == ACK
+    host.step(300)
+    assert host.rack.stats()["cards"]["pmac0"]["quiet_ticks"] > quiet
