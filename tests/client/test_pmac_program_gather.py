@@ -1,7 +1,9 @@
 """Data gathering of a running motion program, end to end through a real daemon (lockstep clock):
 `LIST GATHER` over Ethernet (dls-pmaclib, parsed as dls-pmaccontrol parses it) against the path a
-LINEAR move commands, and a beamline-style step scan that starts and ends its own gathering with
-`CMD"GAT"` / `CMD"END GAT"`, read back with vdevclient.pcomm's Gather.h functions [spec pmac.md
+LINEAR move commands, and beamline-style step and fly (blended raster) scans that start and end
+their own gathering with `CMD"GAT"` / `CMD"END GAT"`, read back with vdevclient.pcomm's Gather.h
+functions (a long LIST GATHER reply is not read with dls-pmaclib: its GETBUFFER loop fails on a
+1400-byte piece ending in CR, README "Ethernet protocol") [spec pmac.md
 §2.8, §3.3; Turbo UM "Linear Blended Moves", "How PMAC Executes a Motion Program"; README
 "Motion programs", "Data gathering"]."""
 
@@ -173,3 +175,82 @@ def test_step_scan_program_gathers_its_own_scan_with_cmd_gat(host: Pmac, tmp_pat
     assert held == grid
     assert tuple(path[-1]) == grid[-1]
     assert tuple(path[0]) == pytest.approx((0.0, 0.0), abs=1.0)  # gathering began with the scan
+
+
+# -- a beamline fly scan ---------------------------------------------------------------------------
+FLY_SCAN = """\
+; a snake raster of P2 rows of P3 units, P4 apart, gathered from the program itself
+OPEN PROG 3 CLEAR
+LINEAR ABS TA100 TS0 F50
+CMD"GAT"
+P1 = 0
+WHILE (P1 < P2)
+  IF (P1 % 2 = 0)
+    X(P3)
+  ELSE
+    X0
+  ENDIF
+  Y((P1 + 1) * P4)
+  P1 = P1 + 1
+ENDWHILE
+DWELL0
+CMD"END GAT"
+CLOSE
+"""
+
+
+def blended(t: np.ndarray, points: list[float], times: list[float], ta: float) -> np.ndarray:
+    """Moves through `points` (the start first) in `times`, blended with TA centred on each
+    corner at constant acceleration (TS0), the first blend centred on t = TA/2: the velocity is
+    each move's (distance/time) over its span, smoothed by a TA-wide box [UM "Linear Blended
+    Moves"]; exact while no move is shorter than TA."""
+    def ramp(u: np.ndarray) -> np.ndarray:  # the integral of a unit step smoothed over TA
+        return np.where(u < -ta / 2, 0.0, np.where(u < ta / 2, (u + ta / 2) ** 2 / (2 * ta), u))
+
+    corners = ta / 2 + np.concatenate([[0.0], np.cumsum(times)])
+    pos = np.full_like(t, points[0])
+    for k, move_t in enumerate(times):
+        v = (points[k + 1] - points[k]) / move_t
+        pos += v * (ramp(t - corners[k]) - ramp(t - corners[k + 1]))
+    return pos
+
+
+def test_fly_scan_gathers_the_blended_raster_from_cmd_gat_to_the_end(host: Pmac,
+                                                                      tmp_path: Path) -> None:
+    """Three rows of 10 units at F50 (0.2 s each), 6-unit steps (0.12 s), TA100 TS0: every
+    gathered commanded position is on the blended path at its sample's program time. The CMD"GAT"
+    met at R gathers from the first servo cycle on, as a host's `GATHER &1B1R` does (sample j
+    at (1 + j·I5049) cycles); DWELL0 holds the calculation until the motion has ended, so
+    CMD"END GAT" after it ends gathering with the scan, at ΣT + TA = 1.06 s."""
+    dev = DEVICE
+    out = ctypes.create_string_buffer(256)
+    pcomm.PmacGetResponseA(dev, out, 256, SETUP)
+    source_file = tmp_path / "fly.pmc"
+    source_file.write_text(FLY_SCAN)
+    assert pcomm.PmacDownloadA(dev, None, None, None, str(source_file)) == 1
+    period = 5
+    assert pcomm.PmacSetGather(dev, 0, "D:$000088", True)
+    assert pcomm.PmacSetGather(dev, 1, "D:$000108", True)
+    assert pcomm.PmacInitPlotGather(dev, 1000, period)
+    pcomm.PmacGetResponseA(dev, out, 256, "P2=3 P3=10 P4=6")
+    pcomm.PmacGetResponseA(dev, out, 256, "&1B3R")
+    host.step(round(1.5 / DT))
+    assert not int(pcomm.PmacGetResponseA(dev, out, 256, "???").text[:6], 16) & GATHER_BIT
+    sources, count = ctypes.c_uint(), ctypes.c_uint()
+    assert pcomm.PmacCollectGatherData(dev, ctypes.byref(sources), ctypes.byref(count))
+    n = count.value
+    scan_s = 3 * 0.2 + 3 * 0.12 + 0.1
+    last = (1 + period * (n - 1)) * DT
+    assert scan_s - (period + 1) * DT <= last <= scan_s + 2 * DT, (last, scan_s)
+    scale = pcomm.PmacGetVariable(dev, "I", 108) * 32
+    xs: list[float] = []
+    ys: list[float] = []
+    assert pcomm.PmacGetGatherSamples(dev, 0, None, xs, n)
+    assert pcomm.PmacGetGatherSamples(dev, 1, None, ys, n)
+    t = (1 + period * np.arange(n)) * DT
+    times = [0.2, 0.12] * 3
+    x = blended(t, [0.0, 10e3, 10e3, 0.0, 0.0, 10e3, 10e3], times, 0.1)
+    y = blended(t, [0.0, 0.0, 6e3, 6e3, 12e3, 12e3, 18e3], times, 0.1)
+    assert np.abs(np.array(xs) / scale - x).max() < 0.1
+    assert np.abs(np.array(ys) / scale - y).max() < 0.1
+    assert xs[-1] / scale == 10e3 and ys[-1] / scale > 17_990  # the last sample ends the scan
