@@ -62,7 +62,7 @@ PHASES = ("idle", "busy")
 
 #: C.S. 1 with X on motor 1 and Y on motor 2 (1000 counts a unit), both closed loop
 SETUP = ("&1#1->1000X", "&1#2->1000Y", "#1J/", "#2J/", "I116=1000", "I216=1000")
-#: a raster that never ends: rows of 0.5 units at 25 units/s with 20 ms blends, 0.05 a row
+#: a raster that never ends: 20 rows of 0.5 units, 0.05 apart, at 25 units/s with 20 ms blends
 PROGRAM = (
     "OPEN PROG 1 CLEAR",
     "LINEAR ABS TA20 TS5 F25",
