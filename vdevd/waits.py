@@ -111,6 +111,36 @@ def make_waiter(args: Mapping[str, Any], card: Card, region: Callable[[str], Reg
     return w
 
 
+def holds_now(args: Mapping[str, Any], regions: Mapping[tuple[str, str], Region],
+              now_ns: int) -> dict[str, Any] | None:
+    """The answer of a valid wait on a value (`args` of a validated `wait`) whose condition
+    holds now: what `Waits.add` of its waiter answers at once ({fired, value, now_ns}), without
+    making the waiter (a batch's wait for a register that already reads its value: an RTC
+    post's first wait). None for anything else (another kind of wait, one that does not hold,
+    a field `make_waiter` refuses, a region not in `regions`): `make_waiter` and `Waits.add`
+    then take it as always (and raise what they raise)."""
+    if args.get("on") != "value":
+        return None
+    region = regions.get((args.get("card"), args.get("region")))  # type: ignore[arg-type]
+    if region is None or "offset" not in args or "value" not in args:
+        return None
+    size, value, cmp = args.get("size", 4), args["value"], args.get("cmp", "eq")
+    if not 0 <= args["timeout_ns"] <= MAX_WAIT_NS or size not in (1, 2, 4, 8) \
+            or cmp not in ("eq", "ne"):
+        return None
+    full = (1 << (8 * size)) - 1
+    mask = args.get("mask", full)
+    if not 0 <= mask <= full or value & ~mask:
+        return None
+    try:
+        raw = region.get_peek(args["offset"], size)
+    except VdevError:  # out of bounds: make_waiter says so
+        return None
+    if ((raw & mask) == value) != (cmp == "eq"):
+        return None
+    return {"fired": True, "value": raw, "now_ns": now_ns}
+
+
 class Waits:
     """The pending waiters and the timer heap, answered in simulated time."""
 
