@@ -42,6 +42,7 @@ from vdevd.devices.octavia import (
     cmd_motion,
     cmd_nurbs,
     cmd_tables,
+    pubkernel,
 )
 from vdevd.devices.octavia.commands import COMMANDS
 from vdevd.devices.octavia.contour import RingContour
@@ -76,6 +77,7 @@ _HOSTACC_ACTPOS, _HOSTACC_ACTVEL, _HOSTACC_ERROR = (
 _M4ACC_ACTPOS, _M4ACC_ACTVEL, _M4ACC_ERROR = (
     int(Dpr.M4ACC_ACTPOS), int(Dpr.M4ACC_ACTVEL), int(Dpr.M4ACC_ERROR))
 _ENCSTAT, _ADC, _INPUT = int(Dpr.ENCSTAT), int(Dpr.ADC), int(Dpr.INPUT)
+_ACTVEL_SCALE = float(ACTVEL_SCALE)
 #: DSPSTAT1 type bit -> its INTAXIS source byte (000h + bit number + 1) [Table 6-2]
 _SOURCE = {int(b): int(Dpr.DSPSTAT1) + 1 + int(b).bit_length() - 1 for b in DspStat1}
 
@@ -161,6 +163,10 @@ class Firmware:
         bank1, bank2 = self.windows.state
         self._pub_banks = ((bank1[:, :k], pub[:, :k]),) + (
             ((bank2[:, :n - 4], pub[:, 4:n]),) if n > 4 else ())
+        #: the rows and their store in one compiled call (pubkernel; None: the numpy path) over
+        #: the DPR as bytes
+        self._pub_kernel = pubkernel.compiled()
+        self._mem8 = np.ndarray((DPR_SIZE,), np.uint8, buffer=buf)
         # the battery-backed board RAM and DSPL surface (RESET keeps them) and the cam and gear
         # slaves (follow.py); nv_dirty: the battery image changed since it was last taken
         self.ram = BoardRam()  # the on-board RAM: tables a reset keeps [Ch8]
@@ -605,18 +611,25 @@ class Firmware:
         [Table 6-5; spec §2.5.1]."""
         ax, n, w, buf = self.core.axes, self.n, self.windows, self.buf
         pub = self._published
-        vel, fe, rows = self._pub_rows
-        pub[0] = ax.encoder  # ACTPOS, ACTVEL, ERROR: one (3, n) block in the DPR's row order
-        np.multiply(ax.vel, TS, out=vel)
-        vel *= ACTVEL_SCALE
-        np.rint(vel, out=vel)
-        np.rint(ax.ferr, out=fe)
-        rows[...] = self._pub_tmp  # counts as the card's int32 words: wrapping beyond 2^31 when stored
-        if (buf[_HOSTACC_ACTPOS] != 1 and buf[_HOSTACC_ACTVEL] != 1
-                and buf[_HOSTACC_ERROR] != 1):  # the usual case: one store a bank
+        free = (buf[_HOSTACC_ACTPOS] != 1 and buf[_HOSTACC_ACTVEL] != 1
+                and buf[_HOSTACC_ERROR] != 1)  # the usual case: one store a bank
+        if free:
             buf[_M4ACC_ACTPOS] = buf[_M4ACC_ACTVEL] = buf[_M4ACC_ERROR] = 1
-            for bank, part in self._pub_banks:
-                bank[...] = part
+        if self._pub_kernel is not None:  # the rows and (free) their store, compiled
+            self._pub_kernel(ax.encoder, ax.vel, ax.ferr, pub, self._mem8, n, TS, _ACTVEL_SCALE,
+                             free)
+        else:
+            vel, fe, rows = self._pub_rows
+            pub[0] = ax.encoder  # ACTPOS, ACTVEL, ERROR: one (3, n) block in the DPR's row order
+            np.multiply(ax.vel, TS, out=vel)
+            vel *= ACTVEL_SCALE
+            np.rint(vel, out=vel)
+            np.rint(ax.ferr, out=fe)
+            rows[...] = self._pub_tmp  # counts as the card's int32 words: wrapping beyond 2^31 when stored
+            if free:
+                for bank, part in self._pub_banks:
+                    bank[...] = part
+        if free:
             buf[_M4ACC_ACTPOS] = buf[_M4ACC_ACTVEL] = buf[_M4ACC_ERROR] = 0
         else:
             w.put(Window.ACTPOS, w.actpos, pub[0].astype(np.int32), n)
