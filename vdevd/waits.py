@@ -122,21 +122,19 @@ def holds_now(args: Mapping[str, Any], regions: Mapping[tuple[str, str], Region]
     if args.get("on") != "value":
         return None
     region = regions.get((args.get("card"), args.get("region")))  # type: ignore[arg-type]
-    if region is None or "offset" not in args or "value" not in args:
-        return None
-    size, value, cmp = args.get("size", 4), args["value"], args.get("cmp", "eq")
-    if not 0 <= args["timeout_ns"] <= MAX_WAIT_NS or size not in (1, 2, 4, 8) \
-            or cmp not in ("eq", "ne"):
+    size = args.get("size", 4)
+    if region is None or "offset" not in args or "value" not in args or size not in (1, 2, 4, 8):
         return None
     full = (1 << (8 * size)) - 1
-    mask = args.get("mask", full)
-    if not 0 <= mask <= full or value & ~mask:
-        return None
+    mask, value, cmp = args.get("mask", full), args["value"], args.get("cmp", "eq")
     try:
         raw = region.get_peek(args["offset"], size)
     except VdevError:  # out of bounds: make_waiter says so
         return None
-    if ((raw & mask) == value) != (cmp == "eq"):
+    if ((raw & mask) == value) != (cmp == "eq"):  # (first: a wait that does not hold is usual)
+        return None
+    if not 0 <= args["timeout_ns"] <= MAX_WAIT_NS or cmp not in ("eq", "ne") \
+            or not 0 <= mask <= full or value & ~mask:
         return None
     return {"fired": True, "value": raw, "now_ns": now_ns}
 
