@@ -52,8 +52,11 @@ def axmove(relative: str, shape: str, fw: Firmware, head: dict[str, Any], groups
     cmd_pos, mode, prev = core.axes.cmd_pos, fw.mode, fw._prev_flags
     for a, g in todo:
         acc = acc_from_raw(g["acc"])
-        here = _rint(float(cmd_pos[a]))
-        target = here + g["pos"] if relative == "rel" else float(g["pos"])
+        if relative == "rel" or shape == "timed":  # (an AXMOVE needs no present position)
+            here = _rint(float(cmd_pos[a]))
+            target = here + g["pos"] if relative == "rel" else float(g["pos"])
+        else:
+            target = float(g["pos"])
         if shape == "timed":
             vel = min(move_time_velocity(acc, abs(target - here), float(g["tm"])), VMAX)
         else:

@@ -586,12 +586,12 @@ class Firmware:
         reports it (Ch7 Table 7-1): "RTC ignored" (000h b7, 008h) for axes halting under STOP or
         *ESTOP (with `halting`), else "conflicting commands" (b6, 007h) for axes in one of the
         modes `conflicts`. No axis: discarded, unreported."""
-        if halting:
-            stopping = self.halting(axes)
+        modes = self.mode.tolist()
+        if halting:  # `halting`, with the modes read once
+            stopping = list(axes) if self.estop else [a for a in axes if modes[a] in HALTING]
             if stopping:
                 self.post_stat1(DspStat1.IGNORED, sum(1 << a for a in stopping))
                 return True
-        modes = self.mode.tolist()
         busy = [a for a in axes if modes[a] in conflicts]
         if busy:
             self.post_stat1(DspStat1.CONFLICT, sum(1 << a for a in busy))
