@@ -32,7 +32,7 @@ from vdevd.region import Region
 from vdevd.rt import kernel
 from vdevd.rt.scheduler import Scheduler
 from vdevd.shm import Segment
-from vdevd.waits import MAX_PENDING, Reply, Waiter, Waits, holds_now, make_waiter
+from vdevd.waits import MAX_PENDING, Reply, Waiter, Waits, make_waiter, value_wait
 
 log = logging.getLogger("vdevd.rack")
 
@@ -337,10 +337,10 @@ class Rack:
                 i += 1
                 continue
             if op.op == "wait":
-                held = None if len(self.waits.pending) >= MAX_PENDING else holds_now(
-                    op.args, regions, self.now_ns)
-                if held is not None:  # a wait on a value that holds: answered as Waits.add would
-                    append(held)
+                quick = None if len(self.waits.pending) >= MAX_PENDING else value_wait(
+                    op.args, self.cards, regions, self.now_ns)
+                if type(quick) is dict:  # a wait on a value that holds: Waits.add's answer
+                    append(quick)
                     i += 1
                     continue
                 # until _add_waiter returns, a result is kept here and this loop goes on
@@ -358,10 +358,14 @@ class Rack:
                         except Exception as exc:  # from Waits.service: no execute() around it
                             reply(self._internal(exc, f"batch op {i + 1}.."))
 
-                try:
-                    waiter = self._make_waiter(op.args, resume)
-                except VdevError as exc:
-                    raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
+                if isinstance(quick, Waiter):  # (made in a few operations)
+                    quick.reply = resume
+                    waiter = quick
+                else:
+                    try:
+                        waiter = self._make_waiter(op.args, resume)
+                    except VdevError as exc:
+                        raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
                 now.append(None)
                 self._add_waiter(waiter)
                 res = now.pop()

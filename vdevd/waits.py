@@ -111,32 +111,43 @@ def make_waiter(args: Mapping[str, Any], card: Card, region: Callable[[str], Reg
     return w
 
 
-def holds_now(args: Mapping[str, Any], regions: Mapping[tuple[str, str], Region],
-              now_ns: int) -> dict[str, Any] | None:
-    """The answer of a valid wait on a value (`args` of a validated `wait`) whose condition
-    holds now: what `Waits.add` of its waiter answers at once ({fired, value, now_ns}), without
-    making the waiter (a batch's wait for a register that already reads its value: an RTC
-    post's first wait). None for anything else (another kind of wait, one that does not hold,
-    a field `make_waiter` refuses, a region not in `regions`): `make_waiter` and `Waits.add`
-    then take it as always (and raise what they raise)."""
+def value_wait(args: Mapping[str, Any], cards: Mapping[str, Card],
+               regions: Mapping[tuple[str, str], Region], now_ns: int
+               ) -> dict[str, Any] | Waiter | None:
+    """A batch's wait on a value (`args` of a validated `wait`) in a few operations, when every
+    field is one `make_waiter` accepts: what `Waits.add` answers at once if its condition holds
+    now ({fired, value, now_ns}: an RTC post's first wait, for the idle 3C2h), else its waiter as
+    `make_waiter` makes it, with no `reply` yet (the caller sets it, then adds it). None for
+    anything else (another kind of wait, a field `make_waiter` refuses, a card or region not
+    there): `make_waiter` and `Waits.add` then take it as always, and raise what they raise."""
     if args.get("on") != "value":
         return None
-    region = regions.get((args.get("card"), args.get("region")))  # type: ignore[arg-type]
+    name = args.get("card")
+    card, region = cards.get(name), regions.get((name, args.get("region")))  # type: ignore[arg-type]
     size = args.get("size", 4)
-    if region is None or "offset" not in args or "value" not in args or size not in (1, 2, 4, 8):
+    if card is None or region is None or "offset" not in args or "value" not in args \
+            or size not in (1, 2, 4, 8):
         return None
     full = (1 << (8 * size)) - 1
-    mask, value, cmp = args.get("mask", full), args["value"], args.get("cmp", "eq")
+    mask, value, cmp, timeout = (args.get("mask", full), args["value"], args.get("cmp", "eq"),
+                                 args["timeout_ns"])
+    if not 0 <= timeout <= MAX_WAIT_NS or cmp not in ("eq", "ne") or not 0 <= mask <= full \
+            or value & ~mask:
+        return None
+    offset = args["offset"]
     try:
-        raw = region.get_peek(args["offset"], size)
+        raw = region.get_peek(offset, size)  # (make_waiter's bounds check)
     except VdevError:  # out of bounds: make_waiter says so
         return None
-    if ((raw & mask) == value) != (cmp == "eq"):  # (first: a wait that does not hold is usual)
-        return None
-    if not 0 <= args["timeout_ns"] <= MAX_WAIT_NS or cmp not in ("eq", "ne") \
-            or not 0 <= mask <= full or value & ~mask:
-        return None
-    return {"fired": True, "value": raw, "now_ns": now_ns}
+    equal = cmp == "eq"
+    if ((raw & mask) == value) == equal:
+        return {"fired": True, "value": raw, "now_ns": now_ns}
+    return Waiter(now_ns + timeout, _UNSET, card=card, on="value", region=region, offset=offset,
+                  size=size, mask=mask, value=value, equal=equal)
+
+
+def _UNSET(result: Any) -> None:
+    raise AssertionError("value_wait's waiter was added without its reply")
 
 
 class Waits:

@@ -1,6 +1,6 @@
-"""`waits.holds_now`, the batch's shortcut for a wait on a value that already holds: the answer
-`Waits.add` gives its waiter at once, or None where the general path must decide (a wait that
-does not hold, another kind, a field `make_waiter` refuses); and a batch answers the same with
+"""`waits.value_wait`, the batch's shortcut for a wait on a value: the answer `Waits.add` gives
+at once when it holds, else the waiter `make_waiter` makes, or None where the general path must
+decide (another kind of wait, a field `make_waiter` refuses); and a batch answers the same with
 it as without."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from vdevd.devices.base import CardContext
 from vdevd.devices.octavia.card import OctaviaCard
 from vdevd.errors import VdevError
 from vdevd.rack import Rack
-from vdevd.waits import holds_now
+from vdevd.waits import Waiter, make_waiter, value_wait
 
 BASE = {"op": "wait", "card": "oct0", "region": "dpr", "on": "value", "timeout_ns": 10**8}
 
@@ -26,7 +26,8 @@ def rack() -> Rack:
 
 
 def general(r: Rack, args: dict[str, Any]) -> Any:
-    """What make_waiter and Waits.add answer at once: the result, "pending", or the error code."""
+    """What make_waiter and Waits.add answer at once: the result, the waiter kept, or the error
+    code."""
     seen: list[Any] = []
     try:
         w = r._make_waiter(args, seen.append)
@@ -35,8 +36,13 @@ def general(r: Rack, args: dict[str, Any]) -> Any:
         return exc.code
     if kept:
         r.waits.pending.remove(w)
-        return "pending"
+        return w
     return seen[0]
+
+
+def fields(w: Waiter) -> tuple[Any, ...]:
+    return (w.deadline_ns, w.card, w.on, w.line, w.after_seq, w.region, w.offset, w.size, w.mask,
+            w.value, w.equal, w.extra)
 
 
 CASES: list[dict[str, Any]] = [
@@ -61,16 +67,28 @@ CASES: list[dict[str, Any]] = [
 
 
 @pytest.mark.parametrize("case", CASES)
-def test_holds_now_answers_what_the_general_path_answers_at_once(case: dict[str, Any]) -> None:
+def test_value_wait_answers_or_waits_as_the_general_path(case: dict[str, Any]) -> None:
     r = rack()
     args = {**BASE, **case}
     del args["op"]
     want = general(r, args)
-    got = holds_now(args, r._regions, r.now_ns)
-    if got is None:
-        assert want == "pending" or isinstance(want, str) or not want.get("fired"), (case, want)
+    got = value_wait(args, r.cards, r._regions, r.now_ns)
+    if got is None:  # the general path decides: an error, or another kind of wait
+        assert isinstance(want, str) or args["on"] != "value", (case, want)
+    elif isinstance(got, Waiter):
+        assert isinstance(want, Waiter), (case, want)
+        assert fields(got) == fields(want), case
     else:
         assert got == want and list(got) == list(want), (case, got, want)
+
+
+def test_make_waiter_is_what_value_wait_makes() -> None:
+    r = rack()
+    args = {**BASE, "offset": 0x3C3, "size": 1, "mask": 0xF0, "value": 0x10, "cmp": "eq"}
+    del args["op"]
+    made = make_waiter(args, r.card("oct0"), lambda n: r.region("oct0", n), r.now_ns, print)
+    quick = value_wait(args, r.cards, r._regions, r.now_ns)
+    assert isinstance(quick, Waiter) and fields(quick) == fields(made)
 
 
 def test_a_post_batch_answers_alike_with_and_without_the_shortcut(
@@ -86,6 +104,6 @@ def test_a_post_batch_answers_alike_with_and_without_the_shortcut(
         return out
 
     fast = post(rack())
-    monkeypatch.setattr("vdevd.rack.holds_now", lambda *a: None)
+    monkeypatch.setattr("vdevd.rack.value_wait", lambda *a: None)
     assert post(rack()) == fast
     assert fast[0][0] == {"fired": True, "value": 0, "now_ns": 0}
