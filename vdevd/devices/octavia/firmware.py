@@ -137,7 +137,7 @@ class Firmware:
         self.inputs = 0  # input levels after polarity: bit set = active (INPUT 094h)
         self.ext = 0  # *EXT1..4 active (bit 0 = EXT1)
         self.encstat = 0  # ENCSTAT (113h): encoder hardware failure bits
-        self.adc = np.zeros(4, dtype=np.int16)  # ADC1..4 (the ACC4000 option), codes
+        self.adc = np.zeros(4, dtype="<i2")  # ADC1..4 (the ACC4000 option), codes, as in the DPR
         #: index pulses (physical counts: phase + k * period; None: no encoder has any) and the
         #: physical positions at the last sample
         self.index_period: np.ndarray | None = None
@@ -167,6 +167,8 @@ class Firmware:
         #: the DPR as bytes
         self._pub_kernel = pubkernel.compiled()
         self._mem8 = np.ndarray((DPR_SIZE,), np.uint8, buffer=buf)
+        #: the RTC arguments from 3C3h on, for `unpack` (the DPR never changes size)
+        self._args_view = memoryview(buf)[_ARGS:DPR_SIZE]
         # the battery-backed board RAM and DSPL surface (RESET keeps them) and the cam and gear
         # slaves (follow.py); nv_dirty: the battery image changed since it was last taken
         self.ram = BoardRam()  # the on-board RAM: tables a reset keeps [Ch8]
@@ -283,9 +285,8 @@ class Firmware:
                 self.unknown.add(code)
                 log.warning("octavia: RTC code %02Xh is not defined: cleared and ignored", code)
         else:
-            try:
-                with memoryview(buf) as view:  # read in place: no copy of the 7 KiB from 3C3h
-                    head, groups = unpack(rtc, view[_ARGS:DPR_SIZE])
+            try:  # read in place (a view made once): no copy of the 7 KiB from 3C3h
+                head, groups = unpack(rtc, self._args_view)
             except Truncated as exc:  # cannot happen within 8 KiB: a guard
                 log.warning("octavia: %s", exc)
             else:
@@ -466,7 +467,7 @@ class Firmware:
 
     def publish_adc(self) -> None:
         """ADC1..4 at 502h.. unless the host holds 500h/501h [Table 6-10]."""
-        self.windows.put_bytes(Window.ADC, Dpr.ADC, self.adc.astype("<i2").tobytes())
+        self.windows.put_bytes(Window.ADC, Dpr.ADC, self.adc.tobytes())
 
     # -- NURBS [Ch9] -------------------------------------------------------------------------------
     def nurbs_count(self) -> int:
@@ -637,7 +638,7 @@ class Firmware:
             w.put(Window.ERROR, w.error, pub[2].astype(np.int32), n)
         if buf[_ENCSTAT] != self.encstat & 0xFF:
             w.put_bytes(Window.ENC, Dpr.ENCSTAT, bytes((self.encstat & 0xFF,)))
-        if buf[_ADC:_ADC + 8] != self.adc.astype("<i2").tobytes():
+        if buf[_ADC:_ADC + 8] != self.adc.tobytes():  # (little-endian int16 already)
             self.publish_adc()
         if self._deferred:
             self._deferred = [d for d in self._deferred if not w.put(d[1], d[0], d[2], n)]
