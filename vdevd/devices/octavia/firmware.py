@@ -588,14 +588,17 @@ class Firmware:
         *ESTOP (with `halting`), else "conflicting commands" (b6, 007h) for axes in one of the
         modes `conflicts`. No axis: discarded, unreported."""
         modes = self.mode.tolist()
-        if halting:  # `halting`, with the modes read once
-            stopping = list(axes) if self.estop else [a for a in axes if modes[a] in HALTING]
-            if stopping:
-                self.post_stat1(DspStat1.IGNORED, sum(1 << a for a in stopping))
-                return True
-        busy = [a for a in axes if modes[a] in conflicts]
+        stopping = busy = 0  # the axes' bits (loops, not comprehensions: every motion RTC)
+        for a in axes:
+            if modes[a] in HALTING:
+                stopping |= 1 << a
+            if modes[a] in conflicts:
+                busy |= 1 << a
+        if halting and axes and (self.estop or stopping):  # `halting`, modes read once
+            self.post_stat1(DspStat1.IGNORED, sum(1 << a for a in axes) if self.estop else stopping)
+            return True
         if busy:
-            self.post_stat1(DspStat1.CONFLICT, sum(1 << a for a in busy))
+            self.post_stat1(DspStat1.CONFLICT, busy)
             return True
         return not axes
 
