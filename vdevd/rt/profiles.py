@@ -4,9 +4,12 @@ Method. A command plans, from the axis's commanded state (p, v, a) at that insta
 *phases* of constant jerk (trapezoid: jerk 0 and a step in acceleration; S-curve: the seven
 jerk-limited segments) with absolute start times. Planning is scalar Python at command time, for
 the commanded axes only (a trapezoid's peak speed in closed form, an S-curve's by bisection); the
-phases go into per-axis rows of a phase table (MAX_PHASES columns). From a moving state a move
-first brings the acceleration to zero (S-curve), and if it cannot stop before the target it stops
-(with dec) and comes back: a retarget behind the axis reverses within the same bounds.
+phases go into per-axis rows of a phase table (MAX_PHASES columns). A trapezoid move's chain
+(`plan_move`, `to_phases`, `load`) and the commit after a plan run as one compiled call each
+(vdevd.rt.profile_kernel, the same operations; this module's Python is their reference). From a
+moving state a move first brings the acceleration to zero (S-curve), and if it cannot stop before
+the target it stops (with dec) and comes back: a retarget behind the axis reverses within the same
+bounds.
 
 Each tick is vectorised over all axes with no Python loop:
 - while no phase boundary is due (one Python float compare against the earliest end over all
