@@ -358,16 +358,17 @@ class Rack:
                         except Exception as exc:  # from Waits.service: no execute() around it
                             reply(self._internal(exc, f"batch op {i + 1}.."))
 
-                if isinstance(quick, Waiter):  # (made in a few operations)
+                now.append(None)
+                if isinstance(quick, Waiter):  # made in a few operations, known not to hold
                     quick.reply = resume
-                    waiter = quick
+                    self.waits.keep(quick)
+                    self.pacer.waiting()
                 else:
                     try:
                         waiter = self._make_waiter(op.args, resume)
                     except VdevError as exc:
                         raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
-                now.append(None)
-                self._add_waiter(waiter)
+                    self._add_waiter(waiter)
                 res = now.pop()
                 if res is None:
                     return  # the wait goes on: resume runs the rest

@@ -180,6 +180,13 @@ class Waits:
         self.pending.append(w)
         return True
 
+    def keep(self, w: Waiter) -> None:
+        """`add` of a waiter known not to hold now (`value_wait` made it after looking): kept,
+        BUSY beyond MAX_PENDING."""
+        if len(self.pending) >= MAX_PENDING:
+            raise VdevError(ErrorCode.BUSY, f"more than {MAX_PENDING} waits pending")
+        self.pending.append(w)
+
     def schedule_control(self, when_ns: int, card: Card, action: str,
                          params: Mapping[str, Any]) -> None:
         """Run the backdoor action at `when_ns`; its failure is logged and counted, never a stop
