@@ -8,8 +8,9 @@ Nothing here talks to a daemon; `vdevclient.mx4` posts what `encode` returns. Th
 
 from __future__ import annotations
 
+import operator
 import struct
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -254,16 +255,21 @@ def encode(name: str, head: Mapping[str, Any] | None = None, **per_axis: PerAxis
     if not 0 <= mask <= 0xFF:
         raise ValueError(f"{name}: mask {mask:#x} outside 00h..FFh")
     axes = _AXES_OF[mask] if type(mask) is int else [a for a in range(MAX_AXES) if mask >> a & 1]
-    columns = [(f, per_axis[f]) for f in layout.group_order]
+    columns = tuple(zip(layout.group_order, layout.group_values(per_axis), strict=True))
     per_post = layout.per_post
     if 0 < per_post >= len(axes):  # one post (the usual case): its mask is the mask given
-        # the values in DPR order, straight: one value for every axis (an int) as it is, a
-        # sequence through _axis_value
-        values = [head[n] for n in layout.head_order]
+        # the values in DPR order, straight: one value for every axis (an int) as it is, an int
+        # of a list as it is, anything else through _axis_value
+        values = list(layout.head_values(head))
         append = values.append
         for a in axes:
             for f, v in columns:
-                append(v if type(v) is int else _axis_value(name, f, v, a))
+                if type(v) is int:
+                    append(v)
+                elif type(v) is list and a < len(v) and type(v[a]) is int:
+                    append(v[a])
+                else:
+                    append(_axis_value(name, f, v, a))
         return [Post(name, rtc.code, layout.pack_values(values, len(axes), head))]
     rows = [[v if type(v) is int else _axis_value(name, f, v, a) for f, v in columns]
             for a in axes]
@@ -280,6 +286,9 @@ class _Layout:
         self.head_order = [n for n, _ in rtc.head]
         self.group_order = [n for n, _ in rtc.group]
         self.head_names = frozenset(self.head_order)
+        #: a mapping's head (group) values in DPR order, as a tuple (C-level itemgetters)
+        self.head_values = _getter(self.head_order)
+        self.group_values = _getter(self.group_order)
         self.group_names = frozenset(self.group_order) if rtc.mask is not None else frozenset()
         self.per_post = (ARG_BYTES - rtc.head_size) // rtc.group_size if rtc.group else 0
         self._codes = [c for _, c in rtc.head] + [c for _, c in rtc.group] * MAX_AXES
@@ -329,6 +338,16 @@ class _Layout:
                     return ValueError(f"{self.rtc.name}: {f} = {v} does not fit "
                                       f"{'a signed' if c.islower() else 'an unsigned'} {bits}-bit field")
         return ValueError(f"{self.rtc.name}: the values {fields} do not fit its layout")
+
+
+def _getter(names: list[str]) -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
+    """A mapping's values of `names`, in order, as a tuple."""
+    if len(names) == 1:
+        one = names[0]
+        return lambda d: (d[one],)
+    if not names:
+        return lambda d: ()
+    return operator.itemgetter(*names)
 
 
 _WRAP = {c: 1 << b for c, b in _BITS.items() if c.islower()}
