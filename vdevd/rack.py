@@ -41,7 +41,7 @@ from vdevd.region import Region
 from vdevd.rt import kernel
 from vdevd.rt.scheduler import Scheduler
 from vdevd.shm import Segment
-from vdevd.waits import Reply, Waiter, Waits, make_waiter
+from vdevd.waits import MAX_PENDING, Reply, Waiter, Waits, make_waiter, value_wait
 
 log = logging.getLogger("vdevd.rack")
 
@@ -373,6 +373,12 @@ class Rack:
                 i += 1
                 continue
             if op.op == "wait":
+                quick = None if len(self.waits.pending) >= MAX_PENDING else value_wait(
+                    op.args, self.cards, regions, self.now_ns)
+                if type(quick) is dict:  # a wait on a value that holds: Waits.add's answer
+                    append(quick)
+                    i += 1
+                    continue
                 # until _add_waiter returns, a result is kept here and this loop goes on
                 now: list[Any] = []
 
@@ -389,12 +395,17 @@ class Rack:
                         except Exception as exc:  # from Waits.service: no execute() around it
                             reply(self._internal(exc, f"batch op {i + 1}.."))
 
-                try:
-                    waiter = self._make_waiter(op.args, resume)
-                except VdevError as exc:
-                    raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
                 now.append(None)
-                self._add_waiter(waiter)
+                if isinstance(quick, Waiter):  # made in a few operations, known not to hold
+                    quick.reply = resume
+                    self.waits.keep(quick)
+                    self.pacer.waiting()
+                else:
+                    try:
+                        waiter = self._make_waiter(op.args, resume)
+                    except VdevError as exc:
+                        raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
+                    self._add_waiter(waiter)
                 res = now.pop()
                 if res is None:
                     return  # the wait goes on: resume runs the rest

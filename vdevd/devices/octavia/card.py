@@ -165,7 +165,8 @@ class OctaviaCard(Card):
         if fw.dspl.stale:  # a DSPL window refresh is due at the next 5 ms
             return None
         follow = fw.follow  # (its tables' copies are large: compared only while it follows)
-        return (core + state_bytes(fw.params, fw, fw.filters, fw.dspl, skip=("sample", "rtc_count"))
+        return (core + state_bytes(fw.params, fw, fw.filters, fw.dspl,
+                                   skip=("sample", "rtc_count", "_mem8"))  # (the DPR: below)
                 + (state_bytes(follow, follow.cam, follow.gears) if follow.active else b"")
                 + bytes(self.dpr.buf) + bytes((self.inta.asserted,)))
 
