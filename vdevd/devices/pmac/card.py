@@ -41,6 +41,7 @@ from vdevmaps.pmac import (
 
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
+from vdevd.devices.pmac.dpram_gather import DpramGather
 from vdevd.devices.pmac.eth_framing import KeptFraming
 from vdevd.devices.pmac.ethernet_server import EthernetServer, parse_endpoint
 from vdevd.devices.pmac.firmware import Firmware, Identity
@@ -269,6 +270,7 @@ class PmacCard(Card):
         self.dpram.hook(CMD_CONTROL, 2, on_write=self.ascii.command_control)
         self.dpram.hook(RESP_CONTROL, 2, on_write=self.ascii.response_control)
         self.reporting = Reporting(self.dpram.buf)
+        self.fw.gather.dpram = DpramGather(self.dpram.buf)  # I5000 = 2, 3 (dpram_gather.py)
         self.host_port_state = CommandPort(self)
         self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)
         self.fw.plc.on_message = self._plc_message
