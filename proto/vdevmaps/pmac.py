@@ -73,6 +73,11 @@ VBW_MAX_ENTRIES = 32
 #: an address specification's second word: bits 0-2 address bits 16-18, bits 4-5 the register
 #: [EPICS drvPmac.c PMAC_VARTYP_Y/L/X = 0x00/0x10/0x20]
 VB_TYPE_Y, VB_TYPE_L, VB_TYPE_X = 0x00, 0x10, 0x20
+#: where vdevclient.pcomm puts the tables (ASSUMPTION: PComm32's placement was not retrieved):
+#: the read buffer in the last 384 words of the open-use space (128 specifications and 256 data
+#: words), the write buffer's 32 six-word entries below it; the gather buffer has the rest
+VB_CLIENT_START = (0x4000 - 0x1140) // 4 - 3 * VB_MAX_ENTRIES
+VBW_CLIENT_START = VB_CLIENT_START - 3 * VBW_MAX_ENTRIES
 
 # -- DPRAM data gathering, I5000 = 2 or 3 [UM p.422; Turbo SRM DEFINE GATHER; PMAC1 DPRAM UM p.26;
 # PComm32 dpr.h `gatbuf`] -----------------------------------------------------------------------------
