@@ -97,6 +97,18 @@ from vdevclient._pcomm_dpr import (
     PmacDPRSetFloat,
     PmacDPRSetMem,
 )
+from vdevclient._pcomm_dprrot import (  # the binary rotary buffer, I45 [PComm32 dpr.h rotbuf]
+    DprBufBsy,
+    DprBufErr,
+    DprCmdErr,
+    DprEOF,
+    DprOk,
+    PmacDPRAsciiStrToRotA,
+    PmacDPRRotBuf,
+    PmacDPRRotBufChange,
+    PmacDPRRotBufInit,
+    PmacDPRRotBufRemove,
+)
 from vdevclient._pcomm_dprvar import (  # DPRAM variable buffers, I55 [PComm32 dprbkg.h]
     MAX_VBGBUF_USERS,
     VBG_L,
@@ -189,6 +201,9 @@ __all__ = [
     "PmacDPRGetVBGNumEntries", "PmacDPRGetVBGServoTimer", "PmacDPRGetVBGTotalEntries",
     "PmacDPRVarBufChange", "PmacDPRVarBufInit", "PmacDPRVarBufRead", "PmacDPRVarBufReadEx",
     "PmacDPRVarBufRemove", "PmacDPRWriteBuffer",
+    # the binary rotary buffer, I45 (_pcomm_dprrot.py)
+    "DprBufBsy", "DprBufErr", "DprCmdErr", "DprEOF", "DprOk", "PmacDPRAsciiStrToRotA",
+    "PmacDPRRotBuf", "PmacDPRRotBufChange", "PmacDPRRotBufInit", "PmacDPRRotBufRemove",
 ]
 
 log = logging.getLogger(__name__)

@@ -79,6 +79,33 @@ VB_TYPE_Y, VB_TYPE_L, VB_TYPE_X = 0x00, 0x10, 0x20
 VB_CLIENT_START = (0x4000 - 0x1140) // 4 - 3 * VB_MAX_ENTRIES
 VBW_CLIENT_START = VB_CLIENT_START - 3 * VBW_MAX_ENTRIES
 
+# -- the binary rotary program buffer, I45 [PComm32 dpr.h `struct rotbuf` (its Turbo notes); PMAC1
+# DPRAM UM p.30 "DPRAM Binary Rotary Program Buffer"; Turbo UM p.45, p.402] ---------------------------
+#: Y:$060414 status (bits 0-7 error number, bit 14 the card's rotary buffer full, bit 15 error),
+#: X:$060414 coordinate system, Y:$060415 host index, X:$060415 PMAC index (32-bit words from the
+#: ring's start), Y:$060416 ring size (words), X:$060416 ring start (PMAC words from $060450)
+ROT_STATUS, ROT_CS, ROT_HOST, ROT_PMAC, ROT_SIZE, ROT_START = (0x1050, 0x1052, 0x1054, 0x1056,
+                                                                0x1058, 0x105A)
+ROT_BUSY, ROT_ERROR = 0x4000, 0x8000
+#: the end-of-buffer word the host leaves at its index after each transfer ($0800, $FFFF)
+ROT_END = 0xFFFF0800
+#: the smallest ring [PMAC1 DPRAM UM p.30: six words]
+ROT_MIN_SIZE = 6
+#: where vdevclient.pcomm puts its ring (ASSUMPTION, as VB_CLIENT_START): 256 words below the
+#: variable write table
+ROT_CLIENT_SIZE = 256
+ROT_CLIENT_START = VBW_CLIENT_START - ROT_CLIENT_SIZE
+
+
+def rot_line_words(text: str) -> list[int]:
+    """A program line as the binary rotary ring carries it here (ASSUMPTION: Delta Tau's binary
+    command coding was not published): a header word with its length in characters (1-255),
+    then its ASCII text four characters a 32-bit word, little-endian, NUL-padded."""
+    data = text.encode("latin-1")[:255]
+    n = len(data)
+    data += bytes(-n % 4)
+    return [n] + [int.from_bytes(data[i:i + 4], "little") for i in range(0, len(data), 4)]
+
 # -- DPRAM data gathering, I5000 = 2 or 3 [UM p.422; Turbo SRM DEFINE GATHER; PMAC1 DPRAM UM p.26;
 # PComm32 dpr.h `gatbuf`] -----------------------------------------------------------------------------
 #: Y:$06044F buffer size (32-bit words), X:$06044F the offset (words) where the next item goes;
