@@ -8,14 +8,14 @@ commands are the longest word a run of letters starts with (after the variables 
 
 `COMMANDS.not_emulated` lists the on-line commands the digest documents that the card does not run
 yet, with the reason; `REFUSED` is the error number those the parser recognises answer (the others
-are unrecognised: ERR003). Motion programs come in issue 21, later (data gathering: gather.py, PLCs:
-plc.py) (README "Not yet").
+are unrecognised: ERR003). Data gathering: gather.py, PLCs: plc.py, motion programs: programs.py
+and program_runner.py (README "Not yet").
 """
 
 from __future__ import annotations
 
 from vdevd.devices.commands import Command, CommandTable
-from vdevd.devices.pmac.errors import ERR_NO_PROGRAM, ERR_NOT_OPEN
+from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, ERR_NOT_OPEN
 
 CHAR, WORD = "char", "word"
 #: the variable letters: followed by a number or `(`, a variable, not a word [§2.5]
@@ -55,6 +55,11 @@ COMMANDS = CommandTable(
         # coordinate system [§2.5, §2.8]
         _word("A", "abort"),
         _word("H", "hold"),
+        # motion-program run control [§2.5, §2.8; program_runner.py]
+        _word("B", "begin", section="§2.8"),
+        _word("R", "run", False, section="§2.8"),
+        _word("S", "run", True, section="§2.8"),
+        _word("Q", "quit", section="§2.8"),
         _word("UNDEFINE", "undefine", section=f"{_S25} [A L3284]"),
         _word("UNDEF", "undefine", section=f"{_S25} [A L3284]"),
         # global
@@ -86,12 +91,11 @@ COMMANDS = CommandTable(
     ],
     not_emulated={
         "CLEAR": "only the port with a buffer open may CLEAR it (plc.py)",
-        "LEARN": "no buffer can be open yet (issue 21)",
-        "B": "program run control: motion programs come in issue 21",
-        "R": "program run control: motion programs come in issue 21",
-        "S": "program run control: motion programs come in issue 21",
-        "Q": "program run control (quit; Q{n} is a variable): motion programs come in issue 21",
+        "LEARN": "LEARN (program the present positions) is not emulated",
         "ABR": "abort and run a program: motion programs come in issue 21",
+        "PR": "program lines remaining (rotary buffers) is not emulated: ERR003, not P then R",
+        "PC": "the program counter report is not emulated: ERR003",
+        "PE": "the program execution line report is not emulated: ERR003",
         "!": "the V1.936 axis-move command needs coordinate systems (issue 21): unrecognised",
     },
 )
@@ -99,6 +103,5 @@ COMMANDS = CommandTable(
 #: not emulated words the parser recognises -> the error number they answer (README "Not yet")
 REFUSED: dict[str, int] = {
     "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
-    "ABR": ERR_NO_PROGRAM,
-    "B": ERR_NO_PROGRAM, "R": ERR_NO_PROGRAM, "S": ERR_NO_PROGRAM, "Q": ERR_NO_PROGRAM,
+    "ABR": ERR_NO_PROGRAM, "PR": ERR_DATA, "PC": ERR_DATA, "PE": ERR_DATA,
 }

@@ -174,6 +174,8 @@ class Interpreter:
     def execute(self, port: PortState, text: str) -> Reply:
         if port is self.fw.plc.owner:  # a buffer is open on this port: its lines go there (plc.py)
             return self.fw.plc.enter(port, text)
+        if port is self.fw.motion.store.owner:  # a PROG buffer (programs.py)
+            return self.fw.motion.store.enter(port, text)
         plans = self._plans
         if text in plans:
             plan = plans[text]
@@ -462,7 +464,31 @@ class Interpreter:
         raise CommandError(code, f"{name} comes in a later issue")
 
     def hold(self, line: Line, port: PortState, out: list[str]) -> None:
-        """H: feed hold of the addressed C.S.; with no axes defined it holds nothing."""
+        """H: feed hold of the addressed C.S.'s program (program_runner.py); with none running it
+        holds nothing."""
+        self.fw.motion.runner(port.cs).feed_hold()
+
+    def begin(self, line: Line, port: PortState, out: list[str]) -> None:
+        """B{n}[.label] points the addressed C.S. to PROG n; B alone back to its top [SRM B]."""
+        line.skip()
+        value = None
+        if line.peek().isdigit() or line.peek() == ".":
+            m = re.compile(r"\d*\.?\d*").match(line.s, line.i)
+            assert m is not None
+            line.i = m.end()
+            try:
+                value = float(m.group())
+            except ValueError:
+                raise CommandError(ERR_DATA) from None
+        self.fw.motion.runner(port.cs).point(value)
+
+    def run(self, step: bool, line: Line, port: PortState, out: list[str]) -> None:
+        """R (run) / S (single step) of the addressed C.S.'s program [SRM R, S]."""
+        self.fw.motion.runner(port.cs).run(step)
+
+    def quit(self, line: Line, port: PortState, out: list[str]) -> None:
+        """Q: quit at the end of the moves already calculated [SRM Q]."""
+        self.fw.motion.runner(port.cs).quit()
 
     def macro_station(self, line: Line, port: PortState, out: list[str]) -> None:
         """MS{node},MI{n} reads and MS{node},MI{n}={v} writes a station's MI-variable (`I` for `MI`
@@ -537,12 +563,31 @@ class Interpreter:
                 raise CommandError(ERR_DATA)
             out.extend(self.fw.plc.list_lines(n, *args))
             return
-        raise CommandError(ERR_DATA, "LIST of motion programs comes in a later issue")
+        if line.take("PROG"):  # LIST PROG n[,start[,count]] (programs.py)
+            line.take("RAM")
+            n, args = _list_numbers(line)
+            out.extend(self.fw.motion.store.list_lines(n, *args))
+            return
+        raise CommandError(ERR_DATA, "LIST of this buffer is not emulated")
 
     def open_buffer(self, line: Line, port: PortState, out: list[str]) -> None:
-        """OPEN PLC n: the rest of the line and the port's next lines go into the buffer
-        (plc.py); OPEN PROG/ROT come with motion programs (ERR003)."""
+        """OPEN PLC n / OPEN PROG n: the rest of the line and the port's next lines go into the
+        buffer (plc.py, programs.py)."""
         line.skip()
+        if line.take("PROG"):
+            line.take("RAM")
+            line.skip()
+            n = line.integer()
+            if n is None:
+                raise CommandError(ERR_DATA)
+            store = self.fw.motion.store
+            store.open(port, n)
+            rest, line.i = line.s[line.i:], len(line.s)
+            reply = store.enter(port, rest)
+            out.extend(reply.lines)
+            if reply.error is not None:
+                raise CommandError(reply.error)
+            return
         if not line.take("PLC"):
             raise CommandError(ERR_DATA, "only OPEN PLC n and OPEN PLCC n are emulated yet")
         compiled = line.take("C")
@@ -567,7 +612,7 @@ class Interpreter:
         to close, no error; the SRM's examples start every download with CLOSE "to make sure no
         other buffers have been left open" [SRM OPEN PROGRAM], and so do pmac_motorhome's PLCs.
         While another port has a buffer open only that port may CLOSE it: ERR005 [A L3234]."""
-        if self.fw.plc.owner is not None:
+        if self.fw.plc.owner is not None or self.fw.motion.store.owner is not None:
             raise CommandError(ERR_NOT_OPEN, "another port has the buffer open")
         line.take(" ALL")
 
@@ -687,15 +732,18 @@ class Interpreter:
         self.fw.p[p] = 1.0 if held else 0.0
 
     def movetime(self, line: Line, port: PortState, out: list[str]) -> None:
-        """MOVETIME: time left in the C.S.'s present move, ms (V1.937 [A L3262]); no program
-        runs yet, so 0."""
-        out.append("0")
+        """MOVETIME: time left in the C.S.'s present move, ms (V1.937 [A L3262]), 0 with no
+        program running (program_runner.py)."""
+        out.append(format_value(round(self.fw.motion.runner(port.cs).move_time_left(), 3)))
 
     def undefine(self, line: Line, port: PortState, out: list[str]) -> None:
         """UNDEFINE [ALL]: clears axis definitions, of the addressed C.S. only since V1.938
         [A L3284]."""
         line.skip()
-        self.fw.coord.undefine(None if line.take("ALL") else port.cs)
+        every = line.take("ALL")
+        if self.fw.motion.any_running() if every else self.fw.motion.runner(port.cs).running:
+            raise CommandError(1, "a coordinate system runs a program")
+        self.fw.coord.undefine(None if every else port.cs)
 
     def setphase(self, line: Line, port: PortState, out: list[str]) -> None:
         """SETPHASE: Ixx75 into the phase position register [A L3263]; the motors here are not
@@ -730,6 +778,25 @@ def _longest_word(s: str, i: int) -> str:
         if word[:k] in _WORD_NAMES:
             return word[:k]
     return ""
+
+
+def _list_numbers(line: Line) -> tuple[int, list[int]]:
+    """`n[,start[,count]]` after LIST PROG."""
+    line.skip()
+    n = line.integer()
+    if n is None:
+        raise CommandError(ERR_DATA)
+    args: list[int] = []
+    while len(args) < 2:
+        line.skip()
+        if not line.take(","):
+            break
+        line.skip()
+        v = line.integer()
+        if v is None:
+            raise CommandError(ERR_DATA)
+        args.append(v)
+    return n, args
 
 
 def _table_kind(line: Line) -> str | None:
