@@ -41,6 +41,9 @@ from vdevmaps.pmac import (
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.pmac import nv_image
 from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
+from vdevd.devices.pmac.dpram_gather import DpramGather
+from vdevd.devices.pmac.dpram_rotary import BinaryRotary
+from vdevd.devices.pmac.dpram_vars import VariableBuffers
 from vdevd.devices.pmac.eth_framing import KeptFraming
 from vdevd.devices.pmac.ethernet import MAX_PENDING
 from vdevd.devices.pmac.ethernet_server import EthernetServer, parse_endpoint
@@ -275,6 +278,10 @@ class PmacCard(Card):
         self.dpram.hook(CMD_CONTROL, 2, on_write=self.ascii.command_control)
         self.dpram.hook(RESP_CONTROL, 2, on_write=self.ascii.response_control)
         self.reporting = Reporting(self.dpram.buf)
+        self.fw.gather.dpram = DpramGather(self.dpram.buf)  # I5000 = 2, 3 (dpram_gather.py)
+        self.varbufs = VariableBuffers(self.dpram.buf, self.fw.memory)  # I55 (dpram_vars.py)
+        #: I45's ring; its `on_rotary_line(cs, text)` feeds a C.S.'s rotary buffer (dpram_rotary.py)
+        self.binrot = BinaryRotary(self.dpram.buf)
         self.host_port_state = CommandPort(self)
         self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)
         self.fw.plc.on_message = self._plc_message
@@ -360,6 +367,10 @@ class PmacCard(Card):
             self._report_realtime(cycle)
         if iv[49] and rep.background_due(cycle, iv[50]):
             self._report_background(cycle)
+        if iv[55] and self.varbufs.due():  # the variable buffers, served each cycle (ASSUMPTION)
+            self.varbufs.service(cycle)
+        if iv[45] and self.binrot.due():  # the binary rotary ring, each cycle (foreground)
+            self.binrot.service()
         if self.irq.mask & _MOTOR_SOURCES:
             self._irq_sources()
 
@@ -371,6 +382,8 @@ class PmacCard(Card):
         if self._sensing or self.irq.mask & _MOTOR_SOURCES:
             return 0
         cycle, iv = self.fw.servo_cycles, self.fw.ivars.values
+        if (iv[55] and self.varbufs.due()) or (iv[45] and self.binrot.due()):
+            return 0
         if iv[48]:
             room = min(room, ticks_before_multiple(cycle, max(int(iv[47]), 1)))
         if iv[49]:
@@ -420,6 +433,8 @@ class PmacCard(Card):
     def quiet_ticks(self) -> int:
         """At rest, the cycles before the next reporting buffer the host asked for (I47, I50)."""
         cycle, iv, rep = self.fw.servo_cycles, self.fw.ivars.values, self.reporting
+        if (iv[55] and self.varbufs.due()) or (iv[45] and self.binrot.due()):
+            return 0  # the host waits for a variable buffer, or binary rotary lines wait
         k = 1 << 62
         if iv[48] and rep.realtime_requested():
             k = min(k, ticks_before_multiple(cycle, max(int(iv[47]), 1)))  # 0 counts as 1

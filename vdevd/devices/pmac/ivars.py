@@ -144,10 +144,10 @@ CS: dict[int, IVar] = {
 }
 
 #: data gathering I5000-I5051 [digest §2.2; DLS-ctl gather.py; PComm Gather.h GATMODE]: I5000 mode
-#: (0 stop when full, 1 wrap; the DPRAM modes 2-3 are not emulated), I5001-I5048 sources (hex:
+#: (0 stop when full, 1 wrap; 2, 3 the same in the DPRAM), I5001-I5048 sources (hex:
 #: format digit + address), I5049 period in servo cycles, I5050/I5051 source masks (hex)
 GATHER: dict[int, IVar] = {
-    5000: _int(0, 1, 0),
+    5000: _int(0, 3, 0),
     **dict.fromkeys(range(5001, 5049), _ADDR),
     5049: _int(0, 0x7FFFFF, 0),
     5050: _ADDR, 5051: _ADDR,
