@@ -139,6 +139,8 @@ class CommandPort:
     def close(self) -> None:
         """A buffer this connection left open closes with it (plc.py `release`)."""
         self.card.fw.plc.release(self.state)
+        self.card.fw.rotary.release(self.state)
+        self.card.fw.kinematics.release(self.state)
         self.card.ethernet_ports.discard(self)
 
 

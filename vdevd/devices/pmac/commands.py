@@ -64,6 +64,7 @@ COMMANDS = CommandTable(
         _word("MOVETIME", "movetime", section=f"{_S18} [A L3262]"),
         _word("SETPHASE", "setphase", section=f"{_S18} [A L3263]"),
         _word("MS", "macro_station", section="Turbo SRM MS/MSR/MSW; §3.3"),
+        _word("PR", "program_remaining", section="Turbo SRM PR, I16/I17; rotary.py"),
         # tables [§1.7]
         _word("DEFINE", "define", section=_S17), _word("DEF", "define", section=_S17),
         _word("DELETE", "delete", section=_S17), _word("DEL", "delete", section=_S17),

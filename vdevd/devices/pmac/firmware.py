@@ -24,6 +24,7 @@ from vdevd.devices.pmac.feedback import FeedbackSelect
 from vdevd.devices.pmac.gather import GATHER_ON, GATHER_ON_TRIGGER, Gather, valid_source
 from vdevd.devices.pmac.gpio import GeneralIO
 from vdevd.devices.pmac.ivars import IVars
+from vdevd.devices.pmac.kinematics import Kinematics
 from vdevd.devices.pmac.macro import MacroStations
 from vdevd.devices.pmac.memory import TOP, Memory
 from vdevd.devices.pmac.motor_reports import MotorReports
@@ -44,6 +45,7 @@ from vdevd.devices.pmac.registers import (
     GlobalRegisters,
     MotorBlocks,
 )
+from vdevd.devices.pmac.rotary import RotaryBuffers
 from vdevd.devices.pmac.servo_ic import ServoIC
 from vdevd.rt import PlantKind
 
@@ -115,6 +117,9 @@ class Firmware:
                                   lambda: self.servo_cycles)
         self.interpreter = Interpreter(self)
         self.plc = Plcs(self)
+        self.rotary = RotaryBuffers(self)          # rotary.py
+        self.kinematics = Kinematics(self)         # kinematics.py
+        self.buffer_checks.append(lambda: {"ROTARY"} if self.rotary.defined else set())
 
     # -- time -------------------------------------------------------------------------------------
     def tick(self, now_ns: int) -> int:
@@ -480,6 +485,7 @@ class Firmware:
             "comp1d": self._comp1d_image(),
             "axes": self.coord.image(),
             "plc": self.plc.image(),
+            "kinematics": self.kinematics.image(),
         }
 
     def save(self) -> None:
@@ -504,6 +510,7 @@ class Firmware:
         self._comp1d_restore(image.get("comp1d", []))
         self.coord.restore(image.get("axes", []))
         self.plc.restore(image.get("plc", {}))
+        self.kinematics.restore(image.get("kinematics", {}))
         self._reset_hardware()
 
     def power_on_reset(self) -> None:
@@ -526,6 +533,7 @@ class Firmware:
         self.comp1d.clear()
         self.coord.undefine(None)
         self.plc.clear_all()
+        self.kinematics.clear_all()
         self.locks = 0
 
     def _reset_hardware(self) -> None:
@@ -541,6 +549,8 @@ class Firmware:
         self.coord.reset()
         self.gather.reset()
         self.plc.power_on()
+        self.rotary.power_on()
+        self.kinematics.power_on()
         core = self.motors.core
         self.feedback.refresh(core.axes.encoder + core.encoder_slip)
         if self.on_reset is not None:

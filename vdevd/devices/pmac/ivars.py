@@ -70,6 +70,8 @@ GLOBAL: dict[int, IVar] = {
     12: _FLAG,                  # lookahead time splining [A L1408]
     13: _FLAG,                  # foreground in-position check [A L3254]
     15: _FLAG,                  # degrees (0) / radians (1) [A L1137]
+    16: _int(0, 8_388_607, 5),  # rotary buffer request on point, lines (ASSUMPTION: default)
+    17: _int(0, 8_388_607, 10),  # rotary buffer request off point, lines [Turbo SRM I17]
     20: _ADDR, 21: _ADDR, 22: _ADDR, 23: _ADDR,  # MACRO IC 0-3 bases, $0 = absent [A L3228]
     24: _ADDR,
     30: _FLAG,                  # compensation-table wrap [A L1420]
