@@ -6,8 +6,8 @@ exists or out of order: define them from high to low C.S. (the UM's example `&3`
 sentence "no rotary program buffer for a higher-numbered coordinate system" contradicts the
 example, which is followed), delete them from low to high [UM "Required Buffer State for
 Defining"; A L3187] (ERR007, ASSUMPTION on the code, as the comp tables' order).
-`OPEN ROT` opens every defined rotary buffer on this port; each line goes into the buffer of the C.S. addressed then (`&1 X10 Y10 F5 &2 X30`), `CLOSE`
-ends. Lines may be sent while the buffer runs (`B0` points a C.S. at it, `R` runs it): the runner
+`OPEN ROT` opens every defined rotary buffer on this port; each line goes into the buffer of
+the C.S. addressed then (`&1 X10 Y10 F5 &2 X30`), `CLOSE` ends. Lines may be sent while the buffer runs (`B0` points a C.S. at it, `R` runs it): the runner
 takes them one at a time and each line taken is gone from the buffer. While the buffers are open,
 `B0` is a B-axis move; bare run-control commands (`R`, `S`, `A`, `H`, `Q`, `K`, `PR`, `?`, `??`,
 `%`) and `&n` act on-line [SRM OPEN ROT example "&1R &2R"].
