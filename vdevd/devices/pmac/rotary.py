@@ -1,24 +1,23 @@
-"""Rotary motion-program buffers, one per coordinate system [Turbo SRM "DEFINE ROT", "DELETE
-ROT", "OPEN ROT", "PR", I16, I17; Turbo UM "Rotary Motion Program Buffers"].
+"""Rotary motion-program buffers, one per coordinate system [Turbo SRM "DEFINE ROT", "DELETE ROT",
+"OPEN ROT", "PR", I16, I17; Turbo UM "Rotary Motion Program Buffers"].
 
 `&n DEFINE ROT {words}` reserves the buffer; it is refused (ERR007) while a data-gathering buffer
 exists or out of order: define them from high to low C.S. (the UM's example `&3`, `&2`, `&1`; its
 sentence "no rotary program buffer for a higher-numbered coordinate system" contradicts the
-example, which is followed), delete them from low to high [UM "Required Buffer State for
-Defining"; A L3187] (ERR007, ASSUMPTION on the code, as the comp tables' order).
-`OPEN ROT` opens every defined rotary buffer on this port; each line goes into the buffer of
-the C.S. addressed then (`&1 X10 Y10 F5 &2 X30`), `CLOSE` ends. Lines may be sent while the buffer runs (`B0` points a C.S. at it, `R` runs it): the runner
-takes them one at a time and each line taken is gone from the buffer. While the buffers are open,
-`B0` is a B-axis move; bare run-control commands (`R`, `S`, `A`, `H`, `Q`, `K`, `PR`, `?`, `??`,
-`%`) and `&n` act on-line [SRM OPEN ROT example "&1R &2R"].
+example, which is followed), delete them from low to high [UM "Required Buffer State for Defining";
+A L3187] (ERR007, ASSUMPTION on the code, as the comp tables' order). `OPEN ROT` opens every
+defined rotary buffer on this port; each line goes into the buffer of the C.S. addressed then (`&1
+X10 Y10 F5 &2 X30`), `CLOSE` ends. Lines may be sent while the buffer runs (`B0` points a C.S. at
+it, `R` runs it): the runner takes them one at a time and each line taken is gone from the buffer.
+While the buffers are open, `B0` is a B-axis move; bare run-control commands (`R`, `S`, `A`, `H`,
+`Q`, `K`, `PR`, `?`, `??`, `%`) and `&n` act on-line [SRM OPEN ROT example "&1R &2R"].
 
-Room: each value in a line takes one word [UM "Defining a Rotary Buffer"]; a line that does not
-fit answers ERR006 and is not stored. The host is told when to wait: once I17 (default 10) or
-more lines wait ahead of the executing one the C.S.'s "rotary buffer full" status bit is 1, and
-it goes back to 0 when execution has caught up to within I16 lines (default 5, ASSUMPTION) [SRM
-I17]. `PR` reports the lines waiting in the addressed C.S.'s rotary buffer. Rotary buffers are
-not kept by SAVE and are gone after `$$$` [UM: "not retained through a power-down or board
-reset"].
+Room: each value in a line takes one word [UM "Defining a Rotary Buffer"]; a line that does not fit
+answers ERR006 and is not stored. The host is told when to wait: once I17 (default 10) or more
+lines wait ahead of the executing one the C.S.'s "rotary buffer full" status bit is 1, and it goes
+back to 0 when execution has caught up to within I16 lines (default 5, ASSUMPTION) [SRM I17]. `PR`
+reports the lines waiting in the addressed C.S.'s rotary buffer. Rotary buffers are not kept by
+SAVE and are gone after `$$$` [UM: "not retained through a power-down or board reset"].
 """
 
 from __future__ import annotations
