@@ -164,7 +164,7 @@ def test_a_short_move_takes_its_acceleration_time() -> None:
 
 
 def test_time_specified_move_uses_tm() -> None:
-    pieces = arc(vec(X=10), (vec(X=0, Y=-10), "XY", {"IJK": np.array([-10.0, 0, 0]), "F": None,
+    pieces = arc(vec(X=10), (vec(X=0, Y=-10), "XY", {"IJK": np.array([-10.0, 0, 0]),
                                                       "TM": 2.0}))
     assert total(pieces) == pytest.approx(2.1)
 

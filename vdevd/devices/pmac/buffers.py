@@ -16,6 +16,7 @@ the scan ends there), ``("cmd", text)``, ``("enable", plcs)``, ``("disable", plc
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -172,8 +173,10 @@ def parse_line(text: str) -> list[Statement]:
     return out
 
 
-def compile_lines(lines: list[str]) -> list[Op]:
+def compile_lines(lines: list[str],
+                  parse: Callable[[str], list[Statement]] | None = None) -> list[Op]:
     """The buffer's operations; CommandError(9) for an unmatched IF/ELSE/ENDIF/WHILE/ENDWHILE.
+    `parse` parses one line (motion programs: prog_statements.parse_line; default PLC lines).
 
     A line `IF (c) stmts` or `WHILE (c) stmts` with statements after the condition is a
     single-line IF or WHILE: it needs no ENDIF/ENDWHILE and takes no ELSE (README assumption)."""
@@ -184,7 +187,7 @@ def compile_lines(lines: list[str]) -> list[Op]:
         return CommandError(ERR_STRUCTURE, "unmatched IF/ELSE/ENDIF/WHILE/ENDWHILE")
 
     for line in lines:
-        sts = parse_line(line)
+        sts = (parse or parse_line)(line)
         single = bool(sts) and sts[0].kind in ("IF", "WHILE") and len(sts) > 1
         if single and any(st.kind != "OP" for st in sts[1:]):
             raise error()

@@ -141,6 +141,7 @@ class CommandPort:
         self.card.fw.plc.release(self.state)
         self.card.fw.rotary.release(self.state)
         self.card.fw.kinematics.release(self.state)
+        self.card.fw.motion.store.release(self.state)
         self.card.ethernet_ports.discard(self)
 
 
@@ -346,11 +347,13 @@ class PmacCard(Card):
         work: a home search, an in-position scan count still short of its Ixx88, conversion
         entries with memory or the A/D ring running, a velocity buffer still filling (I60's
         slots hold different readings), armed compare, data gathering on (gather.py), backlash
-        still being taken up (comp1d.py), a PLC scanning (plc.py)."""
+        still being taken up (comp1d.py), a PLC scanning (plc.py), a motion program running
+        (program_runner.py)."""
         fw = self.fw
         m = fw.motors
         if (m.homing.any_searching or fw.ect._stateful or fw.servo_ic._any_armed or fw.gather.on
-                or fw.plc.running or not (m._vbuf == m.core.axes.fb).all() or m.counting_to_inpos()
+                or fw.plc.running or fw.motion.active or not (m._vbuf == m.core.axes.fb).all()
+                or m.counting_to_inpos()
                 or (fw.comp1d.active and fw.comp1d.busy(fw.reports.commanded()))):
             return None
         core = m.core.rest_state()

@@ -26,9 +26,10 @@ Segmentation: the card computes the path every Isx13 ms and fine-interpolates wi
 ends. With Isx13 = 0 "CIRCLE mode moves are executed as LINEAR moves" [SRM Isx13]: the straight
 line to the end point with the same speed and blend, cut where the blend changes form (exact).
 
-Params of a `Move`: "CIRCLE" (1 or 2), "NORMAL" (I J K), "IJK" (array) or "R", "IJK_ABS",
-"F" (units/s) or "TM" (s) (F wins when both are given), "TA", "TS" (s), "SEG" (Isx13, s),
-"FRAX" (bool mask of the nine axes; default X Y Z), "Isx96" (units), "Isx97" (half-circles).
+Params of a `Move`: "CIRCLE" (1 or 2), "NORMAL" (I J K), "IJK" (array) or "R", "IJK_ABS", "F"
+(units/s) or "TM" (s) (TM when it is given: the program's last TM came after its F), "TA", "TS"
+(s), "SEG" (Isx13, s), "FRAX" (bool mask of the nine axes; default X Y Z), "Isx96" (units),
+"Isx97" (half-circles).
 """
 
 from __future__ import annotations
@@ -186,15 +187,15 @@ class CirclePlanner(Planner):
         ta, ts = _num(move, "TA"), _num(move, "TS")
         kern = blend.widths(ta, ts)
         accel = kern[0] + kern[1]
-        f = move.params.get("F")
+        f, tm = move.params.get("F"), move.params.get("TM")
         moving = length > _EPS or bool(np.any(np.abs(d) > _EPS))
-        if f is not None:
-            feed = float(cast(float, f))
+        if tm is not None:
+            dur = float(cast(float, tm))
+        else:
+            feed = float(cast(float, f if f is not None else 0.0))
             if feed <= 0:
                 raise PlanError(RUN_TIME_ERROR, "feedrate 0")
             dur = length / feed
-        else:
-            dur = _num(move, "TM")
         dur = min(max(dur, accel), MAX_MOVE_TIME)
         if length <= _EPS:
             length = 1.0 if moving else 0.0   # non-feedrate axes only: a nominal path

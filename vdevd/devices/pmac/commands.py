@@ -8,8 +8,8 @@ commands are the longest word a run of letters starts with (after the variables 
 
 `COMMANDS.not_emulated` lists the on-line commands the digest documents that the card does not run
 yet, with the reason; `REFUSED` is the error number those the parser recognises answer (the others
-are unrecognised: ERR003). Motion programs come in issue 21, later (data gathering: gather.py, PLCs:
-plc.py) (README "Not yet").
+are unrecognised: ERR003). Data gathering: gather.py, PLCs: plc.py, motion programs: programs.py
+and program_runner.py (README "Not yet").
 """
 
 from __future__ import annotations
@@ -54,6 +54,11 @@ COMMANDS = CommandTable(
         # coordinate system [§2.5, §2.8]
         _word("A", "abort"),
         _word("H", "hold"),
+        # motion-program run control [§2.5, §2.8; program_runner.py]
+        _word("B", "begin", section="§2.8"),
+        _word("R", "run", False, section="§2.8"),
+        _word("S", "run", True, section="§2.8"),
+        _word("Q", "quit", section="§2.8"),
         _word("UNDEFINE", "undefine", section=f"{_S25} [A L3284]"),
         _word("UNDEF", "undefine", section=f"{_S25} [A L3284]"),
         # global
@@ -86,11 +91,7 @@ COMMANDS = CommandTable(
     not_emulated={
         "CLOSE": "only the port with a buffer open may CLOSE it (plc.py)",
         "CLEAR": "only the port with a buffer open may CLEAR it (plc.py)",
-        "LEARN": "no buffer can be open yet (issue 21)",
-        "B": "program run control: motion programs come in issue 21",
-        "R": "program run control: motion programs come in issue 21",
-        "S": "program run control: motion programs come in issue 21",
-        "Q": "program run control (quit; Q{n} is a variable): motion programs come in issue 21",
+        "LEARN": "LEARN (program the present positions) is not emulated",
         "ABR": "abort and run a program: motion programs come in issue 21",
         "!": "the V1.936 axis-move command needs coordinate systems (issue 21): unrecognised",
         "^": "jog-until-trigger ({jog}^{c}) needs triggered moves: after a jog, ^ is unrecognised",
@@ -101,5 +102,4 @@ COMMANDS = CommandTable(
 REFUSED: dict[str, int] = {
     "CLOSE": ERR_NOT_OPEN, "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
     "ABR": ERR_NO_PROGRAM,
-    "B": ERR_NO_PROGRAM, "R": ERR_NO_PROGRAM, "S": ERR_NO_PROGRAM, "Q": ERR_NO_PROGRAM,
 }

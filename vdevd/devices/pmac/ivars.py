@@ -143,6 +143,8 @@ CS: dict[int, IVar] = {
     87: IVar(0, 0, 8_388_607), 88: IVar(50, 0, 8_388_607), 89: IVar(1000, 0, 8_388_607),
     90: IVar(1000, 0, 8_388_607), 93: _ADDR, 94: IVar(1644, 0, 8_388_607),
     95: IVar(1644, 0, 8_388_607),
+    96: IVar(0, 0, 2.0**35),   # circle radius error limit, units (0: no error) [Turbo SRM Isx96]
+    97: IVar(0, 0, 2.0),       # minimum arc, half-circles (0: 2^-20) [Turbo SRM Isx97]
 }
 
 #: data gathering I5000-I5051 [digest §2.2; DLS-ctl gather.py; PComm Gather.h GATMODE]: I5000 mode

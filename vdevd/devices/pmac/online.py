@@ -37,6 +37,8 @@ from vdevd.devices.pmac.reply import Reply
 if TYPE_CHECKING:
     from vdevd.devices.pmac.firmware import Firmware
 
+#: a motion program runs: buffers that may not open meanwhile [SRM OPEN FORWARD]
+ERR_RUNNING = 1
 #: compiled report lines kept per interpreter (the cache starts afresh when full)
 PLAN_CACHE = 256
 
@@ -145,6 +147,8 @@ class Interpreter:
             return self.fw.rotary.enter(port, text)
         if port is self.fw.kinematics.owner:  # kinematics.py
             return self.fw.kinematics.enter(port, text)
+        if port is self.fw.motion.store.owner:  # a PROG buffer (programs.py)
+            return self.fw.motion.store.enter(port, text)
         plans = self._plans
         if text in plans:
             plan = plans[text]
@@ -408,7 +412,31 @@ class Interpreter:
         raise CommandError(code, f"{name} comes in a later issue")
 
     def hold(self, line: Line, port: PortState, out: list[str]) -> None:
-        """H: feed hold of the addressed C.S.; with no axes defined it holds nothing."""
+        """H: feed hold of the addressed C.S.'s program (program_runner.py); with none running it
+        holds nothing."""
+        self.fw.motion.runner(port.cs).feed_hold()
+
+    def begin(self, line: Line, port: PortState, out: list[str]) -> None:
+        """B{n}[.label] points the addressed C.S. to PROG n; B alone back to its top [SRM B]."""
+        line.skip()
+        value = None
+        if line.peek().isdigit() or line.peek() == ".":
+            m = re.compile(r"\d*\.?\d*").match(line.s, line.i)
+            assert m is not None
+            line.i = m.end()
+            try:
+                value = float(m.group())
+            except ValueError:
+                raise CommandError(ERR_DATA) from None
+        self.fw.motion.runner(port.cs).point(value)
+
+    def run(self, step: bool, line: Line, port: PortState, out: list[str]) -> None:
+        """R (run) / S (single step) of the addressed C.S.'s program [SRM R, S]."""
+        self.fw.motion.runner(port.cs).run(step)
+
+    def quit(self, line: Line, port: PortState, out: list[str]) -> None:
+        """Q: quit at the end of the moves already calculated [SRM Q]."""
+        self.fw.motion.runner(port.cs).quit()
 
     def macro_station(self, line: Line, port: PortState, out: list[str]) -> None:
         """MS{node},MI{n} reads and MS{node},MI{n}={v} writes a station's MI-variable (`I` for `MI`
@@ -490,16 +518,35 @@ class Interpreter:
                 raise CommandError(ERR_DATA)
             out.extend(self.fw.plc.list_lines(n, *args))
             return
-        raise CommandError(ERR_DATA, "LIST of motion programs comes in a later issue")
+        if line.take("PROG"):  # LIST PROG n[,start[,count]] (programs.py)
+            line.take("RAM")
+            n, args = _list_numbers(line)
+            out.extend(self.fw.motion.store.list_lines(n, *args))
+            return
+        raise CommandError(ERR_DATA, "LIST of this buffer is not emulated")
 
     def open_buffer(self, line: Line, port: PortState, out: list[str]) -> None:
-        """OPEN PLC n: the rest of the line and the port's next lines go into the buffer
-        (plc.py); OPEN PROG/ROT come with motion programs (ERR003)."""
+        """OPEN PLC n / OPEN PROG n: the rest of the line and the port's next lines go into the
+        buffer (plc.py, programs.py)."""
         line.skip()
         if self._open_other(line, port, out):
             return
         if any(o is not None and o is not port for o in (self.fw.rotary.owner, self.fw.kinematics.owner)):
             raise CommandError(ERR_IN_USE, "another port has a buffer open")
+        if line.take("PROG"):
+            line.take("RAM")
+            line.skip()
+            n = line.integer()
+            if n is None:
+                raise CommandError(ERR_DATA)
+            store = self.fw.motion.store
+            store.open(port, n)
+            rest, line.i = line.s[line.i:], len(line.s)
+            reply = store.enter(port, rest)
+            out.extend(reply.lines)
+            if reply.error is not None:
+                raise CommandError(reply.error)
+            return
         if not line.take("PLC") or line.take("C"):
             raise CommandError(ERR_DATA, "only OPEN PLC n is emulated yet")
         line.skip()
@@ -527,10 +574,15 @@ class Interpreter:
             kind = "INVERSE"
         else:
             return False
-        if any(o is not None and o is not port for o in (fw.plc.owner, fw.rotary.owner, fw.kinematics.owner)):
+        owners = (fw.plc.owner, fw.motion.store.owner, fw.rotary.owner, fw.kinematics.owner)
+        if any(o is not None and o is not port for o in owners):
             raise CommandError(ERR_IN_USE, "another port has a buffer open")
+        if kind and fw.motion.any_running():
+            raise CommandError(ERR_RUNNING, "a motion program is running")
         if fw.plc.owner is port:
             fw.plc.close()
+        if fw.motion.store.owner is port:
+            fw.motion.store.close()
         if kind:
             fw.kinematics.open(port, kind)
         else:
@@ -712,6 +764,25 @@ def _longest_word(s: str, i: int) -> str:
         if word[:k] in _WORD_NAMES:
             return word[:k]
     return ""
+
+
+def _list_numbers(line: Line) -> tuple[int, list[int]]:
+    """`n[,start[,count]]` after LIST PROG."""
+    line.skip()
+    n = line.integer()
+    if n is None:
+        raise CommandError(ERR_DATA)
+    args: list[int] = []
+    while len(args) < 2:
+        line.skip()
+        if not line.take(","):
+            break
+        line.skip()
+        v = line.integer()
+        if v is None:
+            raise CommandError(ERR_DATA)
+        args.append(v)
+    return n, args
 
 
 def _table_kind(line: Line) -> str | None:

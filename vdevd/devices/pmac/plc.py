@@ -63,10 +63,14 @@ class Plcs:
         a buffer open (V1.936 [A L3234])."""
         if not 0 <= n < PLC_COUNT:
             raise CommandError(ERR_DATA, "PLC number 0-31")
-        if self.owner is not None and self.owner is not port:
+        progs = self.fw.motion.store  # a PROG buffer counts too (programs.py)
+        if (self.owner is not None and self.owner is not port) or \
+                (progs.owner is not None and progs.owner is not port):
             raise CommandError(ERR_IN_USE, "another port has a buffer open")
         if self.owner is port:  # another buffer of this port: it closes first
             self.close()
+        if progs.owner is port:
+            progs.close()
         plc = self.plcs[n]
         plc.enabled, plc.ops, plc.pc = False, None, 0
         self.on.discard(n)

@@ -28,7 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from vdevd.devices.pmac import buffers
+from vdevd.devices.pmac import buffers, prog_statements
 from vdevd.devices.pmac.buffers import MAX_LINE
 from vdevd.devices.pmac.coord import CS_COUNT
 from vdevd.devices.pmac.errors import ERR_DATA, CommandError
@@ -168,6 +168,7 @@ class RotaryBuffers:
         buf = self.bufs.get(cs)
         if buf is None:
             raise CommandError(ERR_DATA, f"C.S. {cs} has no rotary buffer")
+        prog_statements.parse_line(line)   # a statement the card does not know: ERR003
         words = max(1, len(_VALUE.findall(line)))
         if buf.words + words > buf.size:
             raise CommandError(ERR_NO_ROOM, "rotary buffer full")

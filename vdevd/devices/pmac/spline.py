@@ -12,8 +12,9 @@ SPLINE1 keeps one segment time: a new time in the middle of a sequence brings th
 stop (its end segment is added) and starts a new one [PMAC UM]. SPLINE2 lets the time change per
 segment; the manual says only that "similar calculations are done for the non-uniform spline":
 ASSUMPTION, the non-uniform cubic B-spline whose knot intervals are the segment times (it is the
-SPLINE1 spline when the times are equal). The segment time is the move's "TM" parameter (the runner
-passes TM, or TA when I42 = 1, in seconds).
+SPLINE1 spline when the times are equal). The segment time is the move's "TM" parameter when the
+program set TM, else its "TA" (seconds) (ASSUMPTION: the Turbo SRM pages on SPLINE1 were not
+retrieved; the PMAC manuals use TA, the digest TM).
 
 A segment is final when the moves two ahead are known (the non-uniform way-point depends on the
 times around it), or at `flush`.
@@ -73,8 +74,10 @@ class SplinePlanner(Planner):
         self.seg_time = 0.0
 
     def add(self, move: Move) -> list[Piece]:
-        """One spline segment to `move.target` in the "TM" segment time (seconds)."""
-        t = float(cast(float, move.params["TM"]))
+        """One spline segment to `move.target` in the segment time: "TM" (seconds) when the
+        program gave one, else "TA"."""
+        tm = move.params.get("TM")
+        t = float(cast(float, tm if tm is not None else move.params.get("TA", 0.0)))
         if t <= 0:
             raise PlanError(RUN_TIME_ERROR, "spline segment time 0")
         out: list[Piece] = []
@@ -111,3 +114,17 @@ class SplinePlanner(Planner):
         out = self._ready()
         self._reset()
         return out
+
+
+class Spline1Planner(SplinePlanner):
+    """SPLINE1: one segment time per sequence."""
+
+    def __init__(self, start: np.ndarray) -> None:
+        super().__init__(start, uniform=True)
+
+
+class Spline2Planner(SplinePlanner):
+    """SPLINE2: the segment time may change at every move."""
+
+    def __init__(self, start: np.ndarray) -> None:
+        super().__init__(start, uniform=False)

@@ -1,0 +1,876 @@
+"""Running motion programs: one runner per coordinate system, its run control (B R S Q A H K)
+and the C.S. status bits it owns [spec pmac.md §2.8; Turbo UM "How PMAC Executes a Motion
+Program", "Writing and Executing Motion Programs"; Turbo SRM B, R, S, Q, H, A, DWELL, DELAY].
+
+Calculation and execution are apart, as on the card. The calculator reads program statements
+(logic, variables, moves) and hands each move to the move mode's planner (`PLANNERS`: LINEAR,
+RAPID here; the other modes register their planner there), whose pieces (pieces.py) queue for
+execution. It works ahead only as far as the card does [UM "Calculating Ahead"]: down to and
+including the first move at R (the second in LINEAR mode with Isx13 = 0), then one more move
+each time a move starts executing; so a statement reading a P-variable sees the value written
+on-line before the calculation reached it. It does not calculate past a DWELL (until the dwell
+is over), a RAPID move or a HOME (until every motor has finished) [UM "When No Calculation
+Ahead"], nor past a second backward jump (ENDWHILE, GOTO) without a move in between: the move
+before comes to a stop and calculation goes on at the next servo cycle ("double-jump-back
+rule"). DELAY is a move of its own time: calculation goes through it.
+
+Execution samples the queued pieces each servo cycle at the program's time, which runs at %/100
+of real time (the feedrate override and the feed hold, which slews the time base to 0 at Isx95
+per servo cycle in I10 units and back at R) but for a DWELL, which runs in real time [SRM
+DWELL]. The sample (axis positions) gives each motor of the C.S. its commanded position through
+the axis definitions (motor = Σ scale·axis + position bias, coord.py), handed to the motor's servo
+loop with `MotionCore.track`, so following error, status bits and the fatal following-error
+kill behave as for jogs. A motor killed (K, fatal following error, amplifier fault) or reaching
+a limit on the way stops the program: the C.S. aborts (each motor stops at Ixx15) and word 2
+bit 22 (run-time error) is set until the next R.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from vdevd.devices.pmac.circle import CirclePlanner
+from vdevd.devices.pmac.coord import AXES, CS_COUNT
+from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, CommandError
+from vdevd.devices.pmac.expr import ExprError
+from vdevd.devices.pmac.jog_profile import jog_accel
+from vdevd.devices.pmac.linear import LinearPlanner, RapidPlanner
+from vdevd.devices.pmac.mvars import MDefError
+from vdevd.devices.pmac.online import PortState
+from vdevd.devices.pmac.pieces import NAXES, Move, Piece, Planner
+from vdevd.devices.pmac.planerr import CIRCLE_RADIUS_ERROR, PlanError
+from vdevd.devices.pmac.plc import CMD_QUEUE, _true
+from vdevd.devices.pmac.programs import Program, ProgramStore, compile_program
+from vdevd.devices.pmac.pvt import PvtPlanner
+from vdevd.devices.pmac.spline import Spline1Planner, Spline2Planner
+
+if TYPE_CHECKING:
+    from vdevd.devices.pmac.firmware import Firmware
+
+#: move mode -> its planner class (other modes add theirs here)
+PLANNERS: dict[str, type[Planner]] = {
+    "LINEAR": LinearPlanner, "RAPID": RapidPlanner, "PVT": PvtPlanner,
+    "SPLINE1": Spline1Planner, "SPLINE2": Spline2Planner,
+    "CIRCLE1": CirclePlanner, "CIRCLE2": CirclePlanner}
+
+# R / S refusals [UM "Turbo PMAC will reject a run or step command": ERR010-ERR017]
+ERR_RUNNING = 1
+ERR_BOTH_LIMITS = 10
+ERR_MOVING = 11
+ERR_OPEN_LOOP = 12
+ERR_NOT_ACTIVATED = 13
+ERR_NO_MOTORS = 14
+ERR_BAD_PROGRAM = 16
+
+#: statements the calculator runs in one servo cycle at most (the rest: next cycle)
+MAX_STEPS = 4096
+#: GOSUB/CALL nesting (deeper: run-time error) (ASSUMPTION)
+MAX_STACK = 255
+#: the longest DWELL, DELAY, TM, ms [SRM DWELL]
+MAX_TIME_MS = 8_388_607.0
+#: feedrate axes at power-on: X Y Z [SRM FRAX]
+DEFAULT_FRAX = np.array([a in "XYZ" for a in AXES])
+
+# C.S. status bits this module sets [SRM "??", digest §2.6]
+W1_RUNNING, W1_SINGLE_STEP, W1_CONTINUOUS, W1_TM_MODE, W1_RUN_REQUEST = 1, 2, 4, 8, 16
+W2_RAPID, W2_CIRCLE, W2_PVT_SPLINE, W2_DWELL, W2_IN_POSITION = 2, 1, 16, 1 << 12, 1 << 17
+W2_RUNTIME_ERROR = 1 << 22
+W2_RADIUS_ERROR = 1 << CIRCLE_RADIUS_ERROR
+#: word 2 bit 16: the rotary buffer is full (I17/I16) [SRM I17 "Rotary Buffer Full" status bit]
+W2_ROTARY_FULL = 1 << 16
+#: the circle plane's normal at power-on: NORMAL K-1 [SRM NORMAL]
+DEFAULT_NORMAL = np.array([0.0, 0.0, -1.0])
+_MODE_BITS = {"LINEAR": 0, "RAPID": W2_RAPID, "CIRCLE1": W2_CIRCLE, "CIRCLE2": W2_CIRCLE | W2_RAPID,
+              "PVT": W2_PVT_SPLINE, "SPLINE1": W2_PVT_SPLINE | W2_CIRCLE,
+              "SPLINE2": W2_PVT_SPLINE | W2_CIRCLE}
+#: the kinds of operation that are moves for the look-ahead count
+_MOVES = ("move", "dwell", "delay")
+
+
+@dataclass
+class _Frame:
+    """A GOSUB/CALL return point and the arguments READ sees."""
+
+    prog: int
+    pc: int
+    args: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class _Queued:
+    piece: Piece
+    scaled: bool = True   # runs at the time base (all but DWELL)
+    starts: int = 0       # the move number that begins with this piece (0: none)
+
+
+class CsProgram:
+    """The motion program state of one coordinate system."""
+
+    def __init__(self, fw: Firmware, cs: int) -> None:
+        self.fw, self.cs = fw, cs
+        self.port = PortState(cs=cs)  # Q-variables and CMD addressing of the program
+        self.pos = np.zeros(NAXES)    # programmed axis positions (where calculation stands)
+        self.prog = 0                 # the program pointed to (B), 0 none
+        self.pc = 0
+        self.stack: list[_Frame] = []
+        self.args: dict[str, float] = {}
+        self.state = "idle"           # idle | run | step | quit
+        self.stopping = False         # calculation ended (end, Q, S, STOP): stop when drained
+        self.hold_target = 1.0
+        self.hold = 1.0
+        self.error = False
+        self.queue: deque[_Queued] = deque()
+        self.cur: _Queued | None = None
+        self.tau = 0.0
+        self.exec_pos = np.zeros(NAXES)
+        self.calc = 0      # moves calculated
+        self.started = 0   # moves begun executing
+        self.wait = ""     # "" | "drain" | "home"
+        self.homing: list[int] = []
+        self.members = np.zeros(0, dtype=np.intp)
+        self.scale = np.zeros((0, NAXES))
+        self.planner: Planner | None = None
+        self.radius_error = False
+        self.rot = Program([], [], {})   # the rotary buffer's line being run (B0)
+        self.rot_flushed = True
+        self.inv_rows = np.zeros(0, dtype=np.intp)   # rows of `#n->I` motors (Isx50 = 1)
+        self.inv_order: list[int] = []
+        self._inv_at: np.ndarray | None = None
+        self._inv_counts = np.zeros(0)
+        self.reset_modes()
+
+    def reset_modes(self) -> None:
+        """The modal state at power-on and at B: LINEAR, ABS, TA/TS/F from Isx87-Isx89 (ms,
+        user units per Isx90 ms) [SRM Isx87-Isx90] (ASSUMPTION: B starts them afresh)."""
+        iv, base = self.fw.ivars.values, 5000 + 100 * self.cs
+        self.mode = "LINEAR"
+        self.mode_arg = 0.0
+        self.inc = np.zeros(NAXES, dtype=bool)
+        self.frax = DEFAULT_FRAX.copy()
+        self.ta, self.ts = float(iv[base + 87]), float(iv[base + 88])
+        self.f, self.tm = float(iv[base + 89]), 0.0
+        self.tm_mode = False
+        self.normal = DEFAULT_NORMAL.copy()
+        self.inc_r = True   # INC(R): the centre vector from the start point, the default
+
+    # -- state -------------------------------------------------------------------------------------
+    @property
+    def running(self) -> bool:
+        return self.state != "idle"
+
+    @property
+    def busy(self) -> bool:
+        """Work each servo cycle: running, or a hold slewing."""
+        return self.state != "idle"
+
+    def _ahead(self) -> int:
+        iv = self.fw.ivars.values
+        return 2 if self.mode == "LINEAR" and iv[5000 + 100 * self.cs + 13] == 0 else 1
+
+    # -- run control ---------------------------------------------------------------------------------
+    def point(self, n: float | None) -> None:
+        """B{n} (n.label: the label n's fraction × 100000) / B alone: back to the top."""
+        if self.running:
+            raise CommandError(ERR_RUNNING, "a program is running")
+        if n is None:
+            self.pc, self.stack = 0, []
+            return
+        prog = int(n)
+        if not 0 <= prog <= 32767:
+            raise CommandError(ERR_DATA)
+        self.prog, self.pc, self.stack, self.args = prog, 0, [], {}
+        label = round((n - prog) * 100000)
+        program = self.fw.motion.store.runnable(prog)
+        if label and program is not None and program.ops is not None:
+            self.pc = program.labels.get(label, 0)
+        self.reset_modes()
+
+    def run(self, step: bool) -> None:
+        """R / S: start (after the checks of [UM]), resume a held, quitting or stepping run."""
+        if self.running:
+            if step:
+                self.state = "step" if self.state == "run" else self.state
+                return
+            self.hold_target = 1.0
+            if self.state in ("step", "quit"):
+                self.state, self.stopping = "run", False
+                if self.wait == "" and self.planner is None:
+                    self._restart_planner()
+            return
+        self._check_start()
+        self.error = self.radius_error = False
+        if self.prog == 0:
+            self.rot, self.pc, self.rot_flushed = Program([], [], {}), 0, True
+        self.hold = self.hold_target = 1.0
+        self.state = "step" if step else "run"
+        self.stopping = False
+        self.calc = self.started = 0
+        self.wait = ""
+        self._map_motors()
+        self._read_position()
+        self._forward()
+        self.exec_pos = self.pos.copy()
+        self._restart_planner()
+        motors = self.fw.motors
+        motors.timed[self.members] = True
+        motors.abort_decel[self.members] = False
+
+    def _check_start(self) -> None:
+        """The program first (ERR015 a PROG buffer open or no program pointed to, ERR016 one
+        CLOSE found badly structured), then the motors (ERR014 none, ERR013 not activated,
+        ERR012 open loop, ERR010 both limits, ERR011 moving) (ASSUMPTION: this order)."""
+        fw = self.fw
+        store = fw.motion.store
+        if store.owner is not None or fw.kinematics.owner is not None:
+            raise CommandError(ERR_NO_PROGRAM, "a PROG or kinematic buffer is open")
+        program: Program | None = self.rot   # B0: the rotary buffer [SRM B]
+        if self.prog == 0 and not fw.rotary.exists(self.cs):
+            raise CommandError(ERR_NO_PROGRAM, "no rotary buffer")
+        if self.prog:
+            program = store.runnable(self.prog)
+        if program is None:
+            raise CommandError(ERR_NO_PROGRAM, "not pointing to a program")
+        if program.ops is None:
+            raise CommandError(ERR_BAD_PROGRAM if program.bad else ERR_NO_PROGRAM, "not runnable")
+        members = [m - 1 for m in fw.coord.members(self.cs) if m <= fw.ivars.motors]
+        if not members:
+            raise CommandError(ERR_NO_MOTORS, "no motors in the C.S.")
+        idx = np.array(members)
+        mo = fw.motors
+        if not mo.active[idx].all():
+            raise CommandError(ERR_NOT_ACTIVATED, "a motor is not activated")
+        if not mo.core.servo_on_mask[idx].all():
+            raise CommandError(ERR_OPEN_LOOP, "a motor is open loop")
+        if (mo.plim[idx] & mo.mlim[idx]).any():
+            raise CommandError(ERR_BOTH_LIMITS, "a motor has both limits")
+        if mo.core.profile.moving[idx].any():
+            raise CommandError(ERR_MOVING, "a motor is moving")
+
+    def quit(self) -> None:
+        """Q: no more calculation; the moves already calculated finish, then the program stops
+        (R resumes after them) [SRM Q]."""
+        if self.running:
+            self.state = "quit"
+
+    def feed_hold(self) -> None:
+        """H: the time base slews to 0 at Isx95; R resumes [SRM H]."""
+        if self.running:
+            self.hold_target = 0.0
+
+    def abort(self, error: bool = False) -> None:
+        """A (and a fault): calculation stops where it is, the queued motion is dropped and the
+        motors stop at Ixx15 (the caller aborts them); R resumes from the next statement."""
+        if not self.running:
+            return
+        self._stop_tracking(hold=False)
+        self.error = self.error or error
+
+    def kill(self) -> None:
+        """K of the C.S.: the program stops (the caller kills the motors)."""
+        self.abort()
+
+    def _stop_tracking(self, hold: bool) -> None:
+        mo = self.fw.motors
+        if hold and len(self.members):
+            counts = self._counts(self.exec_pos)
+            closed = mo.core.servo_on_mask[self.members]
+            if closed.any():
+                mo.core.hold(self.members[closed], (counts + mo.origin[self.members])[closed])
+        mo.timed[self.members] = False
+        self.state, self.stopping, self.wait = "idle", False, ""
+        self.queue.clear()
+        self.cur, self.tau = None, 0.0
+        self.planner = None
+        self.homing = []
+
+    def _hold_motors(self, idx: np.ndarray) -> None:
+        """Motors of the C.S. stop being tracked: they hold where the program left them."""
+        mo = self.fw.motors
+        rows = np.flatnonzero(np.isin(self.members, idx))
+        closed = rows[mo.core.servo_on_mask[self.members[rows]]]
+        if len(closed):
+            counts = self._counts(self.exec_pos)[closed] + mo.origin[self.members[closed]]
+            mo.core.hold(self.members[closed], counts)
+
+    # -- motors <-> axes --------------------------------------------------------------------------
+    def _map_motors(self) -> None:
+        """The C.S.'s motors and their scale matrix (counts per axis unit)."""
+        fw = self.fw
+        members = [m - 1 for m in fw.coord.members(self.cs) if m <= fw.ivars.motors]
+        self.members = np.array(members, dtype=np.intp)
+        self.scale = np.zeros((len(members), NAXES))
+        kin = fw.kinematics
+        inverse = self._kinematic() and kin.has(self.cs, "INVERSE")
+        self.inv_order = kin.inverse_motors(self.cs) if inverse else []
+        self.inv_rows = np.array([r for r, m in enumerate(members) if m + 1 in self.inv_order],
+                                 dtype=np.intp)
+        self._inv_at = None
+        for r, m in enumerate(members):
+            d = fw.coord.defs[m]
+            if d is not None:
+                for s, a in d.terms:
+                    self.scale[r, AXES.index(a)] += s
+
+    def _counts(self, pos: np.ndarray) -> np.ndarray:
+        counts = self.scale @ pos + self.fw.coord.bias[self.members]
+        if len(self.inv_rows):
+            counts[self.inv_rows] = self._inverse(pos)
+        return counts
+
+    def _kinematic(self) -> bool:
+        return bool(self.fw.ivars.values[5000 + 100 * self.cs + 50])
+
+    def _inverse(self, pos: np.ndarray) -> np.ndarray:
+        """The `#n->I` motors' positions (counts) for axis positions `pos`: the inverse
+        kinematic program (kinematics.py), run again only when the axes moved."""
+        if self._inv_at is None or not np.array_equal(pos, self._inv_at):
+            try:
+                motors = self.fw.kinematics.inverse(self.cs, pos)
+            except PlanError:
+                self.error = True
+                return self._inv_counts
+            by_motor = dict(zip(self.inv_order, motors.tolist(), strict=True))
+            self._inv_counts = np.array([by_motor[int(m) + 1] for m in self.members[self.inv_rows]])
+            self._inv_at = pos.copy()
+        return self._inv_counts
+
+    def _read_position(self) -> None:
+        """The axis positions the motors' commanded positions give back (least squares over the
+        axes the definitions use); axes no motor drives keep their programmed value."""
+        if not len(self.members):
+            return
+        used = np.flatnonzero(np.abs(self.scale).sum(axis=0) > 0)
+        if not len(used):
+            return
+        cmd = self.fw.reports.commanded()[self.members] - self.fw.coord.bias[self.members]
+        sol, *_ = np.linalg.lstsq(self.scale[:, used], cmd, rcond=None)
+        self.pos[used] = sol
+
+    def _forward(self) -> None:
+        """Isx50 = 1 with a forward program: the axis positions are what it gives for the
+        motors' commanded positions (at R, S) [SRM OPEN FORWARD]."""
+        fw = self.fw
+        if self._kinematic() and fw.kinematics.has(self.cs, "FORWARD"):
+            try:
+                self.pos = fw.kinematics.forward(self.cs, fw.reports.commanded())
+            except PlanError:
+                raise CommandError(ERR_DATA, "forward kinematics did not end") from None
+
+    # -- planners -------------------------------------------------------------------------------------
+    def _restart_planner(self) -> None:
+        cls = PLANNERS.get(self.mode)
+        self.planner = cls(self.pos) if cls is not None else None
+
+    def _flush(self) -> None:
+        if self.planner is not None:
+            self._enqueue(self.planner.flush(), starts=0)
+
+    def _enqueue(self, pieces: list[Piece], starts: int, scaled: bool = True,
+                 begin: int = 0) -> None:
+        for k, piece in enumerate(pieces):
+            self.queue.append(_Queued(piece, scaled, starts if k == begin else 0))
+
+    def _params(self) -> dict[str, Any]:
+        """The move parameters of the present modal state (seconds, units per second)."""
+        fw, base = self.fw, 5000 + 100 * self.cs
+        iv = fw.ivars.values
+        per = float(iv[base + 90]) or 1000.0
+        ta = self.ta / 1000
+        prm: dict[str, Any] = {
+            "TA": ta, "TS": self.ts / 1000, "F": self.f * 1000 / per,
+            "TM": self.tm / 1000 if self.tm_mode else None, "FRAX": self.frax.copy(),
+            "SEG": float(iv[base + 13]) / 1000, "FEED_PERIOD": per / 1000,
+            "MOTOR_SCALE": self.scale,
+        }
+        motors = 100 * (self.members + 1)
+        if iv[base + 13] == 0:
+            prm["MOTOR_MAXV"] = iv[motors + 16] * 1000
+        else:
+            prm["MOTOR_MAXV"] = np.zeros(0)
+        prm["MOTOR_MAXA"] = iv[motors + 17] * 1e6
+        if self.mode == "RAPID":
+            prm.update(self._rapid_limits())
+        if self.mode == "PVT":
+            prm["PVT"] = self.mode_arg / 1000
+        if self.mode.startswith("CIRCLE"):
+            prm["CIRCLE"] = int(self.mode[-1])
+            prm["NORMAL"] = self.normal.copy()
+            prm["IJK_ABS"] = not self.inc_r
+            prm["Isx96"], prm["Isx97"] = float(iv[base + 96]), float(iv[base + 97])
+        return prm
+
+    def _rapid_limits(self) -> dict[str, np.ndarray]:
+        """Per axis: the jog-type speed, acceleration and jerk of the first motor driving it
+        alone, in axis units [SRM Ixx22, Ixx90] (ASSUMPTION: axes of multi-axis definitions
+        take the first motor's numbers over its scale)."""
+        iv = self.fw.ivars.values
+        vmax, amax, jerk = np.zeros(NAXES), np.zeros(NAXES), np.zeros(NAXES)
+        for r, m in enumerate(self.members.tolist()):
+            for k in np.flatnonzero(self.scale[r]).tolist():
+                if vmax[k]:
+                    continue
+                s = abs(float(self.scale[r, k]))
+                base = 100 * (m + 1)
+                speed = float(iv[base + 16] if iv[base + 90] else iv[base + 22])
+                acc, jk = jog_accel(iv, m, speed)
+                vmax[k], amax[k], jerk[k] = speed * 1000 / s, acc / s, jk / s
+        return {"MAXV": vmax, "MAXA": amax, "JERK": jerk}
+
+    # -- the servo cycle -------------------------------------------------------------------------------
+    def tick(self, dt: float) -> None:
+        if not self.running:
+            return
+        if not self._motors_ok():
+            return
+        self._calculate()
+        if not self.running:
+            return
+        self._execute(dt)
+
+    def _motors_ok(self) -> bool:
+        """A killed motor or a limit on the way aborts the program with a run-time error."""
+        fw, idx = self.fw, self.members
+        mo = fw.motors
+        if not mo.core.servo_on_mask[idx].all():
+            self.abort(error=True)
+            fw.motion.abort_motors(self.cs)
+            return False
+        if self.wait == "home":
+            return True
+        lim = fw.reports.limit_bits_now()[idx]
+        if lim.any():
+            v = mo.core.axes.cmd_vel[idx]
+            pos_hit = (lim & (1 << 21)) != 0
+            neg_hit = (lim & (1 << 22)) != 0
+            if (pos_hit & (v > 0)).any() or (neg_hit & (v < 0)).any():
+                self.abort(error=True)
+                fw.motion.abort_motors(self.cs)
+                return False
+        return True
+
+    def _execute(self, dt: float) -> None:
+        fw = self.fw
+        if self.hold != self.hold_target:
+            iv = fw.ivars.values
+            rate = float(iv[5000 + 100 * self.cs + 95]) / max(float(iv[10]), 1.0)
+            step = rate if rate > 0 else 1.0
+            self.hold = min(self.hold + step, 1.0) if self.hold_target > self.hold \
+                else max(self.hold - step, 0.0)
+        tb = float(fw.feed[self.cs - 1]) / 100 * self.hold
+        real = dt
+        while real > 0:
+            if self.cur is None:
+                if not self.queue:
+                    break
+                self.cur, self.tau = self.queue.popleft(), 0.0
+                if self.cur.starts:
+                    self.started = max(self.started, self.cur.starts)
+                    self._calculate()
+            q = self.cur
+            rate = tb if q.scaled else 1.0
+            if rate <= 0:
+                break
+            need = (q.piece.dur - self.tau) / rate
+            if real < need:
+                self.tau += real * rate
+                real = 0.0
+            else:
+                real -= need
+                self.exec_pos = q.piece.end()[0]
+                self.cur = None
+        pos = self.cur.piece.at(self.tau)[0] if self.cur is not None else self.exec_pos
+        if self.wait == "home":
+            return
+        mo = fw.motors
+        counts = self._counts(pos) + mo.origin[self.members]
+        if self.cur is None and not self.queue and self.stopping:
+            self._finish(counts)
+            return
+        mo.core.track(self.members, counts)
+
+    def _finish(self, counts: np.ndarray) -> None:
+        """Calculation ended and the motion drained: the motors hold the last point."""
+        self._stop_tracking(hold=True)
+
+    # -- the calculator ----------------------------------------------------------------------------------
+    def _calculate(self) -> None:
+        """Statements until the look-ahead rule, a wait or the end stops the calculation."""
+        if self.wait == "drain":
+            if self.cur is not None or self.queue:
+                return
+            self.wait = ""
+            self._read_position_after_wait()
+        elif self.wait == "home":
+            mo = self.fw.motors
+            idx = np.array(self.homing, dtype=np.intp)
+            if len(idx) and (mo.homing.searching[idx].any() or mo.core.profile.moving[idx].any()):
+                return
+            self.wait, self.homing = "", []
+            self._read_position()
+            self.exec_pos = self.pos.copy()
+            self._restart_planner()
+        if self.stopping or self.state == "quit":
+            if self.planner is not None:
+                self._flush()
+                self.planner = None
+            self.stopping = True
+            return
+        store = self.fw.motion.store
+        jumps = 0
+        for _ in range(MAX_STEPS):
+            program = self.rot if self.prog == 0 else store.runnable(self.prog)
+            if program is None or program.ops is None:
+                self._runtime_error()
+                return
+            ops = program.ops
+            if self.pc >= len(ops):
+                if self.stack:
+                    self._return()
+                    continue
+                if self.prog == 0:   # the rotary buffer: its next line, or wait for one
+                    if self._next_rotary_line():
+                        continue
+                    return
+                self._end()
+                return
+            op = ops[self.pc]
+            name = op[0]
+            if name in _MOVES:
+                busy = self.cur is not None or bool(self.queue)
+                if self.calc >= self.started + self._ahead() and busy:
+                    return
+                if self.state == "step" and self.calc > 0:
+                    self._end()
+                    return
+            self.pc += 1
+            try:
+                go = self._statement(op, program)
+            except (CommandError, ExprError, MDefError):
+                self._runtime_error()
+                return
+            except PlanError as exc:   # the move is refused: the program stops before it
+                if exc.bit == CIRCLE_RADIUS_ERROR:
+                    self.radius_error = True
+                    self._end()
+                else:
+                    self._runtime_error()
+                return
+            if go == "back":
+                jumps += 1
+                if jumps >= 2:  # double-jump-back: no blending across it [UM]
+                    self._flush()
+                    self.wait = "drain"
+                    return
+            elif go == "move":
+                jumps = 0
+            elif go == "stop":
+                return
+
+    def _next_rotary_line(self) -> bool:
+        """The next line the host sent to the rotary buffer, compiled on its own (rotary.py).
+        None waiting: once the motion calculated has started to run out, the last move is
+        completed to a stop (the planner flushed) and the program waits for lines."""
+        line = self.fw.rotary.take(self.cs)
+        if line is None:
+            if not self.rot_flushed and not self.queue:
+                self._flush()
+                self._restart_planner()
+                self.rot_flushed = True
+            return False
+        self.rot_flushed = False
+        try:
+            ops, labels = compile_program([line])
+        except CommandError:
+            ops, labels = [], {}
+            self._runtime_error()
+        self.rot.ops, self.rot.labels, self.pc = ops, labels, 0
+        return bool(ops)
+
+    def _read_position_after_wait(self) -> None:
+        self.exec_pos = self.pos.copy()
+        if self.planner is None:
+            self._restart_planner()
+
+    def _end(self) -> None:
+        self._flush()
+        self.planner = None
+        self.stopping = True
+
+    def _runtime_error(self) -> None:
+        """A statement that cannot run (a missing label or program, a bad value): the program
+        stops where it is with the run-time error bit [SRM "??" word 2 bit 22]."""
+        self.error = True
+        self._end()
+
+    def _return(self) -> None:
+        frame = self.stack.pop()
+        self.prog, self.pc, self.args = frame.prog, frame.pc, frame.args
+
+    def _statement(self, op: tuple[Any, ...], program: Program) -> str:
+        """Run one operation; "move" for a move-kind, "back" for a backward jump, "stop" to end
+        this calculation, "" otherwise."""
+        fw, env = self.fw, self.fw.env(self.port)
+        name = op[0]
+        if name == "set":
+            index = int(op[2].eval(env))
+            if 0 <= index < 8192:
+                fw.set_variable(self.port, op[1], index, op[3].eval(env))
+        elif name in ("if", "while"):
+            if not _true(op[1], env):
+                self.pc = op[2]
+        elif name == "jump":
+            self.pc = op[1]
+        elif name == "endwhile":
+            self.pc = op[1]
+            return "back"
+        elif name == "move":
+            self._move(op, env)
+            return "move"
+        elif name == "mode":
+            self._flush()
+            self.mode = op[1]
+            self.mode_arg = float(op[2].eval(env)) if op[2] is not None else 0.0
+            if self.mode not in PLANNERS:
+                raise CommandError(ERR_DATA, f"{self.mode} is not emulated")
+            self._restart_planner()
+        elif name == "absinc":
+            mask = np.ones(NAXES, dtype=bool) if op[2] is None else np.isin(np.arange(NAXES), op[2])
+            self.inc[mask] = op[1]
+        elif name == "param":
+            value = float(op[2].eval(env))
+            if op[1] == "TA":
+                self.ta = min(max(value, 0.0), MAX_TIME_MS)
+            elif op[1] == "TS":
+                self.ts = min(max(value, 0.0), MAX_TIME_MS)
+            elif op[1] == "TM":
+                self.tm, self.tm_mode = min(max(value, 0.0), MAX_TIME_MS), True
+            else:
+                self.f, self.tm_mode = abs(value), False
+        elif name == "frax":
+            self.frax = np.isin(np.arange(NAXES), op[1])
+        elif name == "normal":
+            vec = {c: float(e.eval(env)) for c, e in op[1]}
+            self.normal = np.array([vec.get(c, 0.0) for c in "IJK"])
+        elif name == "absinc_r":
+            self.inc_r = op[1]
+        elif name in ("dwell", "delay"):
+            ms = min(max(float(op[1].eval(env)), 0.0), MAX_TIME_MS)
+            self._flush()
+            self.calc += 1
+            self._enqueue([Piece.hold(self.pos, ms / 1000)], self.calc, scaled=name == "delay")
+            if name == "dwell":  # no calculation through a DWELL [SRM DWELL]
+                self.wait = "drain"
+                return "stop"
+            return "move"
+        elif name == "home":
+            self._flush()
+            self.wait = "drain"
+            self.pc -= 1  # start the search once the motion before has drained
+            if self.cur is None and not self.queue:
+                self.pc += 1
+                self._home(op[1], op[2])
+            return "stop"
+        elif name == "label":
+            pass
+        elif name == "goto":
+            target = self._label(program, float(op[1].eval(env)))
+            back = target < self.pc
+            self.pc = target
+            return "back" if back else ""
+        elif name in ("gosub", "call"):
+            self._call(op, program, env)
+        elif name == "return":
+            if not self.stack:
+                self._end()
+                return "stop"
+            self._return()
+        elif name == "read":
+            self._read(op[1])
+        elif name == "stop":
+            self._end()
+            return "stop"
+        elif name == "cmd":
+            plc = fw.plc
+            if len(plc.queue) >= CMD_QUEUE:
+                self.pc -= 1
+                return "stop"
+            plc.queue.append((PortState(), op[1]))  # &1 #1 unless it says [SRM CMD]
+        elif name in ("enable", "disable"):
+            fw.plc.enable(op[1], name == "enable")
+        return ""
+
+    def _label(self, program: Program, n: float) -> int:
+        label = int(n)
+        if label not in program.labels:
+            raise CommandError(ERR_DATA, f"no label N{label}")
+        return program.labels[label]
+
+    def _call(self, op: tuple[Any, ...], program: Program, env: Any) -> None:
+        if len(self.stack) >= MAX_STACK:
+            raise CommandError(ERR_DATA, "GOSUB/CALL nesting")
+        value = float(op[1].eval(env))
+        args = {letter: float(e.eval(env)) for letter, e in op[2]}
+        frame = _Frame(self.prog, self.pc, self.args)
+        if op[0] == "gosub":
+            target = self._label(program, value)
+            self.stack.append(frame)
+            self.pc, self.args = target, args
+            return
+        prog = int(value)
+        called = self.fw.motion.store.runnable(prog)
+        if called is None or called.ops is None:
+            raise CommandError(ERR_DATA, f"no PROG {prog}")
+        label = round((value - prog) * 100000)
+        pc = 0
+        if label:
+            pc = self._label(called, label)
+        self.stack.append(frame)
+        self.prog, self.pc, self.args = prog, pc, args
+
+    def _read(self, letters: str) -> None:
+        """READ(letters): each argument the calling line gave goes into Q(100 + n), n the
+        letter's place in the alphabet (A = 1), and Q100 gets bit n − 1 for each found [SRM
+        READ; UM G04: P -> Q116, X -> Q124]."""
+        mask = 0
+        q = self.fw.q[self.cs - 1]
+        for letter in letters:
+            if letter in self.args:
+                n = ord(letter) - 64
+                q[100 + n] = self.args[letter]
+                mask |= 1 << (n - 1)
+        q[100] = float(mask)
+
+    def _move(self, op: tuple[Any, ...], env: Any) -> None:
+        target = self.pos.copy()
+        named = np.zeros(NAXES, dtype=bool)
+        vel = np.zeros(NAXES)
+        for k, e, v in op[1]:
+            value = float(e.eval(env))
+            target[k] = target[k] + value if self.inc[k] else value
+            named[k] = True
+            if v is not None:
+                vel[k] = float(v.eval(env))
+        prm = self._params()
+        per = prm["FEED_PERIOD"]
+        prm["V"] = vel / per
+        vectors = {letter: float(e.eval(env)) for letter, e in op[2]}
+        if any(letter in vectors for letter in "IJK"):
+            prm["IJK"] = np.array([vectors.get(c, 0.0) for c in "IJK"])
+        if "R" in vectors:
+            prm["R"] = vectors["R"]
+        move = Move(target, named, prm)
+        if self.planner is None:
+            self._restart_planner()
+        planner = self.planner
+        if planner is None:
+            raise CommandError(ERR_DATA, f"{self.mode} is not emulated")
+        self.calc += 1
+        pieces = planner.add(move)
+        begin = int(getattr(planner, "begin", 0))
+        self._enqueue(pieces, self.calc, begin=begin)
+        if not pieces:  # nothing to execute for it: it counts as begun
+            self.started = max(self.started, self.calc) if not self.queue and self.cur is None \
+                else self.started
+        self.pos = target
+        if self.mode == "RAPID":  # not blended: no calculation until every motor is done [UM]
+            self.wait = "drain"
+
+    def _home(self, zero: bool, motors: tuple[int, ...]) -> None:
+        """HOME/HOMEZ n,...: the motors' home searches from the program; calculation waits
+        until they finish [UM "When No Calculation Ahead"]."""
+        fw = self.fw
+        idx = [n - 1 for n in motors if n <= fw.ivars.motors and fw.ivars.values[100 * n]]
+        self._hold_motors(np.array(idx, dtype=np.intp))
+        for m in idx:
+            if zero:
+                fw.motors.home_zero(m)
+            else:
+                fw.motors.home(m)
+            fw.coord.rebias(m + 1)
+        others = np.setdiff1d(self.members, np.array(idx, dtype=np.intp))
+        self._hold_motors(others)
+        self.homing = idx
+        self.wait = "home"
+        self.planner = None
+
+
+class Motion:
+    """The card's motion programs: the PROG buffers and one runner per coordinate system."""
+
+    def __init__(self, fw: Firmware) -> None:
+        self.fw = fw
+        self.store = ProgramStore(fw)
+        self.cs = [CsProgram(fw, s) for s in range(1, CS_COUNT + 1)]
+        fw.rotary.running = lambda cs: self.cs[cs - 1].running and self.cs[cs - 1].prog == 0
+        self._dt = fw.period_ns / 1e9
+
+    def runner(self, cs: int) -> CsProgram:
+        return self.cs[cs - 1]
+
+    @property
+    def active(self) -> bool:
+        """A program running in any C.S.: the card is not at rest (decision 0008)."""
+        return any(r.busy for r in self.cs)
+
+    def any_running(self) -> bool:
+        return any(r.running for r in self.cs)
+
+    def motor_in_running_cs(self, motor: int) -> bool:
+        cs = int(self.fw.coord.cs[motor - 1])
+        return bool(cs) and self.cs[cs - 1].running
+
+    def tick(self) -> None:
+        for r in self.cs:
+            if r.running:
+                r.tick(self._dt)
+
+    def abort_motors(self, cs: int) -> None:
+        """The C.S.'s closed-loop motors stop at Ixx15."""
+        fw = self.fw
+        for motor in fw.coord.members(cs):
+            if motor <= fw.ivars.motors and fw.motors.core.servo_on_mask[motor - 1]:
+                fw.motors.abort(motor - 1)
+
+    def abort_all(self) -> None:
+        for r in self.cs:
+            r.abort()
+
+    def status(self, cs: int) -> tuple[int, int, bool]:
+        """(word 1 bits, word 2 bits, running) of C.S. cs's program state."""
+        r = self.cs[cs - 1]
+        w1 = 0
+        for k in range(NAXES):
+            if r.inc[k]:
+                w1 |= 1 << (6 + 2 * k)
+            if r.frax[k]:
+                w1 |= 1 << (7 + 2 * k)
+        if r.tm_mode:
+            w1 |= W1_TM_MODE
+        w2 = _MODE_BITS.get(r.mode, 0) | (W2_RUNTIME_ERROR if r.error else 0) \
+            | (W2_RADIUS_ERROR if r.radius_error else 0) \
+            | (W2_ROTARY_FULL if self.fw.rotary.full(cs) else 0)
+        if r.running:
+            w1 |= W1_RUNNING
+            if r.state == "step":
+                w1 |= W1_SINGLE_STEP
+            elif r.state == "run" and r.hold_target > 0:
+                w1 |= W1_RUN_REQUEST
+            if r.mode == "LINEAR" and (r.cur is not None or r.queue):
+                w1 |= W1_CONTINUOUS
+            if r.cur is not None and not r.cur.scaled:
+                w2 |= W2_DWELL
+        return w1, w2, r.running
+
+    def power_on(self) -> None:
+        self.store.power_on()
+        for r in self.cs:
+            r._stop_tracking(hold=False)
+            r.error = False
+            r.prog, r.pc, r.stack = 0, 0, []
+            r.pos[:] = 0.0
+            r.reset_modes()
+
