@@ -493,7 +493,9 @@ class CsProgram:
         mo.core.track(self.members, counts)
 
     def _finish(self, counts: np.ndarray) -> None:
-        """Calculation ended and the motion drained: the motors hold the last point."""
+        """Calculation ended and the motion drained: the motors hold the programmed end point
+        (exactly, free of the pieces' rounding)."""
+        self.exec_pos = self.pos.copy()
         self._stop_tracking(hold=True)
 
     # -- the calculator ----------------------------------------------------------------------------------
@@ -558,6 +560,8 @@ class CsProgram:
                     self._end()
                 else:
                     self._runtime_error()
+                return
+            if self.wait or self.stopping:
                 return
             if go == "back":
                 jumps += 1
