@@ -131,3 +131,12 @@ def test_reset_removes_rotary_buffers(card: Card) -> None:
     card.raw("I3=2")
     assert not card.fw.rotary.defined
     card.ask("&1 DEFINE ROT 10")
+
+
+def test_motor_commands_act_on_line_while_the_rotary_buffer_is_open(card: Card) -> None:
+    """On-line-only commands (`#1P`) are not buffered [UM "Talking to Turbo PMAC"]."""
+    card.ask("&1 DEFINE ROT 10")
+    card.ask("OPEN ROT")
+    assert card.ask("#1P") == "0"
+    card.ask("X1 &1 #2P")
+    assert card.ask("PR") == "1"

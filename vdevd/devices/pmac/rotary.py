@@ -10,7 +10,9 @@ defined rotary buffer on this port; each line goes into the buffer of the C.S. a
 X10 Y10 F5 &2 X30`), `CLOSE` ends. Lines may be sent while the buffer runs (`B0` points a C.S. at
 it, `R` runs it): the runner takes them one at a time and each line taken is gone from the buffer.
 While the buffers are open, `B0` is a B-axis move; bare run-control commands (`R`, `S`, `A`, `H`,
-`Q`, `K`, `PR`, `?`, `??`, `%`) and `&n` act on-line [SRM OPEN ROT example "&1R &2R"].
+`Q`, `K`, `PR`, `?`, `??`, `%`), `&n` and what follows a `#n` (motor commands, which are on-line
+only: `#1P`, `#2J+`) act on-line [SRM OPEN ROT example "&1R &2R"; UM "Talking to Turbo PMAC":
+on-line-only commands].
 
 Room: each value in a line takes one word [UM "Defining a Rotary Buffer"]; a line that does not fit
 answers ERR006 and is not stored. The host is told when to wait: once I17 (default 10) or more
@@ -141,6 +143,14 @@ class RotaryBuffers:
                     self._buffer(port).lines.clear()
                     self._buffer(port).words = 0
                     i += 5
+                elif s.startswith("#", i):   # motor commands are on-line only (`#1P`, `#2J+`)
+                    j = s.find("&", i)
+                    j = n if j < 0 else j
+                    rest = execute(port, s[i:j])
+                    reply.lines.extend(rest.lines)
+                    if rest.error is not None:
+                        raise CommandError(rest.error)
+                    i = j
                 elif m := _ONLINE.match(s, i):
                     rest = execute(port, m.group(1))
                     reply.lines.extend(rest.lines)

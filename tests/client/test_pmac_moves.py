@@ -1,0 +1,142 @@
+"""PVT, CIRCLE and rotary-buffer programs through a real daemon (lockstep clock) with
+vdevclient.pcomm: a PVT scan whose points come from P-variables with CMD"GAT"/CMD"END GAT"
+gathering around it, a CIRCLE move, a rotary buffer fed while it runs [Turbo SRM "PVT",
+"CIRCLE1", "OPEN ROT", "PR"; README "Motion programs"]."""
+
+from __future__ import annotations
+
+import ctypes
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+import vdevclient
+from vdevclient import pcomm
+
+from tests.devices.pmac.conftest import PERIOD_NS, Pmac, card_config
+from vdevd.testing import DaemonThread
+
+DEVICE = 0
+DT = PERIOD_NS / 1e9
+
+PVT_SCAN = """\
+#define POINT  P1
+#define POINTS P2
+OPEN PROG 20 CLEAR
+ABS
+PVT(P3)
+CMD"GAT"
+POINT = 0
+WHILE (POINT < POINTS)
+  X(P(100 + POINT)):(P(300 + POINT))
+  POINT = POINT + 1
+ENDWHILE
+DWELL 0
+CMD"END GAT"
+CLOSE
+"""
+
+
+@pytest.fixture
+def host() -> Iterator[Pmac]:
+    cfg = card_config(plant="ideal", device=DEVICE)
+    with DaemonThread(cfg) as d, vdevclient.connect(d.endpoint, d.events, timeout=10) as rack:
+        h = Pmac(rack)
+        assert pcomm.OpenPmacDevice(DEVICE, endpoint=d.endpoint)
+        try:
+            yield h
+        finally:
+            pcomm.ClosePmacDevice(DEVICE)
+            h.close()
+
+
+def ask(command: str, size: int = 256) -> str:
+    out = ctypes.create_string_buffer(size)
+    pcomm.PmacGetResponseA(DEVICE, out, size, command)
+    return out.value.decode("latin-1").strip("\r\x06")
+
+
+def position(motor: int) -> float:
+    return float(ask(f"#{motor}P"))
+
+
+def running() -> bool:
+    return bool(int(ask("&1??")[:6], 16) & 1)
+
+
+def download(tmp_path: Path, text: str) -> None:
+    source = tmp_path / "prog.pmc"
+    source.write_text(text)
+    messages: list[str] = []
+    assert pcomm.PmacDownloadA(DEVICE, lambda t, nl: messages.append(t), None, None,
+                               str(source)) == 1, messages
+
+
+def test_pvt_scan_from_p_variables_with_gathering(host: Pmac, tmp_path: Path) -> None:
+    """20 points 50 ms apart: the axis passes point k at (k+1)·50 ms; the gathered commanded
+    positions (every 10 servo cycles) end on the last point."""
+    ask("&1#1->1000X #1J/")
+    n, t_ms = 20, 50
+    pts = np.round(np.linspace(0, 4, n) ** 2, 4)
+    vel = np.round(np.gradient(pts, t_ms / 1000), 4)
+    vel[0] = vel[-1] = 0.0   # from rest (the program starts at 0) back to rest
+    for k in range(n):
+        ask(f"P{100 + k}={pts[k]} P{300 + k}={vel[k]}")
+    ask(f"P2={n} P3={t_ms}")
+    ask("I5001=$800088 I5050=1 I5049=10 DEFINE GATHER 2000")
+    download(tmp_path, PVT_SCAN)
+    ask("&1B20R")
+    t = 0.0
+    for k in (4, 9, 14):
+        ticks = round(((k + 1) * t_ms / 1000 - t) / DT)
+        host.step(ticks)
+        t += ticks * DT
+        assert position(1) / 1000 == pytest.approx(pts[k], abs=abs(vel[k]) * DT + 1e-3)
+    host.step(round((n * t_ms / 1000 - t) / DT) + 20)
+    assert not running()
+    assert position(1) == pytest.approx(pts[-1] * 1000)
+    lines = ask("LIST GATHER", 65536).split("\r")
+    assert len(lines) == pytest.approx(n * t_ms / 1000 / DT / 10, abs=3)
+    words = [int(line.split()[0], 16) for line in lines]
+    words = [w - (1 << 48) if w >= 1 << 47 else w for w in words]
+    # 1/(Ixx08·32) count; the last sample is at most one gather period (10 cycles) before the end
+    assert words[-1] / 3072 == pytest.approx(pts[-1] * 1000, abs=20)
+    assert all(b >= a for a, b in zip(words, words[1:], strict=False))  # a rising scan
+
+
+def test_circle_move_through_the_daemon(host: Pmac, tmp_path: Path) -> None:
+    """A clockwise half circle of radius 5 around (5,0): (5,5) at its middle, (10,0) at the end."""
+    ask("&1#1->1000X &1#2->1000Y #1J/#2J/ I5113=10")
+    download(tmp_path, "OPEN PROG 21 CLEAR\nCIRCLE1 TA100 TS0 F10\nX10 Y0 I5 J0\nCLOSE\n")
+    ask("&1B21R")
+    half = (np.pi * 5 / 10 + 0.1) / 2
+    host.step(round(half / DT))
+    assert (position(1), position(2)) == pytest.approx((5000, 5000), abs=10)
+    host.step(round(half / DT) + 20)
+    assert not running()
+    assert (position(1), position(2)) == (10000.0, 0.0)
+
+
+def test_rotary_buffer_fed_while_it_runs(host: Pmac) -> None:
+    """Lines sent to the open rotary buffer while it runs are executed in order; PR reports the
+    lines waiting."""
+    ask("&1#1->1000X #1J/ &1 DEFINE ROT 200 &1 B0")
+    ask("OPEN ROT")
+    ask("INC LINEAR TA50 TS0 F2")
+    ask("X1")
+    ask("&1R")
+    host.step(5)
+    for _ in range(4):
+        ask("X1")
+    assert ask("&1PR") == "4"
+    host.step(round(1.0 / DT))
+    assert 1000 < position(1) < 5000 and running()
+    host.step(round(3.0 / DT))
+    assert position(1) == 5000.0 and ask("&1PR") == "0"
+    ask("X-2.5")
+    host.step(round(2.0 / DT))
+    assert position(1) == 2500.0
+    ask("CLOSE")
+    ask("&1A")
+    assert ask("&1 DELETE ROT") == ""
