@@ -39,6 +39,7 @@ from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, CommandError
 from vdevd.devices.pmac.expr import ExprError
 from vdevd.devices.pmac.jog_profile import jog_accel
 from vdevd.devices.pmac.linear import LinearPlanner, RapidPlanner
+from vdevd.devices.pmac.motor_reports import IXX24_LIMITS_OFF
 from vdevd.devices.pmac.mvars import MDefError
 from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.pieces import NAXES, Move, Piece, Planner
@@ -101,6 +102,22 @@ class _Frame:
 
 
 @dataclass
+class _Glide:
+    """The motors' counts of the next servo cycles inside the executing piece, computed at once
+    (the hot path: a piece of a scan spans many cycles at a steady time base)."""
+
+    q: _Queued
+    rate: float
+    taus: np.ndarray
+    counts: np.ndarray
+    k: int = 0
+
+
+#: servo cycles one glide computes at most
+GLIDE_MAX = 4096
+
+
+@dataclass
 class _Queued:
     piece: Piece
     scaled: bool = True   # runs at the time base (all but DWELL)
@@ -132,9 +149,12 @@ class CsProgram:
         self.wait = ""     # "" | "drain" | "home"
         self.homing: list[int] = []
         self.members = np.zeros(0, dtype=np.intp)
+        self.member_mask = np.zeros(0, dtype=bool)
         self.scale = np.zeros((0, NAXES))
         self.planner: Planner | None = None
         self.radius_error = False
+        self._glide: _Glide | None = None
+        self._blocked: tuple[int, int, int] | None = None   # (started, prog, pc) held at
         self.rot = Program([], [], {})   # the rotary buffer's line being run (B0)
         self.rot_flushed = True
         self.inv_rows = np.zeros(0, dtype=np.intp)   # rows of `#n->I` motors (Isx50 = 1)
@@ -281,6 +301,7 @@ class CsProgram:
             if closed.any():
                 mo.core.hold(self.members[closed], (counts + mo.origin[self.members])[closed])
         mo.timed[self.members] = False
+        self._glide = None
         self.state, self.stopping, self.wait = "idle", False, ""
         self.queue.clear()
         self.cur, self.tau = None, 0.0
@@ -302,6 +323,8 @@ class CsProgram:
         fw = self.fw
         members = [m - 1 for m in fw.coord.members(self.cs) if m <= fw.ivars.motors]
         self.members = np.array(members, dtype=np.intp)
+        self.member_mask = np.zeros(len(fw.motors.core.servo_on_mask), dtype=bool)
+        self.member_mask[self.members] = True
         self.scale = np.zeros((len(members), NAXES))
         kin = fw.kinematics
         inverse = self._kinematic() and kin.has(self.cs, "INVERSE")
@@ -435,17 +458,24 @@ class CsProgram:
         """A killed motor or a limit on the way aborts the program with a run-time error."""
         fw, idx = self.fw, self.members
         mo = fw.motors
+        fb_all = mo.core.axes.fb
+        # the hot path: one pass over every motor, masked to the C.S.'s (no fancy indexing)
+        if not ((~mo.core.servo_on_mask | mo.plim | mo.mlim | (fb_all > mo.soft_hi)
+                 | (fb_all < mo.soft_lo)) & self.member_mask).any():
+            return True
         if not mo.core.servo_on_mask[idx].all():
             self.abort(error=True)
             fw.motion.abort_motors(self.cs)
             return False
         if self.wait == "home":
             return True
-        lim = fw.reports.limit_bits_now()[idx]
-        if lim.any():
+        # word-1 bits 21/22 of the C.S.'s motors (motor_reports.limit_bits_now, without packing)
+        fb = mo.core.axes.fb[idx]
+        use = (mo.flag_mode[idx] & IXX24_LIMITS_OFF) == 0
+        pos_hit = (mo.plim[idx] & use) | (fb > mo.soft_hi[idx])
+        neg_hit = (mo.mlim[idx] & use) | (fb < mo.soft_lo[idx])
+        if pos_hit.any() or neg_hit.any():
             v = mo.core.axes.cmd_vel[idx]
-            pos_hit = (lim & (1 << 21)) != 0
-            neg_hit = (lim & (1 << 22)) != 0
             if (pos_hit & (v > 0)).any() or (neg_hit & (v < 0)).any():
                 self.abort(error=True)
                 fw.motion.abort_motors(self.cs)
@@ -461,6 +491,14 @@ class CsProgram:
             self.hold = min(self.hold + step, 1.0) if self.hold_target > self.hold \
                 else max(self.hold - step, 0.0)
         tb = float(fw.feed[self.cs - 1]) / 100 * self.hold
+        g = self._glide
+        if g is not None:
+            if g.q is self.cur and g.k < len(g.taus) and g.rate == (tb if g.q.scaled else 1.0):
+                self.tau = float(g.taus[g.k])
+                fw.motors.core.track(self.members, g.counts[g.k])
+                g.k += 1
+                return
+            self._glide = None
         real = dt
         while real > 0:
             if self.cur is None:
@@ -491,6 +529,29 @@ class CsProgram:
             self._finish(counts)
             return
         mo.core.track(self.members, counts)
+        if self.cur is not None and not len(self.inv_rows):
+            self._glide_ahead(tb, dt)
+
+    def _glide_ahead(self, tb: float, dt: float) -> None:
+        """The counts of the servo cycles still inside the executing piece at this time base,
+        vectorised (`_Glide`); the cycle that leaves the piece takes the general path."""
+        q = self.cur
+        assert q is not None
+        rate = tb if q.scaled else 1.0
+        if rate <= 0:
+            return
+        step = rate * dt
+        n = min(int((q.piece.dur - self.tau) / step), GLIDE_MAX)
+        taus = self.tau + step * np.arange(1, n + 1)
+        taus = taus[taus < q.piece.dur]
+        if len(taus) < 2:
+            return
+        c = q.piece.coef
+        t = taus[:, None]
+        pos = c[0] + t * (c[1] + t * (c[2] + t * c[3]))
+        mo = self.fw.motors
+        counts = pos @ self.scale.T + (self.fw.coord.bias[self.members] + mo.origin[self.members])
+        self._glide = _Glide(q, rate, taus, counts)
 
     def _finish(self, counts: np.ndarray) -> None:
         """Calculation ended and the motion drained: the motors hold the programmed end point
@@ -501,6 +562,10 @@ class CsProgram:
     # -- the calculator ----------------------------------------------------------------------------------
     def _calculate(self) -> None:
         """Statements until the look-ahead rule, a wait or the end stops the calculation."""
+        if self._blocked == (self.started, self.prog, self.pc) and not self.wait \
+                and not self.stopping and self.state != "quit" and (self.cur is not None or self.queue):
+            return   # still held by the look-ahead rule at the same move: nothing to do (hot path)
+        self._blocked = None
         if self.wait == "drain":
             if self.cur is not None or self.queue:
                 return
@@ -544,6 +609,7 @@ class CsProgram:
             if name in _MOVES:
                 busy = self.cur is not None or bool(self.queue)
                 if self.calc >= self.started + self._ahead() and busy:
+                    self._blocked = (self.started, self.prog, self.pc)
                     return
                 if self.state == "step" and self.calc > 0:
                     self._end()
@@ -829,7 +895,7 @@ class Motion:
 
     def tick(self) -> None:
         for r in self.cs:
-            if r.running:
+            if r.state != "idle":   # `running`, without the property call (16 a servo cycle)
                 r.tick(self._dt)
 
     def abort_motors(self, cs: int) -> None:
