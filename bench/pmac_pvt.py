@@ -4,14 +4,14 @@ Goal (issue 21 "Performance"): >= 20x faster than real time.
 
 Method. `vdevd serve --clock lockstep` with one pmac-turbo card (plant `servo`: the PID and the
 motor model run every servo cycle at I10's 442.7 us) runs pinned to the server cpu. Through
-vdevclient.pcomm the scan is set up as a beamline would: motors 1 and 2 as X and Y (1000 counts
-per unit), 1000 points and end velocities in P1000-P2999 / P3000-P4999 (written with `P{n}=`
-commands, 5 to a line), and a program that reads them in a WHILE loop in PVT10 mode (10 ms a
-point: 10 s of motion). `&1B1R` starts it, then `rack.sim.step(seconds=S)` runs the whole scan
-and is timed from this process (speed = S / wall seconds). Each repeat starts the scan afresh
-from the origin. Baseline of each repeat: the same two motors jogging for S seconds without a
-program, after the scans (the card's own cost per servo cycle). Sanity checks: the program has ended at the end of the step and both motors
-stand within 5 counts of the last point.
+vdevclient.pcomm the scan is set up as a beamline would: motors 1 and 2 as X and Y (1000 counts per
+unit), 1000 points and end velocities in P1000-P2999 / P3000-P4999 (written with `P{n}=` commands,
+5 to a line), and a program that reads them in a WHILE loop in PVT10 mode (10 ms a point: 10 s of
+motion). `&1B1R` starts it, then `rack.sim.step(seconds=S)` runs the whole scan and is timed from
+this process (speed = S / wall seconds). Each repeat starts the scan afresh from the origin.
+Baseline of each repeat: the same two motors jogging for S seconds without a program, after the
+scans (the card's own cost per servo cycle). Sanity checks: the program has ended at the end of the
+step and both motors stand within 5 counts of the last point.
 
     python bench/pmac_pvt.py [--repeats N] [--json]
 """
