@@ -146,6 +146,19 @@ def test_tm_sets_the_move_time_and_ta_below_twice_ts_becomes_2ts(card: Card) -> 
     assert xy(card) == (0.0, 0.0)
 
 
+@pytest.mark.parametrize(("ts", "peak"), [(0, 10.0 / 0.1), (50, 10.0 / 0.05), (20, 10.0 / 0.08)])
+def test_ts_shapes_the_blend_peak_acceleration_is_dv_over_ta_minus_ts(card: Card, ts: int,
+                                                                      peak: float) -> None:
+    """TA100: with TS = 0 a constant acceleration of Δv/TA, with TS the S-curve's peak is
+    Δv/(TA − TS) (TS = TA/2: pure S-curve) [UM "Linear Blended Moves"]; units/s²."""
+    download(card, 1, f"LINEAR ABS TA100 TS{ts} F10", "X2")
+    card.ask("&1B1R")
+    rows = trace(card, 1.0)
+    acc = np.diff(rows[:, 1], 2) / DT**2 / 1000
+    assert np.abs(acc).max() == pytest.approx(peak, rel=0.02)
+    assert abs(rows[-1, 0] - (0.2 + 0.1)) < 2 * DT
+
+
 # -- RAPID --------------------------------------------------------------------------------------------
 def test_rapid_moves_each_motor_at_its_jog_speed_and_waits_for_all(card: Card) -> None:
     """RAPID: each motor as a jog to its target at Ixx22 with Ixx19-Ixx21; not blended, the
@@ -262,6 +275,32 @@ def test_goto_a_missing_label_is_a_run_time_error(card: Card) -> None:
     assert not running(card)
     assert card.fw.p[1] == 1
     assert cs_words(card)[1] & RUNTIME_ERROR
+
+
+def test_home_in_a_program_waits_for_the_motor_and_goes_on(card: Card) -> None:
+    """HOMEZ1: motor 1's present position becomes 0 and the program continues from there; no
+    calculation until the motor has finished [UM "When No Calculation Ahead"]."""
+    download(card, 14, "LINEAR ABS TA100 TS0 F5", "X1", "HOMEZ1", "P9=1", "X1")
+    card.ask("&1B14R")
+    trace(card, 3.0)
+    assert not running(card)
+    assert card.fw.p[9] == 1
+    assert card.ask("#1P") == "1000"
+    assert int(card.ask("#1?")[6:], 16) & (1 << 10)   # home complete
+
+
+def test_cmd_from_a_program_runs_on_line(card: Card) -> None:
+    download(card, 15, 'CMD"P50=7"', "P51=1")
+    card.ask("&1B15R")
+    trace(card, 0.05)
+    assert (card.fw.p[50], card.fw.p[51]) == (7, 1)
+
+
+def test_pr_is_not_p_then_r(card: Card) -> None:
+    download(card, 1, "LINEAR ABS TA100 TS0 F5", "X1")
+    card.ask("&1B1")
+    assert card.raw("#1PR") == b"\x07ERR003\r"
+    assert not running(card)
 
 
 # -- run control and status ------------------------------------------------------------------------------
