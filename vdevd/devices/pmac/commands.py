@@ -93,7 +93,6 @@ COMMANDS = CommandTable(
         "CLEAR": "only the port with a buffer open may CLEAR it (plc.py)",
         "LEARN": "LEARN (program the present positions) is not emulated",
         "ABR": "abort and run a program: motion programs come in issue 21",
-        "PR": "program lines remaining (rotary buffers) is not emulated: ERR003, not P then R",
         "PC": "the program counter report is not emulated: ERR003",
         "PE": "the program execution line report is not emulated: ERR003",
         "!": "the V1.936 axis-move command needs coordinate systems (issue 21): unrecognised",
@@ -104,5 +103,5 @@ COMMANDS = CommandTable(
 #: not emulated words the parser recognises -> the error number they answer (README "Not yet")
 REFUSED: dict[str, int] = {
     "CLOSE": ERR_NOT_OPEN, "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
-    "ABR": ERR_NO_PROGRAM, "PR": ERR_DATA, "PC": ERR_DATA, "PE": ERR_DATA,
+    "ABR": ERR_NO_PROGRAM, "PC": ERR_DATA, "PE": ERR_DATA,
 }
