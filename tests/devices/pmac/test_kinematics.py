@@ -109,3 +109,23 @@ def test_save_keeps_the_kinematic_buffers(card: Card) -> None:
     card.raw("I3=2")
     assert card.ask("&1 LIST INVERSE") == "\r".join(INVERSE)
     assert card.fw.kinematics.has(1, "INVERSE")
+
+
+def test_open_of_another_buffer_closes_the_kinematic_one(card: Card) -> None:
+    card.ask("&1 OPEN FORWARD CLEAR")
+    card.ask("Q7=1")
+    card.ask("OPEN PLC 3")
+    card.ask("P1=1")
+    card.ask("CLOSE")
+    assert card.ask("&1 LIST FORWARD") == "Q7=1" and card.ask("LIST PLC 3") == "P1=1"
+    assert card.fw.kinematics.has(1, "FORWARD")
+
+
+def test_a_forward_program_that_does_not_end_refuses_r(card: Card) -> None:
+    """Isx50 = 1: R runs the forward program first; one that never ends answers an error and
+    nothing runs (ASSUMPTION: ERR003)."""
+    download(card, "FORWARD", ["WHILE (1 = 1)", "Q1=Q1+1", "ENDWHILE"])
+    card.ask("&1 I5150=1 #1J/ #2J/")
+    card.ask("OPEN PROG 1 CLEAR X1 CLOSE")
+    assert card.raw("&1 B1 R") == b"\x07ERR003\r"
+    assert not card.fw.motion.runner(1).running

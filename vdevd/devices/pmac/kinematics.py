@@ -73,8 +73,8 @@ class Kinematics:
         self.buffers[self.open_key].ops = None
 
     def enter(self, port: PortState, text: str) -> Reply:
-        """A line of the port that has the buffer open: CLOSE, CLEAR and LIST act; statements
-        are appended (ERR003: the line is not kept)."""
+        """A line of the port that has the buffer open: CLOSE, OPEN, CLEAR and LIST act;
+        statements are appended (ERR003: the line is not kept)."""
         reply = Reply()
         s = buffers.normalise(text)
         assert self.open_key is not None
@@ -86,10 +86,11 @@ class Kinematics:
             if s.startswith("CLEAR", i):
                 buf.lines.clear()
                 i = buffers.skip(s, i + 5)
-            if s.startswith("CLOSE", i):
+            if s.startswith(("CLOSE", "OPEN"), i):   # OPEN: this buffer closes first
                 self.close()
-                rest = self.fw.interpreter.execute_general(port, s[i + 5:])
-                return rest
+                if s.startswith("CLOSE", i):
+                    i += 5
+                return self.fw.interpreter.execute_general(port, s[i:])
             if s.startswith("LIST", i):
                 reply.lines.extend(buf.lines)
                 return reply

@@ -232,7 +232,11 @@ class CsProgram:
         self.wait = ""
         self._map_motors()
         self._read_position()
-        self._forward()
+        try:
+            self._forward()
+        except CommandError:
+            self.state = "idle"
+            raise
         self.exec_pos = self.pos.copy()
         self._restart_planner()
         motors = self.fw.motors
