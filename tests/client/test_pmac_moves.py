@@ -140,3 +140,25 @@ def test_rotary_buffer_fed_while_it_runs(host: Pmac) -> None:
     ask("CLOSE")
     ask("&1A")
     assert ask("&1 DELETE ROT") == ""
+
+
+def test_two_motor_kinematic_cs_through_the_daemon(host: Pmac, tmp_path: Path) -> None:
+    """The UM's shoulder-elbow robot downloaded with PmacDownloadA: the tip moves from the forward
+    position of the motors (30°, 60°) to X500 Y200 and the motors end where the inverse program
+    puts them [UM "Kinematic Calculations"]."""
+    from tests.devices.pmac.test_kinematics import FORWARD, INVERSE
+
+    text = "\n".join(["&1 #1->I #2->I", "&1 Q91=400 Q92=300 Q93=1000 I5150=1 I5113=10",
+                      "&1 OPEN FORWARD CLEAR", *FORWARD, "CLOSE",
+                      "&1 OPEN INVERSE CLEAR", *INVERSE, "CLOSE",
+                      "OPEN PROG 22 CLEAR", "LINEAR ABS TA100 TS0 F100", "X500 Y200", "CLOSE"])
+    download(tmp_path, text + "\n")
+    ask("#1J/ #2J/ #1J=30000 #2J=60000")
+    host.step(round(3.0 / DT))
+    ask("&1B22R")
+    host.step(round(4.0 / DT))
+    assert not running()
+    a, b = np.radians(position(1) / 1000), np.radians(position(2) / 1000)
+    x = 400 * np.cos(a) + 300 * np.cos(a + b)
+    y = 400 * np.sin(a) + 300 * np.sin(a + b)
+    assert (x, y) == pytest.approx((500, 200), abs=0.01)

@@ -223,6 +223,7 @@ class CsProgram:
             return
         self._check_start()
         self.error = self.radius_error = False
+        self._blocked = self._glide = None
         if self.prog == 0:
             self.rot, self.pc, self.rot_flushed = Program([], [], {}), 0, True
         self.hold = self.hold_target = 1.0
