@@ -289,6 +289,29 @@ def test_home_in_a_program_waits_for_the_motor_and_goes_on(card: Card) -> None:
     assert int(card.ask("#1?")[6:], 16) & (1 << 10)   # home complete
 
 
+def test_while_wait_holds_the_program_until_the_condition_clears(card: Card) -> None:
+    """`WHILE (P30 = 0) WAIT`: the move before comes to a stop, the program waits, then goes on
+    when P30 is written on-line [SRM WAIT]."""
+    download(card, 16, "LINEAR ABS TA100 TS0 F5", "X1", "WHILE (P30 = 0) WAIT", "X0")
+    card.ask("&1B16R")
+    seconds(card, 1.0)
+    assert running(card) and xy(card)[0] == 1000.0
+    card.ask("P30=1")
+    trace(card, 1.0)
+    assert not running(card) and xy(card)[0] == 0.0
+
+
+def test_pset_renames_the_present_position_without_moving(card: Card) -> None:
+    """PSET X0 after X1: motor 1 stays at 1000 counts, X reads 0 there, X1 then moves it to
+    2000 [SRM PSET]."""
+    download(card, 17, "LINEAR ABS TA100 TS0 F5", "X1", "PSET X0", "P9=1", "X1")
+    card.ask("&1B17R")
+    trace(card, 3.0)
+    assert not running(card)
+    assert card.fw.p[9] == 1
+    assert xy(card)[0] == 2000.0
+
+
 def test_cmd_from_a_program_runs_on_line(card: Card) -> None:
     download(card, 15, 'CMD"P50=7"', "P51=1")
     card.ask("&1B15R")
@@ -403,6 +426,39 @@ def test_motor_commands_and_b_are_refused_while_the_program_runs(card: Card) -> 
     assert card.raw("OPEN PROG 3") == b"\x07ERR001\r"
     assert card.raw("#3J+") == b"\x06"  # not in the C.S.
     assert running(card)
+
+
+def test_axis_definitions_are_refused_while_the_program_runs(card: Card) -> None:
+    download(card, 9, "LINEAR ABS TA100 TS0 F2", "X4")
+    card.ask("&1B9R")
+    card.tick()
+    assert card.raw("&1#3->1000Z") == b"\x07ERR001\r"
+    assert card.raw("&1UNDEFINE") == b"\x07ERR001\r"
+    assert card.ask("&2#3->1000Z") == ""    # another C.S.
+    assert card.ask("&1#1->") == "1000X"
+
+
+def test_movetime_is_the_time_left_in_the_present_move(card: Card) -> None:
+    """MOVETIME (V1.937 [A L3262]): X4 at F2 from rest is T + TA = 2.1 s of pieces; 0.5 s in,
+    1.6 s are left; 0 once the program has ended."""
+    download(card, 9, "LINEAR ABS TA100 TS0 F2", "X4")
+    assert card.ask("&1MOVETIME") == "0"
+    card.ask("&1B9R")
+    seconds(card, 0.5)
+    assert float(card.ask("&1MOVETIME")) == pytest.approx(1600.0, abs=1.0)
+    trace(card, 3.0)
+    assert card.ask("&1MOVETIME") == "0"
+
+
+def test_control_o_holds_every_program(card: Card) -> None:
+    download(card, 9, "LINEAR ABS TA100 TS0 F2", "X4")
+    card.ask("&1B9R")
+    seconds(card, 0.5)
+    card.fw.control(card.port, 0x0F)
+    seconds(card, 2.0)
+    held = xy(card)
+    seconds(card, 0.5)
+    assert xy(card) == held and running(card)
 
 
 # -- faults during a program -------------------------------------------------------------------------------

@@ -318,8 +318,11 @@ class Firmware:
         return c1 | p1, c2 | p2, c3
 
     def define_axis(self, cs: int, motor: int, text: str, start: int) -> int:
-        """`&cs#motor->{definition}`; where the definition ends in `text`."""
+        """`&cs#motor->{definition}`; where the definition ends in `text` (ERR001 while the
+        C.S. runs a program)."""
         d, end = parse_axis_def(text, start)
+        if self.motion.runner(cs).running:
+            raise CommandError(1, "the coordinate system runs a program")
         self.coord.define(cs, motor, d)
         return end
 
@@ -382,6 +385,9 @@ class Firmware:
             case 0x18:  # ^X cancel: the port flushes; echoed when I63 = 1
                 port.table_left = 0
                 return "\x18" if self.ivars.values[63] else ""
+            case 0x0F:  # ^O feed hold of every C.S. (program_runner.py)
+                self.motion.hold_all()
+                return ""
             case 0x04:  # ^D disable all PLCs (plc.py)
                 self.plc.disable_all()
                 return ""

@@ -721,15 +721,18 @@ class Interpreter:
         self.fw.p[p] = 1.0 if held else 0.0
 
     def movetime(self, line: Line, port: PortState, out: list[str]) -> None:
-        """MOVETIME: time left in the C.S.'s present move, ms (V1.937 [A L3262]); no program
-        runs yet, so 0."""
-        out.append("0")
+        """MOVETIME: time left in the C.S.'s present move, ms (V1.937 [A L3262]), 0 with no
+        program running (program_runner.py)."""
+        out.append(format_value(round(self.fw.motion.runner(port.cs).move_time_left(), 3)))
 
     def undefine(self, line: Line, port: PortState, out: list[str]) -> None:
         """UNDEFINE [ALL]: clears axis definitions, of the addressed C.S. only since V1.938
         [A L3284]."""
         line.skip()
-        self.fw.coord.undefine(None if line.take("ALL") else port.cs)
+        every = line.take("ALL")
+        if self.fw.motion.any_running() if every else self.fw.motion.runner(port.cs).running:
+            raise CommandError(1, "a coordinate system runs a program")
+        self.fw.coord.undefine(None if every else port.cs)
 
     def setphase(self, line: Line, port: PortState, out: list[str]) -> None:
         """SETPHASE: Ixx75 into the phase position register [A L3263]; the motors here are not

@@ -14,8 +14,9 @@ Operations (the tuples buffers.compile_lines strings together), besides buffers.
 ``("absinc", inc, axes | None)``, ``("param", "TA"|"TS"|"TM"|"F", expr)``, ``("frax", axes)``,
 ``("dwell", expr)``, ``("delay", expr)``, ``("home", zero, motors)``, ``("label", n)``,
 ``("goto", expr)``, ``("gosub", expr, args)``, ``("call", expr, args)``, ``("return",)``,
-``("read", letters)``, ``("stop",)``; `args` are ((letter, expr), ...) after GOSUB/CALL;
-``("normal", ((vector, expr), ...))`` NORMAL I J K, ``("absinc_r", inc)`` ABS(R)/INC(R).
+``("read", letters)``, ``("stop",)``, ``("wait",)``, ``("pset", ((axis, expr), ...))``,
+``("normal", ((vector, expr), ...))`` NORMAL I J K, ``("absinc_r", inc)`` ABS(R)/INC(R); `args`
+are ((letter, expr), ...) after GOSUB/CALL.
 """
 
 from __future__ import annotations
@@ -47,6 +48,8 @@ _RETURN = re.compile(r"(RETURN|RET)(?![A-Z])")
 _READ = re.compile(rf"READ{_SP}\(")
 _LABEL = re.compile(rf"([NO]){_SP}(\d+)(?![\d.])")
 _STOP = re.compile(r"STOP(?![A-Z])")
+_WAIT = re.compile(r"WAIT(?![A-Z])")
+_PSET = re.compile(rf"PSET{_SP}")
 _AXIS = re.compile(rf"([{AXES}]){_SP}(?=[0-9.(\-+$])")
 _VECTOR = re.compile(rf"([IJKR]){_SP}(?=[0-9.(\-+$])")
 _ARG = re.compile(rf"([A-Z]){_SP}(?=[0-9.(\-$])")
@@ -95,6 +98,14 @@ def parse_statement(s: str, i: int) -> tuple[Statement, int]:
         return _op("read", letters), j
     if m := _STOP.match(s, i):
         return _op("stop"), m.end()
+    if m := _WAIT.match(s, i):
+        return _op("wait"), m.end()
+    if m := _PSET.match(s, i):
+        st, j = _move(s, m.end())
+        assert st.op is not None
+        if not st.op[1] or st.op[2] or any(v is not None for _, _, v in st.op[1]):
+            raise CommandError(ERR_DATA, "PSET takes axes and values")
+        return _op("pset", tuple((k, e) for k, e, _ in st.op[1])), j
     if m := _LABEL.match(s, i):
         n = int(m.group(2))
         if n > MAX_LABEL:

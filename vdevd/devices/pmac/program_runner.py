@@ -135,7 +135,7 @@ class CsProgram:
         self.pc = 0
         self.stack: list[_Frame] = []
         self.args: dict[str, float] = {}
-        self.state = "idle"           # idle | run | step | quit
+        self._state = "idle"          # idle | run | step | quit (`state`)
         self.stopping = False         # calculation ended (end, Q, S, STOP): stop when drained
         self.hold_target = 1.0
         self.hold = 1.0
@@ -179,13 +179,32 @@ class CsProgram:
 
     # -- state -------------------------------------------------------------------------------------
     @property
-    def running(self) -> bool:
-        return self.state != "idle"
+    def state(self) -> str:
+        return self._state
+
+    @state.setter
+    def state(self, value: str) -> None:
+        """The card's set of running C.S. follows (what its tick looks at)."""
+        self._state = value
+        if value == "idle":
+            self.fw.motion.running.discard(self.cs)
+        else:
+            self.fw.motion.running.add(self.cs)
 
     @property
-    def busy(self) -> bool:
-        """Work each servo cycle: running, or a hold slewing."""
-        return self.state != "idle"
+    def running(self) -> bool:
+        return self._state != "idle"
+
+    def move_time_left(self) -> float:
+        """MOVETIME: program time left in the present move (up to the next move's start), ms."""
+        if not self.running or self.cur is None:
+            return 0.0
+        left = self.cur.piece.dur - self.tau
+        for q in self.queue:
+            if q.starts:
+                break
+            left += q.piece.dur
+        return left * 1000
 
     def _ahead(self) -> int:
         iv = self.fw.ivars.values
@@ -691,9 +710,12 @@ class CsProgram:
         fw, env = self.fw, self.fw.env(self.port)
         name = op[0]
         if name == "set":
-            index = int(op[2].eval(env))
-            if 0 <= index < 8192:
-                fw.set_variable(self.port, op[1], index, op[3].eval(env))
+            try:
+                index = int(op[2].eval(env))
+                if 0 <= index < 8192:
+                    fw.set_variable(self.port, op[1], index, op[3].eval(env))
+            except (CommandError, ExprError, MDefError):
+                pass  # a value the variable refuses: no effect, as in PLCs (README)
         elif name in ("if", "while"):
             if not _true(op[1], env):
                 self.pc = op[2]
@@ -768,6 +790,17 @@ class CsProgram:
         elif name == "stop":
             self._end()
             return "stop"
+        elif name == "wait":  # the calculation pauses until the next servo cycle [SRM WAIT]
+            self._flush()
+            self.wait = "drain"
+            return "stop"
+        elif name == "pset":
+            self._flush()
+            if self.cur is not None or self.queue:  # once the motion before has drained
+                self.pc -= 1
+                self.wait = "drain"
+                return "stop"
+            self._pset(op[1], env)
         elif name == "cmd":
             plc = fw.plc
             if len(plc.queue) >= CMD_QUEUE:
@@ -777,6 +810,17 @@ class CsProgram:
         elif name in ("enable", "disable"):
             fw.plc.enable(op[1], name == "enable")
         return ""
+
+    def _pset(self, axes: tuple[tuple[int, Any], ...], env: Any) -> None:
+        """PSET: the axes' present positions become the values, through the motors' position
+        bias; nothing moves [SRM PSET; A L932]."""
+        fw = self.fw
+        for k, e in axes:
+            value = float(e.eval(env))
+            fw.coord.set_axis(self.cs, AXES[k], value, fw.reports.commanded())
+            self.pos[k] = value
+        self.exec_pos = self.pos.copy()
+        self._restart_planner()
 
     def _label(self, program: Program, n: float) -> int:
         label = int(n)
@@ -879,6 +923,7 @@ class Motion:
     def __init__(self, fw: Firmware) -> None:
         self.fw = fw
         self.store = ProgramStore(fw)
+        self.running: set[int] = set()  # the C.S. whose program runs (CsProgram.state)
         self.cs = [CsProgram(fw, s) for s in range(1, CS_COUNT + 1)]
         fw.rotary.running = lambda cs: self.cs[cs - 1].running and self.cs[cs - 1].prog == 0
         self._dt = fw.period_ns / 1e9
@@ -889,19 +934,17 @@ class Motion:
     @property
     def active(self) -> bool:
         """A program running in any C.S.: the card is not at rest (decision 0008)."""
-        return any(r.busy for r in self.cs)
+        return bool(self.running)
 
     def any_running(self) -> bool:
-        return any(r.running for r in self.cs)
+        return bool(self.running)
 
     def motor_in_running_cs(self, motor: int) -> bool:
-        cs = int(self.fw.coord.cs[motor - 1])
-        return bool(cs) and self.cs[cs - 1].running
+        return bool(self.running) and int(self.fw.coord.cs[motor - 1]) in self.running
 
     def tick(self) -> None:
-        for r in self.cs:
-            if r.state != "idle":   # `running`, without the property call (16 a servo cycle)
-                r.tick(self._dt)
+        for cs in sorted(self.running):
+            self.cs[cs - 1].tick(self._dt)
 
     def abort_motors(self, cs: int) -> None:
         """The C.S.'s closed-loop motors stop at Ixx15."""
@@ -913,6 +956,11 @@ class Motion:
     def abort_all(self) -> None:
         for r in self.cs:
             r.abort()
+
+    def hold_all(self) -> None:
+        """^O: feed hold of every C.S. [SRM <CONTROL-O>]."""
+        for r in self.cs:
+            r.feed_hold()
 
     def status(self, cs: int) -> tuple[int, int, bool]:
         """(word 1 bits, word 2 bits, running) of C.S. cs's program state."""
