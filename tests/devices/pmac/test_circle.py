@@ -197,3 +197,28 @@ def test_pieces_before_the_last_moves_blend_are_final_at_add() -> None:
     assert total(second) == pytest.approx(np.pi, abs=SEG)   # up to the second move's blend
     rest = pl.flush()
     assert total(second + rest) == pytest.approx(2 * np.pi + 0.1)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(0.5, 50), st.floats(-np.pi, np.pi), st.floats(0.05, 2 * np.pi - 0.05),
+       st.sampled_from([1, 2]), st.floats(1.0, 100.0), st.floats(0.02, 0.2), st.floats(-5, 5))
+def test_random_arcs_end_on_target_keep_radius_and_progress(radius: float, start_angle: float,
+                                                            sweep: float, direction: int,
+                                                            feed: float, ta: float,
+                                                            rise: float) -> None:
+    """Any IJK arc: ends exactly on its end point at rest, stays on its helix, never turns back
+    (TA of at least two segments: a TA of 0 is a step of velocity the segment cubics round)."""
+    sigma = -1.0 if direction == 1 else 1.0   # CIRCLE1 is clockwise seen from +Z (NORMAL K-1)
+    start = vec(X=radius * np.cos(start_angle), Y=radius * np.sin(start_angle))
+    end_angle = start_angle + sigma * sweep
+    end = vec(X=radius * np.cos(end_angle), Y=radius * np.sin(end_angle), Z=rise)
+    ijk = np.array([-start[6], -start[7], 0.0])
+    pieces = arc(start, (end, "XYZ", {"CIRCLE": direction, "IJK": ijk, "F": feed, "TA": ta}))
+    p, v = pieces[-1].end()
+    assert p == pytest.approx(end, abs=1e-9) and v == pytest.approx(np.zeros(9), abs=1e-9)
+    _, ps, _ = sample(pieces, 2e-3)
+    r = np.hypot(ps[:, 6], ps[:, 7])
+    assert r == pytest.approx(np.full_like(r, radius), rel=1e-3, abs=1e-3)
+    turned = np.unwrap(np.arctan2(ps[:, 7], ps[:, 6])) - start_angle
+    assert np.all(np.diff(sigma * turned) >= -1e-6)
+    assert sigma * turned[-1] == pytest.approx(sweep, abs=1e-6)
