@@ -253,6 +253,26 @@ def test_a_wait_loop_without_moves_holds_the_program_and_sees_the_variable(card:
     assert xy(card)[0] == 0.0
 
 
+def test_two_coordinate_systems_run_their_programs_at_once(card: Card) -> None:
+    """&1 runs PROG 1 on motors 1-2, &2 PROG 2 on motor 3 (X of C.S. 2), each on its own time
+    base: %50 in C.S. 2 doubles its time only."""
+    card.ask("&2#3->500X #3J/ I316=1000 I317=100")
+    download(card, 1, "LINEAR ABS TA100 TS0 F10", "X2 Y1")
+    download(card, 2, "LINEAR ABS TA100 TS0 F10", "X-2")
+    card.ask("&2%50")  # (a % value takes an expression: `%50 &1` would be 50 AND 1)
+    card.ask("&1B1R &2B2R")
+    ends = {}
+    for k in range(1, int(2.0 / DT)):
+        card.tick()
+        for cs in (1, 2):
+            if cs not in ends and not card.fw.motion.runner(cs).running:
+                ends[cs] = k * DT
+    assert abs(ends[1] - (np.hypot(2, 1) / 10 + 0.1)) < 2 * DT
+    assert abs(ends[2] - 2 * (0.2 + 0.1)) < 2 * DT
+    cmd = card.fw.reports.commanded()
+    assert (cmd[0], cmd[1], cmd[2]) == (2000.0, 1000.0, -1000.0)
+
+
 # -- logic, subroutines, READ ----------------------------------------------------------------------------
 def test_gosub_call_return_and_read(card: Card) -> None:
     """GOSUB to a label, CALL another program with arguments READ puts in Q101-Q126 (P -> Q116,
@@ -414,6 +434,20 @@ def test_status_bits_while_running_and_after(card: Card) -> None:
     trace(card, 3.0)
     w1, w2, _ = cs_words(card)
     assert not w1 & RUNNING and w2 & IN_POSITION
+
+
+def test_modal_state_shows_in_word_1(card: Card) -> None:
+    """INC(X), TM, ABS(R), NORMAL: word 1 bits 18 (X incremental), 3 (move time mode), 5 (radius
+    vectors incremental) [SRM ??]."""
+    download(card, 18, "INC(X) TM100 ABS(R) NORMAL K-1 X1")
+    card.ask("&1B18")
+    w1 = cs_words(card)[0]
+    assert w1 & (1 << 5) and not w1 & (1 << 18) and not w1 & 8  # B: INC(R), ABS, F mode
+    card.ask("&1R")
+    trace(card, 1.0)
+    w1 = cs_words(card)[0]
+    assert w1 & (1 << 18) and w1 & 8 and not w1 & (1 << 5)
+    assert xy(card)[0] == 1000.0
 
 
 def test_motor_commands_and_b_are_refused_while_the_program_runs(card: Card) -> None:

@@ -7,29 +7,29 @@ curl in the direction of a clockwise arc": CIRCLE1 turns positively about the no
 negatively. Only X, Y and Z take part; the motion along the normal and every other axis named are
 interpolated linearly to finish in the same time (helical moves). The centre is the I J K vector
 from the start point (INC(R), the default) or from the XYZ origin (ABS(R): the runner passes
-"IJK_ABS"); an end point at another distance from the centre than the start is reached on a
-spiral (radius linear in angle: ASSUMPTION on the spiral's form). An IJK arc of less than Isx97
-half-circles (0: 2^-20) is a full circle. With `R{r}` the card finds the centre itself: r > 0 the
-short arc (<= 180°), r < 0 the long one; an end farther than 2|r| is reached on a half-circle
-spiral, unless the excess is above Isx96 (when Isx96 > 0): the program stops at the start of the
-move with the circle-radius-error bit [SRM Isx96]. R with the end on the start moves nothing (no
-full circle with R).
+"IJK_INC" False, or "IJK_ABS" True); an end point at another distance from the centre than the
+start is reached on a spiral (radius linear in angle: ASSUMPTION on the spiral's form). An IJK arc
+of less than Isx97 half-circles (0: 2^-20) is a full circle. With `R{r}` the card finds the centre
+itself: r > 0 the short arc (<= 180°), r < 0 the long one; an end farther than 2|r| is reached on a
+half-circle spiral, unless the excess is above Isx96 (when Isx96 > 0): the program stops at the
+start of the move with the circle-radius-error bit [SRM Isx96]. R with the end on the start moves
+nothing (no full circle with R).
 
 Speed: F along the path (the circle axes are feedrate axes, with the other FRAX axes), or the move
-time TM; the acceleration to, from and between the moves of a sequence is the TA/TS blend along
-the path (blend.py), so the path stays on the arcs (ASSUMPTION: the SRM blends LINEAR and CIRCLE
-moves alike; here the blend acts on the distance along the path). A move takes at least its
-acceleration time [PMAC UM "Short Moves"], at most 8,388,607 ms.
+time TM; the acceleration to, from and between the moves of a sequence is the TA/TS blend along the
+path (blend.py), so the path stays on the arcs (ASSUMPTION: the SRM blends LINEAR and CIRCLE moves
+alike; here the blend acts on the distance along the path). A move takes at least its acceleration
+time [PMAC UM "Short Moves"], at most 8,388,607 ms.
 
-Segmentation: the card computes the path every Isx13 ms and fine-interpolates with cubics
-[SRM Isx13]: each segment here is the Hermite cubic of the exact positions and velocities at its
-ends. With Isx13 = 0 "CIRCLE mode moves are executed as LINEAR moves" [SRM Isx13]: the straight
-line to the end point with the same speed and blend, cut where the blend changes form (exact).
+Segmentation: the card computes the path every Isx13 ms and fine-interpolates with cubics [SRM
+Isx13]: each segment here is the Hermite cubic of the exact positions and velocities at its ends.
+With Isx13 = 0 "CIRCLE mode moves are executed as LINEAR moves" [SRM Isx13]: the straight line to
+the end point with the same speed and blend, cut where the blend changes form (exact).
 
-Params of a `Move`: "CIRCLE" (1 or 2), "NORMAL" (I J K), "IJK" (array) or "R", "IJK_ABS", "F"
+Params of a `Move`: "CIRCLE" (1 or 2), "NORMAL" (I J K), "IJK" (array) or "R", "IJK_INC" (or "IJK_ABS"), "F"
 (units/s) or "TM" (s) (TM when it is given: the program's last TM came after its F), "TA", "TS"
-(s), "SEG" (Isx13, s), "FRAX" (bool mask of the nine axes; default X Y Z), "Isx96" (units),
-"Isx97" (half-circles).
+(s), "SEG" (Isx13, s), "FRAX" (bool mask of the nine axes; default X Y Z), "Isx96" (units), "Isx97"
+(half-circles).
 """
 
 from __future__ import annotations
@@ -130,7 +130,8 @@ def _arc_geometry(start: np.ndarray, end: np.ndarray, move: Move
         centre, sweep = (short or arcs)[0] if rad > 0 else (long_ or arcs)[0]
     else:
         ijk = np.array(move.params["IJK"], dtype=float)
-        centre = ijk if move.params.get("IJK_ABS") else s + ijk
+        inc = move.params.get("IJK_INC", not move.params.get("IJK_ABS", False))
+        centre = s + ijk if inc else ijk
         centre = centre - np.dot(centre - s, n) * n   # into the start's plane
         isx97 = _num(move, "Isx97") or MIN_ARC_DEFAULT
         sweep = _sweep(s - centre, ep - centre, n, sigma, min_arc=isx97 * np.pi)

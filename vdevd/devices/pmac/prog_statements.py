@@ -15,7 +15,7 @@ Operations (the tuples buffers.compile_lines strings together), besides buffers.
 ``("dwell", expr)``, ``("delay", expr)``, ``("home", zero, motors)``, ``("label", n)``,
 ``("goto", expr)``, ``("gosub", expr, args)``, ``("call", expr, args)``, ``("return",)``,
 ``("read", letters)``, ``("stop",)``, ``("wait",)``, ``("pset", ((axis, expr), ...))``,
-``("normal", ((vector, expr), ...))`` NORMAL I J K, ``("absinc_r", inc)`` ABS(R)/INC(R); `args`
+``("normal", ((vector, expr), ...))``, ``("radius", inc)`` (ABS(R)/INC(R)); `args`
 are ((letter, expr), ...) after GOSUB/CALL.
 """
 
@@ -36,9 +36,6 @@ MODES = {"LINEAR": "LINEAR", "LIN": "LINEAR", "RAPID": "RAPID", "RPD": "RAPID",
 _MODE = re.compile("(" + "|".join(sorted(MODES, key=len, reverse=True)) + r")(?![A-Z])")
 _PVT = re.compile(rf"PVT{_SP}")
 _ABSINC = re.compile(rf"(ABS|INC)(?![A-Z]){_SP}")
-_ABSINC_R = re.compile(rf"(ABS|INC){_SP}\({_SP}R{_SP}\)")
-_NORMAL = re.compile(rf"NORMAL(?![A-Z]){_SP}")
-_NORMAL_PART = re.compile(rf"([IJK]){_SP}(?=[0-9.(\-+$])")
 _FRAX = re.compile(rf"(NOFRAX|FRAX)(?![A-Z]){_SP}")
 _PARAM = re.compile(rf"(TA|TS|TM|F)(?=[ 0-9.(\-$PQMI]){_SP}")
 _TIMED = re.compile(rf"(DWELL|DWE|DELAY|DLY)(?![A-Z]){_SP}")
@@ -49,6 +46,8 @@ _READ = re.compile(rf"READ{_SP}\(")
 _LABEL = re.compile(rf"([NO]){_SP}(\d+)(?![\d.])")
 _STOP = re.compile(r"STOP(?![A-Z])")
 _WAIT = re.compile(r"WAIT(?![A-Z])")
+_NORMAL = re.compile(rf"NORMAL{_SP}")
+_RADIUS_MODE = re.compile(rf"(ABS|INC){_SP}\({_SP}R{_SP}\)")
 _PSET = re.compile(rf"PSET{_SP}")
 _AXIS = re.compile(rf"([{AXES}]){_SP}(?=[0-9.(\-+$])")
 _VECTOR = re.compile(rf"([IJKR]){_SP}(?=[0-9.(\-+$])")
@@ -67,10 +66,20 @@ def parse_statement(s: str, i: int) -> tuple[Statement, int]:
     if m := _PVT.match(s, i):
         e, j = _data(s, m.end())
         return _op("mode", "PVT", e), j
-    if m := _ABSINC_R.match(s, i):  # ABS(R) / INC(R): the circle centre vector [SRM CIRCLE]
-        return _op("absinc_r", m.group(1) == "INC"), m.end()
+    if m := _RADIUS_MODE.match(s, i):  # ABS(R)/INC(R): circle centre vectors [SRM]
+        return _op("radius", m.group(1) == "INC"), m.end()
     if m := _NORMAL.match(s, i):
-        return _normal(s, m.end())
+        vectors: list[tuple[str, expr.Expr]] = []
+        j = m.end()
+        while v := _VECTOR.match(s, j):
+            if v.group(1) == "R" or any(n == v.group(1) for n, _ in vectors):
+                raise CommandError(ERR_DATA, "NORMAL takes I, J, K once each")
+            e, j = _data(s, v.end())
+            vectors.append((v.group(1), e))
+            j = buffers.skip(s, j)
+        if not vectors:
+            raise CommandError(ERR_DATA, "NORMAL needs a vector")
+        return _op("normal", tuple(vectors)), j
     if m := _ABSINC.match(s, i):
         axes, j = _axis_list(s, m.end(), optional=True)
         return _op("absinc", m.group(1) == "INC", axes), j
@@ -172,20 +181,6 @@ def _move(s: str, i: int) -> tuple[Statement, int]:
         vectors.append((m.group(1), value))
         i = buffers.skip(s, j)
     return _op("move", tuple(axes), tuple(vectors)), i
-
-
-def _normal(s: str, i: int) -> tuple[Statement, int]:
-    """`NORMAL K-1`, `NORMAL I0.866 J0.5`: the circle plane's normal vector [SRM NORMAL]."""
-    parts: list[tuple[str, expr.Expr]] = []
-    while m := _NORMAL_PART.match(s, i):
-        if any(v == m.group(1) for v, _ in parts):
-            raise CommandError(ERR_DATA, "a component twice in NORMAL")
-        value, j = _data(s, m.end())
-        parts.append((m.group(1), value))
-        i = buffers.skip(s, j)
-    if not parts:
-        raise CommandError(ERR_DATA, "NORMAL needs I, J or K")
-    return _op("normal", tuple(parts)), i
 
 
 def _axis_list(s: str, i: int, optional: bool) -> tuple[tuple[int, ...] | None, int]:

@@ -39,7 +39,6 @@ from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, CommandError
 from vdevd.devices.pmac.expr import ExprError
 from vdevd.devices.pmac.jog_profile import jog_accel
 from vdevd.devices.pmac.linear import LinearPlanner, RapidPlanner
-from vdevd.devices.pmac.motor_reports import IXX24_LIMITS_OFF
 from vdevd.devices.pmac.mvars import MDefError
 from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.pieces import NAXES, Move, Piece, Planner
@@ -78,13 +77,12 @@ DEFAULT_FRAX = np.array([a in "XYZ" for a in AXES])
 
 # C.S. status bits this module sets [SRM "??", digest §2.6]
 W1_RUNNING, W1_SINGLE_STEP, W1_CONTINUOUS, W1_TM_MODE, W1_RUN_REQUEST = 1, 2, 4, 8, 16
+W1_RADIUS_INC = 32
 W2_RAPID, W2_CIRCLE, W2_PVT_SPLINE, W2_DWELL, W2_IN_POSITION = 2, 1, 16, 1 << 12, 1 << 17
 W2_RUNTIME_ERROR = 1 << 22
 W2_RADIUS_ERROR = 1 << CIRCLE_RADIUS_ERROR
 #: word 2 bit 16: the rotary buffer is full (I17/I16) [SRM I17 "Rotary Buffer Full" status bit]
 W2_ROTARY_FULL = 1 << 16
-#: the circle plane's normal at power-on: NORMAL K-1 [SRM NORMAL]
-DEFAULT_NORMAL = np.array([0.0, 0.0, -1.0])
 _MODE_BITS = {"LINEAR": 0, "RAPID": W2_RAPID, "CIRCLE1": W2_CIRCLE, "CIRCLE2": W2_CIRCLE | W2_RAPID,
               "PVT": W2_PVT_SPLINE, "SPLINE1": W2_PVT_SPLINE | W2_CIRCLE,
               "SPLINE2": W2_PVT_SPLINE | W2_CIRCLE}
@@ -174,8 +172,8 @@ class CsProgram:
         self.ta, self.ts = float(iv[base + 87]), float(iv[base + 88])
         self.f, self.tm = float(iv[base + 89]), 0.0
         self.tm_mode = False
-        self.normal = DEFAULT_NORMAL.copy()
-        self.inc_r = True   # INC(R): the centre vector from the start point, the default
+        self.normal = np.array([0.0, 0.0, -1.0])  # NORMAL K-1: the XY plane [SRM NORMAL]
+        self.radius_inc = True                     # INC(R): centres from the move's start
 
     # -- state -------------------------------------------------------------------------------------
     @property
@@ -343,15 +341,19 @@ class CsProgram:
 
     # -- motors <-> axes --------------------------------------------------------------------------
     def _map_motors(self) -> None:
-        """The C.S.'s motors and their scale matrix (counts per axis unit)."""
+        """The C.S.'s motors and their scale matrix (counts per axis unit); inverse-kinematic
+        motors (`#m->I`) are driven by the inverse program with Isx50 = 1 and one defined
+        (kinematics.py), else not at all."""
         fw = self.fw
-        members = [m - 1 for m in fw.coord.members(self.cs) if m <= fw.ivars.motors]
+        defs = fw.coord.defs
+        kin = fw.kinematics
+        inverse = self._kinematic() and kin.has(self.cs, "INVERSE")
+        members = [m - 1 for m in fw.coord.members(self.cs) if m <= fw.ivars.motors
+                   and (inverse or not getattr(defs[m - 1], "inverse", False))]
         self.members = np.array(members, dtype=np.intp)
         self.member_mask = np.zeros(len(fw.motors.core.servo_on_mask), dtype=bool)
         self.member_mask[self.members] = True
         self.scale = np.zeros((len(members), NAXES))
-        kin = fw.kinematics
-        inverse = self._kinematic() and kin.has(self.cs, "INVERSE")
         self.inv_order = kin.inverse_motors(self.cs) if inverse else []
         self.inv_rows = np.array([r for r, m in enumerate(members) if m + 1 in self.inv_order],
                                  dtype=np.intp)
@@ -445,9 +447,9 @@ class CsProgram:
             prm["PVT"] = self.mode_arg / 1000
         if self.mode.startswith("CIRCLE"):
             prm["CIRCLE"] = int(self.mode[-1])
-            prm["NORMAL"] = self.normal.copy()
-            prm["IJK_ABS"] = not self.inc_r
             prm["Isx96"], prm["Isx97"] = float(iv[base + 96]), float(iv[base + 97])
+        prm["NORMAL"] = self.normal.copy()
+        prm["IJK_INC"] = self.radius_inc
         return prm
 
     def _rapid_limits(self) -> dict[str, np.ndarray]:
@@ -468,24 +470,25 @@ class CsProgram:
         return {"MAXV": vmax, "MAXA": amax, "JERK": jerk}
 
     # -- the servo cycle -------------------------------------------------------------------------------
-    def tick(self, dt: float) -> None:
+    def tick(self, dt: float) -> np.ndarray | None:
+        """One servo cycle: the motors' commanded positions (core counts) to track, None when
+        nothing is to be tracked this cycle."""
         if not self.running:
-            return
+            return None
         if not self._motors_ok():
-            return
+            return None
         self._calculate()
         if not self.running:
-            return
-        self._execute(dt)
+            return None
+        return self._execute(dt)
 
     def _motors_ok(self) -> bool:
         """A killed motor or a limit on the way aborts the program with a run-time error."""
         fw, idx = self.fw, self.members
         mo = fw.motors
-        fb_all = mo.core.axes.fb
+        lim = mo.core.limits
         # the hot path: one pass over every motor, masked to the C.S.'s (no fancy indexing)
-        if not ((~mo.core.servo_on_mask | mo.plim | mo.mlim | (fb_all > mo.soft_hi)
-                 | (fb_all < mo.soft_lo)) & self.member_mask).any():
+        if not ((~mo.core.servo_on_mask | lim.hard_pos | lim.hard_neg) & self.member_mask).any():
             return True
         if not mo.core.servo_on_mask[idx].all():
             self.abort(error=True)
@@ -493,11 +496,8 @@ class CsProgram:
             return False
         if self.wait == "home":
             return True
-        # word-1 bits 21/22 of the C.S.'s motors (motor_reports.limit_bits_now, without packing)
-        fb = mo.core.axes.fb[idx]
-        use = (mo.flag_mode[idx] & IXX24_LIMITS_OFF) == 0
-        pos_hit = (mo.plim[idx] & use) | (fb > mo.soft_hi[idx])
-        neg_hit = (mo.mlim[idx] & use) | (fb < mo.soft_lo[idx])
+        lim = mo.core.limits  # hardware (unless Ixx24 bit 17) and software limits, as pushed
+        pos_hit, neg_hit = lim.hard_pos[idx], lim.hard_neg[idx]
         if pos_hit.any() or neg_hit.any():
             v = mo.core.axes.cmd_vel[idx]
             if (pos_hit & (v > 0)).any() or (neg_hit & (v < 0)).any():
@@ -506,7 +506,7 @@ class CsProgram:
                 return False
         return True
 
-    def _execute(self, dt: float) -> None:
+    def _execute(self, dt: float) -> np.ndarray | None:
         fw = self.fw
         if self.hold != self.hold_target:
             iv = fw.ivars.values
@@ -519,9 +519,8 @@ class CsProgram:
         if g is not None:
             if g.q is self.cur and g.k < len(g.taus) and g.rate == (tb if g.q.scaled else 1.0):
                 self.tau = float(g.taus[g.k])
-                fw.motors.core.track(self.members, g.counts[g.k])
                 g.k += 1
-                return
+                return g.counts[g.k - 1]
             self._glide = None
         real = dt
         while real > 0:
@@ -544,17 +543,20 @@ class CsProgram:
                 real -= need
                 self.exec_pos = q.piece.end()[0]
                 self.cur = None
-        pos = self.cur.piece.at(self.tau)[0] if self.cur is not None else self.exec_pos
+        if self.cur is not None:
+            c, tau = self.cur.piece.coef, self.tau
+            pos = c[0] + tau * (c[1] + tau * (c[2] + tau * c[3]))  # Piece.at's position
+        else:
+            pos = self.exec_pos
         if self.wait == "home":
-            return
-        mo = fw.motors
-        counts = self._counts(pos) + mo.origin[self.members]
+            return None
         if self.cur is None and not self.queue and self.stopping:
-            self._finish(counts)
-            return
-        mo.core.track(self.members, counts)
+            self._finish()
+            return None
+        counts = self._counts(pos) + fw.motors.origin[self.members]
         if self.cur is not None and not len(self.inv_rows):
             self._glide_ahead(tb, dt)
+        return counts
 
     def _glide_ahead(self, tb: float, dt: float) -> None:
         """The counts of the servo cycles still inside the executing piece at this time base,
@@ -577,7 +579,7 @@ class CsProgram:
         counts = pos @ self.scale.T + (self.fw.coord.bias[self.members] + mo.origin[self.members])
         self._glide = _Glide(q, rate, taus, counts)
 
-    def _finish(self, counts: np.ndarray) -> None:
+    def _finish(self) -> None:
         """Calculation ended and the motion drained: the motors hold the programmed end point
         (exactly, free of the pieces' rounding)."""
         self.exec_pos = self.pos.copy()
@@ -747,13 +749,13 @@ class CsProgram:
                 self.tm, self.tm_mode = min(max(value, 0.0), MAX_TIME_MS), True
             else:
                 self.f, self.tm_mode = abs(value), False
+        elif name == "normal":
+            vec = dict((v, float(e.eval(env))) for v, e in op[1])
+            self.normal = np.array([vec.get(c, 0.0) for c in "IJK"])
+        elif name == "radius":
+            self.radius_inc = bool(op[1])
         elif name == "frax":
             self.frax = np.isin(np.arange(NAXES), op[1])
-        elif name == "normal":
-            vec = {c: float(e.eval(env)) for c, e in op[1]}
-            self.normal = np.array([vec.get(c, 0.0) for c in "IJK"])
-        elif name == "absinc_r":
-            self.inc_r = op[1]
         elif name in ("dwell", "delay"):
             ms = min(max(float(op[1].eval(env)), 0.0), MAX_TIME_MS)
             self._flush()
@@ -943,8 +945,19 @@ class Motion:
         return bool(self.running) and int(self.fw.coord.cs[motor - 1]) in self.running
 
     def tick(self) -> None:
+        """Each running C.S. one servo cycle; their motors tracked in one call."""
+        idx: list[np.ndarray] = []
+        counts: list[np.ndarray] = []
         for cs in sorted(self.running):
-            self.cs[cs - 1].tick(self._dt)
+            r = self.cs[cs - 1]
+            out = r.tick(self._dt)
+            if out is not None and len(r.members):
+                idx.append(r.members)
+                counts.append(out)
+        if len(idx) == 1:
+            self.fw.motors.core.track(idx[0], counts[0])
+        elif idx:
+            self.fw.motors.core.track(np.concatenate(idx), np.concatenate(counts))
 
     def abort_motors(self, cs: int) -> None:
         """The C.S.'s closed-loop motors stop at Ixx15."""
@@ -973,6 +986,8 @@ class Motion:
                 w1 |= 1 << (7 + 2 * k)
         if r.tm_mode:
             w1 |= W1_TM_MODE
+        if r.radius_inc:
+            w1 |= W1_RADIUS_INC
         w2 = _MODE_BITS.get(r.mode, 0) | (W2_RUNTIME_ERROR if r.error else 0) \
             | (W2_RADIUS_ERROR if r.radius_error else 0) \
             | (W2_ROTARY_FULL if self.fw.rotary.full(cs) else 0)
