@@ -74,6 +74,18 @@ def test_default_rack_has_one_card_of_each_type() -> None:
         ('[server]\nshm_dir = false', "server.shm_dir"),
         ('[bogus]\nx = 1', "bogus"),
         ("[[card]\n", "not valid TOML"),
+        ('[[card]]\ntype = "pmac-turbo"\nname = "p"\nethernet = "tcp://0.0.0.0:1025"\n'
+         'ethernet_allow = ["not-an-ip"]', "card[0].ethernet_allow[0]: 'not-an-ip' is not an IP"),
+        ('[[card]]\ntype = "pmac-turbo"\nname = "p"\nethernet = "tcp://0.0.0.0:1025"',
+         "card[0].ethernet: 'tcp://0.0.0.0:1025' is not loopback: add ethernet_allow"),
+        ('[[card]]\ntype = "pmac-turbo"\nname = "p"\nethernet = "garbage"',
+         "card[0].ethernet: 'garbage' is not tcp://HOST:PORT"),
+        ('[server]\nendpoint = "tcp://127.0.0.1:notaport"', "server.endpoint: 'tcp://127.0.0.1"),
+        ('[server]\nevents = "127.0.0.1:5556"', "server.events: '127.0.0.1:5556' is not a ZeroMQ"),
+        ('[server]\nmax_scheduled = -1', "server.max_scheduled"),
+        ('[server]\nmax_scheduled_per_client = "many"', "server.max_scheduled_per_client"),
+        ('[server]\nheartbeat_s = 10', "server.heartbeat_s"),
+        ('[server]\nheartbeat_s = true', "server.heartbeat_s"),
     ],
 )
 def test_bad_files_name_the_key(tmp_path: Path, text: str, key: str) -> None:

@@ -157,7 +157,9 @@ def test_the_episode_ends_once_calm_for_the_hold_time_and_the_next_one_counts_ag
         b.card.cost_ns = 250_000
         while not b.rack.pacer.overloaded:
             b.turn()
-    messages = [r.getMessage() for r in caplog.records]
+    # (the test's loop runs every queued continuation before a timer: a wake it holds back
+    # 100 ms is a stall, logged apart)
+    messages = [r.getMessage() for r in caplog.records if not r.getMessage().startswith("stall")]
     assert len(messages) == 2 and "over after" in messages[0] and "episode 2" in messages[1]
     assert b.rack.stats()["overload"]["episodes"] == 2
     assert b.ticks_all_run()

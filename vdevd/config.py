@@ -14,18 +14,28 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from vdevd.bounds import MAX_SCHEDULED, MAX_SCHEDULED_PER_CLIENT
 from vdevd.devices import CARD_TYPES, DEFAULT_NAMES, card_class
 from vdevd.devices.options import CardOptions, parse_options
-from vdevd.security import CurveConfig, check_curve, is_local
+from vdevd.heartbeat import PERIOD_NS as HEARTBEAT_NS
+from vdevd.http_health import MetricsConfig, parse_metrics
+from vdevd.security import CurveConfig, check_curve, is_local, parse_networks
 
 DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
 DEFAULT_EVENTS = "tcp://127.0.0.1:5556"
 DEFAULT_SHM_DIR = "/dev/shm"
 CLOCK_MODES = ("realtime", "lockstep")
 _NAME = re.compile(r"[A-Za-z0-9_-]+")  # a card name: ASCII letters, digits, - and _
+#: what `check_endpoints` takes: tcp://HOST:PORT (HOST a name, an IPv4 address, [IPv6] or *;
+#: PORT 0..65535 or *), ipc://PATH, inproc://NAME
+_ENDPOINT = re.compile(r"tcp://(\[[0-9A-Fa-f:.%\w]+\]|[\w.*-]+):(\*|\d{1,5})|(ipc|inproc)://.+")
 WAKERS = ("thread", "timer")
 #: the servo periods a configuration may ask for, ns (a card built in code may use any)
 PERIOD_NS = (10_000, 1_000_000_000)
+#: the events socket's heartbeat period, wall seconds (default, bounds): subscribers call a
+#: daemon gone after three periods without one (PROTOCOL.md "Heartbeat")
+HEARTBEAT_S = HEARTBEAT_NS / 1e9
+HEARTBEAT_RANGE_S = (0.01, 3.0)
 
 
 class ConfigError(ValueError):
@@ -54,11 +64,20 @@ class Config:
     state_dir: str | None = None
     #: where the shared memory of local clients is created ("": none; decision 0010)
     shm_dir: str = DEFAULT_SHM_DIR
+    #: scheduled `control` actions one client, and all clients, may have pending
+    max_scheduled_per_client: int = MAX_SCHEDULED_PER_CLIENT
+    max_scheduled: int = MAX_SCHEDULED
+    #: the heartbeat period on the events socket, wall seconds
+    heartbeat_s: float = HEARTBEAT_S
     curve: CurveConfig | None = None
+    #: `[security] allow_unauthenticated_networks`: serve these networks without CURVE
+    open_networks: tuple[str, ...] = ()
+    #: `[metrics]`: the HTTP metrics and health endpoint (None: off)
+    metrics: MetricsConfig | None = None
     cards: list[CardSpec] = field(default_factory=list)
 
 
-_SECTIONS = {"server", "clock", "state", "security", "card"}
+_SECTIONS = {"server", "clock", "state", "security", "metrics", "card"}
 
 
 def load(path: str | Path | None) -> Config:
@@ -91,10 +110,22 @@ def parse(data: dict[str, Any]) -> Config:
         raise ConfigError(f"{unknown[0]}: unknown section (sections: {', '.join(sorted(_SECTIONS))})")
     cfg = Config()
     server = _table(data, "server")
-    _only(server, "server", ("endpoint", "events", "shm_dir"))
+    _only(server, "server", ("endpoint", "events", "shm_dir", "max_scheduled_per_client",
+                             "max_scheduled", "heartbeat_s"))
     cfg.endpoint = _str(server, "server", "endpoint", cfg.endpoint)
     cfg.events = _str(server, "server", "events", cfg.events)
     cfg.shm_dir = _str(server, "server", "shm_dir", cfg.shm_dir)
+    for key in ("max_scheduled_per_client", "max_scheduled"):
+        value = server.get(key, getattr(cfg, key))
+        if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value <= 10**6:
+            raise ConfigError(f"server.{key}: {value!r} is not an integer in 0..1000000")
+        setattr(cfg, key, value)
+    beat = server.get("heartbeat_s", cfg.heartbeat_s)
+    low, high = HEARTBEAT_RANGE_S
+    if isinstance(beat, bool) or not isinstance(beat, (int, float)) or not low <= beat <= high:
+        raise ConfigError(f"server.heartbeat_s: {beat!r} is not a number of seconds in "
+                          f"{low}..{high}")
+    cfg.heartbeat_s = float(beat)
     clock = _table(data, "clock")
     _only(clock, "clock", ("mode", "wake_us", "waker", "skip_quiet"))
     cfg.clock = _choice(clock, "clock", "mode", CLOCK_MODES, cfg.clock)  # type: ignore[assignment]
@@ -111,14 +142,32 @@ def parse(data: dict[str, Any]) -> Config:
     _only(state, "state", ("dir",))
     cfg.state_dir = _str(state, "state", "dir", None)
     security = _table(data, "security")
-    if "security" in data:
-        _only(security, "security", ("server_secret_key", "client_keys_dir"))
+    if "allow_unauthenticated_networks" in security:
+        _only(security, "security", ("server_secret_key", "client_keys_dir",
+                                     "allow_unauthenticated_networks"))
+        keys = [k for k in ("server_secret_key", "client_keys_dir") if k in security]
+        if keys:
+            raise ConfigError(f"security.allow_unauthenticated_networks: serves without CURVE, "
+                              f"so security.{keys[0]} cannot be set too")
+        try:
+            cfg.open_networks = parse_networks(security["allow_unauthenticated_networks"],
+                                               "security.allow_unauthenticated_networks")
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+    elif "security" in data:
+        _only(security, "security", ("server_secret_key", "client_keys_dir",
+                                     "allow_unauthenticated_networks"))
         cfg.curve = CurveConfig(
             _required(security, "security", "server_secret_key"),
             _required(security, "security", "client_keys_dir"),
         )
         try:
             check_curve(cfg.curve)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+    if "metrics" in data:
+        try:
+            cfg.metrics = parse_metrics(data["metrics"])
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
     cards = data.get("card", [])
@@ -148,12 +197,14 @@ def parse(data: dict[str, Any]) -> Config:
 def check_endpoints(cfg: Config) -> None:
     """Non-loopback endpoints need CURVE keys (DESIGN.md "Security")."""
     for key, ep in (("server.endpoint", cfg.endpoint), ("server.events", cfg.events)):
-        if "://" not in ep:
-            raise ConfigError(f"{key}: {ep!r} is not a ZeroMQ endpoint (tcp://host:port, ipc://path)")
-        if not is_local(ep) and cfg.curve is None:
+        if not _ENDPOINT.fullmatch(ep):
+            raise ConfigError(f"{key}: {ep!r} is not a ZeroMQ endpoint (tcp://HOST:PORT with "
+                              "PORT a number or *, [IPv6]:PORT, ipc://PATH)")
+        if not is_local(ep) and cfg.curve is None and not cfg.open_networks:
             raise ConfigError(
                 f"{key}: {ep!r} is not loopback; add a [security] section "
-                "(server_secret_key, client_keys_dir) to serve it with CURVE"
+                "(server_secret_key, client_keys_dir) to serve it with CURVE, or name a "
+                "private network in [security] allow_unauthenticated_networks"
             )
 
 

@@ -19,6 +19,7 @@ from vdevd.config import Config
 from vdevd.devices import card_class
 from vdevd.devices.base import CardContext
 from vdevd.errors import StartError
+from vdevd.http_health import open_health
 from vdevd.nvram import NvramStore
 from vdevd.rack import Rack
 from vdevd.server import Publisher, Server
@@ -33,8 +34,10 @@ def build_rack(cfg: Config, memory: Segment | None = None) -> Rack:
     rack removes it at `stop`; here too if a card cannot be built)."""
     try:
         nvram = NvramStore(cfg.state_dir) if cfg.state_dir else None
-        rack = Rack([], cfg.clock, sink=Publisher(), wake_ns=cfg.wake_us * 1000, waker=cfg.waker,
-                    skip_quiet=cfg.skip_quiet, memory=memory)
+        rack = Rack([], cfg.clock, sink=Publisher(heartbeat_ns=round(cfg.heartbeat_s * 1e9)),
+                    wake_ns=cfg.wake_us * 1000, waker=cfg.waker, skip_quiet=cfg.skip_quiet,
+                    memory=memory, max_scheduled_per_client=cfg.max_scheduled_per_client,
+                    max_scheduled=cfg.max_scheduled)
         for spec in cfg.cards:
             ctx = CardContext(emit=rack.emit, nvram=nvram, memory=memory)
             rack.add_card(card_class(spec.type)(spec.name, spec.options, ctx))
@@ -55,7 +58,8 @@ def build_server(cfg: Config, ctx: zmq.Context | None = None) -> Server:
     """A server of the rack of `cfg`, its passive regions in the daemon's shared segment."""
     rack = build_rack(cfg, shared_memory(cfg))
     try:
-        return Server(rack, cfg.endpoint, cfg.events, ctx=ctx, curve=cfg.curve)
+        return Server(rack, cfg.endpoint, cfg.events, ctx=ctx, curve=cfg.curve,
+                      open_networks=cfg.open_networks)
     except BaseException:
         rack.stop()
         raise
@@ -112,7 +116,9 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
             loop.add_signal_handler(sig, stop.set)
     watchdog = None
     written = False
+    health = None
     try:
+        health = open_health(cfg.metrics, server.rack, loop)  # /healthz answers during start
         await server.start(loop)
         cards = ", ".join(f"{c.name} ({c.type_name})" for c in server.rack.cards.values())
         if not cards:
@@ -122,8 +128,13 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
                  server.endpoint, server.events, cfg.clock, server.rack.stats()["motion_core"],
                  cards)
         if ready_file is not None:
-            write_ready_file(ready_file, server.listeners())
+            listeners = server.listeners()
+            if health is not None:
+                listeners["metrics"] = health.url
+            write_ready_file(ready_file, listeners)
             written = True
+        if health is not None:
+            health.ready = True
         sd_notify("READY=1")
         if os.environ.get("WATCHDOG_USEC"):
             watchdog = asyncio.create_task(_watchdog())
@@ -135,7 +146,11 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
             with suppress(OSError):
                 os.unlink(ready_file)
         sd_notify("STOPPING=1")
+        if health is not None:
+            health.ready = False
         await server.stop()
+        if health is not None:
+            health.stop()
         log.info("stopped")
 
 

@@ -24,6 +24,7 @@ class NvramStore:
 
     def __init__(self, state_dir: str | os.PathLike[str]) -> None:
         self.dir = Path(state_dir)
+        self.saves: dict[str, int] = {}  # images written, by card (the metrics endpoint)
 
     def path(self, card: str) -> Path:
         return self.dir / f"{card}.nvram"
@@ -46,6 +47,7 @@ class NvramStore:
             os.fsync(dir_fd)
         finally:
             os.close(dir_fd)
+        self.saves[card] = self.saves.get(card, 0) + 1
 
     def load(self, card: str) -> dict[str, Any] | None:
         """The saved image, or None when the card never saved one or its image is unreadable:

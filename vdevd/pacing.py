@@ -55,6 +55,9 @@ CATCH_UP_NS = 100_000
 #: a card that raises at every tick is logged at most once in this much wall time (with the
 #: count of the faults in between; `stats` counts every one in `card_faults`)
 FAULT_LOG_NS = 10_000_000_000
+#: realtime: a pass of the scheduler later than this is a stall (issue 22): counted in `stats`
+#: `scheduler.stalls` and logged once each
+STALL_NS = 100_000_000
 #: the waker thread's timer slack (Linux PR_SET_TIMERSLACK; the default is 50 us)
 WAKER_SLACK_NS = 1_000
 
@@ -78,6 +81,7 @@ class Pacer:
         self.t0 = 0
         self.paced = False  # realtime and started: requests first run the ticks fallen due
         self._next_wake = 0
+        self._due = 0  # the clock's reading when the next pass is due (`_next_wake`, unslipped)
         self._posted = False  # the waker thread's pass is queued on the loop, not yet run
         self._continuing = False  # ticks still due are queued on the loop (`_work`)
         self._cost = 0.0  # wall ns per simulated ns of the last slice
@@ -101,6 +105,8 @@ class Pacer:
         self.continuations = 0
         self.overruns = 0
         self.card_faults = 0
+        #: passes more than STALL_NS late: how many, the longest and the sum of their lateness
+        self.stalls = {"count": 0, "longest_ns": 0, "total_ns": 0}
         self._faults_logged = 0  # card_faults at the last one logged
         self._fault_logged_ns = -FAULT_LOG_NS
 
@@ -113,6 +119,7 @@ class Pacer:
         self.t0 = self._clock() - self.sched.now_ns
         self.paced = True
         self._next_wake = self.sched.now_ns + self.wake_ns
+        self._due = self.t0 + self._next_wake
         if self.waker == "thread":
             self._thread = threading.Thread(target=self._wake_thread, name="vdevd-waker",
                                             daemon=True)
@@ -159,17 +166,31 @@ class Pacer:
             return
         wall = self._clock() - self.t0
         self.passes += 1
-        self.late.add(wall - self._next_wake)
+        late = wall - self._next_wake
+        self.late.add(late)
         self.behind.add(wall - self.sched.now_ns)
-        if wall - self._next_wake >= self.wake_ns:
+        if late >= self.wake_ns:
             self.overruns += 1
+        if wall + self.t0 - self._due > STALL_NS:  # on the clock: a slip meanwhile hides none
+            self._stalled(wall + self.t0 - self._due)
         self._next_wake = wall - wall % self.wake_ns + self.wake_ns
+        self._due = self.t0 + self._next_wake
         if not self._continuing:
             self._work()
         if self.waker == "timer" and self._loop is not None:
             # uvloop's timers count whole ms and fire at once below 1 ms: round up, never spin
-            delay = self._next_wake - (self._clock() - self.t0)
+            delay = self._due - self._clock()  # on the clock: a slip in `_work` moved t0
             self._loop.call_later(-(-max(delay, 1) // 1_000_000) / 1e3, self._pass)
+
+    def _stalled(self, late: int) -> None:
+        """A pass `late` ns late, more than STALL_NS: the event loop was held (a blocking call,
+        a suspended process, a starved machine). Counted, and logged once."""
+        stalls = self.stalls
+        stalls["count"] += 1
+        stalls["longest_ns"] = max(stalls["longest_ns"], late)
+        stalls["total_ns"] += late
+        log.warning("stall: a scheduler pass ran %.0f ms late (more than %.0f ms; stall %d): "
+                    "the event loop was held", late / 1e6, STALL_NS / 1e6, stalls["count"])
 
     def _work(self) -> None:
         """Realtime: run the ticks due by wall time for at most SLICE_BUDGET_NS; what is left

@@ -24,7 +24,7 @@ HARD_MAX_MESSAGE = 4 * MAX_MESSAGE
 MAX_WAIT_NS = 86_400 * 1_000_000_000
 
 CAPABILITIES = ("read", "write", "rep", "batch", "batch.compact", "wait.irq", "wait.value", "sim",
-                "control", "stats", "sync", "shm")
+                "control", "stats", "sync", "shm", "heartbeat")
 
 
 
@@ -95,12 +95,15 @@ BATCHABLE = frozenset({"read", "write", "wait", "control"})
 @dataclass(slots=True)
 class Request:
     """A validated request: `args` holds the op's fields, already type-checked; `local`, set by
-    the server, says the client is on this machine (a `hello` then announces the shared memory)."""
+    the server, says the client is on this machine (a `hello` then announces the shared memory);
+    `client`, set by the server, is who sent it (the ROUTER's peer identity), which the limits
+    per client count by."""
 
     id: Any
     op: str
     args: dict[str, Any]
     local: bool = False
+    client: bytes = b""
 
 
 _unpack = msgpack.unpackb  # str keys only (strict_map_key), str as str, arrays as lists
@@ -147,7 +150,19 @@ def unpack_message(payload: bytes) -> Any:
     try:
         return _unpack(payload)
     except Exception as exc:  # msgpack raises several unrelated types for bad input
-        raise _with_id(VdevError(ErrorCode.MALFORMED, f"not msgpack: {exc}"), None) from None
+        raise _with_id(VdevError(ErrorCode.MALFORMED, f"not msgpack: {_unpack_failure(exc, payload)}"),
+                       None) from None
+
+
+def _unpack_failure(exc: Exception, payload: bytes) -> str:
+    """What was wrong with a body msgpack could not unpack, never empty (msgpack's FormatError
+    and StackError carry no message)."""
+    reason = str(exc) or {"FormatError": "a byte that begins no msgpack object",
+                          "StackError": "nested too deep"}.get(type(exc).__name__,
+                                                               type(exc).__name__)
+    if not payload:
+        return f"{reason} (the body is empty)"
+    return f"{reason} (the body of {len(payload)} bytes begins {payload[:8].hex(' ')})"
 
 
 def read_fields(msg: Any) -> tuple[Any, str, str, int, int] | None:

@@ -14,10 +14,19 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any, Protocol
 
+from vdevd.bounds import (
+    MAX_READ,
+    MAX_SCHEDULED,
+    MAX_SCHEDULED_PER_CLIENT,
+    ScheduledCount,
+    check_batch,
+    check_read,
+    check_rep_work,
+)
 from vdevd.devices.base import Card
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.irq import IrqEvent
-from vdevd.metrics import Samples
+from vdevd.metrics import Samples, TaggedSamples
 from vdevd.pacing import ClockMode, Pacer, Waker
 from vdevd.protocol import (
     CAPABILITIES,
@@ -80,12 +89,15 @@ class Rack:
         clock: Callable[[], int] = time.perf_counter_ns,
         skip_quiet: bool = True,
         memory: Segment | None = None,
+        max_scheduled_per_client: int = MAX_SCHEDULED_PER_CLIENT,
+        max_scheduled: int = MAX_SCHEDULED,
     ) -> None:
         """`sink`: where events go (default: nowhere); `wake_ns`, `waker`, `clock`: the
         realtime pacing (`Pacer`); `skip_quiet`: whether cards at rest run their quiet ticks in
         closed form (`Card.tick`; false ticks every period in full); `memory`: the shared
         segment the cards' passive regions were built on (`CardContext.memory`), announced to
-        local clients and removed at `stop`."""
+        local clients and removed at `stop`; `max_scheduled_per_client`, `max_scheduled`: the
+        scheduled `control` actions one client, and all, may have pending."""
         self.skip_quiet = skip_quiet
         self.cards: dict[str, Card] = {}
         self._regions: dict[tuple[str, str], Region] = {}
@@ -97,13 +109,17 @@ class Rack:
         self.sink: EventSink = sink if sink is not None else NullSink()
         self.memory = memory
         self.waits = Waits(self._internal)
+        #: scheduled `control` actions pending, per client and in all (`busy` past the limits)
+        self.scheduled = ScheduledCount(max_scheduled_per_client, max_scheduled)
+        #: who sent the request being served (`Request.client`)
+        self._client = b""
         self.pacer = Pacer(self.sched, self.waits, mode, wake_ns=wake_ns, waker=waker,
                            clock=clock)
         # stats
         self.started_monotonic_ns = time.monotonic_ns()
         self.requests: dict[str, int] = {}
         self.errors = 0
-        self.latency = Samples()
+        self.latency = TaggedSamples()  # tagged with the op (metrics.OP_TAGS)
         self.events_published = 0
         #: the ops a batch runs as requests (its plain accesses run inline)
         self._batchable: dict[str, Callable[[dict[str, Any], Reply], Any]] = {
@@ -198,6 +214,7 @@ class Rack:
             self.pacer.catch_up()
         op = req.op
         self.requests[op] = self.requests.get(op, 0) + 1
+        self._client = req.client
         try:
             # `local` is set on a hello only (the server's knowledge of the peer)
             result = self.hello(local=True) if req.local else self._handlers[op](req.args, reply)
@@ -243,6 +260,8 @@ class Rack:
             "capabilities": list(CAPABILITIES),
             "max_message": MAX_MESSAGE,
             "events": self.events_endpoint,
+            # a sink with no heartbeat (no events socket): 0
+            "heartbeat_ns": getattr(self.sink, "heartbeat_ns", 0),
             "clock": {"mode": self.mode, "now_ns": self.now_ns, "tick_ns": self.sched.tick_ns},
             "cards": [c.describe() for c in self.cards.values()],
         }
@@ -272,8 +291,10 @@ class Rack:
         return r if r is not None else self.region(args["card"], args["region"])
 
     def op_read(self, args: dict[str, Any], reply: Reply) -> Any:
+        check_read(args["size"])
         region = self._region_of(args)
         if args.get("rep"):
+            check_rep_work(region.rep_hook_calls(args["offset"], args["size"], False))
             return region.read_rep(args["offset"], args["size"])
         return region.read(args["offset"], args["size"])
 
@@ -285,6 +306,8 @@ class Rack:
         self.reads += 1
         r = self._regions.get((card, region))
         try:
+            if size > MAX_READ:
+                check_read(size)  # too_large before any work (bounds.py)
             if r is None:
                 r = self.region(card, region)  # raises the error naming what is missing
             return r.read(offset, size)
@@ -295,6 +318,7 @@ class Rack:
     def op_write(self, args: dict[str, Any], reply: Reply) -> Any:
         region = self._region_of(args)
         if args.get("rep"):
+            check_rep_work(region.rep_hook_calls(args["offset"], len(args["data"]), True))
             region.write_rep(args["offset"], args["data"])
         else:
             region.write(args["offset"], args["data"])
@@ -302,9 +326,15 @@ class Rack:
 
     def op_batch(self, args: dict[str, Any], reply: Reply) -> Any:
         ops: list[Request | Access] = args["ops"]
+        check_batch(ops, self._rep_hook_calls)
         results: list[Any] = []
         self._run_batch(ops, 0, results, reply)
         return _DEFERRED
+
+    def _rep_hook_calls(self, card: str, region: str, offset: int, size: int, write: bool) -> int:
+        """`Region.rep_hook_calls` by name (0 for no such region: the op fails when it runs)."""
+        r = self._regions.get((card, region))
+        return r.rep_hook_calls(offset, size, write) if r is not None else 0
 
     def _run_batch(self, ops: list[Request | Access], start: int, results: list[Any],
                    reply: Reply) -> None:
@@ -313,6 +343,7 @@ class Rack:
         many such waits takes no stack."""
         regions = self._regions
         append = results.append
+        client = self._client  # the batch's, for a control op after a wait resumes it
         i = start
         while i < len(ops):
             op = ops[i]
@@ -345,6 +376,7 @@ class Rack:
                         now[0] = res  # resolved at once: the loop below takes it
                         return
                     if self._resumed(ops, i, results, reply, res):
+                        self._client = client
                         try:
                             self._run_batch(ops, i + 1, results, reply)
                         except VdevError as exc:
@@ -448,7 +480,10 @@ class Rack:
         if when is None or when <= self.now_ns:
             return card.control(action, params)
         card.check_control(action, params)
-        self.waits.schedule_control(when, card, action, params)
+        client, scheduled = self._client, self.scheduled
+        scheduled.reserve(client)
+        self.waits.schedule_control(when, card, action, params,
+                                    done=lambda: scheduled.release(client))
         return {"scheduled_ns": when}
 
     def _control_time(self, args: dict[str, Any]) -> int | None:
@@ -497,6 +532,7 @@ class Rack:
                 "answered_behind_ns": self.pacer.answered_behind.summary(),
                 "card_faults": self.card_faults,
                 "lost_ticks": sum(lost.values()),
+                "stalls": dict(self.pacer.stalls),
             },
             "overload": self.pacer.overload_stats(),
             "motion_core": "compiled" if kernel.compiled() is not None else "numpy",
@@ -511,6 +547,7 @@ class Rack:
                 "errors": self.errors + self.waits.control_errors,
                 "latency_ns": self.latency.summary(),
                 "pending_waits": len(self.waits.pending),
+                "scheduled": self.scheduled.total,
             },
             "events_published": self.events_published,
             "uptime_s": (time.monotonic_ns() - self.started_monotonic_ns) / 1e9,

@@ -228,6 +228,20 @@ class Region:
                          self._plan_write_rep(offset, len(data)))
         plan(offset, data)
 
+    def rep_hook_calls(self, offset: int, size: int, write: bool) -> int:
+        """The hook calls a repeated access of `size` bytes at `offset` makes: one per access of
+        the smallest width on a register whose hook has no repeated-access fast path, else 0
+        (plain memory is one copy; `bounds.check_rep_work` limits the rest). No checks: an
+        access the bus refuses is refused when it runs."""
+        h = self._hook_at(offset)
+        if h is None or size <= 0:
+            return 0
+        if write:
+            slow = h.on_write is not None and h.on_write_rep is None
+        else:
+            slow = h.on_read is not None and h.on_read_rep is None
+        return size // self._unit if slow else 0
+
     # -- access plans: the checks and the hook lookup of one (offset, size), done once ---------
     def _plan_read(self, offset: int, size: int) -> ReadPlan:
         single = self._check(offset, size)
@@ -259,6 +273,9 @@ class Region:
         if h is not None and h.on_read_rep is not None:
             return h.on_read_rep
         read = self._read_register(offset, unit)
+        if read == self._read_plain:  # plain memory reads the same bytes again: one copy
+            mem = self.mem
+            return lambda _offset, _size: bytes(mem[offset : offset + unit]) * (size // unit)
         return lambda _offset, _size: b"".join(read(offset, unit) for _ in range(size // unit))
 
     def _plan_write_rep(self, offset: int, size: int) -> WritePlan:
@@ -268,6 +285,8 @@ class Region:
         if h is not None and h.on_write_rep is not None:
             return h.on_write_rep
         write = self._write_register(offset, unit)
+        if write == self._write_plain:  # plain memory keeps the last access: one copy
+            return lambda _offset, data: self._write_plain(offset, data[-unit:]) if data else None
 
         def write_each(_offset: int, data: bytes) -> None:
             for i in range(0, len(data), unit):

@@ -3,12 +3,17 @@
 from __future__ import annotations
 
 import ipaddress
+import logging
 from dataclasses import dataclass
 from pathlib import Path
 
 import zmq
 import zmq.auth
 from zmq.auth.thread import ThreadAuthenticator
+
+log = logging.getLogger("vdevd.security")
+
+IPNetwork = ipaddress.IPv4Network | ipaddress.IPv6Network
 
 
 @dataclass(frozen=True)
@@ -58,4 +63,53 @@ def secure(ctx: zmq.Context, sockets: list[zmq.Socket], curve: CurveConfig) -> T
         sock.curve_secretkey = secret
         sock.curve_publickey = public
         sock.curve_server = True
+    return auth
+
+
+class _Networks(set[str]):
+    """The addresses a NULL-mechanism ZAP handler lets in: any in `networks` or loopback
+    (pyzmq's `Authenticator` asks `address in allowed`)."""
+
+    def __init__(self, networks: tuple[IPNetwork, ...]) -> None:
+        super().__init__()
+        self.networks = networks
+
+    def __contains__(self, address: object) -> bool:
+        try:
+            ip = ipaddress.ip_address(str(address).partition("%")[0])
+        except ValueError:
+            return False
+        ip = getattr(ip, "ipv4_mapped", None) or ip
+        return ip.is_loopback or any(ip in net for net in self.networks)
+
+    def __len__(self) -> int:
+        return 1  # never empty: the authenticator then checks every address
+
+
+def parse_networks(value: object, key: str) -> tuple[str, ...]:
+    """A list of IP networks ("10.0.0.0/8", "192.168.5.7"); ValueError naming `key`."""
+    if not isinstance(value, list) or not value or not all(isinstance(v, str) for v in value):
+        raise ValueError(f"{key}: expected a non-empty list of networks (e.g. [\"10.0.0.0/8\"]), "
+                         f"got {value!r}")
+    for v in value:
+        try:
+            ipaddress.ip_network(v, strict=False)
+        except ValueError:
+            raise ValueError(f"{key}: {v!r} is not an IP network (e.g. \"10.0.0.0/8\")") from None
+    return tuple(value)
+
+
+def allow_networks(ctx: zmq.Context, sockets: list[zmq.Socket],
+                   networks: tuple[str, ...]) -> ThreadAuthenticator:
+    """Serve `sockets` without CURVE to peers in `networks` (and loopback) only, refusing every
+    other peer at the handshake (ZAP): `[security] allow_unauthenticated_networks`, for a
+    private network such as a CI cluster's. Logged as a warning."""
+    nets = tuple(ipaddress.ip_network(n, strict=False) for n in networks)
+    auth = ThreadAuthenticator(ctx)
+    auth._allowed = _Networks(nets)  # pyzmq's address allow-list, by network instead of address
+    auth.start()
+    for sock in sockets:
+        sock.zap_domain = b"vdevd"  # a NULL-mechanism socket asks ZAP only with a domain set
+    log.warning("serving WITHOUT CURVE (no encryption, no client keys) to %s and loopback "
+                "([security] allow_unauthenticated_networks)", ", ".join(networks))
     return auth

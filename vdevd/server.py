@@ -19,9 +19,13 @@ import zmq
 
 from vdevd import protocol
 from vdevd.errors import ErrorCode, VdevError
+from vdevd.heartbeat import PERIOD_NS as HEARTBEAT_NS
+from vdevd.heartbeat import TOPIC as HEARTBEAT_TOPIC
+from vdevd.heartbeat import Heartbeat
 from vdevd.irq import IrqEvent
+from vdevd.metrics import OP_TAGS
 from vdevd.rack import Rack
-from vdevd.security import CurveConfig, secure
+from vdevd.security import CurveConfig, allow_networks, secure
 
 log = logging.getLogger("vdevd.server")
 
@@ -33,15 +37,18 @@ _NOBLOCK = int(zmq.NOBLOCK)
 _NOBLOCK_MORE = int(zmq.NOBLOCK | zmq.SNDMORE)
 _EVENTS = int(zmq.EVENTS)
 _POLLIN = int(zmq.POLLIN)
+_READ_TAG = OP_TAGS["read"]
 
 
 class Publisher:
     """The rack's event sink (`vdevd.rack.EventSink`) on the PUB socket: events are dropped until
-    the server binds it, as a PUB socket drops them while no one subscribes."""
+    the server binds it, as a PUB socket drops them while no one subscribes. `heartbeat_ns`:
+    the period of the heartbeat the server publishes through it (0: none)."""
 
-    def __init__(self) -> None:
+    def __init__(self, heartbeat_ns: int = HEARTBEAT_NS) -> None:
         self._sock: zmq.Socket | None = None
         self.endpoint = ""
+        self.heartbeat_ns = heartbeat_ns
 
     def attach(self, sock: zmq.Socket) -> None:
         """Publish on `sock`, bound already."""
@@ -53,6 +60,11 @@ class Publisher:
 
     def sync(self, card: str) -> None:
         self._send(card, {"kind": "sync", "card": card})
+
+    def heartbeat(self, seq: int) -> None:
+        """A heartbeat (PROTOCOL.md "Heartbeat") on its own topic."""
+        self._send(HEARTBEAT_TOPIC, {"kind": "heartbeat", "seq": seq,
+                                     "period_ns": self.heartbeat_ns})
 
     def _send(self, topic: str, body: dict[str, Any]) -> None:
         if self._sock is None:
@@ -75,7 +87,10 @@ class Server:
         *,
         ctx: zmq.Context | None = None,
         curve: CurveConfig | None = None,
+        open_networks: tuple[str, ...] = (),
     ) -> None:
+        """`curve`: serve with CURVE; else `open_networks`: serve only peers on these networks
+        (and loopback) without it (`[security] allow_unauthenticated_networks`)."""
         if not isinstance(rack.sink, Publisher):
             raise TypeError("a served rack publishes through a server.Publisher sink")
         self.rack = rack
@@ -84,11 +99,16 @@ class Server:
         self.ctx = ctx or zmq.Context.instance()
         self.router = self.ctx.socket(zmq.ROUTER)
         self.pub = self.ctx.socket(zmq.PUB)
-        for sock in (self.router, self.pub):
+        for sock, url in ((self.router, endpoint), (self.pub, events)):
             sock.linger = 0
+            # an IPv6 address (tcp://[::1]:PORT) needs it; not set otherwise, where it would
+            # report an IPv4 endpoint as IPv4-mapped IPv6 (tcp://[::ffff:127.0.0.1]:PORT)
+            sock.ipv6 = url.startswith("tcp://[")
         self.router.setsockopt(zmq.MAXMSGSIZE, protocol.HARD_MAX_MESSAGE)
         self.router.setsockopt(zmq.ROUTER_HANDOVER, 1)
-        self._auth = secure(self.ctx, [self.router, self.pub], curve) if curve else None
+        self._auth = secure(self.ctx, [self.router, self.pub], curve) if curve else (
+            allow_networks(self.ctx, [self.router, self.pub], open_networks)
+            if open_networks else None)
         #: the bound endpoints, once `start` has bound them
         self.endpoint = ""
         self.events = ""
@@ -98,6 +118,7 @@ class Server:
         self._drain_scheduled = False
         self._draining = False
         self._pack = msgpack.Packer(use_bin_type=True).pack  # this server's, for read replies
+        self._heartbeat = Heartbeat(self.publisher)
         # pyzmq's own send, without the Python wrapper of zmq.Socket (routing ids, groups and
         # Frame objects, none used here) that costs ~0.5 us a frame
         self._router_send = super(zmq.Socket, self.router).send  # type: ignore[misc]
@@ -113,6 +134,7 @@ class Server:
         self.pub.bind(events)
         self.publisher.attach(self.pub)
         self.events = self.publisher.endpoint
+        self._heartbeat.start(loop)
         self.router.bind(endpoint)
         self.endpoint = self.router.getsockopt_string(zmq.LAST_ENDPOINT)
         loop.add_reader(self.router.getsockopt(zmq.FD), self._on_readable)
@@ -127,6 +149,7 @@ class Server:
 
     async def stop(self) -> None:
         """Close the cards' own ports, stop the clock, close the sockets (what was started)."""
+        self._heartbeat.stop()
         await self.rack.close_services()
         self.rack.stop()
         if self._loop is not None and self._reading:
@@ -207,9 +230,10 @@ class Server:
             read = protocol.read_fields(msg)
             if read is not None:
                 self._send(envelope, self._read(*read))
-                self.rack.latency.add(time.perf_counter_ns() - t0)
+                self.rack.latency.add(time.perf_counter_ns() - t0, _READ_TAG)
                 return
             req = protocol.request_from(msg)
+            req.client = envelope[0]
             if req.op == "hello":
                 req.local = self._peer_local()
         except VdevError as exc:
@@ -231,7 +255,7 @@ class Server:
             self._send(envelope, body)
 
         self.rack.execute(req, reply)
-        self.rack.latency.add(time.perf_counter_ns() - t0)
+        self.rack.latency.add(time.perf_counter_ns() - t0, OP_TAGS[req.op])
 
     def _read(self, req_id: Any, card: str, region: str, offset: int, size: int) -> bytes:
         """The reply to a register read (the hot path)."""

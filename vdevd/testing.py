@@ -12,12 +12,14 @@ import asyncio
 import threading
 from collections.abc import Callable
 from dataclasses import replace
+from typing import Any
 
 import zmq
 
 from vdevd.config import Config, default_config
 from vdevd.daemon import build_rack, shared_memory
 from vdevd.devices.base import Card, CardContext
+from vdevd.http_health import HealthServer, open_health
 from vdevd.rack import Rack
 from vdevd.server import Publisher, Server
 
@@ -51,6 +53,8 @@ class DaemonThread:
         self.endpoint = ""
         self.events = ""
         self.server: Server | None = None
+        #: the `[metrics]` HTTP endpoint (its `url`), when the configuration has one
+        self.health: HealthServer | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop: asyncio.Event | None = None
         self._ready = threading.Event()
@@ -84,18 +88,56 @@ class DaemonThread:
         rack = self._rack if self._rack is not None else build_rack(self.cfg,
                                                                       shared_memory(self.cfg))
         try:
-            self.server = Server(rack, self.cfg.endpoint, self.cfg.events,
-                                 ctx=self._ctx, curve=self.cfg.curve)
+            self.server = Server(rack, self.cfg.endpoint, self.cfg.events, ctx=self._ctx,
+                                 curve=self.cfg.curve, open_networks=self.cfg.open_networks)
         except BaseException:
             rack.stop()
             raise
         try:
+            self.health = open_health(self.cfg.metrics, rack, self._loop)
             await self.server.start(self._loop)
             self.endpoint, self.events = self.server.endpoint, self.server.events
+            if self.health is not None:
+                self.health.ready = True
             self._ready.set()
             await self._stop.wait()
         finally:
             await self.server.stop()
+            if self.health is not None:
+                self.health.stop()
+
+    def listeners(self) -> dict[str, Any]:
+        """Every bound listener (`Server.listeners`: the endpoint, the events, the cards' own)."""
+        if self.server is None:
+            raise RuntimeError("the daemon is not running")
+        return self.server.listeners()
+
+    def reset(self, timeout: float = 30.0) -> None:
+        """Serve a fresh rack of the configuration in place of the one served: every card at
+        power-on (its saved flash image, if any, restored), simulated time 0, no pending waits;
+        on the same endpoints and card ports. Clients connected before keep their connection but
+        not their shared memory mapping (the segment is new): reconnect after a reset."""
+        if self._rack is not None:
+            raise RuntimeError("a rack of the test's own cards cannot be rebuilt (rack_of)")
+        if self._loop is None or self.server is None:
+            raise RuntimeError("the daemon is not running")
+        asyncio.run_coroutine_threadsafe(self._reset(), self._loop).result(timeout)
+
+    async def _reset(self) -> None:
+        assert self.server is not None and self._loop is not None
+        server, old = self.server, self.server.rack
+        bound = server.listeners()["cards"]  # each card's ports as bound: the new rack's too
+        await old.close_services()
+        old.stop()
+        cfg = replace(self.cfg, cards=[
+            replace(spec, options={**spec.options, **bound.get(spec.name, {})})
+            for spec in self.cfg.cards])
+        rack = build_rack(cfg, shared_memory(cfg))
+        assert isinstance(rack.sink, Publisher)
+        server.rack, server.publisher = rack, rack.sink
+        rack.sink.attach(server.pub)
+        rack.start(self._loop)
+        await rack.open_services()
 
     def stop(self) -> None:
         if self._loop is not None and self._stop is not None and self._thread.is_alive():

@@ -142,11 +142,13 @@ class Waits:
         return True
 
     def schedule_control(self, when_ns: int, card: Card, action: str,
-                         params: Mapping[str, Any]) -> None:
-        """Run the backdoor action at `when_ns`; its failure is logged and counted, never a stop
-        of the clock."""
+                         params: Mapping[str, Any], done: Callable[[], None] | None = None) -> None:
+        """Run the backdoor action at `when_ns`, then `done()`; its failure is logged and
+        counted, never a stop of the clock."""
 
         def later() -> None:
+            if done is not None:
+                done()
             try:
                 card.control(action, params)
             except VdevError as exc:

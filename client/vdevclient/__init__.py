@@ -2,11 +2,21 @@
 vendor libraries do."""
 
 from vdevclient.core import Card, CardInfo, Irq, Rack, Region, RegionInfo, Sim, connect
-from vdevclient.errors import RackClosed, RemoteError, RequestTooLarge, VdevClientError, VdevTimeout
+from vdevclient.errors import (
+    ConfigurationError,
+    DaemonGone,
+    RackClosed,
+    RemoteError,
+    RequestTooLarge,
+    VdevClientError,
+    VdevTimeout,
+)
 
 __all__ = [
     "Card",
     "CardInfo",
+    "ConfigurationError",
+    "DaemonGone",
     "Irq",
     "Rack",
     "RackClosed",

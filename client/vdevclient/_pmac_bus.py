@@ -72,8 +72,10 @@ def parse_slot(slot: bytes) -> Posted | None:
 
 def slot_whole(slot: bytes) -> bool:
     """A read of the response slot holds all of its line: every character of a data line (an
-    ACK or an error line has none)."""
-    return slot[0] != CR or slot[1] != 0 or (slot[2] | slot[3] << 8) - 1 <= len(slot) - RESP_HEAD
+    ACK or an error line has none). A data line's control word is 0x000D, or 0x020D for a
+    program's SEND message [PMAC1 DPRAM UM p.29]."""
+    return slot[0] != CR or slot[1] not in (0, 2) or \
+        (slot[2] | slot[3] << 8) - 1 <= len(slot) - RESP_HEAD
 
 
 def error_text(code: int) -> bytes:

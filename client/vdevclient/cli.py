@@ -8,52 +8,95 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import zmq
 from vdevmaps.pci import IDENTITY_SIZE, lspci_line
 
-from vdevclient.core import connect
-from vdevclient.errors import VdevClientError
+from vdevclient.core import DEFAULT_ENDPOINT, connect
+from vdevclient.errors import ConfigurationError, VdevClientError
+
+
+class _Parser(argparse.ArgumentParser):
+    """A usage error is one line naming the argument, exit status 2 (no usage dump)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="vdevctl", description="operate a vdevd rack")
-    p.add_argument("--endpoint", help="request endpoint (default $VDEVD_ENDPOINT)")
-    p.add_argument("--events", help="events endpoint (default $VDEVD_EVENTS, else from hello)")
-    p.add_argument("--timeout", type=_seconds, default=10.0, help="reply timeout, wall seconds")
-    sub = p.add_subparsers(dest="command", required=True)
+    p = _Parser(
+        prog="vdevctl", description="operate a vdevd rack",
+        epilog="exit status: 0 done, 1 an error (an error reply, no reply, a daemon gone), "
+               "2 a usage or configuration error")
+    p.add_argument("--version", action="version", version=f"vdevctl {_version()}")
+    p.add_argument("--endpoint", metavar="URL",
+                   help=f"request endpoint (default: $VDEVD_ENDPOINT, else {DEFAULT_ENDPOINT})")
+    p.add_argument("--events", metavar="URL",
+                   help="events endpoint (default: $VDEVD_EVENTS, else the one the daemon "
+                        "reports in hello)")
+    p.add_argument("--timeout", type=_seconds, default=10.0, metavar="S",
+                   help="reply timeout, wall seconds (default: 10)")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                           help="what to do (required; COMMAND --help for its arguments)")
     sub.add_parser("cards", help="list the cards, their regions and irq lines")
     sub.add_parser("lspci", help="list the PCI cards' IDs as lspci -n does")
     peek = sub.add_parser("peek", help="read a region: CARD REGION OFFSET [SIZE]")
-    peek.add_argument("card")
-    peek.add_argument("region")
-    peek.add_argument("offset", type=_int)
-    peek.add_argument("size", type=_int, nargs="?", default=4)
+    _access(peek)
+    peek.add_argument("size", type=_int, nargs="?", default=4,
+                      help="bytes to read, decimal or 0x hex (default: 4)")
     poke = sub.add_parser("poke", help="write a region: CARD REGION OFFSET HEXBYTES")
-    poke.add_argument("card")
-    poke.add_argument("region")
-    poke.add_argument("offset", type=_int)
+    _access(poke)
     poke.add_argument("data", type=_hexbytes, metavar="HEXBYTES",
-                      help="bytes in bus order, e.g. 01000000 or 01:00:00:00")
+                      help="bytes in bus order, e.g. 01000000 or 01:00:00:00 (required)")
     irq = sub.add_parser("irq", help="print interrupt events until interrupted")
-    irq.add_argument("card", nargs="?", help="one card (default: all)")
-    irq.add_argument("--count", type=int, default=0, help="stop after this many events")
-    irq.add_argument("--timeout", dest="irq_timeout", type=float, default=None,
-                     help="stop after this many seconds without an event")
+    irq.add_argument("card", nargs="?", help="one card's name (default: every card)")
+    irq.add_argument("--count", type=_count, default=0, metavar="N",
+                     help="stop after N events (default: 0, no limit)")
+    irq.add_argument("--timeout", dest="irq_timeout", type=_seconds, default=None, metavar="S",
+                     help="stop after S wall seconds without an event (default: no limit; a "
+                          "daemon silent for three heartbeats ends it anyway, exit 1)")
     step = sub.add_parser("step", help="advance the lockstep clock by SECONDS")
-    step.add_argument("seconds", type=float)
+    step.add_argument("seconds", type=float,
+                      help="simulated seconds, 0..86400 (required; rounded to ns)")
     sub.add_parser("now", help="print the simulated time and clock mode")
     sub.add_parser("stats", help="print the daemon's statistics (JSON)")
     ctl = sub.add_parser("control", help="backdoor: CARD ACTION [k=v ...]")
-    ctl.add_argument("card")
-    ctl.add_argument("action")
-    ctl.add_argument("params", nargs="*", help="key=value (value parsed as JSON when it can be)")
+    ctl.add_argument("card", help="the card's name (required)")
+    ctl.add_argument("action", help="the action, as `cards` lists them (required)")
+    ctl.add_argument("params", nargs="*", type=_param, metavar="KEY=VALUE",
+                     help="the action's parameters, VALUE parsed as JSON when it can be "
+                          "(true, 3, 0.5), True/False as booleans, else a string (default: none)")
     sub.add_parser("dropin-path", help="print the directory of the drop-in vendor modules "
                    "(gclib): put it first on PYTHONPATH")
     return p
+
+
+def _access(sub: argparse.ArgumentParser) -> None:
+    """The CARD REGION OFFSET of `peek` and `poke`."""
+    sub.add_argument("card", help="the card's name (required)")
+    sub.add_argument("region", help="the region's name, as `cards` lists them (required)")
+    sub.add_argument("offset", type=_int, help="byte offset in the region, decimal or 0x hex "
+                     "(required)")
+
+
+def _version() -> str:
+    try:
+        return metadata.version("vdevd")
+    except metadata.PackageNotFoundError:  # run from a source tree that is not installed
+        return "unknown (not installed)"
+
+
+def _param(text: str) -> tuple[str, Any]:
+    """A `control` parameter KEY=VALUE (a usage error, before any request, when not one)."""
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"parameter {text!r} is not KEY=VALUE")
+    return key, _value(value)
 
 
 def dropin_path() -> Path:
@@ -66,6 +109,16 @@ def _int(text: str) -> int:
         return int(text, 0)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number (decimal or 0x hex)") from None
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a count >= 0")
+    return value
 
 
 def _seconds(text: str) -> float:
@@ -99,12 +152,24 @@ def _value(text: str) -> Any:
 
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    try:
+        return _main(args)
+    except BrokenPipeError:  # `vdevctl stats | head`: the reader has gone, stop quietly
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141  # as a process killed by SIGPIPE
+
+
+def _main(args: argparse.Namespace) -> int:
     if args.command == "dropin-path":  # no daemon needed
         print(dropin_path())
         return 0
     try:
         with connect(args.endpoint, args.events, timeout=args.timeout) as rack:
             return _run(rack, args)
+    except ConfigurationError as exc:
+        print(f"vdevctl: {exc}", file=sys.stderr)
+        return 2
     except VdevClientError as exc:
         print(f"vdevctl: {exc}", file=sys.stderr)
         return 1
@@ -151,14 +216,7 @@ def _run(rack: Any, args: argparse.Namespace) -> int:
     elif args.command == "stats":
         print(json.dumps(rack.stats(), indent=2), file=out)
     elif args.command == "control":
-        params = {}
-        for item in args.params:
-            key, sep, value = item.partition("=")
-            if not sep:
-                print(f"vdevctl: parameter {item!r} is not key=value", file=sys.stderr)
-                return 2
-            params[key] = _value(value)
-        result = rack.control(args.card, args.action, **params)
+        result = rack.control(args.card, args.action, **dict(args.params))
         if result is not None:
             print(json.dumps(result), file=out)
     return 0
@@ -173,11 +231,8 @@ def _watch(rack: Any, args: argparse.Namespace) -> int:
         return 1
     for name in names:
         rack.card(name)  # KeyError for an unknown card
-    sub = rack.socket(zmq.SUB)
+    sub, liveness = rack.subscriber(names)
     try:
-        sub.connect(rack.events_endpoint)
-        for name in names:
-            sub.setsockopt(zmq.SUBSCRIBE, name.encode())
         for _ in range(100):  # until the subscription is live (PROTOCOL.md, sync)
             # the daemon takes subscriptions in order: once the last one is live, all are
             rack.request("sync", card=names[-1])
@@ -189,11 +244,11 @@ def _watch(rack: Any, args: argparse.Namespace) -> int:
         print(f"vdevctl: watching {', '.join(names)} on {rack.events_endpoint}; Ctrl-C stops",
               file=sys.stderr, flush=True)
         seen = 0
-        timeout_ms = None if args.irq_timeout is None else int(args.irq_timeout * 1000)
         while not args.count or seen < args.count:
-            if not sub.poll(timeout_ms):
+            got = liveness.receive(args.irq_timeout)  # DaemonGone once the daemon is silent
+            if got is None:
                 break
-            topic, body = sub.recv_multipart()
+            topic, body = got
             if topic.decode() not in names:
                 continue
             ev = msgpack.unpackb(body, raw=False)

@@ -24,6 +24,8 @@ from typing import Any, ClassVar, Literal
 import msgpack
 import zmq
 
+from vdevclient._curve import curve_keys
+from vdevclient._liveness import Liveness
 from vdevclient.errors import RackClosed, RemoteError, RequestTooLarge, VdevTimeout
 
 log = logging.getLogger("vdevclient")
@@ -48,16 +50,19 @@ def connect(
     `events` to $VDEVD_EVENTS, else what `hello` reports. `timeout` is in wall seconds.
 
     For a CURVE-secured daemon, `server_key` is the server's public certificate file and
-    `client_key` this client's secret certificate file ($VDEVD_SERVER_KEY, $VDEVD_CLIENT_KEY).
+    `client_key` this client's secret certificate file ($VDEVD_SERVER_KEY, $VDEVD_CLIENT_KEY):
+    both or neither, else `ConfigurationError` naming the one missing or unusable.
 
     `shm`: access passive memory through the daemon's shared memory when the daemon offers it
     (a client on its machine); default true unless $VDEVD_SHM is 0, no, off or false.
     """
     endpoint = endpoint or os.environ.get("VDEVD_ENDPOINT") or DEFAULT_ENDPOINT
     events = events or os.environ.get("VDEVD_EVENTS") or None
-    server_key = server_key or os.environ.get("VDEVD_SERVER_KEY") or None
-    client_key = client_key or os.environ.get("VDEVD_CLIENT_KEY") or None
-    curve = (server_key, client_key) if server_key and client_key else None
+    curve = curve_keys(
+        ("server_key", server_key) if server_key else
+        ("$VDEVD_SERVER_KEY", os.environ.get("VDEVD_SERVER_KEY") or None),
+        ("client_key", client_key) if client_key else
+        ("$VDEVD_CLIENT_KEY", os.environ.get("VDEVD_CLIENT_KEY") or None))
     if shm is None:
         shm = os.environ.get("VDEVD_SHM", "1").strip().lower() not in _OFF
     return Rack(endpoint, events, timeout, curve=curve, shm=shm)
@@ -174,6 +179,8 @@ class Rack:
         #: the daemon takes a batch's reads and writes as arrays (PROTOCOL.md "Compact accesses")
         self.compact = "batch.compact" in self.info.get("capabilities", ())
         self.events_endpoint: str = events or self.info.get("events", "")
+        #: the period of the daemon's heartbeat on the events socket (0: it sends none)
+        self.heartbeat_ns: int = int(self.info.get("heartbeat_ns", 0))
         self._infos = {c["name"]: _card_info(c) for c in self.info["cards"]}
         #: the daemon's shared memory, mapped (None: every access is a request)
         self.shm: mmap.mmap | None = _map_segment(self.info.get("shm")) if shm else None
@@ -243,6 +250,21 @@ class Rack:
         packed = self._packb(sent)  # a fixmap: its first byte is 0x80 + the field count
         return Prepared(str(message["op"]), bytes((packed[0] + 1,)) + packed[1:], message)
 
+    def subscriber(self, topics: Sequence[str]) -> tuple[zmq.Socket[bytes], Liveness]:
+        """A SUB socket on the events endpoint subscribed to `topics` (card names), and the
+        watch on the daemon's heartbeat that receives from it (`Liveness.receive`)."""
+        if not self.events_endpoint:
+            raise RuntimeError("the daemon reported no events endpoint")
+        sub = self.socket(zmq.SUB)
+        try:
+            sub.connect(self.events_endpoint)
+            for topic in topics:
+                sub.setsockopt(zmq.SUBSCRIBE, topic.encode())
+            return sub, Liveness(sub, self.heartbeat_ns, self.events_endpoint)
+        except BaseException:
+            sub.close()
+            raise
+
     def socket(self, kind: int) -> zmq.Socket[bytes]:
         """A socket of this connection's context, with its CURVE keys when it has them."""
         keys = None
@@ -256,6 +278,7 @@ class Rack:
             keys = (server_public, public, secret)
         sock = self._ctx.socket(kind)
         sock.linger = 0
+        sock.ipv6 = True  # a daemon on tcp://[::1]:PORT too
         if keys is not None:
             sock.curve_serverkey, sock.curve_publickey, sock.curve_secretkey = keys
         return sock
@@ -513,6 +536,7 @@ class Irq:
     def __init__(self, card: Card) -> None:
         self._card = card
         self._sub: zmq.Socket[bytes] | None = None
+        self._liveness: Liveness | None = None
         self.last_seq: int | None = None
 
     def wait(self, timeout_s: float, line: str | None = None) -> dict[str, Any] | None:
@@ -534,12 +558,7 @@ class Irq:
     def subscribe(self) -> Irq:
         """Start receiving every assertion of this card published on the events socket."""
         if self._sub is None:
-            endpoint = self._card.rack.events_endpoint
-            if not endpoint:
-                raise RuntimeError("the daemon reported no events endpoint")
-            self._sub = self._card.rack.socket(zmq.SUB)
-            self._sub.connect(endpoint)
-            self._sub.setsockopt(zmq.SUBSCRIBE, self._card.name.encode())
+            self._sub, self._liveness = self._card.rack.subscriber([self._card.name])
             try:
                 self._sync()
             except BaseException:
@@ -559,15 +578,17 @@ class Irq:
         raise VdevTimeout(f"no events from {self._card.rack.events_endpoint}")
 
     def events(self, timeout_s: float | None = None) -> Iterator[dict[str, Any]]:
-        """Yield published events as they come; stop after `timeout_s` without one."""
+        """Yield published events as they come; stop after `timeout_s` without one. A daemon
+        silent for three heartbeat periods raises `DaemonGone` (PROTOCOL.md "Heartbeat")."""
         if self._sub is None:
             self.subscribe()
-        assert self._sub is not None
+        assert self._liveness is not None
         name = self._card.name.encode()
         while True:
-            if not self._sub.poll(None if timeout_s is None else int(timeout_s * 1000)):
+            got = self._liveness.receive(timeout_s)
+            if got is None:
                 return
-            topic, body = self._sub.recv_multipart()
+            topic, body = got
             event = msgpack.unpackb(body, raw=False)
             if topic == name and event.get("kind") != "sync":
                 yield event
@@ -576,6 +597,7 @@ class Irq:
         if self._sub is not None:
             self._sub.close()
             self._sub = None
+            self._liveness = None
 
 
 def _card_info(c: dict[str, Any]) -> CardInfo:

@@ -20,6 +20,16 @@ class VdevTimeout(VdevClientError, TimeoutError):
     """No reply within the client's timeout."""
 
 
+class ConfigurationError(VdevClientError, ValueError):
+    """A client setting that cannot work (a CURVE key half given, a key file unusable); the
+    message names the setting."""
+
+
+class DaemonGone(VdevClientError):
+    """A subscription heard no heartbeat for three of the daemon's heartbeat periods
+    (proto/PROTOCOL.md, Heartbeat): the daemon has stopped, or its event loop is held."""
+
+
 class RackClosed(VdevClientError):
     """A request on a `Rack` after its `close()`."""
 

@@ -15,7 +15,7 @@ from vdevd.testing import DaemonThread
 
 #: PROTOCOL.md, `hello`: what a v1 server implements, and the 1 MiB maximum message
 V1_CAPABILITIES = {"read", "write", "rep", "batch", "batch.compact", "wait.irq", "wait.value", "sim",
-                   "control", "stats", "sync", "shm"}
+                   "control", "stats", "sync", "shm", "heartbeat"}
 
 
 def test_hello_reports_version_capabilities_and_limits(raw: RawClient) -> None:
@@ -24,6 +24,7 @@ def test_hello_reports_version_capabilities_and_limits(raw: RawClient) -> None:
     assert set(info["capabilities"]) == V1_CAPABILITIES
     assert info["max_message"] == 1 << 20
     assert info["events"].startswith("tcp://127.0.0.1:")
+    assert info["heartbeat_ns"] == 2_000_000_000  # [server] heartbeat_s's default
     assert info["clock"] == {"mode": "lockstep", "now_ns": 0, "tick_ns": 1_000_000}
 
 

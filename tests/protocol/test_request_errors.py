@@ -100,6 +100,17 @@ def test_undecodable_request_reply_has_nil_id(raw: RawClient) -> None:
     assert raw.send_raw(b"\xc1")["id"] is None
 
 
+@pytest.mark.parametrize(("body", "says"), [
+    (b"\xc1", "not msgpack: a byte that begins no msgpack object (the body of 1 bytes begins c1)"),
+    (b"", "not msgpack: Unpack failed: incomplete input (the body is empty)"),
+    (b"\x92\x01", "not msgpack: Unpack failed: incomplete input (the body of 2 bytes begins 92 01)"),
+])
+def test_an_undecodable_request_is_told_what_was_wrong(raw: RawClient, body: bytes,
+                                                       says: str) -> None:
+    """Issue 22: `malformed: not msgpack: ` ended in nothing for a byte msgpack never uses."""
+    assert raw.send_raw(body)["error"]["message"] == says
+
+
 def test_one_bad_client_does_not_disturb_another(daemon: object) -> None:
     endpoint = daemon.endpoint  # type: ignore[attr-defined]
     good, bad = RawClient(endpoint), RawClient(endpoint)

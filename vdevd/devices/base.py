@@ -382,6 +382,10 @@ class Card(WorldBackdoor):
         gives each (`vdevd serve --ready-file`); override with them."""
         return {}
 
+    def connections(self) -> int:
+        """Open connections to what `open_services` started (the metrics endpoint); override."""
+        return 0
+
     def nvram(self) -> dict[str, Any]:
         """What the card keeps in flash, to be saved atomically (override)."""
         return {}

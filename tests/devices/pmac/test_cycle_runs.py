@@ -119,3 +119,26 @@ def test_a_sensed_stage_or_motor_interrupt_sources_act_as_one_by_one(sensed: boo
         twin.tick(n)
         twin.same()
     assert twin.events[0] or sensed
+
+
+@pytest.mark.parametrize("skip_quiet", [True, False])
+def test_jog_until_trigger_a_sending_plc_and_a_slewing_override_act_as_one_by_one(
+        skip_quiet: bool) -> None:
+    """A jog-until-trigger meeting the home switch mid-batch, a PLC that SENDs into the DPRAM
+    and waits on a C.S. timer, and `%` slewing at Isx94: batched cycles end as one by one."""
+    twin = Twin(skip_quiet, "servo")
+    twin.control("set_home_window", {"axis": 1, "low": 300.0, "high": 900.0})
+    twin.send("I7012=2 #1J=3000^-50 #2J^-400^0 &1%20")
+    twin.send("OPEN PLC 1 CLEAR")
+    twin.send("I5111=30")
+    twin.send("WHILE (I5111 > 0)")
+    twin.send("ENDWHILE")
+    twin.send('P1=P1+1 SEND"TICK" DISABLE PLC 1')
+    twin.send("CLOSE ENABLE PLC 1")
+    for n in [1, 2, 3, 5, 7, 11, 13, 17, 19, 23] * 30:
+        twin.tick(n)
+        twin.same()
+    for card in twin.cards:
+        assert card.fw.p[1] == 1  # the PLC ran past its timer and its SEND
+        assert abs(card.fw.reports.position_of(0) - (300 - 50)) < 2  # triggered at the switch
+        assert card.fw.timebase.present(0) == 20

@@ -284,8 +284,8 @@ def test_control_characters(card: Card) -> None:
 # -- not yet (README "Not yet") -----------------------------------------------------------------------
 @pytest.mark.parametrize(("line", "error"), [
     ("OPEN PROG 0", b"ERR003"), ("&1B1R", b"ERR015"), ("MS0,I910", b"ERR008"),
-    ("ENABLE PLCC 1", b"ERR003"),
-    ("CLOSE", b"ERR005"),
+    ("LIST PLCC 1", b"ERR003"),
+    ("LEARN", b"ERR005"), ("#1J+^100", b"ERR003"), ("^5", b"ERR003"),
 ])
 def test_later_issue_commands_answer_an_error(card: Card, line: str, error: bytes) -> None:
     assert card.raw(line) == b"\x07" + error + b"\r"

@@ -119,10 +119,31 @@ def test_feedrate_override_scales_the_program_time(card: Card) -> None:
     """%50: the time base at half speed, the same scan takes twice as long [digest §2.7]."""
     card.ask("P2=2 P3=10 P4=1 P10=100 P11=20 P12=50")
     download(card, 10, *RASTER)
+    card.ask("I5194=0")  # Isx94 = 0: the new % at once
     card.ask("&1%50 B10R")
     rows = trace(card, 3.0)
     assert abs(rows[-1, 0] - 2 * (0.6 + 0.1)) < 3 * DT
     assert xy(card) == (0.0, 2000.0)
+
+
+def test_feedrate_override_slews_at_isx94(card: Card) -> None:
+    """With the factory Isx94 (1644, I10 units per servo cycle) a `%50` given while a program
+    runs slows it gradually: 50 % of time base takes 50 / (Isx94 / I10 x 100) servo cycles,
+    about half a second, and the program's speed follows the present time base X:$002002 [SRM
+    Isx94; digest §2.2]."""
+    download(card, 1, "LINEAR ABS TA10 TS0 F10", "X20")   # 10 units/s = 10000 counts/s
+    card.ask("&1B1R")
+    seconds(card, 0.5)                                    # at speed
+    card.ask("&1%50")
+    i10, i94 = float(card.ask("I10")), float(card.ask("I5194"))
+    ramp_s = 50 / (i94 / i10 * 100) * DT
+    assert 0.4 < ramp_s < 0.6
+    rows = trace(card, ramp_s + 0.2, t0=0.0)
+    v = np.diff(rows[:, 1]) / DT
+    half = int(round(ramp_s / 2 / DT))
+    assert v[half] == pytest.approx(7500.0, rel=0.02)       # halfway down the slew: 75 %
+    assert v[-1] == pytest.approx(5000.0, rel=1e-3)         # then at 50 %
+    assert v[0] > 9900.0                                    # not at once
 
 
 def test_ixx16_slows_a_linear_move_in_proportion(card: Card) -> None:
@@ -193,6 +214,7 @@ def test_dwell_is_real_time_and_stops_calculation(card: Card) -> None:
     """DWELL500 under %50: the move before takes twice its time, the dwell 0.5 s of real time,
     and the statement after it runs only when the dwell is over [SRM DWELL]."""
     download(card, 3, "LINEAR ABS TA100 TS0 F5", "X1", "DWELL500", "P7=1", "X2")
+    card.ask("I5194=0")
     card.ask("&1%50 B3R")
     rows = trace(card, 0.59)
     assert card.fw.p[7] == 0
@@ -209,6 +231,7 @@ def test_delay_is_scaled_by_the_override_and_calculated_through(card: Card) -> N
     """DELAY500 under %50 holds 1.0 s of real time, and the calculation goes on past it: P7 is
     set at R [UM "DWELL Commands"]."""
     download(card, 3, "LINEAR ABS TA100 TS0 F5", "X1", "DELAY500", "P7=1", "X2")
+    card.ask("I5194=0")
     card.ask("&1%50 B3R")
     card.tick()
     assert card.fw.p[7] == 1
@@ -259,6 +282,7 @@ def test_two_coordinate_systems_run_their_programs_at_once(card: Card) -> None:
     card.ask("&2#3->500X #3J/ I316=1000 I317=100")
     download(card, 1, "LINEAR ABS TA100 TS0 F10", "X2 Y1")
     download(card, 2, "LINEAR ABS TA100 TS0 F10", "X-2")
+    card.ask("I5294=0")
     card.ask("&2%50")  # (a % value takes an expression: `%50 &1` would be 50 AND 1)
     card.ask("&1B1R &2B2R")
     ends = {}
@@ -513,6 +537,18 @@ def test_a_limit_on_the_way_aborts_the_program_with_a_run_time_error(card: Card)
     mo.apply_inputs(off, off, off, off)
     card.ask("&1B9R")  # the error bit clears at the next run
     assert not cs_words(card)[1] & RUNTIME_ERROR
+
+
+def test_a_software_limit_on_the_way_aborts_the_program(card: Card) -> None:
+    """Ixx13 = 2000 counts: the program stops with the run-time error bit when motor 1 passes it,
+    the motor stopping at Ixx15 just beyond [§2.7 "Software limits"]."""
+    card.ask("I113=2000")
+    download(card, 9, "LINEAR ABS TA100 TS0 F2", "X4")
+    card.ask("&1B9R")
+    seconds(card, 2.0)
+    assert not running(card)
+    assert cs_words(card)[1] & RUNTIME_ERROR
+    assert 2000.0 < xy(card)[0] < 2020.0
 
 
 def test_fatal_following_error_kills_and_stops_the_program() -> None:

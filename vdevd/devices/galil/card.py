@@ -263,6 +263,9 @@ class GalilCard(Card):
     def listeners(self) -> dict[str, str]:
         return {"ethernet": self.ethernet_endpoint} if self.ethernet_endpoint else {}
 
+    def connections(self) -> int:
+        return self._server.connections if self._server is not None else 0
+
     def describe(self) -> dict[str, Any]:
         """`hello`'s card info, with what the drop-in gclib looks for: the address, the
         revision report (^R^V), the serial number and the Ethernet endpoint."""

@@ -174,6 +174,11 @@ class EthernetServer:
             if connection.channel is not None:
                 connection.channel.reset()
 
+    @property
+    def connections(self) -> int:
+        """Open connections (the metrics endpoint)."""
+        return len(self._connections)
+
     def close(self) -> None:
         """Stop listening and drop every connection."""
         if self._server is not None:

@@ -9,8 +9,8 @@ While`, `ENDWHILE`, `ENDW`, `Endif`, `ENDI`).
 Compiled operations (`Op`) are tuples whose first element names them:
 ``("set", kind, index, value)``, ``("if", cond, target)`` (jump to `target` when false),
 ``("jump", target)``, ``("while", cond, target)``, ``("endwhile", target)`` (back to the WHILE;
-the scan ends there), ``("cmd", text)``, ``("enable", plcs)``, ``("disable", plcs)``,
-``("address", motor, cs)``.
+the scan ends there), ``("cmd", text)``, ``("send", port, text)`` (port "", "S" or "P"),
+``("enable", plcs)``, ``("disable", plcs)``, ``("address", motor, cs)``.
 """
 
 from __future__ import annotations
@@ -40,7 +40,10 @@ _WHILE = re.compile(rf"WHILE{_SP}\(")
 _ELSE = re.compile(r"ELSE")
 _CONTINUE = re.compile(rf"(AND|OR){_SP}\(")
 _CMD = re.compile(rf"(?:COMMAND|CMD){_SP}\"([^\"]*)\"")
-_PLC_CONTROL = re.compile(rf"(ENABLE|ENA|DISABLE|DIS){_SP}PLC(?!C){_SP}(\d+(?:{_SP},{_SP}\d+)*)")
+_SEND = re.compile(rf"SEND{_SP}([SP]?){_SP}\"([^\"]*)\"")
+_PLC_CONTROL = re.compile(rf"(ENABLE|ENA|DISABLE|DIS){_SP}PLC(C?){_SP}(\d+(?:{_SP},{_SP}\d+)*)")
+#: compiled PLC n is program PLCC_BASE + n (plc.py)
+PLCC_BASE = 32
 _ADDRESS = re.compile(rf"(?:ADDRESS|ADR){_SP}(?:#{_SP}(\d+))?{_SP}(?:&{_SP}(\d+))?")
 _VARIABLE = re.compile(rf"([IPQM]){_SP}(\d+|\()")
 _ASSIGN = re.compile(rf"{_SP}==?{_SP}")
@@ -90,10 +93,14 @@ def parse_statement(s: str, i: int) -> tuple[Statement, int]:
         return Statement(m.group(1), cond=cond), j
     if m := _CMD.match(s, i):
         return Statement("OP", ("cmd", m.group(1))), m.end()
+    if m := _SEND.match(s, i):  # SEND / SENDS / SENDP "message" (plc.py)
+        return Statement("OP", ("send", m.group(1), m.group(2))), m.end()
     if m := _PLC_CONTROL.match(s, i):
-        plcs = tuple(int(n) for n in re.findall(r"\d+", m.group(2)))
+        plcs = tuple(int(n) for n in re.findall(r"\d+", m.group(3)))
         if any(n > 31 for n in plcs):
             raise CommandError(ERR_DATA, "PLC number above 31")
+        if m.group(2):  # ENABLE/DISABLE PLCC n
+            plcs = tuple(PLCC_BASE + n for n in plcs)
         return Statement("OP", ("enable" if m.group(1).startswith("E") else "disable", plcs)), m.end()
     if (m := _ADDRESS.match(s, i)) and (m.group(1) or m.group(2)):
         motor = int(m.group(1)) if m.group(1) else 0

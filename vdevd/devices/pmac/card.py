@@ -9,6 +9,7 @@ each Ethernet connection have their own `#n`/`&n` addressing (online.PortState).
 
 from __future__ import annotations
 
+import ipaddress
 import logging
 import os
 import re
@@ -41,7 +42,7 @@ from vdevmaps.pmac import (
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
 from vdevd.devices.pmac.eth_framing import KeptFraming
-from vdevd.devices.pmac.ethernet_server import EthernetServer
+from vdevd.devices.pmac.ethernet_server import EthernetServer, parse_endpoint
 from vdevd.devices.pmac.firmware import Firmware, Identity
 from vdevd.devices.pmac.hostport import HostPort, InterruptController
 from vdevd.devices.pmac.online import PortState
@@ -60,6 +61,8 @@ _CONTROL = re.compile("[\x01-\x1a]")  # control characters act at once, wherever
 #: I10 default 3,713,707 / 8,388,608 ms = 0.44271 ms [PMAC1-SRM p.46], exact (Card.set_period)
 SERVO_PERIOD_NS = Fraction(3_713_707 * 1_000_000, 1 << 23)
 _ASCII_READY = int(HostIrq.ASCII_READY)  # plain ints: IntFlag operators are slow on 3.11
+#: lines (DPRAM) a PLC's SEND messages may leave waiting for the host before the PLC waits
+MESSAGE_BACKLOG = 64
 #: the sources evaluated each servo cycle while their mask bit is set
 _MOTOR_SOURCES = int(HostIrq.IN_POSITION | HostIrq.WARNING_FOLLOWING_ERROR
                      | HostIrq.FATAL_FOLLOWING_ERROR | HostIrq.COMPARE_EQU1 | HostIrq.COMPARE_EQU5)
@@ -201,6 +204,31 @@ class PmacCard(Card):
         if opts.period_ns is not None:
             raise ValueError(f"{where}.period_ns: a pmac-turbo runs at its servo period I10/2^23 "
                              "ms (I10 default 3713707)")
+        cls._check_ethernet(opts, where)
+
+    @staticmethod
+    def _check_ethernet(opts: CardOptions, where: str) -> None:
+        """`ethernet` is tcp://HOST:PORT (or empty), each `ethernet_allow` entry an address or
+        network, and a non-loopback endpoint has an allow-list (the protocol has no
+        authentication): each refused naming its key, before anything is bound."""
+        allow = opts.ethernet_allow or []
+        for i, entry in enumerate(allow):
+            try:
+                ipaddress.ip_network(str(entry), strict=False)
+            except ValueError:
+                raise ValueError(f"{where}.ethernet_allow[{i}]: {entry!r} is not an IP address "
+                                 "or network (\"192.168.1.0/24\", \"10.0.0.5\")") from None
+        if not opts.ethernet:
+            return
+        try:
+            parse_endpoint(opts.ethernet)
+        except ValueError:
+            raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not tcp://HOST:PORT "
+                             "(empty: off)") from None
+        if not is_local(opts.ethernet) and not allow:
+            raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not loopback: add "
+                             "ethernet_allow, the client addresses allowed (the PMAC protocol "
+                             "has no authentication)")
 
     def __init__(self, name: str, config: Mapping[str, Any], ctx: CardContext) -> None:
         super().__init__(name, config, ctx)
@@ -246,6 +274,7 @@ class PmacCard(Card):
         self.reporting = Reporting(self.dpram.buf)
         self.host_port_state = CommandPort(self)
         self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)
+        self.fw.plc.on_message = self._plc_message
         self._last_status2 = np.zeros(self.motors, dtype=np.int64)
         self.fw.restore((store.load(name) if store is not None else None) or {})
         self.fw.on_reset = self._firmware_reset
@@ -263,6 +292,21 @@ class PmacCard(Card):
         self._chc = np.zeros(n, dtype=bool)
         self._pulses = False
         self._sensing = False
+
+    def _plc_message(self, port: str, text: str) -> bool:
+        """A PLC's SEND (the response port) or SENDP (the bus host port): with I58 = 1 a data line
+        of the DPRAM ASCII response buffer, without ACK (IR4 raised as for any line); with
+        I58 = 0 the host port's characters, text and CR. SENDS (the serial port, which this card
+        does not have) goes nowhere. False (the PLC waits) while 64 lines wait for the host
+        (README "PLCs", assumptions)."""
+        if port == "S":
+            return True
+        if self.fw.ivars.values[58]:
+            return self.ascii.post_message(text, MESSAGE_BACKLOG)
+        if len(self.hostport.out) >= MESSAGE_BACKLOG * 256:
+            return False
+        self.hostport.out.extend(text.encode("latin-1") + b"\r")
+        return True
 
     def _open_ethernet_port(self) -> CommandPort:
         port = CommandPort(self, ethernet=True)
@@ -488,6 +532,9 @@ class PmacCard(Card):
 
     def listeners(self) -> dict[str, str]:
         return {"ethernet": self.ethernet_endpoint} if self.ethernet_endpoint else {}
+
+    def connections(self) -> int:
+        return self._server.connections if self._server is not None else 0
 
     def describe(self) -> dict[str, Any]:
         info = super().describe()

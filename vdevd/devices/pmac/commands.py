@@ -42,6 +42,7 @@ COMMANDS = CommandTable(
         _char("?", "status"),                 # ? ?? ??? [§2.6]
         _char("$", "dollar"),                 # $ $* $$ $$* $$$ $$$***
         _char("%", "feed"),                   # % %{v}
+        _char("^", "trigger_alone"),          # {jog}^{c}: J's (online.jog); alone ERR003
         # identity [§2.4 "Number formatting"]
         *(_word(name, "identity", name, section=_S24) for name in IDENTITY),
         # motor commands and reports [§2.5, §2.7]
@@ -80,6 +81,7 @@ COMMANDS = CommandTable(
         _word("ENDG", "end_gather", False), _word("END", "end_gather", True),
         # PLC buffers and run control [§2.9; plc.py]
         _word("OPEN", "open_buffer", section="§2.9"),
+        _word("CLOSE", "close_nothing", section="§2.9"),
         _word("ENABLE", "plc_control", True, section="§2.9"),
         _word("ENA", "plc_control", True, section="§2.9"),
         _word("DISABLE", "plc_control", False, section="§2.9"),
@@ -89,19 +91,17 @@ COMMANDS = CommandTable(
           for rw in "RW" for space in "XYLD"),
     ],
     not_emulated={
-        "CLOSE": "only the port with a buffer open may CLOSE it (plc.py)",
         "CLEAR": "only the port with a buffer open may CLEAR it (plc.py)",
         "LEARN": "LEARN (program the present positions) is not emulated",
         "ABR": "abort and run a program: motion programs come in issue 21",
         "PC": "the program counter report is not emulated: ERR003",
         "PE": "the program execution line report is not emulated: ERR003",
         "!": "the V1.936 axis-move command needs coordinate systems (issue 21): unrecognised",
-        "^": "jog-until-trigger ({jog}^{c}) needs triggered moves: after a jog, ^ is unrecognised",
     },
 )
 
 #: not emulated words the parser recognises -> the error number they answer (README "Not yet")
 REFUSED: dict[str, int] = {
-    "CLOSE": ERR_NOT_OPEN, "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
+    "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
     "ABR": ERR_NO_PROGRAM, "PC": ERR_DATA, "PE": ERR_DATA,
 }

@@ -68,6 +68,8 @@ from vdevmaps.pmac import (
 from vdevd.region import Memory
 
 _SLOT_HEAD = struct.Struct("<HH")  # a posted line: control word, characters + 1
+#: the response control word of a program's SEND message [PMAC1 DPRAM UM p.29]
+SEND_LINE = 0x0200 | CR
 
 
 def error_word(code: int) -> int:
@@ -143,6 +145,17 @@ class AsciiChannel:
         mem[CMD_CONTROL:CMD_CONTROL + 4] = _CLEAR  # command taken (and the control char)
         if not (mem[RESP_CONTROL] or mem[RESP_CONTROL + 1]):
             self._post_next()
+
+    def post_message(self, text: str, backlog: int) -> bool:
+        """An unsolicited line (a program's SEND): control word 0x020D, "a PMAC program SEND
+        command message, end of transmission, no ACK is sent" [PMAC1 DPRAM UM p.29]; False (not
+        taken) while `backlog` lines already wait for the host."""
+        if len(self.pending) >= backlog:
+            return False
+        self.pending.append(slot(text, SEND_LINE))
+        if not (self.mem[RESP_CONTROL] or self.mem[RESP_CONTROL + 1]):
+            self._post_next()
+        return True
 
     def _post_next(self) -> None:
         if not self.pending:

@@ -119,6 +119,11 @@ class EthernetServer:
         host, port = self._server.sockets[0].getsockname()[:2]
         return f"tcp://[{host}]:{port}" if ":" in host else f"tcp://{host}:{port}"
 
+    @property
+    def connections(self) -> int:
+        """Open connections (the metrics endpoint)."""
+        return len(self._connections)
+
     def close(self) -> None:
         """Stop listening and drop every connection (each port is closed as its connection goes)."""
         if self._server is not None:

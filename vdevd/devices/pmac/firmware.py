@@ -48,6 +48,7 @@ from vdevd.devices.pmac.registers import (
 )
 from vdevd.devices.pmac.rotary import RotaryBuffers
 from vdevd.devices.pmac.servo_ic import ServoIC
+from vdevd.devices.pmac.timebase import TimeBase
 from vdevd.rt import PlantKind
 
 VARIABLES = 8192
@@ -116,6 +117,7 @@ class Firmware:
         self.macro = MacroStations()
         self.coord = CoordSystems(self.ivars, self.motors.cs, self.motors.axis_code,
                                   lambda: self.servo_cycles)
+        self.timebase = TimeBase(self.ivars, lambda: self.servo_cycles)  # `%` slew (Isx94)
         self.interpreter = Interpreter(self)
         self.plc = Plcs(self)
         self.rotary = RotaryBuffers(self)          # rotary.py
@@ -552,6 +554,7 @@ class Firmware:
         self.p[:] = 0
         self.q[:] = 0
         self.feed[:] = 100
+        self.timebase.reset()
         self.comp.clear()
         self.comp1d.clear()
         self.coord.undefine(None)

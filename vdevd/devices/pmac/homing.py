@@ -51,6 +51,15 @@ class Jog:
 
 
 @dataclass(frozen=True, slots=True)
+class Triggered:
+    """A jog-until-trigger found its trigger: the motor moves to `position` (core counts: the
+    trigger + the post-trigger distance) with the jog parameters in force now; its zero stays
+    [UM "Jog-until-trigger"]."""
+
+    position: float
+
+
+@dataclass(frozen=True, slots=True)
 class Found:
     """Home found: `origin` (core counts) becomes motor position 0; with `speed` (|Ixx23|,
     counts/ms) the motor moves there as a timed jog-type move, without (HMZ) it stays put."""
@@ -61,6 +70,8 @@ class Found:
 
 #: what `Motors` does after `HomeSearch.start` / `zero`
 HomeAction = Jog | Found
+#: what a trigger answers: a home search's `Found`, a jog-until-trigger's `Triggered`
+TriggerAction = Found | Triggered
 
 
 def _ic_channel(address: int, motor: int) -> tuple[int, int]:
@@ -98,6 +109,10 @@ class HomeSearch:
         self.capture_counts = np.zeros(n, dtype=np.int64)  # X:b+3 / Mxx73
         self.any_searching = False  # False: no motor searching (True may be stale until `check`)
         self._enc_prev = np.zeros(n, dtype=np.int64)
+        self.jog_trigger = np.zeros(n, dtype=bool)  # the search is a jog-until-trigger
+        self.trigger_move = np.zeros(n, dtype=bool)  # word 2 bit 7, until the trigger's move ends
+        self.post_trigger = np.zeros(n, dtype=bool)  # the trigger was found: moving to it + c
+        self.trigger_distance = np.zeros(n)
 
     def map_channels(self) -> None:
         """Each motor's flag channel from Ixx25 (after an I-variable change)."""
@@ -111,6 +126,27 @@ class HomeSearch:
         self.searching[idx] = False
         self.any_searching = bool(self.searching.any())
 
+    def new_move(self, m: int) -> None:
+        """A jog, move or home search starts: the trigger-move state of the last one goes."""
+        self.trigger_move[m] = self.post_trigger[m] = self.jog_trigger[m] = False
+
+    def trigger_move_bits(self, moving: np.ndarray) -> np.ndarray:
+        """Word 2 bit 7 "trigger move": set at the start of a jog-until-trigger, cleared at the
+        end of its post-trigger move; left set when the move ended without a trigger [UM
+        "Jog-until-trigger"]."""
+        return self.trigger_move & ~(self.post_trigger & ~moving)
+
+    def start_trigger(self, m: int, distance: float) -> None:
+        """A jog-until-trigger move has started: watch its trigger as a home search's (home
+        search in progress set [UM]); at the trigger it ends at trigger + `distance` counts."""
+        self.searching[m] = True
+        self.any_searching = True
+        self.captured[m] = False
+        self.jog_trigger[m] = self.trigger_move[m] = True
+        self.post_trigger[m] = False
+        self.trigger_distance[m] = distance
+        self._enc_prev[m] = self.motors.core.axes.encoder[m]
+
     def stopped(self, moving: np.ndarray) -> None:
         """A limit or a stop ended the motion of the motors not `moving`: their search ends."""
         self.searching &= moving
@@ -123,6 +159,7 @@ class HomeSearch:
         are off during the search. Ixx23 = 0 homes where the motor is (as HMZ)."""
         speed = float(self.motors.ivars.values[100 * (m + 1) + 23])
         self.home_complete[m] = False
+        self.new_move(m)
         if speed == 0:
             return self.zero(m)
         self.searching[m] = True
@@ -142,7 +179,7 @@ class HomeSearch:
 
     # -- the trigger -----------------------------------------------------------------------------
     def check(self, initial: bool = False, edges: np.ndarray | None = None
-              ) -> list[tuple[int, Found]]:
+              ) -> list[tuple[int, TriggerAction]]:
         """Searching motors whose capture condition holds: latch the capture, set home complete;
         for each, trigger + Ixx26/16 becomes motor position 0 and it moves there [§2.7]
         (`Found`, with the motor). `initial`: at the command or an input change, not after a
@@ -157,12 +194,16 @@ class HomeSearch:
             self.any_searching = False
             return []
         hit = idx[self._capture_level(idx, initial)]
-        found = []
+        found: list[tuple[int, TriggerAction]] = []
         for m in hit.tolist():
             capture = self._capture_value(m, initial, edges)
             self.capture_counts[m] = capture
             self.captured[m] = True
             self.searching[m] = False
+            if self.jog_trigger[m]:
+                self.post_trigger[m] = True
+                found.append((m, Triggered(capture + float(self.trigger_distance[m]))))
+                continue
             self.home_complete[m] = True
             origin = capture + float(values[100 * (m + 1) + 26]) / 16
             found.append((m, Found(origin, abs(float(values[100 * (m + 1) + 23])))))
@@ -183,6 +224,7 @@ class HomeSearch:
         flag = np.choose(np.clip(sel, 0, 3), [mo.hmfl[idx], mo.plim[idx], mo.mlim[idx],
                                                mo.user[idx]])
         flag = np.where((ctrl & 8) != 0, ~flag, flag)
+        i97 = v[100 * (idx + 1) + 97].astype(np.int64)
         period = self.index_period[idx]
         enc = mo.core.axes.encoder[idx] - self.index_phase[idx]
         safe = np.where(period > 0, period, 1)
@@ -192,13 +234,22 @@ class HomeSearch:
         index = np.where((ctrl & 4) != 0, ~index, index)
         use_index, use_flag = (ctrl & 1) != 0, (ctrl & 2) != 0
         immediate = ~use_index & ~use_flag
-        return immediate | ((index | ~use_index) & (flag | ~use_flag))
+        hardware = immediate | ((index | ~use_index) & (flag | ~use_flag))
+        if not (i97 & 2).any():
+            return hardware
+        # Ixx97 bit 1: the trigger is the warning following error (|FE| > Ixx12) [SRM Ixx97]
+        axes = mo.core.axes
+        warn = v[100 * (idx + 1) + 12] / 16
+        error = (warn > 0) & (np.abs(axes.cmd_pos[idx] - axes.fb[idx]) > warn)
+        return np.where((i97 & 2) != 0, error, hardware)
 
     def _capture_value(self, m: int, initial: bool, edges: np.ndarray | None = None) -> int:
         """The counter value latched: the index position crossed; else, on a flag, where the
         flag changed level this cycle (`edges`); else the present count."""
         enc = int(self.motors.core.axes.encoder[m])
         values = self.motors.ivars.values
+        if int(values[100 * (m + 1) + 97]) & 3:  # software capture (bit 0; bit 1 needs it) [SRM]
+            return enc
         civ = int(self.capture_ivar[m])
         ctrl = int(values[civ + 2])
         period = float(self.index_period[m])

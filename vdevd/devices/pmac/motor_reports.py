@@ -184,6 +184,7 @@ class MotorReports:
         w2 = status.word2(
             n, in_position=inpos, warning=warning, fatal=mo.fatal_error, amp_fault=mo.amp_error,
             home_complete=mo.homing.home_complete,
+            trigger_move=mo.homing.trigger_move_bits(core.profile.moving),
             stopped_on_limit=(core.axes.flags & _STOPPED) != 0,
             foreground=bool(mo.ivars.values[13] == 1), cs=mo.cs, axis_code=mo.axis_code)
         return np.where(mo.active, w1, 0), np.where(mo.active, w2, 0)

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from vdevd.devices.pmac.homing import Found, HomeAction, HomeSearch, Jog
+from vdevd.devices.pmac.homing import Found, HomeAction, HomeSearch, Jog, TriggerAction
 from vdevd.devices.pmac.ivars import IVars
 from vdevd.devices.pmac.jog_profile import jog_accel, jog_speed
 from vdevd.devices.pmac.motor_reports import DAC_FULL_SCALE, IXX24_LIMITS_OFF, MotorReports
@@ -260,6 +260,7 @@ class Motors:
         if not self.active[m]:
             return False
         self.homing.end(m)
+        self.homing.new_move(m)
         self.abort_decel[m] = False
         return bool(len(self._enable(np.array([m]))))
 
@@ -347,6 +348,27 @@ class Motors:
         else:
             raise ValueError(f"jog kind must be '=', ':' or '^', not {kind!r}")
 
+    def jog_trigger(self, m: int, kind: str, counts: float | None, distance: float,
+                    variable: bool = False) -> None:
+        """Jog-until-trigger: the definite jog J= (counts None: the pre-jog position), J={c},
+        J:{c} or J^{c} (`kind` "=", ":", "^"; `variable`: Mxx72 for c, J=* J:* J^*), ended at
+        trigger + `distance` counts if the trigger of a home search (I7mn2/I7mn3 on Ixx25, or
+        Ixx97) comes first; the zero position stays [UM "Jog-until-trigger", PMAC1-SRM p.241]."""
+        if variable:
+            counts = float(self.jog_register[m])
+        if kind == "=":
+            self.jog_to(m, counts)
+        else:
+            self.jog_relative(m, float(counts or 0.0), from_actual=kind == "^")
+        if not self.closed_loop(m):
+            return
+        self.homing.start_trigger(m, distance)
+        self._home_found(self.homing.check(initial=True))
+
+    def closed_loop(self, m: int) -> bool:
+        """Whether motor m's servo loop is closed."""
+        return bool(self._closed()[m])
+
     def abort(self, m: int) -> None:
         """A / ^A: decelerate at Ixx15 and hold in closed loop; a killed motor closes its loop
         at its present position."""
@@ -390,13 +412,16 @@ class Motors:
         else:
             self._home_found([(m, action)])
 
-    def _home_found(self, found: list[tuple[int, Found]]) -> int:
+    def _home_found(self, found: list[tuple[int, TriggerAction]]) -> int:
         """Each motor's home origin set and, after a trigger, the timed move to it at |Ixx23|;
         AxisFlag.HOMED if a trigger moved a motor."""
         if not found:
             return 0
         events = 0
         for m, home in found:
+            if not isinstance(home, Found):  # a jog-until-trigger: to trigger + c, jog speed
+                self._move_to(m, home.position - float(self.origin[m]))
+                continue
             self.origin[m] = home.origin
             if home.speed is not None:
                 acc, jerk = jog_accel(self.ivars.values, m, home.speed)
@@ -448,7 +473,7 @@ class Motors:
         kills per Ixx24 [A L1863-1875]."""
         core = self.core
         use = (self.flag_mode & IXX24_LIMITS_OFF) == 0
-        searching = self.homing.searching
+        searching = self.homing.searching & ~self.homing.jog_trigger
         pos = (self.plim & use) | (self._soft_hi_hit & ~searching)
         neg = (self.mlim & use) | (self._soft_lo_hit & ~searching)
         fault = self._amp_faults()

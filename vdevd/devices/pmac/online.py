@@ -28,8 +28,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from vdevd.devices.pmac import expr
+from vdevd.devices.pmac.buffers import PLCC_BASE
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
-from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_IN_USE, CommandError
+from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_IN_USE, ERR_NOT_OPEN, CommandError
 from vdevd.devices.pmac.mvars import MDefError, parse_definition
 from vdevd.devices.pmac.numbers import format_value
 from vdevd.devices.pmac.reply import Reply
@@ -63,6 +64,38 @@ class PortState:
     cs_mode: bool = False   # the last address was &n: K acts on the C.S. (README)
     table_motor: int = 0    # a DEFINE COMP download in progress: its motor (0 = none)
     table_left: int = 0
+
+
+_JOG_CONSTANT = re.compile(r"-?(?:\$[0-9A-F]+|\d+\.?\d*|\.\d+)")
+
+
+def _jog_value(line: Line, env: expr.Env) -> float | None:
+    """A constant (decimal or $hex) or a parenthesised expression at the cursor, or None."""
+    s, i = line.s, line.i
+    if s.startswith("(", i):
+        depth = 0
+        for j in range(i, len(s)):
+            if s[j] == "(":
+                depth += 1
+            elif s[j] == ")":
+                depth -= 1
+            if depth == 0:
+                try:
+                    value = expr.evaluate(s[i:j + 1], env)
+                except expr.ExprError as exc:
+                    raise CommandError(exc.code) from None
+                line.i = j + 1
+                return value
+        raise CommandError(ERR_DATA, "unbalanced (")
+    m = _JOG_CONSTANT.match(s, i)
+    if m is None:
+        return None
+    line.i = m.end()
+    text = m.group()
+    negative = text.startswith("-")
+    digits = text.lstrip("-")
+    v = float(int(digits[1:], 16)) if digits.startswith("$") else float(digits)
+    return -v if negative else v
 
 
 class Line:
@@ -342,6 +375,8 @@ class Interpreter:
         elif c == "!":
             fw.motor_call("round_commanded", m)
         elif c in "=:^":
+            if self._jog_until_trigger(c, line, port):
+                return
             if line.take("*"):
                 fw.motor_call("jog_variable", m, c)
             elif c == "=" and not (line.peek().isdigit() or line.peek() in "-.$(PQIM"):
@@ -354,6 +389,28 @@ class Interpreter:
                     fw.motor_call("jog_relative", m, value, c == "^")
         else:
             raise CommandError(ERR_DATA, "J needs + - / ! = : or ^")
+
+    def _jog_until_trigger(self, c: str, line: Line, port: PortState) -> bool:
+        """`{jog}^{c}` after J=, J:, J^ (c the letter after J): the definite jog `J=`, `J={c}`,
+        `J=*`, `J:{c}`, `J:*`, `J^{c}`, `J^*` with `^{c}`, the distance from the trigger to end
+        at (counts) [PMAC1-SRM p.241, UM "Jog-until-trigger"]. True if it was one (and ran);
+        False leaves the line where it was. Values are constants or `(expressions)`, since `^`
+        is also the XOR operator."""
+        start, fw = line.i, self.fw
+        env = fw.env(port)
+        value: float | None = None
+        variable = line.take("*")
+        if not variable and not (c == "=" and line.peek() == "^"):
+            value = _jog_value(line, env)
+        if line.peek() != "^" or (value is None and not variable and c != "="):
+            line.i = start
+            return False
+        line.i += 1
+        distance = _jog_value(line, env)
+        if distance is None:
+            raise CommandError(ERR_DATA, "^ needs the post-trigger distance")
+        fw.motor_call("jog_trigger", port.motor, c, value, distance, variable)
+        return True
 
     def home(self, zero: bool, line: Line, port: PortState, out: list[str]) -> None:
         """HM/HOME home search, HMZ/HOMEZ zero-move homing [§2.7]."""
@@ -395,6 +452,7 @@ class Interpreter:
             if not 0 <= value <= 838.8607:
                 raise CommandError(ERR_DATA)
             self.fw.feed[port.cs - 1] = value
+            self.fw.timebase.command(port.cs - 1, value)  # the present value slews (Isx94)
         else:
             out.append(format_value(round(self.fw.feed[port.cs - 1], 1)))
 
@@ -547,13 +605,14 @@ class Interpreter:
             if reply.error is not None:
                 raise CommandError(reply.error)
             return
-        if not line.take("PLC") or line.take("C"):
-            raise CommandError(ERR_DATA, "only OPEN PLC n is emulated yet")
+        if not line.take("PLC"):
+            raise CommandError(ERR_DATA, "only OPEN PLC n and OPEN PLCC n are emulated yet")
+        compiled = line.take("C")
         line.skip()
         n = line.integer()
         if n is None:
             raise CommandError(ERR_DATA)
-        self.fw.plc.open(port, n)
+        self.fw.plc.open(port, n, compiled)
         rest, line.i = line.s[line.i:], len(line.s)
         reply = self.fw.plc.enter(port, rest)
         out.extend(reply.lines)
@@ -598,18 +657,35 @@ class Interpreter:
         """PR: the lines waiting in the addressed C.S.'s rotary buffer (rotary.py)."""
         out.append(str(self.fw.rotary.remaining(port.cs)))
 
+    def trigger_alone(self, line: Line, port: PortState, out: list[str]) -> None:
+        """`^{c}` belongs to a definite jog (`J=^{c}`, `J:{c}^{c}` ..., parsed by `jog`); on its
+        own, or after J+/J- (which cannot be triggered [PMAC1-SRM p.241]), it is ERR003."""
+        raise CommandError(ERR_DATA, "^ follows a definite jog")
+
+    def close_nothing(self, line: Line, port: PortState, out: list[str]) -> None:
+        """CLOSE with no buffer open on this port (the opening port's CLOSE is plc.py's): nothing
+        to close, no error; the SRM's examples start every download with CLOSE "to make sure no
+        other buffers have been left open" [SRM OPEN PROGRAM], and so do pmac_motorhome's PLCs.
+        While another port has a buffer open only that port may CLOSE it: ERR005 [A L3234]."""
+        fw = self.fw
+        if any(o is not None for o in (fw.plc.owner, fw.motion.store.owner, fw.rotary.owner,
+                                       fw.kinematics.owner)):
+            raise CommandError(ERR_NOT_OPEN, "another port has the buffer open")
+        line.take(" ALL")
+
     def plc_control(self, on: bool, line: Line, port: PortState, out: list[str]) -> None:
-        """ENABLE PLC n[,m...] / DISABLE PLC n[,m...] [§2.9]; PLCC (compiled) is not emulated."""
+        """ENABLE PLC n[,m...] / DISABLE PLC n[,m...], and PLCC for the compiled PLCs [§2.9]."""
         line.skip()
-        if not line.take("PLC") or line.take("C"):
-            raise CommandError(ERR_DATA, "only ENABLE/DISABLE PLC n is emulated")
+        if not line.take("PLC"):
+            raise CommandError(ERR_DATA, "ENABLE/DISABLE PLC n or PLCC n")
+        base = PLCC_BASE if line.take("C") else 0
         plcs: list[int] = []
         while True:
             line.skip()
             n = line.integer()
             if n is None or not 0 <= n <= 31:
                 raise CommandError(ERR_DATA)
-            plcs.append(n)
+            plcs.append(base + n)
             line.skip()
             if not line.take(","):
                 break

@@ -14,6 +14,7 @@ with no reply [SRM p.424].
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -29,8 +30,13 @@ if TYPE_CHECKING:
     from vdevd.devices.pmac.firmware import Firmware
 
 PLC_COUNT = 32
+#: compiled PLC n (PLCC n) is program PLC_COUNT + n of `Plcs.plcs`
+PLCC = PLC_COUNT
+PROGRAMS = 2 * PLC_COUNT
 #: on-line commands PLCs may have queued (CMD"..."): a PLC meeting a full queue waits there
 CMD_QUEUE = 64
+#: SEND messages waiting for their port: a PLC meeting a full queue waits there
+MESSAGE_QUEUE = 64
 ERR_IN_USE = 7
 VARIABLES = 8192
 
@@ -47,22 +53,31 @@ class Plc:
 
 
 class Plcs:
-    """The card's 32 PLC programs."""
+    """The card's 32 PLC programs and 32 compiled PLCs (PLCC n at index 32 + n): a compiled PLC
+    takes the same text, runs the same statements and scans at the same rate as the PLC of its
+    number (PLCC 0 in the foreground with PLC 0, PLCC 1-31 in the background), after it (README
+    assumption)."""
 
     def __init__(self, fw: Firmware) -> None:
         self.fw = fw
-        self.plcs = [Plc() for _ in range(PLC_COUNT)]
+        self.plcs = [Plc() for _ in range(PROGRAMS)]
         self.owner: PortState | None = None   # the port that has a buffer open
         self.open_n = -1
         self.queue: deque[tuple[PortState, str]] = deque()
+        #: SEND/SENDS/SENDP messages (port "", "S", "P"; text) not yet taken by their port
+        self.messages: deque[tuple[str, str]] = deque()
+        #: the card's ports: takes a message (True) or has no room yet (False); None: no port
+        #: (a firmware without a host), messages are dropped
+        self.on_message: Callable[[str, str], bool] | None = None
         self.on: set[int] = set()   # enabled PLCs with a program: what scans (I5 permitting)
 
     # -- buffers ------------------------------------------------------------------------------
-    def open(self, port: PortState, n: int) -> None:
-        """OPEN PLC n: the PLC stops (ENABLE restarts it after CLOSE); ERR007 if another port has
-        a buffer open (V1.936 [A L3234])."""
+    def open(self, port: PortState, n: int, compiled: bool = False) -> None:
+        """OPEN PLC n (OPEN PLCC n, `compiled`): the PLC stops (ENABLE restarts it after CLOSE);
+        ERR007 if another port has a buffer open (V1.936 [A L3234])."""
         if not 0 <= n < PLC_COUNT:
             raise CommandError(ERR_DATA, "PLC number 0-31")
+        n += PLCC if compiled else 0
         progs = self.fw.motion.store  # a PROG buffer counts too (programs.py)
         if (self.owner is not None and self.owner is not port) or \
                 (progs.owner is not None and progs.owner is not port):
@@ -146,7 +161,8 @@ class Plcs:
                 pass  # badly structured: closed, does not run
 
     def list_lines(self, n: int, start: int = 0, count: int | None = None) -> list[str]:
-        """LIST PLC n[,start[,count]]: the stored lines."""
+        """LIST PLC n[,start[,count]]: the stored lines (PLC 0-31 only: a compiled PLC is
+        machine code on the card, nothing to list)."""
         if not 0 <= n < PLC_COUNT:
             raise CommandError(ERR_DATA)
         lines = self.plcs[n].lines
@@ -172,17 +188,20 @@ class Plcs:
         self.on.clear()
 
     def _runnable(self, i5: int) -> list[Plc]:
-        return [self.plcs[n] for n in sorted(self.on) if i5 & (1 if n == 0 else 2)]
+        """The foreground (PLC 0, PLCC 0: I5 bit 0) then the background (PLC 1-31, PLCC 1-31:
+        I5 bit 1) programs that scan."""
+        order = sorted(self.on, key=lambda n: (n % PLC_COUNT != 0, n))
+        return [self.plcs[n] for n in order if i5 & (1 if n % PLC_COUNT == 0 else 2)]
 
     @property
     def running(self) -> bool:
         """A PLC that scans, or a queued CMD: the card is not at rest (decision 0008)."""
-        if self.queue:
+        if self.queue or self.messages:
             return True
         if not self.on:
             return False
         i5 = int(self.fw.ivars.values[5])
-        return any(i5 & (1 if n == 0 else 2) for n in self.on)
+        return any(i5 & (1 if n % PLC_COUNT == 0 else 2) for n in self.on)
 
     def tick(self, cycle: int) -> None:
         """The scans due in this servo cycle, then the queued CMD commands."""
@@ -195,6 +214,11 @@ class Plcs:
         while self.queue:
             port, text = self.queue.popleft()
             execute(port, text)  # no ACK, no reply [SRM p.424]
+        deliver = self.on_message
+        while self.messages:
+            if deliver is not None and not deliver(*self.messages[0]):
+                break  # the port has no room: the message waits
+            self.messages.popleft()
 
     def _scan(self, plc: Plc) -> None:
         fw, ops, port = self.fw, plc.ops, plc.port
@@ -225,6 +249,11 @@ class Plcs:
                     plc.pc = pc - 1
                     return
                 self.queue.append((port, op[1]))
+            elif name == "send":
+                if len(self.messages) >= MESSAGE_QUEUE:
+                    plc.pc = pc - 1
+                    return
+                self.messages.append((op[1], op[2]))
             elif name in ("enable", "disable"):
                 self.enable(op[1], name == "enable")
                 if not plc.enabled:
@@ -245,15 +274,17 @@ class Plcs:
             self.plcs[self.open_n].lines.clear()
         self.owner, self.open_n = None, -1
         self.queue.clear()
+        self.messages.clear()
         for plc in self.plcs:
             plc.enabled, plc.pc, plc.port = plc.ops is not None, 0, PortState()
         self.on = {n for n, plc in enumerate(self.plcs) if plc.ops}
 
     def clear_all(self) -> None:
         """$$$***: every buffer empty."""
-        self.plcs = [Plc() for _ in range(PLC_COUNT)]
+        self.plcs = [Plc() for _ in range(PROGRAMS)]
         self.owner, self.open_n = None, -1
         self.queue.clear()
+        self.messages.clear()
         self.on.clear()
 
 
@@ -266,7 +297,7 @@ class Plcs:
         self.clear_all()
         for key, lines in image.items():
             n = int(key)
-            if not 0 <= n < PLC_COUNT or len(lines) > MAX_LINES:
+            if not 0 <= n < PROGRAMS or len(lines) > MAX_LINES:
                 continue
             try:
                 ops = buffers.compile_lines([buffers.normalise(line) for line in lines])

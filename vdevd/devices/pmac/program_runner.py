@@ -514,7 +514,7 @@ class CsProgram:
             step = rate if rate > 0 else 1.0
             self.hold = min(self.hold + step, 1.0) if self.hold_target > self.hold \
                 else max(self.hold - step, 0.0)
-        tb = float(fw.feed[self.cs - 1]) / 100 * self.hold
+        tb = fw.timebase.present(self.cs - 1) / 100 * self.hold  # `%` slewing at Isx94
         g = self._glide
         if g is not None:
             if g.q is self.cur and g.k < len(g.taus) and g.rate == (tb if g.q.scaled else 1.0):

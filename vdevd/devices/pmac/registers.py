@@ -24,6 +24,7 @@ MOTOR_BASE, MOTOR_STRIDE = 0x80, 0x80
 CS_BASE, CS_STRIDE = 0x2000, 0x100
 P_BASE, Q_BASE = 0x6000, 0x8000
 WORD = 0xFFFFFF
+HOME_COMPLETE_BIT = 1 << 10  # status word 2 [§2.6]
 #: motor-block D: registers -> the Motors report they show (0x10, Mxx69, is the firmware's)
 _FIXED = {0x08: "commanded", 0x0B: "position", 0x10: "", 0x47: "target"}
 #: L:+$4F/+$50/+$51 scale factor of X/U/A/B/C, Y/V, Z/W (Mxx91-93), +$52 offset (Mxx94) [§2.1]
@@ -101,6 +102,11 @@ class MotorBlocks:
 
     def write_word(self, space: str, addr: int, value: int) -> None:
         motor, off = divmod(addr - MOTOR_BASE, MOTOR_STRIDE)
+        if space == "Y" and off == 0x40 and motor < self.fw.ivars.motors:
+            # status word 2: the home-complete bit is RAM the program may clear or set (homing
+            # PLCs write Mxx45=0 before searching); the other bits are the firmware's (README)
+            self.fw.motors.homing.home_complete[motor] = bool(value & HOME_COMPLETE_BIT)
+            return
         if off == 0x57 and motor < self.fw.ivars.motors:
             jog = self.fw.motors.jog_register
             x, y = pmac_float_words(float(jog[motor]))
@@ -144,8 +150,9 @@ class CsBlocks:
     def read_word(self, space: str, addr: int) -> int:
         cs, off = divmod(addr - CS_BASE, CS_STRIDE)
         fw = self.fw
-        if space == "X" and off in (0x00, 0x02):
-            return round_to_int(fw.ivars.values[10] * fw.feed[cs] / 100) & WORD
+        if space == "X" and off in (0x00, 0x02):  # commanded / present (slewing, timebase.py)
+            pct = fw.feed[cs] if off == 0 else fw.timebase.present(cs)
+            return round_to_int(fw.ivars.values[10] * pct / 100) & WORD
         if space == "X" and off == 0x40:
             return fw.cs_status(cs + 1)[0]
         if space == "Y" and off == 0x3F:
@@ -169,6 +176,7 @@ class CsBlocks:
         i10 = self.fw.ivars.values[10]
         if space == "X" and off == 0x00 and i10:
             self.fw.feed[cs] = value * 100 / i10
+            self.fw.timebase.command(cs, float(self.fw.feed[cs]))
             return
         if off == 0x15:  # writing a timer sets Isx11/Isx12
             n = 5100 + 100 * cs + (11 if space == "X" else 12)

@@ -112,7 +112,8 @@ def word1(n: int, *, iv: dict[int, np.ndarray], closed: np.ndarray, amp_enabled:
 
 def word2(n: int, *, in_position: np.ndarray, warning: np.ndarray, fatal: np.ndarray,
           amp_fault: np.ndarray, home_complete: np.ndarray, stopped_on_limit: np.ndarray,
-          foreground: bool, cs: np.ndarray, axis_code: np.ndarray) -> np.ndarray:
+          foreground: bool, cs: np.ndarray, axis_code: np.ndarray,
+          trigger_move: np.ndarray | bool = False) -> np.ndarray:
     """Word 2 of n motors [SRM p.283-284]; `foreground` is I13 = 1 (bit 13 mirrors the
     in-position bit then)."""
     return pack(n, (
@@ -120,6 +121,7 @@ def word2(n: int, *, in_position: np.ndarray, warning: np.ndarray, fatal: np.nda
         (MotorStatus2.WARNING_FOLLOWING_ERROR, warning),
         (MotorStatus2.FATAL_FOLLOWING_ERROR, fatal),
         (MotorStatus2.AMP_FAULT_ERROR, amp_fault),
+        (MotorStatus2.TRIGGER_MOVE, trigger_move),
         (MotorStatus2.HOME_COMPLETE, home_complete),
         (MotorStatus2.STOPPED_ON_POSITION_LIMIT, stopped_on_limit),
         (MotorStatus2.FOREGROUND_IN_POSITION, in_position & foreground),

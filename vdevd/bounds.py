@@ -1,0 +1,134 @@
+"""The bounds a request is held to before any work is done for it (issue 22, PROTOCOL.md "Size").
+
+A reply over `max_message` is an error (`too_large`), so a read or a batch whose reply would
+certainly exceed it is refused before a byte is read: a `rep` read of 16 MiB would otherwise run
+16 million register accesses and build the reply first. Scheduled backdoor actions are counted
+per client and in total (`ScheduledCount`), past the limit `busy`. Sans-I/O: plain functions of
+the request's fields.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Hashable, Sequence
+from typing import Any
+
+from vdevd.errors import ErrorCode, VdevError
+from vdevd.protocol import MAX_MESSAGE, Request
+
+#: the fewest bytes a read reply holds beside its data: a fixmap {"id": nil, "ok": bin32}
+READ_REPLY_OVERHEAD = 1 + 3 + 1 + 3 + 5
+#: the largest `size` a read may ask for: its reply is at least `size + READ_REPLY_OVERHEAD`
+MAX_READ = MAX_MESSAGE - READ_REPLY_OVERHEAD
+#: the fewest bytes of a batch reply beside its results: {"id": nil, "ok": array32}
+BATCH_REPLY_OVERHEAD = 1 + 3 + 1 + 3 + 5
+#: the hook calls of repeated accesses (`rep`) one request may make, a batch's summed: a FIFO
+#: port's hook costs 1-2 us a call, so 65536 of them hold the event loop about 0.1 s
+MAX_REP_HOOK_CALLS = 65_536
+#: scheduled `control` actions one client may have pending, and all clients together (defaults)
+MAX_SCHEDULED_PER_CLIENT = 1_000
+MAX_SCHEDULED = 10_000
+
+
+def check_read(size: int) -> None:
+    """A `read` (plain or `rep`) whose reply cannot fit `max_message`: `too_large`, at once."""
+    if size > MAX_READ:
+        raise VdevError(ErrorCode.TOO_LARGE, f"read of {size} bytes: the reply would exceed "
+                        f"max_message ({MAX_MESSAGE} bytes; at most {MAX_READ} bytes a read)")
+
+
+def check_rep_work(calls: int) -> None:
+    """Repeated accesses (`rep`) that would call registers' hooks more than MAX_REP_HOOK_CALLS
+    times: `too_large`, before the first call."""
+    if calls > MAX_REP_HOOK_CALLS:
+        raise VdevError(ErrorCode.TOO_LARGE, f"repeated accesses of {calls} single accesses "
+                        f"through register hooks exceed {MAX_REP_HOOK_CALLS} a request (a FIFO "
+                        "port: read or write it in pieces)")
+
+
+def _bin_size(n: int) -> int:
+    """The bytes of a msgpack bin of `n` bytes (its header and the data)."""
+    return n + (2 if n < 0x100 else 3 if n < 0x10000 else 5)
+
+
+#: (card, region, offset, size, write) -> the hook calls of that repeated access
+#: (`Region.rep_hook_calls`; 0 for a region that does not exist: it fails when it runs)
+HookCalls = Callable[[str, str, int, int, bool], int]
+
+_KINDS = {"r": (True, False, False), "R": (True, True, False), "w": (False, False, True),
+          "W": (False, True, True)}
+
+
+def batch_cost(ops: Sequence[Request | Sequence[Any]], hook_calls: HookCalls) -> tuple[int, int]:
+    """What a batch of `ops` (protocol.Access or Request) costs before it runs: the fewest
+    bytes its reply can take (every read's data with its header, one byte at least for any other
+    result), and the hook calls of its repeated accesses."""
+    total, calls = BATCH_REPLY_OVERHEAD, 0
+    for op in ops:
+        if isinstance(op, Request):
+            if op.op not in ("read", "write"):
+                total += 1
+                continue
+            args = op.args
+            read, rep = op.op == "read", bool(args.get("rep"))
+            card, region, offset = args["card"], args["region"], args["offset"]
+            size = args["size"] if read else len(args["data"])
+        else:
+            kind = _KINDS.get(op[0])
+            if kind is None:
+                total += 1
+                continue
+            read, rep, _ = kind
+            card, region, offset, last = op[1], op[2], op[3], op[4]
+            size = last if read else len(last)
+        total += _bin_size(size) if read and size > 0 else 1
+        if rep:
+            calls += hook_calls(card, region, offset, size, not read)
+    return total, calls
+
+
+def check_batch(ops: Sequence[Request | Sequence[Any]], hook_calls: HookCalls) -> None:
+    """A batch whose reply cannot fit `max_message`, or whose repeated accesses would call
+    hooks more than MAX_REP_HOOK_CALLS times: `too_large` before any of its ops runs."""
+    floor, calls = batch_cost(ops, hook_calls)
+    if floor > MAX_MESSAGE:
+        raise VdevError(ErrorCode.TOO_LARGE, f"batch of {len(ops)} ops: its reply would take "
+                        f"at least {floor} bytes, over max_message ({MAX_MESSAGE} bytes); "
+                        "nothing was run")
+    if calls > MAX_REP_HOOK_CALLS:
+        raise VdevError(ErrorCode.TOO_LARGE, f"batch of {len(ops)} ops: its repeated accesses "
+                        f"make {calls} single accesses through register hooks, over "
+                        f"{MAX_REP_HOOK_CALLS} a request; nothing was run")
+
+
+class ScheduledCount:
+    """Scheduled `control` actions pending, per client and in all (PROTOCOL.md "control"):
+    `reserve(client)` before one is scheduled (`busy` past a limit), `release(client)` once it
+    has run."""
+
+    def __init__(self, per_client: int = MAX_SCHEDULED_PER_CLIENT,
+                 total: int = MAX_SCHEDULED) -> None:
+        self.per_client = per_client
+        self.limit = total
+        self.total = 0
+        self._by_client: dict[Hashable, int] = {}
+
+    def reserve(self, client: Hashable) -> None:
+        """Count one more for `client`; `busy` (nothing counted) when a limit is reached."""
+        mine = self._by_client.get(client, 0)
+        if self.total >= self.limit:
+            raise VdevError(ErrorCode.BUSY, f"control: {self.total} scheduled actions pending, "
+                            f"the most the daemon holds ({self.limit})")
+        if mine >= self.per_client:
+            raise VdevError(ErrorCode.BUSY, f"control: this client has {mine} scheduled "
+                            f"actions pending, the most one client may ({self.per_client})")
+        self._by_client[client] = mine + 1
+        self.total += 1
+
+    def release(self, client: Hashable) -> None:
+        """One of `client`'s scheduled actions has run."""
+        mine = self._by_client.get(client, 0) - 1
+        if mine > 0:
+            self._by_client[client] = mine
+        else:
+            self._by_client.pop(client, None)
+        self.total -= 1
