@@ -24,7 +24,7 @@ from vdevd.bounds import (
     check_rep_work,
 )
 from vdevd.devices.base import Card
-from vdevd.errors import ErrorCode, VdevError
+from vdevd.errors import ErrorCode, StartError, VdevError
 from vdevd.irq import IrqEvent
 from vdevd.metrics import Samples, TaggedSamples
 from vdevd.pacing import ClockMode, Pacer, Waker
@@ -156,9 +156,14 @@ class Rack:
         self.pacer.start(loop)
 
     async def open_services(self) -> None:
-        """Each card's own listeners (e.g. the PMAC Ethernet port), after `start`."""
-        for card in self.cards.values():
-            await card.open_services()
+        """Each card's own listeners (e.g. the PMAC Ethernet port), after `start`; a listener
+        that cannot start is a `StartError` naming the card as the configuration counts it
+        (`card[2] (pmac0) ethernet: 127.0.0.1:1025 already in use`)."""
+        for i, card in enumerate(self.cards.values()):
+            try:
+                await card.open_services()
+            except StartError as exc:
+                raise StartError(f"card[{i}] ({card.name}) {exc}") from None
 
     async def close_services(self) -> None:
         for card in self.cards.values():

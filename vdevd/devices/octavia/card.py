@@ -95,7 +95,7 @@ class OctaviaCard(Card):
         # the battery-backed RAM across daemon restarts (battery.py, README "Battery-backed RAM")
         store = ctx.nvram if self.opts.battery_backup else None
         self._battery = battery.Writer(store, name) if store is not None else None
-        saved = store.load(name) if store is not None else None
+        saved = store.load(name, battery.check_image) if store is not None else None
         if saved is not None:
             battery.restore(self.fw, saved)
         self.make_world(n)

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import ipaddress
 import logging
-import os
 import re
 from collections.abc import Mapping
 from fractions import Fraction
@@ -40,8 +39,10 @@ from vdevmaps.pmac import (
 )
 
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
+from vdevd.devices.pmac import nv_image
 from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
 from vdevd.devices.pmac.eth_framing import KeptFraming
+from vdevd.devices.pmac.ethernet import MAX_PENDING
 from vdevd.devices.pmac.ethernet_server import EthernetServer, parse_endpoint
 from vdevd.devices.pmac.firmware import Firmware, Identity
 from vdevd.devices.pmac.hostport import HostPort, InterruptController
@@ -50,10 +51,10 @@ from vdevd.devices.pmac.reply import Reply, frame
 from vdevd.devices.pmac.servo_ic import ChannelFlag
 from vdevd.devices.pmac.status import MotorStatus2
 from vdevd.devices.rest import state_bytes, ticks_before_multiple
-from vdevd.errors import StartError
 from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region, passive_except
 from vdevd.security import is_local
+from vdevd.tcp_listener import listener_options
 
 log = logging.getLogger("vdevd.pmac")
 _CONTROL = re.compile("[\x01-\x1a]")  # control characters act at once, wherever they are
@@ -182,6 +183,10 @@ class PmacCard(Card):
                            help="endpoint of the Ethernet protocol; empty: off"),
         "ethernet_allow": Option(list, None,
                                  help="client addresses allowed on a non-loopback Ethernet endpoint"),
+        **listener_options(),
+        "max_pending_kib": Option(int, MAX_PENDING >> 10, min=2, max=65536,
+                                  help="KiB of output an Ethernet connection leaves unfetched "
+                                       "(SENDLINE replies) before it is closed"),
         "plant": Option(str, "servo", choices=("servo", "ideal"),
                         help="servo: amplifier and motor model; ideal: motors follow exactly"),
         "macro_stations": Option(list, [], choices=tuple(range(64)),
@@ -276,7 +281,7 @@ class PmacCard(Card):
         self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)
         self.fw.plc.on_message = self._plc_message
         self._last_status2 = np.zeros(self.motors, dtype=np.int64)
-        self.fw.restore((store.load(name) if store is not None else None) or {})
+        nv_image.restore(self.fw, store, name)  # a saved image checked first (issue 22 §4)
         self.fw.on_reset = self._firmware_reset
         self.dpram.buf[:] = bytes(DPRAM_SIZE)
         self.ascii.reset()
@@ -514,13 +519,10 @@ class PmacCard(Card):
         """Listen for the Ethernet protocol; a port that cannot be bound is a `StartError`."""
         if not self.ethernet:
             return
-        try:
-            self._server = await EthernetServer.start(self.ethernet, self._open_ethernet_port,
-                                                      allow=self.allow)
-        except OSError as exc:
-            reason = os.strerror(exc.errno) if exc.errno else str(exc)
-            raise StartError(f"{self.name} ethernet {self.ethernet}: "
-                             f"{reason[:1].lower()}{reason[1:]}") from None
+        self._server = await EthernetServer.start(
+            self.ethernet, self._open_ethernet_port, allow=self.allow,
+            name=f"{self.name} ethernet", max_connections=self.opts.max_connections,
+            idle_timeout_s=self.opts.idle_timeout_s, max_pending=self.opts.max_pending_kib << 10)
         self.ethernet_endpoint = self._server.endpoint
         log.info("%s: PMAC Ethernet protocol on %s", self.name, self.ethernet_endpoint)
 
