@@ -146,6 +146,8 @@ class CommandPort:
     def close(self) -> None:
         """A buffer this connection left open closes with it (plc.py `release`)."""
         self.card.fw.plc.release(self.state)
+        self.card.fw.rotary.release(self.state)
+        self.card.fw.kinematics.release(self.state)
         self.card.fw.motion.store.release(self.state)
         self.card.ethernet_ports.discard(self)
 
@@ -282,6 +284,7 @@ class PmacCard(Card):
         self.varbufs = VariableBuffers(self.dpram.buf, self.fw.memory)  # I55 (dpram_vars.py)
         #: I45's ring; its `on_rotary_line(cs, text)` feeds a C.S.'s rotary buffer (dpram_rotary.py)
         self.binrot = BinaryRotary(self.dpram.buf)
+        self.binrot.on_rotary_line = self.fw.rotary.append
         self.host_port_state = CommandPort(self)
         self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)
         self.fw.plc.on_message = self._plc_message

@@ -70,6 +70,7 @@ COMMANDS = CommandTable(
         _word("MOVETIME", "movetime", section=f"{_S18} [A L3262]"),
         _word("SETPHASE", "setphase", section=f"{_S18} [A L3263]"),
         _word("MS", "macro_station", section="Turbo SRM MS/MSR/MSW; §3.3"),
+        _word("PR", "program_remaining", section="Turbo SRM PR, I16/I17; rotary.py"),
         # tables [§1.7]
         _word("DEFINE", "define", section=_S17), _word("DEF", "define", section=_S17),
         _word("DELETE", "delete", section=_S17), _word("DEL", "delete", section=_S17),
@@ -93,7 +94,6 @@ COMMANDS = CommandTable(
         "CLEAR": "only the port with a buffer open may CLEAR it (plc.py)",
         "LEARN": "LEARN (program the present positions) is not emulated",
         "ABR": "abort and run a program: motion programs come in issue 21",
-        "PR": "program lines remaining (rotary buffers) is not emulated: ERR003, not P then R",
         "PC": "the program counter report is not emulated: ERR003",
         "PE": "the program execution line report is not emulated: ERR003",
         "!": "the V1.936 axis-move command needs coordinate systems (issue 21): unrecognised",
@@ -103,5 +103,5 @@ COMMANDS = CommandTable(
 #: not emulated words the parser recognises -> the error number they answer (README "Not yet")
 REFUSED: dict[str, int] = {
     "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
-    "ABR": ERR_NO_PROGRAM, "PR": ERR_DATA, "PC": ERR_DATA, "PE": ERR_DATA,
+    "ABR": ERR_NO_PROGRAM, "PC": ERR_DATA, "PE": ERR_DATA,
 }

@@ -39,6 +39,7 @@ def check_image(fw: Firmware, image: dict[str, Any]) -> None:
     for key in ("comp", "comp1d", "axes"):
         nvcheck.sequence(image.get(key, []), key)
     nvcheck.mapping(image.get("plc", {}), "plc")
+    nvcheck.mapping(image.get("kinematics", {}), "kinematics")
 
 
 def restore(fw: Firmware, store: NvramStore | None, name: str) -> None:
