@@ -364,9 +364,10 @@ def test_cmd_from_a_program_runs_on_line(card: Card) -> None:
 
 
 def test_pr_is_not_p_then_r(card: Card) -> None:
+    """PR is the rotary buffer's lines remaining (rotary.py), not P then R."""
     download(card, 1, "LINEAR ABS TA100 TS0 F5", "X1")
     card.ask("&1B1")
-    assert card.ask("#1PR") == "0"  # PR: rotary lines remaining (test_programs_reports.py)
+    assert card.ask("#1PR") == "0"
     assert not running(card)
 
 

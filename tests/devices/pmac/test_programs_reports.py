@@ -72,7 +72,8 @@ def test_pc_follows_a_call_into_the_called_program(card: Card) -> None:
 
 
 def test_pr_is_0_for_a_fixed_program(card: Card) -> None:
-    """PR counts rotary-buffer lines not yet calculated; a fixed PROG has none (README)."""
+    """PR counts the C.S.'s rotary-buffer lines waiting (rotary.py); running a fixed PROG with
+    no rotary buffer it is 0 [SRM PR]."""
     download(card, 4, *PROG)
     card.ask("&1B4R")
     seconds(card, 0.2)

@@ -63,7 +63,6 @@ COMMANDS = CommandTable(
         _word("ABR", "abort_run", section="§2.8 [A L3261]"),
         _word("PC", "program_report", "PC", section="§2.8"),
         _word("PE", "program_report", "PE", section="§2.8"),
-        _word("PR", "program_report", "PR", section="§2.8"),
         _word("UNDEFINE", "undefine", section=f"{_S25} [A L3284]"),
         _word("UNDEF", "undefine", section=f"{_S25} [A L3284]"),
         # global
@@ -74,6 +73,7 @@ COMMANDS = CommandTable(
         _word("MOVETIME", "movetime", section=f"{_S18} [A L3262]"),
         _word("SETPHASE", "setphase", section=f"{_S18} [A L3263]"),
         _word("MS", "macro_station", section="Turbo SRM MS/MSR/MSW; §3.3"),
+        _word("PR", "program_remaining", section="Turbo SRM PR, I16/I17; rotary.py"),
         # tables [§1.7]
         _word("DEFINE", "define", section=_S17), _word("DEF", "define", section=_S17),
         _word("DELETE", "delete", section=_S17), _word("DEL", "delete", section=_S17),

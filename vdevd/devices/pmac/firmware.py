@@ -24,6 +24,7 @@ from vdevd.devices.pmac.feedback import FeedbackSelect
 from vdevd.devices.pmac.gather import GATHER_ON, GATHER_ON_TRIGGER, Gather, valid_source
 from vdevd.devices.pmac.gpio import GeneralIO
 from vdevd.devices.pmac.ivars import IVars
+from vdevd.devices.pmac.kinematics import Kinematics
 from vdevd.devices.pmac.macro import MacroStations
 from vdevd.devices.pmac.memory import TOP, Memory
 from vdevd.devices.pmac.motor_reports import MotorReports
@@ -45,6 +46,7 @@ from vdevd.devices.pmac.registers import (
     GlobalRegisters,
     MotorBlocks,
 )
+from vdevd.devices.pmac.rotary import RotaryBuffers
 from vdevd.devices.pmac.servo_ic import ServoIC
 from vdevd.devices.pmac.timebase import TimeBase
 from vdevd.rt import PlantKind
@@ -118,6 +120,9 @@ class Firmware:
         self.timebase = TimeBase(self.ivars, lambda: self.servo_cycles)  # `%` slew (Isx94)
         self.interpreter = Interpreter(self)
         self.plc = Plcs(self)
+        self.rotary = RotaryBuffers(self)          # rotary.py
+        self.kinematics = Kinematics(self)         # kinematics.py
+        self.buffer_checks.append(lambda: {"ROTARY"} if self.rotary.defined else set())
         self.motion = Motion(self)  # motion programs (program_runner.py)
 
     # -- time -------------------------------------------------------------------------------------
@@ -503,6 +508,7 @@ class Firmware:
             "comp1d": self._comp1d_image(),
             "axes": self.coord.image(),
             "plc": self.plc.image(),
+            "kinematics": self.kinematics.image(),
             "prog": self.motion.store.image(),
         }
 
@@ -528,6 +534,7 @@ class Firmware:
         self._comp1d_restore(image.get("comp1d", []))
         self.coord.restore(image.get("axes", []))
         self.plc.restore(image.get("plc", {}))
+        self.kinematics.restore(image.get("kinematics", {}))
         self.motion.store.restore(image.get("prog", {}))
         self._reset_hardware()
 
@@ -552,6 +559,7 @@ class Firmware:
         self.comp1d.clear()
         self.coord.undefine(None)
         self.plc.clear_all()
+        self.kinematics.clear_all()
         self.motion.store.clear_all()
         for runner in self.motion.cs:  # the lookahead buffers go with the other buffers
             runner.lookahead_buffer = None
@@ -570,6 +578,8 @@ class Firmware:
         self.coord.reset()
         self.gather.reset()
         self.plc.power_on()
+        self.rotary.power_on()
+        self.kinematics.power_on()
         self.motion.power_on()
         core = self.motors.core
         self.feedback.refresh(core.axes.encoder + core.encoder_slip)

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 from vdevd.devices.pmac import expr, prog_reports
 from vdevd.devices.pmac.buffers import PLCC_BASE
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
-from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_NOT_OPEN, CommandError
+from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_IN_USE, ERR_NOT_OPEN, CommandError
 from vdevd.devices.pmac.mvars import MDefError, parse_definition
 from vdevd.devices.pmac.numbers import format_value
 from vdevd.devices.pmac.reply import Reply
@@ -38,6 +38,8 @@ from vdevd.devices.pmac.reply import Reply
 if TYPE_CHECKING:
     from vdevd.devices.pmac.firmware import Firmware
 
+#: a motion program runs: buffers that may not open meanwhile [SRM OPEN FORWARD]
+ERR_RUNNING = 1
 #: compiled report lines kept per interpreter (the cache starts afresh when full)
 PLAN_CACHE = 256
 
@@ -174,6 +176,10 @@ class Interpreter:
     def execute(self, port: PortState, text: str) -> Reply:
         if port is self.fw.plc.owner:  # a buffer is open on this port: its lines go there (plc.py)
             return self.fw.plc.enter(port, text)
+        if port is self.fw.rotary.owner:  # rotary.py
+            return self.fw.rotary.enter(port, text)
+        if port is self.fw.kinematics.owner:  # kinematics.py
+            return self.fw.kinematics.enter(port, text)
         if port is self.fw.motion.store.owner:  # a PROG buffer (programs.py)
             return self.fw.motion.store.enter(port, text)
         plans = self._plans
@@ -502,15 +508,13 @@ class Interpreter:
         self.fw.motion.runner(port.cs).abort_and_run(value)
 
     def program_report(self, name: str, line: Line, port: PortState, out: list[str]) -> None:
-        """PC (program counter), PE (executing line): `P{prog}:{offset}`; PR (rotary lines
-        remaining) of the addressed C.S. (prog_reports.py) [SRM PC, PE, PR]."""
+        """PC (program counter), PE (executing line) of the addressed C.S.: `P{prog}:{offset}`
+        (prog_reports.py) [SRM PC, PE]; PR is rotary.py's (`program_remaining`)."""
         r = self.fw.motion.runner(port.cs)
         if name == "PC":
             out.append(prog_reports.program_counter(r))
-        elif name == "PE":
-            out.append(prog_reports.execution_line(r))
         else:
-            out.append(str(prog_reports.lines_remaining(r)))
+            out.append(prog_reports.execution_line(r))
 
     def quit(self, line: Line, port: PortState, out: list[str]) -> None:
         """Q: quit at the end of the moves already calculated [SRM Q]."""
@@ -572,6 +576,13 @@ class Interpreter:
             line.take("HER")
             out.extend(self.fw.gather.list_lines())
             return
+        if line.take("FORWARD") or line.take("FWD"):  # LIST FORWARD / INVERSE (kinematics.py)
+            out.extend(self.fw.kinematics.list_lines(port.cs, "FORWARD"))
+            return
+        if line.take("INV"):
+            line.take("ERSE")
+            out.extend(self.fw.kinematics.list_lines(port.cs, "INVERSE"))
+            return
         if line.take("PLC") and not line.take("C"):  # LIST PLC n[,start[,count]] (plc.py)
             line.skip()
             n = line.integer()
@@ -600,6 +611,10 @@ class Interpreter:
         """OPEN PLC n / OPEN PROG n: the rest of the line and the port's next lines go into the
         buffer (plc.py, programs.py)."""
         line.skip()
+        if self._open_other(line, port, out):
+            return
+        if any(o is not None and o is not port for o in (self.fw.rotary.owner, self.fw.kinematics.owner)):
+            raise CommandError(ERR_IN_USE, "another port has a buffer open")
         if line.take("PROG"):
             line.take("RAM")
             line.skip()
@@ -628,6 +643,44 @@ class Interpreter:
         if reply.error is not None:
             raise CommandError(reply.error)
 
+    def _open_other(self, line: Line, port: PortState, out: list[str]) -> bool:
+        """OPEN ROT (rotary.py), OPEN FORWARD / OPEN INVERSE of the addressed C.S.
+        (kinematics.py): the rest of the line goes into the buffer. False for another OPEN."""
+        fw = self.fw
+        kind = ""
+        if line.take("ROT"):
+            line.take("ARY")
+        elif line.take("FORWARD") or line.take("FWD"):
+            kind = "FORWARD"
+        elif line.take("INV"):
+            line.take("ERSE")
+            kind = "INVERSE"
+        else:
+            return False
+        owners = (fw.plc.owner, fw.motion.store.owner, fw.rotary.owner, fw.kinematics.owner)
+        if any(o is not None and o is not port for o in owners):
+            raise CommandError(ERR_IN_USE, "another port has a buffer open")
+        if kind and fw.motion.any_running():
+            raise CommandError(ERR_RUNNING, "a motion program is running")
+        if fw.plc.owner is port:
+            fw.plc.close()
+        if fw.motion.store.owner is port:
+            fw.motion.store.close()
+        if kind:
+            fw.kinematics.open(port, kind)
+        else:
+            fw.rotary.open(port)
+        rest, line.i = line.s[line.i:], len(line.s)
+        reply = (fw.kinematics if kind else fw.rotary).enter(port, rest)
+        out.extend(reply.lines)
+        if reply.error is not None:
+            raise CommandError(reply.error)
+        return True
+
+    def program_remaining(self, line: Line, port: PortState, out: list[str]) -> None:
+        """PR: the lines waiting in the addressed C.S.'s rotary buffer (rotary.py)."""
+        out.append(str(self.fw.rotary.remaining(port.cs)))
+
     def trigger_alone(self, line: Line, port: PortState, out: list[str]) -> None:
         """`^{c}` belongs to a definite jog (`J=^{c}`, `J:{c}^{c}` ..., parsed by `jog`); on its
         own, or after J+/J- (which cannot be triggered [PMAC1-SRM p.241]), it is ERR003."""
@@ -638,7 +691,9 @@ class Interpreter:
         to close, no error; the SRM's examples start every download with CLOSE "to make sure no
         other buffers have been left open" [SRM OPEN PROGRAM], and so do pmac_motorhome's PLCs.
         While another port has a buffer open only that port may CLOSE it: ERR005 [A L3234]."""
-        if self.fw.plc.owner is not None or self.fw.motion.store.owner is not None:
+        fw = self.fw
+        if any(o is not None for o in (fw.plc.owner, fw.motion.store.owner, fw.rotary.owner,
+                                       fw.kinematics.owner)):
             raise CommandError(ERR_NOT_OPEN, "another port has the buffer open")
         line.take(" ALL")
 
@@ -658,6 +713,11 @@ class Interpreter:
             line.take("HER")
             line.skip()
             self.fw.gather.define(line.integer())
+            return
+        if line.take("ROT"):  # DEFINE ROT n (rotary.py)
+            line.take("ARY")
+            line.skip()
+            self.fw.rotary.define(port.cs, line.integer())
             return
         if line.take("LOOK"):  # DEFINE LOOKAHEAD {segments}[,{outputs}] (lookahead.py)
             line.take("AHEAD")
@@ -692,8 +752,11 @@ class Interpreter:
         elif line.take("LOOK"):  # DELETE LOOKAHEAD: the addressed C.S.'s (lookahead.py)
             line.take("AHEAD")
             self.fw.motion.runner(port.cs).define_lookahead(None, 0)
-        elif line.take("ROTARY") or line.take("ROT") or line.take("TBUF"):
-            pass  # none of these buffers exists yet: deleting one is a no-op
+        elif line.take("ROT"):  # DELETE ROT (rotary.py)
+            line.take("ARY")
+            self.fw.rotary.delete(port.cs)
+        elif line.take("TBUF"):
+            pass  # no TBUF buffer exists: deleting it is a no-op
         else:
             raise CommandError(ERR_DATA)
 

@@ -1,5 +1,5 @@
 """Motion-program reports of a coordinate system: `PC` (program counter), `PE` (executing line),
-`PR` (rotary lines remaining) and the program fields of the DPRAM background buffer [Turbo SRM
+the rotary lines remaining (`PR`, rotary.py) and the program fields of the DPRAM background buffer [Turbo SRM
 PC, PE, PR; PComm32 dprbkg.h `backcTURBO`: pr, timrem, tats, pe; README "Motion programs"].
 
 A program location is `P{prog}:{offset}`, the offset being the line number in the buffer as
@@ -45,10 +45,8 @@ def execution_line(r: CsProgram) -> str:
 
 
 def lines_remaining(r: CsProgram) -> int:
-    """PR: the rotary-buffer lines the C.S. has not yet calculated [SRM PR]; a fixed PROG has
-    no rotary buffer: 0 (ASSUMPTION). A rotary runner gives `rotary_remaining()`."""
-    rotary = getattr(r, "rotary_remaining", None)
-    return int(rotary()) if callable(rotary) else 0
+    """PR: the lines waiting in the C.S.'s rotary buffer (rotary.py) [SRM PR]."""
+    return int(r.fw.rotary.remaining(r.cs))
 
 
 def tats_time_left(r: CsProgram) -> float:

@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vdevd.devices.pmac.circle import CirclePlanner
 from vdevd.devices.pmac.coord import AXES, CS_COUNT
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, CommandError
 from vdevd.devices.pmac.expr import ExprError
@@ -42,15 +43,21 @@ from vdevd.devices.pmac.lookahead import MAX_OUTPUTS, MAX_SEGMENTS, Segmenter
 from vdevd.devices.pmac.mvars import MDefError
 from vdevd.devices.pmac.online import PortState
 from vdevd.devices.pmac.pieces import NAXES, Move, Piece, Planner
+from vdevd.devices.pmac.planerr import CIRCLE_RADIUS_ERROR, PlanError
 from vdevd.devices.pmac.plc import CMD_QUEUE, MESSAGE_QUEUE, _true
 from vdevd.devices.pmac.prog_trigger import start_trigger_move
-from vdevd.devices.pmac.programs import Program, ProgramStore
+from vdevd.devices.pmac.programs import Program, ProgramStore, compile_program
+from vdevd.devices.pmac.pvt import PvtPlanner
+from vdevd.devices.pmac.spline import Spline1Planner, Spline2Planner
 
 if TYPE_CHECKING:
     from vdevd.devices.pmac.firmware import Firmware
 
 #: move mode -> its planner class (other modes add theirs here)
-PLANNERS: dict[str, type[Planner]] = {"LINEAR": LinearPlanner, "RAPID": RapidPlanner}
+PLANNERS: dict[str, type[Planner]] = {
+    "LINEAR": LinearPlanner, "RAPID": RapidPlanner, "PVT": PvtPlanner,
+    "SPLINE1": Spline1Planner, "SPLINE2": Spline2Planner,
+    "CIRCLE1": CirclePlanner, "CIRCLE2": CirclePlanner}
 
 # R / S refusals [UM "Turbo PMAC will reject a run or step command": ERR010-ERR017]
 ERR_RUNNING = 1
@@ -76,6 +83,9 @@ W1_RADIUS_INC = 32
 W2_RAPID, W2_CIRCLE, W2_PVT_SPLINE, W2_DWELL, W2_IN_POSITION = 2, 1, 16, 1 << 12, 1 << 17
 W2_RUNTIME_ERROR = 1 << 22
 W2_LOOKAHEAD = 1 << 23
+W2_RADIUS_ERROR = 1 << CIRCLE_RADIUS_ERROR
+#: word 2 bit 16: the rotary buffer is full (I17/I16) [SRM I17 "Rotary Buffer Full" status bit]
+W2_ROTARY_FULL = 1 << 16
 _MODE_BITS = {"LINEAR": 0, "RAPID": W2_RAPID, "CIRCLE1": W2_CIRCLE, "CIRCLE2": W2_CIRCLE | W2_RAPID,
               "PVT": W2_PVT_SPLINE, "SPLINE1": W2_PVT_SPLINE | W2_CIRCLE,
               "SPLINE2": W2_PVT_SPLINE | W2_CIRCLE}
@@ -90,6 +100,22 @@ class _Frame:
     prog: int
     pc: int
     args: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class _Glide:
+    """The motors' counts of the next servo cycles inside the executing piece, computed at once
+    (the hot path: a piece of a scan spans many cycles at a steady time base)."""
+
+    q: _Queued
+    rate: float
+    taus: np.ndarray
+    counts: np.ndarray
+    k: int = 0
+
+
+#: servo cycles one glide computes at most
+GLIDE_MAX = 4096
 
 
 @dataclass
@@ -124,6 +150,7 @@ class CsProgram:
         self.wait = ""     # "" | "drain" | "home"
         self.homing: list[int] = []
         self.members = np.zeros(0, dtype=np.intp)
+        self.member_mask = np.zeros(0, dtype=bool)
         self.scale = np.zeros((0, NAXES))
         self.planner: Planner | None = None
         self.move_at: dict[int, tuple[int, int]] = {}  # move number -> (prog, op) (PE)
@@ -131,6 +158,15 @@ class CsProgram:
         self.block = False                             # between BLOCKSTART and BLOCKSTOP
         self.lookahead_buffer: tuple[int, int] | None = None  # DEFINE LOOKAHEAD segments, outputs
         self.segmenter: Segmenter | None = None        # Isx13 segments of LINEAR moves
+        self.radius_error = False
+        self._glide: _Glide | None = None
+        self._blocked: tuple[int, int, int] | None = None   # (started, prog, pc) held at
+        self.rot = Program([], [], {})   # the rotary buffer's line being run (B0)
+        self.rot_flushed = True
+        self.inv_rows = np.zeros(0, dtype=np.intp)   # rows of `#n->I` motors (Isx50 = 1)
+        self.inv_order: list[int] = []
+        self._inv_at: np.ndarray | None = None
+        self._inv_counts = np.zeros(0)
         self.reset_modes()
 
     def reset_modes(self) -> None:
@@ -230,7 +266,10 @@ class CsProgram:
             return
         if not after_abort:
             self._check_start()
-        self.error = False
+        self.error = self.radius_error = False
+        self._blocked = self._glide = None
+        if self.prog == 0:
+            self.rot, self.pc, self.rot_flushed = Program([], [], {}), 0, True
         self.hold = self.hold_target = 1.0
         self.state = "step" if step else "run"
         self.stopping = False
@@ -240,6 +279,11 @@ class CsProgram:
         self.wait = ""
         self._map_motors()
         self._read_position()
+        try:
+            self._forward()
+        except CommandError:
+            self.state = "idle"
+            raise
         self.exec_pos = self.pos.copy()
         self._restart_planner()
         motors = self.fw.motors
@@ -256,9 +300,13 @@ class CsProgram:
         ERR012 open loop, ERR010 both limits, ERR011 moving) (ASSUMPTION: this order)."""
         fw = self.fw
         store = fw.motion.store
-        if store.owner is not None:
-            raise CommandError(ERR_NO_PROGRAM, "a PROG buffer is open")
-        program = store.runnable(self.prog)
+        if store.owner is not None or fw.kinematics.owner is not None:
+            raise CommandError(ERR_NO_PROGRAM, "a PROG or kinematic buffer is open")
+        program: Program | None = self.rot   # B0: the rotary buffer [SRM B]
+        if self.prog == 0 and not fw.rotary.exists(self.cs):
+            raise CommandError(ERR_NO_PROGRAM, "no rotary buffer")
+        if self.prog:
+            program = store.runnable(self.prog)
         if program is None:
             raise CommandError(ERR_NO_PROGRAM, "not pointing to a program")
         if program.ops is None:
@@ -309,6 +357,7 @@ class CsProgram:
                 mo.core.hold(self.members[closed], (counts + mo.origin[self.members])[closed])
         mo.timed[self.members] = False
         mo.dwell[self.members] = False
+        self._glide = None
         self.state, self.stopping, self.wait = "idle", False, ""
         self.queue.clear()
         self.cur, self.tau = None, 0.0
@@ -328,13 +377,22 @@ class CsProgram:
     # -- motors <-> axes --------------------------------------------------------------------------
     def _map_motors(self) -> None:
         """The C.S.'s motors and their scale matrix (counts per axis unit); inverse-kinematic
-        motors (`#m->I`) are not driven from the axes here."""
+        motors (`#m->I`) are driven by the inverse program with Isx50 = 1 and one defined
+        (kinematics.py), else not at all."""
         fw = self.fw
         defs = fw.coord.defs
+        kin = fw.kinematics
+        inverse = self._kinematic() and kin.has(self.cs, "INVERSE")
         members = [m - 1 for m in fw.coord.members(self.cs) if m <= fw.ivars.motors
-                   and not getattr(defs[m - 1], "inverse", False)]
+                   and (inverse or not getattr(defs[m - 1], "inverse", False))]
         self.members = np.array(members, dtype=np.intp)
+        self.member_mask = np.zeros(len(fw.motors.core.servo_on_mask), dtype=bool)
+        self.member_mask[self.members] = True
         self.scale = np.zeros((len(members), NAXES))
+        self.inv_order = kin.inverse_motors(self.cs) if inverse else []
+        self.inv_rows = np.array([r for r, m in enumerate(members) if m + 1 in self.inv_order],
+                                 dtype=np.intp)
+        self._inv_at = None
         for r, m in enumerate(members):
             d = fw.coord.defs[m]
             if d is not None:
@@ -342,7 +400,27 @@ class CsProgram:
                     self.scale[r, AXES.index(a)] += s
 
     def _counts(self, pos: np.ndarray) -> np.ndarray:
-        return self.scale @ pos + self.fw.coord.bias[self.members]
+        counts = self.scale @ pos + self.fw.coord.bias[self.members]
+        if len(self.inv_rows):
+            counts[self.inv_rows] = self._inverse(pos)
+        return counts
+
+    def _kinematic(self) -> bool:
+        return bool(self.fw.ivars.values[5000 + 100 * self.cs + 50])
+
+    def _inverse(self, pos: np.ndarray) -> np.ndarray:
+        """The `#n->I` motors' positions (counts) for axis positions `pos`: the inverse
+        kinematic program (kinematics.py), run again only when the axes moved."""
+        if self._inv_at is None or not np.array_equal(pos, self._inv_at):
+            try:
+                motors = self.fw.kinematics.inverse(self.cs, pos)
+            except PlanError:
+                self.error = True
+                return self._inv_counts
+            by_motor = dict(zip(self.inv_order, motors.tolist(), strict=True))
+            self._inv_counts = np.array([by_motor[int(m) + 1] for m in self.members[self.inv_rows]])
+            self._inv_at = pos.copy()
+        return self._inv_counts
 
     def _read_position(self) -> None:
         """The axis positions the motors' commanded positions give back (least squares over the
@@ -355,6 +433,16 @@ class CsProgram:
         cmd = self.fw.reports.commanded()[self.members] - self.fw.coord.bias[self.members]
         sol, *_ = np.linalg.lstsq(self.scale[:, used], cmd, rcond=None)
         self.pos[used] = sol
+
+    def _forward(self) -> None:
+        """Isx50 = 1 with a forward program: the axis positions are what it gives for the
+        motors' commanded positions (at R, S) [SRM OPEN FORWARD]."""
+        fw = self.fw
+        if self._kinematic() and fw.kinematics.has(self.cs, "FORWARD"):
+            try:
+                self.pos = fw.kinematics.forward(self.cs, fw.reports.commanded())
+            except PlanError:
+                raise CommandError(ERR_DATA, "forward kinematics did not end") from None
 
     # -- planners -------------------------------------------------------------------------------------
     def _restart_planner(self) -> None:
@@ -441,6 +529,7 @@ class CsProgram:
             prm["PVT"] = self.mode_arg / 1000
         if self.mode.startswith("CIRCLE"):
             prm["CIRCLE"] = int(self.mode[-1])
+            prm["Isx96"], prm["Isx97"] = float(iv[base + 96]), float(iv[base + 97])
         prm["NORMAL"] = self.normal.copy()
         prm["IJK_INC"] = self.radius_inc
         return prm
@@ -479,6 +568,10 @@ class CsProgram:
         """A killed motor or a limit on the way aborts the program with a run-time error."""
         fw, idx = self.fw, self.members
         mo = fw.motors
+        lim = mo.core.limits
+        # the hot path: one pass over every motor, masked to the C.S.'s (no fancy indexing)
+        if not ((~mo.core.servo_on_mask | lim.hard_pos | lim.hard_neg) & self.member_mask).any():
+            return True
         if not mo.core.servo_on_mask[idx].all():
             self.abort(error=True)
             fw.motion.abort_motors(self.cs)
@@ -504,6 +597,13 @@ class CsProgram:
             self.hold = min(self.hold + step, 1.0) if self.hold_target > self.hold \
                 else max(self.hold - step, 0.0)
         tb = fw.timebase.present(self.cs - 1) / 100 * self.hold  # `%` slewing at Isx94
+        g = self._glide
+        if g is not None:
+            if g.q is self.cur and g.k < len(g.taus) and g.rate == (tb if g.q.scaled else 1.0):
+                self.tau = float(g.taus[g.k])
+                g.k += 1
+                return g.counts[g.k - 1]
+            self._glide = None
         real = dt
         while real > 0:
             if self.cur is None:
@@ -537,7 +637,31 @@ class CsProgram:
         if self.cur is None and not self.queue and self.stopping:
             self._finish()
             return None
-        return self._counts(pos) + fw.motors.origin[self.members]
+        counts = self._counts(pos) + fw.motors.origin[self.members]
+        if self.cur is not None and not len(self.inv_rows):
+            self._glide_ahead(tb, dt)
+        return counts
+
+    def _glide_ahead(self, tb: float, dt: float) -> None:
+        """The counts of the servo cycles still inside the executing piece at this time base,
+        vectorised (`_Glide`); the cycle that leaves the piece takes the general path."""
+        q = self.cur
+        assert q is not None
+        rate = tb if q.scaled else 1.0
+        if rate <= 0:
+            return
+        step = rate * dt
+        n = min(int((q.piece.dur - self.tau) / step), GLIDE_MAX)
+        taus = self.tau + step * np.arange(1, n + 1)
+        taus = taus[taus < q.piece.dur]
+        if len(taus) < 2:
+            return
+        c = q.piece.coef
+        t = taus[:, None]
+        pos = c[0] + t * (c[1] + t * (c[2] + t * c[3]))
+        mo = self.fw.motors
+        counts = pos @ self.scale.T + (self.fw.coord.bias[self.members] + mo.origin[self.members])
+        self._glide = _Glide(q, rate, taus, counts)
 
     def _finish(self) -> None:
         """Calculation ended and the motion drained: the motors hold the programmed end point
@@ -548,6 +672,10 @@ class CsProgram:
     # -- the calculator ----------------------------------------------------------------------------------
     def _calculate(self) -> None:
         """Statements until the look-ahead rule, a wait or the end stops the calculation."""
+        if self._blocked == (self.started, self.prog, self.pc) and not self.wait \
+                and not self.stopping and self.state != "quit" and (self.cur is not None or self.queue):
+            return   # still held by the look-ahead rule at the same move: nothing to do (hot path)
+        self._blocked = None
         if self.wait == "drain":
             if self.cur is not None or self.queue:
                 return
@@ -571,7 +699,7 @@ class CsProgram:
         store = self.fw.motion.store
         jumps = 0
         for _ in range(MAX_STEPS):
-            program = store.runnable(self.prog)
+            program = self.rot if self.prog == 0 else store.runnable(self.prog)
             if program is None or program.ops is None:
                 self._runtime_error()
                 return
@@ -580,6 +708,10 @@ class CsProgram:
                 if self.stack:
                     self._return()
                     continue
+                if self.prog == 0:   # the rotary buffer: its next line, or wait for one
+                    if self._next_rotary_line():
+                        continue
+                    return
                 self._end()
                 return
             op = ops[self.pc]
@@ -588,9 +720,10 @@ class CsProgram:
                 busy = self.cur is not None or bool(self.queue)
                 seg = self.segmenter
                 if seg is not None and seg.lookahead:  # keep Isx20 segments buffered
-                    if seg.full() and busy:
+                    if seg.full() and self.queue:  # (on as the last released piece runs)
                         return
                 elif self.calc >= self.started + self._ahead() and busy:
+                    self._blocked = (self.started, self.prog, self.pc)
                     return
                 if self.state == "step" and self.calc > 0 and not self.block:
                     self._end()
@@ -601,6 +734,13 @@ class CsProgram:
                 go = self._statement(op, program)
             except (CommandError, ExprError, MDefError):
                 self._runtime_error()
+                return
+            except PlanError as exc:   # the move is refused: the program stops before it
+                if exc.bit == CIRCLE_RADIUS_ERROR:
+                    self.radius_error = True
+                    self._end()
+                else:
+                    self._runtime_error()
                 return
             if self.calc != calc:  # a move: where it is, for PE
                 self.move_at[self.calc] = (self.prog, self.pc - 1)
@@ -618,6 +758,26 @@ class CsProgram:
                 jumps = 0
             elif go == "stop":
                 return
+
+    def _next_rotary_line(self) -> bool:
+        """The next line the host sent to the rotary buffer, compiled on its own (rotary.py).
+        None waiting: once the motion calculated has started to run out, the last move is
+        completed to a stop (the planner flushed) and the program waits for lines."""
+        line = self.fw.rotary.take(self.cs)
+        if line is None:
+            if not self.rot_flushed and not self.queue:
+                self._flush()
+                self._restart_planner()
+                self.rot_flushed = True
+            return False
+        self.rot_flushed = False
+        try:
+            ops, labels = compile_program([line])
+        except CommandError:
+            ops, labels = [], {}
+            self._runtime_error()
+        self.rot.ops, self.rot.labels, self.pc = ops, labels, 0
+        return bool(ops)
 
     def _read_position_after_wait(self) -> None:
         self.exec_pos = self.pos.copy()
@@ -884,6 +1044,7 @@ class Motion:
         self.store = ProgramStore(fw)
         self.running: set[int] = set()  # the C.S. whose program runs (CsProgram.state)
         self.cs = [CsProgram(fw, s) for s in range(1, CS_COUNT + 1)]
+        fw.rotary.running = lambda cs: self.cs[cs - 1].running and self.cs[cs - 1].prog == 0
         self._dt = fw.period_ns / 1e9
 
     def runner(self, cs: int) -> CsProgram:
@@ -944,7 +1105,9 @@ class Motion:
             w1 |= W1_TM_MODE
         if r.radius_inc:
             w1 |= W1_RADIUS_INC
-        w2 = _MODE_BITS.get(r.mode, 0) | (W2_RUNTIME_ERROR if r.error else 0)
+        w2 = _MODE_BITS.get(r.mode, 0) | (W2_RUNTIME_ERROR if r.error else 0) \
+            | (W2_RADIUS_ERROR if r.radius_error else 0) \
+            | (W2_ROTARY_FULL if self.fw.rotary.full(cs) else 0)
         if r.running and r.segmenter is not None and r.segmenter.lookahead:
             w2 |= W2_LOOKAHEAD
         if r.running:
