@@ -151,3 +151,20 @@ def test_corner_speed_is_limited_by_ixx17_and_the_path_is_kept(card: Card) -> No
         assert np.max(acc) <= 0.5 * 2
         assert np.count_nonzero(acc > 0.5 * 1.05) < 0.1 * len(acc)
     assert not cs_words(card)[1] & LOOKAHEAD_BIT
+
+
+def test_a_blended_sequence_runs_through_the_lookahead_without_stopping(card: Card) -> None:
+    """Ten X1 moves (INC) at F20 blended: the buffer is refilled move after move as it runs.
+    Ixx17 = 0.05 counts/ms²: 400 ms ramps up to 20 counts/ms and down to the end, 2000 counts
+    at speed between: 900 ms, ending on X = 10; Isx20 = 20 segments of 200 counts hold just
+    the 4000 counts the stop from 20 counts/ms needs."""
+    download(card, 1, "LINEAR INC TA50 TS0 F20", *["X1"] * 10)
+    card.ask("&1DEFINE LOOKAHEAD 200,20")
+    card.ask("I5113=10 I5120=20 I117=0.05")
+    t, xs = run(card)
+    assert xs[-1] == 10000.0
+    assert t == pytest.approx(0.900, abs=3 * DT)
+    v = window_velocity(xs)
+    assert np.max(v) == pytest.approx(20.0, abs=0.01)
+    assert np.count_nonzero(v > 19.99) * DT > 0.05    # at speed in the middle
+    assert np.max(np.abs(window_acceleration(xs))) <= 0.05 * 1.02
