@@ -69,6 +69,20 @@ def test_define_and_delete_lookahead(card: Card) -> None:
     assert card.fw.motion.runner(1).lookahead_buffer is None
 
 
+def test_lookahead_buffers_keep_the_buffer_order(card: Card) -> None:
+    """The order COMP, BLCOMP, TCOMP, TBUF, ROTARY, LOOKAHEAD, GATHER [Turbo SRM; A L3139;
+    README "Compensation tables"]: a lookahead buffer refuses DEFINE COMP and DEFINE ROT, a
+    gather buffer refuses DEFINE LOOKAHEAD, all with ERR007; a rotary buffer comes before."""
+    card.ask("&2 DEFINE ROT 100")
+    assert card.raw("&1DEFINE LOOKAHEAD 100,10") == b"\x06"
+    assert card.raw("#1 DEFINE COMP 4,1000") == b"\x07ERR007\r"
+    assert card.raw("&1 DEFINE ROT 100") == b"\x07ERR007\r"
+    card.ask("DEFINE GATHER 100")
+    assert card.raw("&3DEFINE LOOKAHEAD 100,10") == b"\x07ERR007\r"
+    card.ask("DELETE GATHER")
+    assert card.raw("&3DEFINE LOOKAHEAD 100,10") == b"\x06"
+
+
 def test_segmentation_alone_keeps_the_programmed_time_and_end(card: Card) -> None:
     """Isx13 = 10 without a lookahead buffer: segments only; Ixx16/Ixx17 are the lookahead's
     (not applied) [SRM Ixx16, Ixx17]: 110 ms as programmed, ending on the point."""

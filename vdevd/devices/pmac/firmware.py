@@ -124,6 +124,8 @@ class Firmware:
         self.kinematics = Kinematics(self)         # kinematics.py
         self.buffer_checks.append(lambda: {"ROTARY"} if self.rotary.defined else set())
         self.motion = Motion(self)  # motion programs (program_runner.py)
+        self.buffer_checks.append(  # the lookahead buffers (DEFINE LOOKAHEAD, lookahead.py)
+            lambda: {"LOOKAHEAD"} if any(r.lookahead_buffer for r in self.motion.cs) else set())
 
     # -- time -------------------------------------------------------------------------------------
     def tick(self, now_ns: int) -> int:

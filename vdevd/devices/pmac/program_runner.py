@@ -67,6 +67,7 @@ ERR_OPEN_LOOP = 12
 ERR_NOT_ACTIVATED = 13
 ERR_NO_MOTORS = 14
 ERR_BAD_PROGRAM = 16
+ERR_IN_USE_BUFFER = 7   # a buffer out of the definition order [A L3139]
 
 #: statements the calculator runs in one servo cycle at most (the rest: next cycle)
 MAX_STEPS = 4096
@@ -470,7 +471,8 @@ class CsProgram:
 
     def define_lookahead(self, segments: int | None, outputs: int) -> None:
         """DEFINE LOOKAHEAD {segments},{outputs} (None: DELETE LOOKAHEAD) of this C.S. [SRM]:
-        ERR001 while it runs a program, ERR003 outside 1-65535 / 0-65535 (ASSUMPTION)."""
+        ERR001 while it runs a program, ERR003 outside 1-65535 / 0-65535, ERR007 while a
+        gather buffer exists (the buffer order, README "Compensation tables") (ASSUMPTIONS)."""
         if self.running:
             raise CommandError(ERR_RUNNING, "the C.S. runs a program")
         if segments is None:
@@ -478,6 +480,8 @@ class CsProgram:
             return
         if not 1 <= segments <= MAX_SEGMENTS or not 0 <= outputs <= MAX_OUTPUTS:
             raise CommandError(ERR_DATA, "DEFINE LOOKAHEAD segments, outputs")
+        if self.fw.gather.defined:
+            raise CommandError(ERR_IN_USE_BUFFER, "a gather buffer exists: DELETE GATHER first")
         self.lookahead_buffer = (segments, outputs)
 
     def _release_segments(self, final: bool) -> None:

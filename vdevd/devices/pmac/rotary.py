@@ -80,6 +80,8 @@ class RotaryBuffers:
             raise CommandError(ERR_IN_USE, "define rotary buffers from high to low C.S.")
         if self.fw.gather.defined:
             raise CommandError(ERR_IN_USE, "a gather buffer exists: DELETE GATHER first")
+        if "LOOKAHEAD" in self.fw.existing_buffers():  # the order ROTARY, LOOKAHEAD (README)
+            raise CommandError(ERR_IN_USE, "a lookahead buffer exists: DELETE LOOKAHEAD first")
         self.bufs[cs] = RotaryBuffer(size)
 
     def delete(self, cs: int) -> None:
