@@ -43,6 +43,8 @@ COMMANDS = CommandTable(
         _char("$", "dollar"),                 # $ $* $$ $$* $$$ $$$***
         _char("%", "feed"),                   # % %{v}
         _char("^", "trigger_alone"),          # {jog}^{c}: J's (online.jog); alone ERR003
+        _char("/", "stop_at_move_end", section="§2.8"),   # stop_commands.py [SRM /]
+        _char("\\", "quick_stop", section="§2.8"),       # stop_commands.py [SRM \]
         # identity [§2.4 "Number formatting"]
         *(_word(name, "identity", name, section=_S24) for name in IDENTITY),
         # motor commands and reports [§2.5, §2.7]

@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from vdevd.devices.pmac import expr
+from vdevd.devices.pmac import expr, stop_commands
 from vdevd.devices.pmac.buffers import PLCC_BASE
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_IN_USE, ERR_NOT_OPEN, CommandError
@@ -473,6 +473,17 @@ class Interpreter:
         """H: feed hold of the addressed C.S.'s program (program_runner.py); with none running it
         holds nothing."""
         self.fw.motion.runner(port.cs).feed_hold()
+
+    def stop_at_move_end(self, line: Line, port: PortState, out: list[str]) -> None:
+        """`/`: the addressed C.S.'s program stops at the end of the executing move
+        (stop_commands.py) [SRM /]."""
+        line.i += 1
+        stop_commands.stop_at_end_of_move(self.fw.motion.runner(port.cs))
+
+    def quick_stop(self, line: Line, port: PortState, out: list[str]) -> None:
+        """`\\`: quick stop; outside a lookahead sequence a feed hold (stop_commands.py)."""
+        line.i += 1
+        stop_commands.quick_stop(self.fw.motion.runner(port.cs))
 
     def begin(self, line: Line, port: PortState, out: list[str]) -> None:
         """B{n}[.label] points the addressed C.S. to PROG n; B alone back to its top [SRM B]."""

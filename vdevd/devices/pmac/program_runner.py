@@ -159,6 +159,10 @@ class CsProgram:
         self.inv_order: list[int] = []
         self._inv_at: np.ndarray | None = None
         self._inv_counts = np.zeros(0)
+        #: where the last move statement was calculated from, and its blend's piece count, for
+        #: the `/` stop (stop_commands.py): (move number, prog, pc, stack, ops, start point)
+        self.move_from: tuple[int, int, int, list[_Frame], list[Any], np.ndarray] | None = None
+        self.move_blend = (0, 0)
         self.reset_modes()
 
     def reset_modes(self) -> None:
@@ -640,6 +644,9 @@ class CsProgram:
                 if self.state == "step" and self.calc > 0:
                     self._end()
                     return
+                if name == "move":
+                    self.move_from = (self.calc + 1, self.prog, self.pc, list(self.stack), ops,
+                                      self.pos.copy())
             self.pc += 1
             try:
                 go = self._statement(op, program)
@@ -796,13 +803,16 @@ class CsProgram:
             self._flush()
             self.wait = "drain"
             return "stop"
-        elif name == "pset":
+        elif name in ("pset", "pmatch"):
             self._flush()
             if self.cur is not None or self.queue:  # once the motion before has drained
                 self.pc -= 1
                 self.wait = "drain"
                 return "stop"
-            self._pset(op[1], env)
+            if name == "pset":
+                self._pset(op[1], env)
+            else:
+                self._pmatch()
         elif name == "cmd":
             plc = fw.plc
             if len(plc.queue) >= CMD_QUEUE:
@@ -821,6 +831,19 @@ class CsProgram:
             value = float(e.eval(env))
             fw.coord.set_axis(self.cs, AXES[k], value, fw.reports.commanded())
             self.pos[k] = value
+        self.exec_pos = self.pos.copy()
+        self._restart_planner()
+
+    def _pmatch(self) -> None:
+        """PMATCH: the axis positions computed again from the motors' commanded positions, as
+        at R (through the forward kinematic program with Isx50 = 1) [SRM PMATCH; UM
+        "Kinematic Calculations"]."""
+        self._read_position()
+        try:
+            self._forward()
+        except CommandError:
+            self._runtime_error()
+            return
         self.exec_pos = self.pos.copy()
         self._restart_planner()
 
@@ -893,6 +916,7 @@ class CsProgram:
         pieces = planner.add(move)
         begin = int(getattr(planner, "begin", 0))
         self._enqueue(pieces, self.calc, begin=begin)
+        self.move_blend = (self.calc, len(pieces) - begin)
         if not pieces:  # nothing to execute for it: it counts as begun
             self.started = max(self.started, self.calc) if not self.queue and self.cur is None \
                 else self.started
