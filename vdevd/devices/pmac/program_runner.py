@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vdevd.devices.pmac import kin_velocity
 from vdevd.devices.pmac.circle import CirclePlanner
 from vdevd.devices.pmac.coord import AXES, CS_COUNT
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, CommandError
@@ -120,6 +121,8 @@ class _Queued:
     piece: Piece
     scaled: bool = True   # runs at the time base (all but DWELL)
     starts: int = 0       # the move number that begins with this piece (0: none)
+    #: PVT in a kinematic C.S.: the `#n->I` motors' cubic in the piece's time (kin_velocity.py)
+    motor: np.ndarray | None = None
 
 
 class CsProgram:
@@ -368,10 +371,14 @@ class CsProgram:
                 for s, a in d.terms:
                     self.scale[r, AXES.index(a)] += s
 
-    def _counts(self, pos: np.ndarray) -> np.ndarray:
+    def _counts(self, pos: np.ndarray, q: _Queued | None = None, tau: float = 0.0) -> np.ndarray:
         counts = self.scale @ pos + self.fw.coord.bias[self.members]
         if len(self.inv_rows):
-            counts[self.inv_rows] = self._inverse(pos)
+            if q is not None and q.motor is not None:   # PVT with velocities (kin_velocity.py)
+                c = q.motor
+                counts[self.inv_rows] = c[0] + tau * (c[1] + tau * (c[2] + tau * c[3]))
+            else:
+                counts[self.inv_rows] = self._inverse(pos)
         return counts
 
     def _kinematic(self) -> bool:
@@ -424,8 +431,16 @@ class CsProgram:
 
     def _enqueue(self, pieces: list[Piece], starts: int, scaled: bool = True,
                  begin: int = 0) -> None:
+        cubics: list[np.ndarray | None] = [None] * len(pieces)
+        if len(self.inv_rows) and isinstance(self.planner, PvtPlanner) and scaled and pieces:
+            try:   # Q10 = 1 in PVT mode [UM "Velocity Calculation Flag"]
+                cubics = list(kin_velocity.motor_cubics(
+                    self.fw, self.cs, [int(m) + 1 for m in self.members[self.inv_rows]], pieces,
+                    float(self._params()["FEED_PERIOD"])))
+            except PlanError:
+                self.error = True
         for k, piece in enumerate(pieces):
-            self.queue.append(_Queued(piece, scaled, starts if k == begin else 0))
+            self.queue.append(_Queued(piece, scaled, starts if k == begin else 0, cubics[k]))
 
     def _params(self) -> dict[str, Any]:
         """The move parameters of the present modal state (seconds, units per second)."""
@@ -557,7 +572,7 @@ class CsProgram:
         if self.cur is None and not self.queue and self.stopping:
             self._finish()
             return None
-        counts = self._counts(pos) + fw.motors.origin[self.members]
+        counts = self._counts(pos, self.cur, self.tau) + fw.motors.origin[self.members]
         if self.cur is not None and not len(self.inv_rows):
             self._glide_ahead(tb, dt)
         return counts
