@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vdevd.devices.pmac import kin_velocity
+from vdevd.devices.pmac import kin_velocity, mode_blend
 from vdevd.devices.pmac.circle import CirclePlanner
 from vdevd.devices.pmac.coord import AXES, CS_COUNT
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, CommandError
@@ -752,12 +752,15 @@ class CsProgram:
             self._move(op, env)
             return "move"
         elif name == "mode":
-            self._flush()
+            going_on = op[1] in PLANNERS and mode_blend.carry_on(self, op[1])  # LINEAR <-> CIRCLE
+            if not going_on:
+                self._flush()
             self.mode = op[1]
             self.mode_arg = float(op[2].eval(env)) if op[2] is not None else 0.0
             if self.mode not in PLANNERS:
                 raise CommandError(ERR_DATA, f"{self.mode} is not emulated")
-            self._restart_planner()
+            if not going_on:
+                self._restart_planner()
         elif name == "absinc":
             mask = np.ones(NAXES, dtype=bool) if op[2] is None else np.isin(np.arange(NAXES), op[2])
             self.inc[mask] = op[1]
@@ -921,6 +924,8 @@ class CsProgram:
             prm["IJK"] = np.array([vectors.get(c, 0.0) for c in "IJK"])
         if "R" in vectors:
             prm["R"] = vectors["R"]
+        if self.mode == "LINEAR" and isinstance(self.planner, CirclePlanner):
+            prm["LINE"] = True   # a LINEAR move in a CIRCLE sequence (mode_blend.py)
         move = Move(target, named, prm)
         if self.planner is None:
             self._restart_planner()

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from vdevd.devices.pmac.linear import blend
+from vdevd.devices.pmac.linear import LinearPlanner, blend
 from vdevd.devices.pmac.pieces import NAXES, Piece
 
 if TYPE_CHECKING:
@@ -45,7 +45,8 @@ def _cut_next_move(r: CsProgram) -> bool:
     """Replace the blend into move `started + 1` by a stop at the corner; False when that is
     not how the motion stands (the caller quits instead)."""
     iv = r.fw.ivars.values
-    if r.mode != "LINEAR" or not iv[5000 + 100 * r.cs + 13] or r.wait:
+    if r.mode != "LINEAR" or not iv[5000 + 100 * r.cs + 13] or r.wait \
+            or not isinstance(r.planner, LinearPlanner):   # not in a CIRCLE sequence
         return False
     nxt = r.started + 1
     rec = r.move_from
