@@ -68,3 +68,24 @@ def test_pmatch_is_stored_and_listed() -> None:
     c.ask("PMATCH")
     c.ask("CLOSE")
     assert "PMATCH" in c.ask("LIST PROG 8")
+
+
+def test_online_pmatch_runs_the_forward_program() -> None:
+    """SRM OPEN FORWARD: the forward program runs "any time an R (run), S (step), or PMATCH
+    command is given": `&1 PMATCH` leaves X = counts / Q91 in Q7 (P1 the commanded counts)."""
+    c = kinematic_card()
+    c.ask("#1J=3000")
+    c.tick(round(2.0 / DT))
+    c.ask("&1 Q7=0")
+    c.ask("&1 PMATCH")
+    assert c.ask("&1 Q7") == "3" and c.ask("P1") == "3000"
+
+
+def test_online_pmatch_while_the_program_runs_is_err001() -> None:
+    c = kinematic_card()
+    c.ask("OPEN PROG 7 CLEAR")
+    c.ask("LINEAR ABS TA50 TS0 F1 X10")
+    c.ask("CLOSE")
+    c.ask("&1B7R")
+    c.tick(10)
+    assert c.raw("&1 PMATCH") == b"\x07ERR001\r"

@@ -62,6 +62,7 @@ COMMANDS = CommandTable(
         _word("R", "run", False, section="§2.8"),
         _word("S", "run", True, section="§2.8"),
         _word("Q", "quit", section="§2.8"),
+        _word("PMATCH", "pmatch", section="§2.8 [SRM OPEN FORWARD, PMATCH]"),
         _word("UNDEFINE", "undefine", section=f"{_S25} [A L3284]"),
         _word("UNDEF", "undefine", section=f"{_S25} [A L3284]"),
         # global

@@ -503,6 +503,12 @@ class Interpreter:
         """R (run) / S (single step) of the addressed C.S.'s program [SRM R, S]."""
         self.fw.motion.runner(port.cs).run(step)
 
+    def pmatch(self, line: Line, port: PortState, out: list[str]) -> None:
+        """PMATCH: the addressed C.S.'s axis positions from its motors' commanded positions, through
+        the forward kinematic program with Isx50 = 1 [SRM OPEN FORWARD: "any time an R (run), S
+        (step), or PMATCH command is given"]; ERR001 while its program runs (ASSUMPTION)."""
+        self.fw.motion.runner(port.cs).pmatch_online()
+
     def quit(self, line: Line, port: PortState, out: list[str]) -> None:
         """Q: quit at the end of the moves already calculated [SRM Q]."""
         self.fw.motion.runner(port.cs).quit()

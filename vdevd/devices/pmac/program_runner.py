@@ -852,6 +852,14 @@ class CsProgram:
         self.exec_pos = self.pos.copy()
         self._restart_planner()
 
+    def pmatch_online(self) -> None:
+        """On-line PMATCH (online.py): as at R, without running; ERR001 while running."""
+        if self.running:
+            raise CommandError(ERR_RUNNING, "a program is running")
+        self._map_motors()
+        self._read_position()
+        self._forward()
+
     def _pmatch(self) -> None:
         """PMATCH: the axis positions computed again from the motors' commanded positions, as
         at R (through the forward kinematic program with Isx50 = 1) [SRM PMATCH; UM
