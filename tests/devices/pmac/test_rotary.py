@@ -88,7 +88,7 @@ def test_no_room_is_err006_and_stores_nothing(card: Card) -> None:
 
 def test_full_flag_sets_at_i17_and_clears_within_i16(card: Card) -> None:
     """SRM I17: "greater than or equal to I17 lines ahead ... Rotary Buffer Full becomes 1",
-    back to 0 when execution catches up to within I16 lines."""
+    back to 0 when fewer than I16 lines are ahead (SRM `??` word 2 bit 16)."""
     card.ask("I16=2 I17=4")
     card.ask("&1 DEFINE ROT 100")
     card.ask("OPEN ROT")
@@ -98,9 +98,11 @@ def test_full_flag_sets_at_i17_and_clears_within_i16(card: Card) -> None:
     card.ask("X3")
     assert card.fw.rotary.full(1)
     card.fw.rotary.take(1)
-    assert card.fw.rotary.full(1)          # 3 ahead: not yet within I16
+    assert card.fw.rotary.full(1)          # 3 ahead: not yet fewer than I16
     card.fw.rotary.take(1)
-    assert not card.fw.rotary.full(1)      # 2 ahead
+    assert card.fw.rotary.full(1)          # 2 ahead: not yet fewer than I16
+    card.fw.rotary.take(1)
+    assert not card.fw.rotary.full(1)      # 1 ahead
 
 
 def test_open_rot_without_buffers_and_buffers_of_other_ports(card: Card) -> None:

@@ -285,6 +285,9 @@ class PmacCard(Card):
         #: I45's ring; its `on_rotary_line(cs, text)` feeds a C.S.'s rotary buffer (dpram_rotary.py)
         self.binrot = BinaryRotary(self.dpram.buf)
         self.binrot.on_rotary_line = self.fw.rotary.append
+        self.fw.binary_rotary_open = lambda: self.binrot.is_open(self.fw.ivars.values[45])
+        #: BREQ high again: IR1 [SRM I17; digest §2.11's proposed controller]
+        self.fw.rotary.on_request = lambda: self.irq.raise_(HostIrq.BUFFER_REQUEST)
         self.host_port_state = CommandPort(self)
         self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)
         self.fw.plc.on_message = self._plc_message

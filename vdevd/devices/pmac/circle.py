@@ -172,7 +172,7 @@ class CirclePlanner(Planner):
     def add(self, move: Move) -> list[Piece]:
         start, end = self.position.copy(), move.target.astype(float)
         self.seg = _num(move, "SEG")
-        arc = self.seg > 0
+        arc = self.seg > 0 and not move.params.get("LINE")   # LINE: a LINEAR move (mode_blend.py)
         frax = np.array(move.params.get("FRAX", DEFAULT_FRAX), dtype=bool)
         d = end - start
         if arc:

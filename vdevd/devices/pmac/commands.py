@@ -43,6 +43,8 @@ COMMANDS = CommandTable(
         _char("$", "dollar"),                 # $ $* $$ $$* $$$ $$$***
         _char("%", "feed"),                   # % %{v}
         _char("^", "trigger_alone"),          # {jog}^{c}: J's (online.jog); alone ERR003
+        _char("/", "stop_at_move_end", section="§2.8"),   # stop_commands.py [SRM /]
+        _char("\\", "quick_stop", section="§2.8"),       # stop_commands.py [SRM \]
         # identity [§2.4 "Number formatting"]
         *(_word(name, "identity", name, section=_S24) for name in IDENTITY),
         # motor commands and reports [§2.5, §2.7]
@@ -63,6 +65,7 @@ COMMANDS = CommandTable(
         _word("ABR", "abort_run", section="§2.8 [A L3261]"),
         _word("PC", "program_report", "PC", section="§2.8"),
         _word("PE", "program_report", "PE", section="§2.8"),
+        _word("PMATCH", "pmatch", section="§2.8 [SRM OPEN FORWARD, PMATCH]"),
         _word("UNDEFINE", "undefine", section=f"{_S25} [A L3284]"),
         _word("UNDEF", "undefine", section=f"{_S25} [A L3284]"),
         # global

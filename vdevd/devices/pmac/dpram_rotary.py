@@ -79,6 +79,11 @@ class BinaryRotary:
             return None
         return base, size
 
+    def is_open(self, i45: float) -> bool:
+        """Global status word 2 bit 20: I45 is not 0 and the host has set up a ring (ASSUMPTION:
+        what "open" is for a buffer the host sets up through the DPRAM)."""
+        return bool(i45) and self._ring() is not None
+
     def due(self) -> bool:
         """Lines wait (the indexes differ) and no error waits for the host."""
         ring = self._ring()

@@ -46,7 +46,7 @@ from vdevd.devices.pmac.registers import (
     GlobalRegisters,
     MotorBlocks,
 )
-from vdevd.devices.pmac.rotary import RotaryBuffers
+from vdevd.devices.pmac.rotary import BINARY_ROTARY_OPEN, RotaryBuffers
 from vdevd.devices.pmac.servo_ic import ServoIC
 from vdevd.devices.pmac.timebase import TimeBase
 from vdevd.rt import PlantKind
@@ -121,6 +121,8 @@ class Firmware:
         self.interpreter = Interpreter(self)
         self.plc = Plcs(self)
         self.rotary = RotaryBuffers(self)          # rotary.py
+        #: the card's DPRAM binary rotary buffer is open: global status word 2 bit 20
+        self.binary_rotary_open: Callable[[], bool] = lambda: False
         self.kinematics = Kinematics(self)         # kinematics.py
         self.buffer_checks.append(lambda: {"ROTARY"} if self.rotary.defined else set())
         self.motion = Motion(self)  # motion programs (program_runner.py)
@@ -346,7 +348,7 @@ class Firmware:
             bits |= GATHER_ON
         if self.ivars.values[51] and (self.comp.tables or self.comp1d.any_tables):
             bits |= COMP_ACTIVE
-        return bits, 0
+        return bits, BINARY_ROTARY_OPEN if self.binary_rotary_open() else 0
 
     def set_phase_clock_error(self, on: bool) -> None:
         self.global_bits = self.global_bits | PHASE_CLOCK_ERROR if on else \

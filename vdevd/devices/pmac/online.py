@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from vdevd.devices.pmac import expr, prog_reports
+from vdevd.devices.pmac import expr, prog_reports, stop_commands
 from vdevd.devices.pmac.buffers import PLCC_BASE
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_IN_USE, ERR_NOT_OPEN, CommandError
@@ -474,6 +474,17 @@ class Interpreter:
         holds nothing."""
         self.fw.motion.runner(port.cs).feed_hold()
 
+    def stop_at_move_end(self, line: Line, port: PortState, out: list[str]) -> None:
+        """`/`: the addressed C.S.'s program stops at the end of the executing move
+        (stop_commands.py) [SRM /]."""
+        line.i += 1
+        stop_commands.stop_at_end_of_move(self.fw.motion.runner(port.cs))
+
+    def quick_stop(self, line: Line, port: PortState, out: list[str]) -> None:
+        """`\\`: quick stop; outside a lookahead sequence a feed hold (stop_commands.py)."""
+        line.i += 1
+        stop_commands.quick_stop(self.fw.motion.runner(port.cs))
+
     def begin(self, line: Line, port: PortState, out: list[str]) -> None:
         """B{n}[.label] points the addressed C.S. to PROG n; B alone back to its top [SRM B]."""
         line.skip()
@@ -515,6 +526,12 @@ class Interpreter:
             out.append(prog_reports.program_counter(r))
         else:
             out.append(prog_reports.execution_line(r))
+
+    def pmatch(self, line: Line, port: PortState, out: list[str]) -> None:
+        """PMATCH: the addressed C.S.'s axis positions from its motors' commanded positions, through
+        the forward kinematic program with Isx50 = 1 [SRM OPEN FORWARD: "any time an R (run), S
+        (step), or PMATCH command is given"]; ERR001 while its program runs (ASSUMPTION)."""
+        self.fw.motion.runner(port.cs).pmatch_online()
 
     def quit(self, line: Line, port: PortState, out: list[str]) -> None:
         """Q: quit at the end of the moves already calculated [SRM Q]."""

@@ -14,7 +14,7 @@ Operations (the tuples buffers.compile_lines strings together), besides buffers.
 ``("absinc", inc, axes | None)``, ``("param", "TA"|"TS"|"TM"|"F", expr)``, ``("frax", axes)``,
 ``("dwell", expr)``, ``("delay", expr)``, ``("home", zero, motors)``, ``("label", n)``,
 ``("goto", expr)``, ``("gosub", expr, args)``, ``("call", expr, args)``, ``("return",)``,
-``("read", letters)``, ``("stop",)``, ``("wait",)``, ``("pset", ((axis, expr), ...))``,
+``("read", letters)``, ``("stop",)``, ``("wait",)``, ``("pmatch",)``, ``("pset", ((axis, expr), ...))``,
 ``("normal", ((vector, expr), ...))``, ``("radius", inc)`` (ABS(R)/INC(R)); `args`
 are ((letter, expr), ...) after GOSUB/CALL.
 """
@@ -47,6 +47,7 @@ _LABEL = re.compile(rf"([NO]){_SP}(\d+)(?![\d.])")
 _STOP = re.compile(r"STOP(?![A-Z])")
 _WAIT = re.compile(r"WAIT(?![A-Z])")
 _BLOCK = re.compile(rf"BLOCK{_SP}(START|STOP)(?![A-Z])")
+_PMATCH = re.compile(r"PMATCH(?![A-Z])")
 _NORMAL = re.compile(rf"NORMAL{_SP}")
 _RADIUS_MODE = re.compile(rf"(ABS|INC){_SP}\({_SP}R{_SP}\)")
 _PSET = re.compile(rf"PSET{_SP}")
@@ -112,6 +113,8 @@ def parse_statement(s: str, i: int) -> tuple[Statement, int]:
         return _op("wait"), m.end()
     if m := _BLOCK.match(s, i):  # BLOCKSTART/BLOCKSTOP: one S runs the block [SRM]
         return _op("block", m.group(1) == "START"), m.end()
+    if m := _PMATCH.match(s, i):   # before the axis letters: P is no axis, but keep it first
+        return _op("pmatch"), m.end()
     if m := _PSET.match(s, i):
         st, j = _move(s, m.end())
         assert st.op is not None

@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vdevd.devices.pmac import kin_velocity, mode_blend
 from vdevd.devices.pmac.circle import CirclePlanner
 from vdevd.devices.pmac.coord import AXES, CS_COUNT
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, CommandError
@@ -124,6 +125,8 @@ class _Queued:
     piece: Piece
     scaled: bool = True   # runs at the time base (all but DWELL)
     starts: int = 0       # the move number that begins with this piece (0: none)
+    #: PVT in a kinematic C.S.: the `#n->I` motors' cubic in the piece's time (kin_velocity.py)
+    motor: np.ndarray | None = None
 
 
 class CsProgram:
@@ -168,6 +171,10 @@ class CsProgram:
         self.inv_order: list[int] = []
         self._inv_at: np.ndarray | None = None
         self._inv_counts = np.zeros(0)
+        #: where the last move statement was calculated from, and its blend's piece count, for
+        #: the `/` stop (stop_commands.py): (move number, prog, pc, stack, ops, start point)
+        self.move_from: tuple[int, int, int, list[_Frame], list[Any], np.ndarray] | None = None
+        self.move_blend = (0, 0)
         self.reset_modes()
 
     def reset_modes(self) -> None:
@@ -400,10 +407,14 @@ class CsProgram:
                 for s, a in d.terms:
                     self.scale[r, AXES.index(a)] += s
 
-    def _counts(self, pos: np.ndarray) -> np.ndarray:
+    def _counts(self, pos: np.ndarray, q: _Queued | None = None, tau: float = 0.0) -> np.ndarray:
         counts = self.scale @ pos + self.fw.coord.bias[self.members]
         if len(self.inv_rows):
-            counts[self.inv_rows] = self._inverse(pos)
+            if q is not None and q.motor is not None:   # PVT with velocities (kin_velocity.py)
+                c = q.motor
+                counts[self.inv_rows] = c[0] + tau * (c[1] + tau * (c[2] + tau * c[3]))
+            else:
+                counts[self.inv_rows] = self._inverse(pos)
         return counts
 
     def _kinematic(self) -> bool:
@@ -505,8 +516,16 @@ class CsProgram:
                 self._release_segments(final=False)
                 return
             self._release_segments(final=True)
+        cubics: list[np.ndarray | None] = [None] * len(pieces)
+        if len(self.inv_rows) and isinstance(self.planner, PvtPlanner) and scaled and pieces:
+            try:   # Q10 = 1 in PVT mode [UM "Velocity Calculation Flag"]
+                cubics = list(kin_velocity.motor_cubics(
+                    self.fw, self.cs, [int(m) + 1 for m in self.members[self.inv_rows]], pieces,
+                    float(self._params()["FEED_PERIOD"])))
+            except PlanError:
+                self.error = True
         for k, piece in enumerate(pieces):
-            self.queue.append(_Queued(piece, scaled, starts if k == begin else 0))
+            self.queue.append(_Queued(piece, scaled, starts if k == begin else 0, cubics[k]))
 
     def _params(self) -> dict[str, Any]:
         """The move parameters of the present modal state (seconds, units per second)."""
@@ -641,7 +660,7 @@ class CsProgram:
         if self.cur is None and not self.queue and self.stopping:
             self._finish()
             return None
-        counts = self._counts(pos) + fw.motors.origin[self.members]
+        counts = self._counts(pos, self.cur, self.tau) + fw.motors.origin[self.members]
         if self.cur is not None and not len(self.inv_rows):
             self._glide_ahead(tb, dt)
         return counts
@@ -732,6 +751,9 @@ class CsProgram:
                 if self.state == "step" and self.calc > 0 and not self.block:
                     self._end()
                     return
+                if name == "move":
+                    self.move_from = (self.calc + 1, self.prog, self.pc, list(self.stack), ops,
+                                      self.pos.copy())
             self.pc += 1
             calc = self.calc
             try:
@@ -827,12 +849,15 @@ class CsProgram:
             self._move(op, env)
             return "move"
         elif name == "mode":
-            self._flush()
+            going_on = op[1] in PLANNERS and mode_blend.carry_on(self, op[1])  # LINEAR <-> CIRCLE
+            if not going_on:
+                self._flush()
             self.mode = op[1]
             self.mode_arg = float(op[2].eval(env)) if op[2] is not None else 0.0
             if self.mode not in PLANNERS:
                 raise CommandError(ERR_DATA, f"{self.mode} is not emulated")
-            self._restart_planner()
+            if not going_on:
+                self._restart_planner()
         elif name == "absinc":
             mask = np.ones(NAXES, dtype=bool) if op[2] is None else np.isin(np.arange(NAXES), op[2])
             self.inc[mask] = op[1]
@@ -893,13 +918,16 @@ class CsProgram:
             self._flush()
             self.wait = "drain"
             return "stop"
-        elif name == "pset":
+        elif name in ("pset", "pmatch"):
             self._flush()
             if self.cur is not None or self.queue:  # once the motion before has drained
                 self.pc -= 1
                 self.wait = "drain"
                 return "stop"
-            self._pset(op[1], env)
+            if name == "pset":
+                self._pset(op[1], env)
+            else:
+                self._pmatch()
         elif name == "cmd":
             plc = fw.plc
             if len(plc.queue) >= CMD_QUEUE:
@@ -942,6 +970,27 @@ class CsProgram:
             value = float(e.eval(env))
             fw.coord.set_axis(self.cs, AXES[k], value, fw.reports.commanded())
             self.pos[k] = value
+        self.exec_pos = self.pos.copy()
+        self._restart_planner()
+
+    def pmatch_online(self) -> None:
+        """On-line PMATCH (online.py): as at R, without running; ERR001 while running."""
+        if self.running:
+            raise CommandError(ERR_RUNNING, "a program is running")
+        self._map_motors()
+        self._read_position()
+        self._forward()
+
+    def _pmatch(self) -> None:
+        """PMATCH: the axis positions computed again from the motors' commanded positions, as
+        at R (through the forward kinematic program with Isx50 = 1) [SRM PMATCH; UM
+        "Kinematic Calculations"]."""
+        self._read_position()
+        try:
+            self._forward()
+        except CommandError:
+            self._runtime_error()
+            return
         self.exec_pos = self.pos.copy()
         self._restart_planner()
 
@@ -1004,6 +1053,8 @@ class CsProgram:
             prm["IJK"] = np.array([vectors.get(c, 0.0) for c in "IJK"])
         if "R" in vectors:
             prm["R"] = vectors["R"]
+        if self.mode == "LINEAR" and isinstance(self.planner, CirclePlanner):
+            prm["LINE"] = True   # a LINEAR move in a CIRCLE sequence (mode_blend.py)
         move = Move(target, named, prm)
         if self.planner is None:
             self._restart_planner()
@@ -1014,6 +1065,7 @@ class CsProgram:
         pieces = planner.add(move)
         begin = int(getattr(planner, "begin", 0))
         self._enqueue(pieces, self.calc, begin=begin)
+        self.move_blend = (self.calc, len(pieces) - begin)
         if not pieces:  # nothing to execute for it: it counts as begun
             self.started = max(self.started, self.calc) if not self.queue and self.cur is None \
                 else self.started

@@ -47,6 +47,8 @@ class GlobalRegisters:
             return fw.servo_cycles & WORD
         if space == "X" and addr == 6:
             return fw.global_status()[0]
+        if space == "Y" and addr == 6:  # global status word 2 (second word of `???`)
+            return fw.global_status()[1]
         if addr == 0x17:
             clock = int(fw.now_ns * 1024 // 1_000_000_000)
             return (clock >> 24) & WORD if space == "X" else clock & WORD

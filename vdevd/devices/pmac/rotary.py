@@ -17,8 +17,17 @@ on-line-only commands].
 Room: each value in a line takes one word [UM "Defining a Rotary Buffer"]; a line that does not fit
 answers ERR006 and is not stored. The host is told when to wait: once I17 (default 10) or more
 lines wait ahead of the executing one the C.S.'s "rotary buffer full" status bit is 1, and it goes
-back to 0 when execution has caught up to within I16 lines (default 5, ASSUMPTION) [SRM I17]. `PR`
-reports the lines waiting in the addressed C.S.'s rotary buffer. Rotary buffers are not kept by
+back to 0 when fewer than I16 lines wait (default 5, ASSUMPTION) [SRM I17; SRM `??` word 2 bit 16:
+"will not be set to 0 until there are less than I16 program lines ahead"]. `PR` reports the lines
+waiting in the addressed C.S.'s rotary buffer.
+
+BREQ [SRM I17]: "If a program line is sent to the rotary buffer, the BREQ line will be taken low (at
+least momentarily). If there are still fewer than I17 ... lines ..., the BREQ line will be taken
+high again (giving the ability to generate an interrupt)"; once full it stays low until execution
+catches up to within I16 lines "and take BREQ high again". Each rising edge calls `on_request`
+(the card raises IR1 there). BREQ follows "the software-host-addressed coordinate system"
+(Turbo PMAC2): ASSUMPTION, the C.S. whose rotary buffer took the last line sent (the one the host
+is talking to). Rotary buffers are not kept by
 SAVE and are gone after `$$$` [UM: "not retained through a power-down or board reset"].
 """
 
@@ -46,6 +55,9 @@ ERR_IN_USE = 7
 #: the largest rotary buffer, words (ASSUMPTION: the Turbo's open memory is not in the sources)
 MAX_WORDS = 65_536
 I16, I17 = 16, 17
+#: global status word 2 (Y:$000006) bit 20, binary rotary buffer open (ASSUMPTION: the Turbo SRM's
+#: second-word table was not retrieved; README "Rotary buffers")
+BINARY_ROTARY_OPEN = 1 << 20
 
 _ADDRESS = re.compile(r"&[ ]*(\d+)")
 #: commands that act on-line while the rotary buffers are open (a bare letter before `&` or the
@@ -71,6 +83,9 @@ class RotaryBuffers:
         self.running = running   # the runner answers whether C.S. cs runs its rotary buffer
         self.bufs: dict[int, RotaryBuffer] = {}
         self.owner: PortState | None = None
+        #: BREQ went high (module docstring); the card raises IR1
+        self.on_request: Callable[[], None] = lambda: None
+        self.request_cs = 0   # the C.S. BREQ follows
 
     # -- DEFINE / DELETE ----------------------------------------------------------------------
     def define(self, cs: int, size: int | None) -> None:
@@ -186,8 +201,11 @@ class RotaryBuffers:
             raise CommandError(ERR_NO_ROOM, "rotary buffer full")
         buf.lines.append((line, words))
         buf.words += words
+        self.request_cs = cs
         if len(buf.lines) >= int(self.fw.ivars.values[I17]):
             buf.full = True
+        else:
+            self.on_request()   # BREQ low for the line, high again at once [SRM I17]
 
     # -- the runner's side --------------------------------------------------------------------
     def take(self, cs: int) -> str | None:
@@ -198,8 +216,10 @@ class RotaryBuffers:
         line, words = buf.lines.popleft()
         buf.words -= words
         buf.taken += 1
-        if buf.full and len(buf.lines) <= int(self.fw.ivars.values[I16]):
+        if buf.full and len(buf.lines) < int(self.fw.ivars.values[I16]):
             buf.full = False
+            if cs == self.request_cs:
+                self.on_request()
         return line
 
     def remaining(self, cs: int) -> int:

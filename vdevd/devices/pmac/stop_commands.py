@@ -1,0 +1,83 @@
+"""The `/` and `\\` on-line commands of a coordinate system's running program [Turbo SRM `/`,
+`\\`, `<`; Turbo UM "Writing and Executing Motion Programs": stopping commands].
+
+`/` stops the program at the end of the move executing now. In segmentation mode (Isx13 > 0) a
+LINEAR move has at most the next move calculated beside it: the blend into that move is replaced
+by a deceleration to the executing move's end point in the blend's own TA and TS (centred on the
+corner, so it ends on it), the next move is given back to the calculation (R or S calculates it
+again from its statement) and the program stops there, resumable as after Q. Without segmentation
+(Isx13 = 0), or in any other move mode, the moves already calculated cannot be taken back: `/`
+acts as Q, the program stopping at the end of the last move calculated (ASSUMPTION: the SRM text
+for `/` was not in the sources; PMAC1's "segmentation mode" rule followed).
+
+`\\` is the quick stop in the special lookahead buffer; "if the coordinate system is not currently
+in the middle of a lookahead sequence", it is a feed hold (H) [SRM `<`, `\\`]. This card has no
+lookahead buffer (README "Not emulated"): `\\` is H, resumed with R.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from vdevd.devices.pmac.linear import LinearPlanner, blend
+from vdevd.devices.pmac.pieces import NAXES, Piece
+
+if TYPE_CHECKING:
+    from vdevd.devices.pmac.program_runner import CsProgram
+
+
+def stop_at_end_of_move(r: CsProgram) -> None:
+    """`/` for C.S. r (module docstring)."""
+    if not r.running:
+        return
+    if not _cut_next_move(r):
+        r.quit()
+
+
+def quick_stop(r: CsProgram) -> None:
+    """`\\`: outside a lookahead sequence, a feed hold [SRM `<`]."""
+    r.feed_hold()
+
+
+def _cut_next_move(r: CsProgram) -> bool:
+    """Replace the blend into move `started + 1` by a stop at the corner; False when that is
+    not how the motion stands (the caller quits instead)."""
+    iv = r.fw.ivars.values
+    if r.mode != "LINEAR" or not iv[5000 + 100 * r.cs + 13] or r.wait \
+            or not isinstance(r.planner, LinearPlanner):   # not in a CIRCLE sequence
+        return False
+    nxt = r.started + 1
+    rec = r.move_from
+    count = r.move_blend[1] if r.move_blend[0] == nxt else 0
+    if rec is None or rec[0] != nxt or r.calc != nxt or count <= 0:
+        return False
+    _, prog, pc, stack, ops, corner = rec
+    if prog == 0 and r.rot.ops is not ops:
+        return False   # the rotary line of that move is gone: it cannot be calculated again
+    queue = list(r.queue)
+    at = next((k for k, q in enumerate(queue) if q.starts == nxt), None)
+    if at is None or at + count > len(queue):
+        return False
+    pieces = [q.piece for q in queue[at:at + count]]
+    ta = sum(p.dur for p in pieces)
+    ts = pieces[0].dur if count > 1 else 0.0
+    start = pieces[0].coef
+    stop = blend(start[0], start[1], np.zeros(NAXES), ta, ts)
+    if stop:
+        last = stop[-1]
+        coef = last.coef.copy()   # end exactly on the corner, free of rounding
+        coef[0] += corner - last.end()[0]
+        stop[-1] = Piece(last.dur, coef)
+    while len(r.queue) > at:
+        r.queue.pop()
+    r._enqueue(stop, starts=0)
+    r.planner = None
+    r.prog, r.pc, r.stack = prog, pc, stack
+    r.pos = corner.copy()
+    r.calc = r.started
+    r.move_from = None
+    r._blocked = r._glide = None
+    r.state, r.stopping = "quit", True
+    return True
