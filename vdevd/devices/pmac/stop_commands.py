@@ -11,8 +11,9 @@ acts as Q, the program stopping at the end of the last move calculated (ASSUMPTI
 for `/` was not in the sources; PMAC1's "segmentation mode" rule followed).
 
 `\\` is the quick stop in the special lookahead buffer; "if the coordinate system is not currently
-in the middle of a lookahead sequence", it is a feed hold (H) [SRM `<`, `\\`]. This card has no
-lookahead buffer (README "Not emulated"): `\\` is H, resumed with R.
+in the middle of a lookahead sequence", it is a feed hold (H) [SRM `<`, `\\`]. Here it is always
+H, resumed with R: the quick stop inside a lookahead sequence is not built (README "Not
+emulated").
 """
 
 from __future__ import annotations
@@ -56,15 +57,22 @@ def _cut_next_move(r: CsProgram) -> bool:
     _, prog, pc, stack, ops, corner = rec
     if prog == 0 and r.rot.ops is not ops:
         return False   # the rotary line of that move is gone: it cannot be calculated again
-    queue = list(r.queue)
-    at = next((k for k, q in enumerate(queue) if q.starts == nxt), None)
-    if at is None or at + count > len(queue):
-        return False
-    pieces = [q.piece for q in queue[at:at + count]]
-    ta = sum(p.dur for p in pieces)
-    ts = pieces[0].dur if count > 1 else 0.0
-    start = pieces[0].coef
-    stop = blend(start[0], start[1], np.zeros(NAXES), ta, ts)
+    if r.segmenter is not None:   # Isx13 segments in the queue, not the planner's pieces
+        cut = _segmented_stop(r, nxt, corner)
+        if cut is None:
+            return False
+        at, stop = cut
+    else:
+        queue = list(r.queue)
+        found = next((k for k, q in enumerate(queue) if q.starts == nxt), None)
+        if found is None or found + count > len(queue):
+            return False
+        at = found
+        pieces = [q.piece for q in queue[at:at + count]]
+        ta = sum(p.dur for p in pieces)
+        ts = pieces[0].dur if count > 1 else 0.0
+        start = pieces[0].coef
+        stop = blend(start[0], start[1], np.zeros(NAXES), ta, ts)
     if stop:
         last = stop[-1]
         coef = last.coef.copy()   # end exactly on the corner, free of rounding
@@ -72,6 +80,7 @@ def _cut_next_move(r: CsProgram) -> bool:
         stop[-1] = Piece(last.dur, coef)
     while len(r.queue) > at:
         r.queue.pop()
+    r.segmenter = None   # the stop runs as planned; R segments afresh from the corner
     r._enqueue(stop, starts=0)
     r.planner = None
     r.prog, r.pc, r.stack = prog, pc, stack
@@ -81,3 +90,29 @@ def _cut_next_move(r: CsProgram) -> bool:
     r._blocked = r._glide = None
     r.state, r.stopping = "quit", True
     return True
+
+
+def _segmented_stop(r: CsProgram, nxt: int,
+                    corner: np.ndarray) -> tuple[int, list[Piece]] | None:
+    """With Isx13 segmentation (lookahead.py) the queue holds segments: every segment the
+    segmenter still holds is released (ending in a stop, as at the end of a program), and the
+    segments from the one where move `nxt` (its TA blend) begins are replaced by a deceleration
+    from the state there onto the corner: in the time that covers the distance left at half the
+    speed there (the blend's TA when the segment begins where the blend does), S-curve TS. None
+    when that segment cannot be found or the axes stand there (the caller quits instead)."""
+    r._release_segments(final=True)
+    queue = list(r.queue)
+    at = next((k for k, q in enumerate(queue) if q.starts == nxt), None)
+    if at is None:
+        return None
+    before = queue[at - 1].piece if at else (r.cur.piece if r.cur is not None else None)
+    if before is None:
+        return None
+    p, v = before.end()
+    speed, left = float(np.linalg.norm(v)), float(np.linalg.norm(corner - p))
+    if speed <= 0 or left <= 0:
+        return None
+    ta = 2 * left / speed
+    ts = min(float(r._params()["TS"]), ta / 2)
+    return at, blend(p, v, np.zeros(NAXES), ta, ts)
+
