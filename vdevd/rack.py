@@ -326,15 +326,19 @@ class Rack:
 
     def op_batch(self, args: dict[str, Any], reply: Reply) -> Any:
         ops: list[Request | Access] = args["ops"]
-        check_batch(ops, self._rep_hook_calls)
+        check_batch(ops, self._hook_calls)
         results: list[Any] = []
         self._run_batch(ops, 0, results, reply)
         return _DEFERRED
 
-    def _rep_hook_calls(self, card: str, region: str, offset: int, size: int, write: bool) -> int:
-        """`Region.rep_hook_calls` by name (0 for no such region: the op fails when it runs)."""
+    def _hook_calls(self, card: str, region: str, offset: int, size: int, write: bool,
+                    rep: bool) -> int:
+        """`Region.hook_calls` (`rep_hook_calls` for a repeated access) by name (0 for no such
+        region: the op fails when it runs)."""
         r = self._regions.get((card, region))
-        return r.rep_hook_calls(offset, size, write) if r is not None else 0
+        if r is None:
+            return 0
+        return r.rep_hook_calls(offset, size, write) if rep else r.hook_calls(offset, size, write)
 
     def _run_batch(self, ops: list[Request | Access], start: int, results: list[Any],
                    reply: Reply) -> None:

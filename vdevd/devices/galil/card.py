@@ -118,7 +118,7 @@ class GalilCard(Card):
             description="A16 short I/O, D08(O): FIFOs N+1, control N+3, secondary FIFO N+5/N+7"))
         self.a16.hook(0, WINDOW_SIZE, on_read=self._host_read, on_write=self._host_write,
                       peek=self._host_peek, on_read_rep=self._host_read_rep,
-                      on_write_rep=self._host_write_rep)
+                      on_write_rep=self._host_write_rep, rep_at=_DATA)
         self.irq = self.add_irq("irq")
         # the flash (BP BV BN): one image in the state directory, restored at power-up
         store = ctx.nvram
