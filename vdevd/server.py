@@ -18,7 +18,7 @@ import msgpack
 import zmq
 
 from vdevd import protocol
-from vdevd.errors import ErrorCode, VdevError
+from vdevd.errors import ErrorCode, StartError, VdevError
 from vdevd.heartbeat import PERIOD_NS as HEARTBEAT_NS
 from vdevd.heartbeat import TOPIC as HEARTBEAT_TOPIC
 from vdevd.heartbeat import Heartbeat
@@ -38,6 +38,15 @@ _NOBLOCK_MORE = int(zmq.NOBLOCK | zmq.SNDMORE)
 _EVENTS = int(zmq.EVENTS)
 _POLLIN = int(zmq.POLLIN)
 _READ_TAG = OP_TAGS["read"]
+
+
+def _bind(sock: zmq.Socket, endpoint: str, key: str) -> None:
+    """Bind `sock`; a `StartError` naming the configuration key when it cannot be."""
+    try:
+        sock.bind(endpoint)
+    except zmq.ZMQError as exc:
+        reason = zmq.strerror(exc.errno) if exc.errno is not None else str(exc)
+        raise StartError(f"{key} {endpoint}: {reason}") from None
 
 
 class Publisher:
@@ -131,11 +140,11 @@ class Server:
         self.rack.start(loop)
         await self.rack.open_services()
         endpoint, events = self._bind_to
-        self.pub.bind(events)
+        _bind(self.pub, events, "server.events")
         self.publisher.attach(self.pub)
         self.events = self.publisher.endpoint
         self._heartbeat.start(loop)
-        self.router.bind(endpoint)
+        _bind(self.router, endpoint, "server.endpoint")
         self.endpoint = self.router.getsockopt_string(zmq.LAST_ENDPOINT)
         loop.add_reader(self.router.getsockopt(zmq.FD), self._on_readable)
         self._reading = True

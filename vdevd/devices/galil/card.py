@@ -89,7 +89,12 @@ class GalilCard(Card):
             raise ValueError(f"{where}.address: {address!r} is not a gclib address (one word, "
                              "no commas, not a --flag)")
         if opts.ethernet:
-            parse_endpoint(opts.ethernet)
+            try:
+                if parse_endpoint(opts.ethernet)[1] > 65535:  # the socket would take it modulo 65536
+                    raise ValueError
+            except ValueError:
+                raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not tcp://HOST:PORT "
+                                 "(PORT 0..65535; empty: off)") from None
             if not is_local(opts.ethernet):
                 raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not loopback (the DMC "
                                  "command protocol has no authentication)")
