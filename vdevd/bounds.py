@@ -29,6 +29,11 @@ MAX_REP_HOOK_CALLS = 65_536
 #: the `control` ops one batch may hold: a backdoor action costs 0.2-0.6 ms (the card's world
 #: rebuilt), so 256 of them hold the event loop about 0.1 s; a request each is not limited
 MAX_BATCH_CONTROLS = 256
+#: the ops that batches holding a `wait` may hold in all while they run (a wait suspends its
+#: batch, the ops after it kept until it resolves): a decoded op takes about 250 bytes, so the
+#: 1,024 waits that may be pending, each holding a batch of 1 MiB (60,000 ops), took 14 GB;
+#: this holds them to about 64 MB
+MAX_HELD_OPS = 262_144
 #: scheduled `control` actions one client may have pending, and all clients together (defaults)
 MAX_SCHEDULED_PER_CLIENT = 1_000
 MAX_SCHEDULED = 10_000
@@ -65,16 +70,17 @@ _KINDS = {"r": (True, False, False), "R": (True, True, False), "w": (False, Fals
 
 
 def batch_cost(ops: Sequence[Request | Sequence[Any]],
-               hook_calls: HookCalls) -> tuple[int, int, int]:
+               hook_calls: HookCalls) -> tuple[int, int, int, int]:
     """What a batch of `ops` (protocol.Access or Request) costs before it runs: the fewest
     bytes its reply can take (every read's data with its header, one byte at least for any other
-    result), the hook calls of its accesses, and its `control` ops."""
-    total, calls, controls = BATCH_REPLY_OVERHEAD, 0, 0
+    result), the hook calls of its accesses, its `control` ops and its `wait` ops."""
+    total, calls, controls, waits = BATCH_REPLY_OVERHEAD, 0, 0, 0
     for op in ops:
         if isinstance(op, Request):
             if op.op not in ("read", "write"):
                 total += 1
                 controls += op.op == "control"
+                waits += op.op == "wait"
                 continue
             args = op.args
             read, rep = op.op == "read", bool(args.get("rep"))
@@ -90,14 +96,14 @@ def batch_cost(ops: Sequence[Request | Sequence[Any]],
             size = last if read else len(last)
         total += _bin_size(size) if read and size > 0 else 1
         calls += hook_calls(card, region, offset, size, not read, rep)
-    return total, calls, controls
+    return total, calls, controls, waits
 
 
-def check_batch(ops: Sequence[Request | Sequence[Any]], hook_calls: HookCalls) -> None:
+def check_batch(ops: Sequence[Request | Sequence[Any]], hook_calls: HookCalls) -> int:
     """A batch whose reply cannot fit `max_message`, whose accesses would call hooks more than
     MAX_REP_HOOK_CALLS times, or with more than MAX_BATCH_CONTROLS `control` ops: `too_large`
-    before any of its ops runs."""
-    floor, calls, controls = batch_cost(ops, hook_calls)
+    before any of its ops runs. Its `wait` ops are returned."""
+    floor, calls, controls, waits = batch_cost(ops, hook_calls)
     if floor > MAX_MESSAGE:
         raise VdevError(ErrorCode.TOO_LARGE, f"batch of {len(ops)} ops: its reply would take "
                         f"at least {floor} bytes, over max_message ({MAX_MESSAGE} bytes); "
@@ -109,6 +115,7 @@ def check_batch(ops: Sequence[Request | Sequence[Any]], hook_calls: HookCalls) -
     if controls > MAX_BATCH_CONTROLS:
         raise VdevError(ErrorCode.TOO_LARGE, f"batch of {len(ops)} ops: {controls} control ops, "
                         f"over {MAX_BATCH_CONTROLS} a batch; nothing was run")
+    return waits
 
 
 class ScheduledCount:

@@ -9,11 +9,12 @@ from __future__ import annotations
 from collections.abc import Iterator
 from typing import Any
 
+import msgpack
 import pytest
 
 from tests.conftest import RawClient, error_code, rack_config
 from tests.protocol.test_request_bounds import CountingFifo, client
-from vdevd.bounds import MAX_BATCH_CONTROLS, MAX_REP_HOOK_CALLS
+from vdevd.bounds import MAX_BATCH_CONTROLS, MAX_HELD_OPS, MAX_REP_HOOK_CALLS
 from vdevd.config import CardSpec
 from vdevd.devices import card_class
 from vdevd.devices.base import CardContext
@@ -146,3 +147,35 @@ def test_a_step_over_many_actions_due_together_replies_once_all_ran(
     assert clients[1].call(op="stats")["ok"]["requests"]["scheduled"] == 0
     for c in clients:
         c.close()
+
+
+def test_batches_held_by_their_waits_hold_at_most_max_held_ops() -> None:
+    """1,024 waits may be pending, each suspending a batch of up to 1 MiB (60,000 ops, some
+    14 MB decoded): the ops held by batches with a wait are bounded in all (`busy` past it), and
+    counted free again once those batches are answered."""
+    card: list[CountingFifo] = []
+
+    def make(ctx: CardContext) -> CountingFifo:
+        card.append(CountingFifo("f0", ctx))
+        return card[0]
+
+    per = 60_000
+    each = MAX_HELD_OPS // per  # batches that fit; one more does not
+    wait = {"op": "wait", "card": "f0", "on": "value", "region": "mem", "offset": 0,
+            "value": 1, "timeout_ns": 86_400 * 1_000_000_000}
+    ops = [wait] + [["r", "f0", "mem", 4, 4]] * (per - 1)
+    with DaemonThread(rack=rack_of(make, mode="realtime")) as d:
+        a, b = client(d), client(d)
+        for i in range(each):
+            a.sock.send(msgpack.packb({"id": i, "op": "batch", "ops": ops}))
+        # a's own request after them: answered once they have been served (one connection)
+        assert a.call(op="stats")["ok"]["requests"]["pending_waits"] == each
+        reply = b.call(op="batch", ops=ops)
+        assert error_code(reply) == "busy" and str(MAX_HELD_OPS) in reply["error"]["message"]
+        assert b.call(op="write", card="f0", region="mem", offset=0, data=b"\x01\0\0\0")["ok"] is None
+        for _ in range(each):  # the condition holds: each batch runs its reads and is answered
+            answer = msgpack.unpackb(a.sock.recv())
+            assert answer["ok"][0]["fired"] and len(answer["ok"]) == per
+        assert len(b.call(op="batch", ops=ops)["ok"]) == per  # room again
+        a.close()
+        b.close()
