@@ -1,7 +1,7 @@
 """`make bench`: the figures of the issues' "Done when", each against a baseline of the same run.
 
-    python bench/run.py [--quick] [--only rtt,lockstep,...,shm,overload,rt-cpu,rt-behind,rack,mx4,
-                        aps]
+    python bench/run.py [--quick] [--only rtt,lockstep,...,pmac-program,shm,overload,rt-cpu,
+                        rt-behind,rack,mx4,aps,pmac-pvt]
                         [--pin split|same|none] [--json [FILE]]
 
 1. rtt       4-byte register read through vdevclient vs a raw pyzmq REQ/REP round trip
@@ -16,6 +16,9 @@
 6. pmac      pmac-dpram: PComm PmacGetResponseA("#1P") on a lockstep Turbo PMAC vs a raw pyzmq
              REQ/REP round trip; pmac-ethernet: dls-pmaclib sendCommand("#1P") on its Ethernet
              port vs a raw TCP round trip (both p50 <= 2.5x), bench/pmac.py
+6b. pmac-program  dls-pmaclib sendCommand("#1P") on a REALTIME Turbo PMAC, idle and while C.S. 1
+             runs a LINEAR raster and PLC 1 and 2 scan, vs a raw TCP (and pyzmq) round trip
+             (busy p50 <= 2.5x), bench/pmac_program.py
 7. shm       Region.read32 of a passive MAXk word through the daemon's shared memory (p50 <= 2 us,
              >= 50x faster than the read by request), bench/shm.py
 8. overload  eight MAXk at 8192 Hz running contours (beyond this machine): read and `stats`
@@ -36,6 +39,9 @@
              ...) (p50 <= 2.5x) on a lockstep ADLINK AMP-208C vs a raw pyzmq REQ/REP round trip,
              and the lockstep speed of the 8-axis card with every axis in a velocity move at its
              1 ms cycle (>= 50x real time), bench/aps.py
+14. pmac-pvt a 1000-point PVT scan (two servo motors, 10 ms points from P-variables) on a lockstep
+             Turbo PMAC, simulated s per wall s (>= 20x), against the motors jogging,
+             bench/pmac_pvt.py
 
 The defaults are the issue's (realtime, rt-cpu and rt-behind run 60 s each; the whole takes
 ~6 min); `--quick` shortens everything for a smoke run (~1 min). Placement (default split:
@@ -66,6 +72,8 @@ from bench import (  # noqa: E402
     mx4,
     overload,
     pmac,
+    pmac_program,
+    pmac_pvt,
     rack,
     realtime,
     rtt,
@@ -73,8 +81,8 @@ from bench import (  # noqa: E402
 )
 from bench.common import install_signal_handlers, machine_facts, table, verdict, write_json  # noqa: E402
 
-FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac", "shm", "overload", "rt-cpu",
-           "rt-behind", "rack", "mx4", "aps")
+FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac", "pmac-program", "shm", "overload",
+           "rt-cpu", "rt-behind", "rack", "mx4", "aps", "pmac-pvt")
 
 
 def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]], dict[str, Any],
@@ -95,6 +103,9 @@ def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]]
                             "warmup": 300 if q else 1000, "pin": a.pin}, maxk.report),
         "pmac": (pmac.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
                             "warmup": 300 if q else 1000, "pin": a.pin}, pmac.report),
+        "pmac-program": (pmac_program.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
+                                            "warmup": 300 if q else 1000, "pin": a.pin},
+                         pmac_program.report),
         "shm": (shm.run, {"n": 1000 if q else 5000, "repeats": 2 if q else 3,
                           "warmup": 500 if q else 2000, "pin": a.pin}, shm.report),
         "overload": (overload.run, {"seconds": 3.0 if q else 10.0, "pin": a.pin}, overload.report),
@@ -113,6 +124,7 @@ def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]]
         "aps": (aps.run, {"n": 1000 if q else 3000, "repeats": 2 if q else 3,
                           "warmup": 300 if q else 1000, "seconds": 2.0 if q else 5.0,
                           "speed_repeats": 2 if q else 3, "pin": a.pin}, aps.report),
+        "pmac-pvt": (pmac_pvt.run, {"repeats": 2 if q else 3, "pin": a.pin}, pmac_pvt.report),
     }
 
 
@@ -184,6 +196,18 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
                              f"{f['series'][series]['p50']:.0f} us",
                              f"raw {raw['p50']:.0f} us -> {ratio['p50']:.2f}x, {trips} round trip(s)",
                              verdict(ratio["p50"] <= pmac.GOAL_P50)])
+        elif name == "pmac-program":
+            for phase, f in r["phases"].items():
+                tcp, ratio = f["series"][pmac_program.TCP_RAW], f["ratios"][pmac_program.ETHERNET]
+                goal = f"<= {pmac_program.GOAL_P50}x raw TCP" if phase == "busy" else "(reference)"
+                rows.append([f"pmac sendCommand p50, {phase}", goal,
+                             f"{f['series'][pmac_program.ETHERNET]['p50']:.0f} us",
+                             f"raw TCP {tcp['p50']:.0f} us -> {ratio['p50']:.2f}x (p99 "
+                             f"{ratio['p99']:.2f}x)", verdict(f["pass"]) if phase == "busy" else "-"])
+        elif name == "pmac-pvt":
+            rows.append(["pmac 1000-point PVT scan", f">= {pmac_pvt.GOAL_SPEED:.0f}x real time",
+                         f"{r['speed_median']:.1f}x", f"jog baseline {r['jog_median']:.1f}x",
+                         verdict(r["pass"])])
         elif name == "shm":
             raw, req = r["series"][rtt.RAW], r["series"][shm.REQUEST]
             rows.append(["shm read32 p50", f"<= {shm.GOAL_P50_US:g} us, >= {shm.GOAL_SPEEDUP:.0f}x "

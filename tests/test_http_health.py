@@ -84,8 +84,15 @@ def test_metrics_follow_the_rack(served: DaemonThread) -> None:
         pmac_port = served.server.listeners()["cards"]["pmac0"]["ethernet"]
         host, port = pmac_port.removeprefix("tcp://").rsplit(":", 1)
         with socket.create_connection((host, int(port)), timeout=10):
-            rack.request("stats")  # the connection is accepted by now: the loop ran since
-            m = scrape(url)
+            # the loop accepts the connection in a turn of its own: scrape until it has (a
+            # guard, not a timing: the accept is due within a turn or two)
+            deadline = time.monotonic() + 10
+            while True:
+                rack.request("stats")
+                m = scrape(url)
+                if m[("vdevd_card_connections", (("card", "pmac0"),))] == 1:
+                    break
+                assert time.monotonic() < deadline, "the connection was never accepted"
     assert all(name.startswith("vdevd_") for name, _ in m)
     for card in ("servo0", "pmac0"):
         label = (("card", card),)

@@ -331,6 +331,35 @@ def pmac_gather_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) 
         pcomm.ClosePmacDevice(0)
 
 
+def pmac_program_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
+    """A motion program (the card's README "Motion programs"): LINEAR moves with a DWELL and a
+    WHILE loop over a P-variable; positions and C.S. status read while it runs and after it
+    ended, when the card rests again."""
+    assert pcomm.OpenPmacDevice(0, endpoint=d.endpoint)
+    buf = ctypes.create_string_buffer(pcomm.MAX_COMM_BUFFER)
+
+    def ask(text: str) -> None:
+        r = pcomm.PmacGetResponseA(0, buf, pcomm.MAX_COMM_BUFFER, text)
+        rec.add([text, int(r), buf.value])
+
+    try:
+        rack.sim.step(seconds=0.3)
+        ask("&1#1->1000X &1#2->1000Y #1J/#2J/ I116=1000 I117=10 I216=1000 I217=10")
+        for line in ("OPEN PROG 1 CLEAR", "LINEAR INC TA50 TS10 F20 P1=0",
+                     "WHILE (P1 < 3) X1 Y-1 DWELL20 P1=P1+1 ENDWHILE", "CLOSE"):
+            ask(line)
+        rack.sim.step(seconds=0.2)
+        ask("&1B1R")
+        rack.sim.step(seconds=0.13)
+        ask("&1?? #1P #2P P1")
+        rack.sim.step(seconds=2.0)
+        ask("&1?? #1P #2P P1")
+        rack.sim.step(seconds=1.0)
+        ask("???")
+    finally:
+        pcomm.ClosePmacDevice(0)
+
+
 def octavia_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder) -> None:
     """RTCs through the DPR: gains, moves with motion complete, PARREAD's 5 ms echo, INT5MS
     is off (standard firmware), an index search, reads after steps of odd lengths."""
@@ -558,9 +587,11 @@ def adlink_units_scenario(d: DaemonThread, rack: vdevclient.Rack, rec: Recorder)
 @pytest.mark.parametrize(("scenario", "card"), [
     (generic_scenario, "servo0"), (galil_scenario, "galil0"), (galil_program_scenario, "galil0"),
     (galil_io_scenario, "galil0"), (maxk_scenario, "maxk0"),
-    (pmac_scenario, "pmac0"), (pmac_gather_scenario, "pmac0"), (octavia_scenario, "octavia0"),
+    (pmac_scenario, "pmac0"), (pmac_gather_scenario, "pmac0"), (pmac_program_scenario, "pmac0"),
+    (octavia_scenario, "octavia0"),
     (adlink_scenario, "adlink0"), (adlink_units_scenario, "adlink0")],
-    ids=["generic", "galil", "galil-program", "galil-io", "maxk", "pmac", "pmac-gather", "octavia",
+    ids=["generic", "galil", "galil-program", "galil-io", "maxk", "pmac", "pmac-gather",
+         "pmac-program", "octavia",
          "adlink", "adlink-units"])
 def test_skipping_quiet_ticks_changes_no_reply(scenario: Callable[..., None], card: str,
                                               monkeypatch: pytest.MonkeyPatch) -> None:

@@ -110,16 +110,17 @@ def serve_until_exit(tmp_path: Path, rack: str, ready: Path) -> tuple[int, str, 
 
 def test_a_card_port_in_use_is_a_start_failure_and_nothing_says_ready(tmp_path: Path) -> None:
     """Issue 16 §5: ready only once every listener accepts; the PMAC's Ethernet port taken by
-    another process stops `vdevd serve` with one line naming the card and the endpoint."""
+    another process stops `vdevd serve` with one line naming the card and the key, exit status 2
+    (issue 22 §5: a configuration error, systemd does not restart it)."""
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         endpoint = f"tcp://127.0.0.1:{taken.getsockname()[1]}"
         code, err, sent = serve_until_exit(
             tmp_path, RACK.replace("tcp://127.0.0.1:0", endpoint), tmp_path / "ready.json")
-    assert code == 1
-    assert f"vdevd: cannot start: pmac0 ethernet {endpoint}: address already in use" in (
-        err.splitlines())
+    assert code == 2
+    assert (f"vdevd: cannot start: card[1] (pmac0) ethernet: {endpoint.removeprefix('tcp://')} "
+            "already in use") in err.splitlines()
     assert not (tmp_path / "ready.json").exists()
     assert b"READY=1" not in sent
 
@@ -127,7 +128,7 @@ def test_a_card_port_in_use_is_a_start_failure_and_nothing_says_ready(tmp_path: 
 def test_a_ready_file_that_cannot_be_written_is_named_as_given(tmp_path: Path) -> None:
     ready = tmp_path / "missing" / "ready.json"
     code, err, sent = serve_until_exit(tmp_path, RACK, ready)
-    assert code == 1
+    assert code == 2
     assert err.splitlines()[-1] == f"vdevd: cannot start: ready file {ready}: No such file or directory"
     assert b"READY=1" not in sent
 

@@ -28,8 +28,9 @@ class _Parser(argparse.ArgumentParser):
 def parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="vdevd", description="virtual motion-control cards over ZeroMQ",
-        epilog="exit status: 0 stopped by SIGINT/SIGTERM, 1 a listener or ready file that "
-               "cannot be opened, 2 a usage or configuration error")
+        epilog="exit status: 0 stopped by SIGINT/SIGTERM, 1 a ZeroMQ endpoint that cannot be "
+               "bound, 2 a usage or configuration error, a card's own port that cannot be bound "
+               "or a ready file that cannot be written")
     p.add_argument("--version", action="version", version=f"vdevd {_version()}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND",
                            help="what to do (required; COMMAND --help for its arguments)")
@@ -135,7 +136,7 @@ def _main(argv: list[str] | None) -> int:
 
         if isinstance(exc, (StartError, zmq.ZMQError, OSError, ValueError)):
             print(f"vdevd: cannot start: {exc}", file=sys.stderr)
-            return 1
+            return 2 if isinstance(exc, StartError) else 1  # 2: restarting cannot fix it
         raise
     return 0
 

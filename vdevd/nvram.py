@@ -2,6 +2,11 @@
 
 Each card's flash image is one msgpack file, written atomically: temporary file, fsync, rename,
 fsync of the directory. A crash or kill at any moment leaves either the old or the new image.
+
+An image that cannot be read, or that its card's check refuses (`load(card, check)`: the shape
+and every value checked as strictly as the commands that set them; vdevd/nvcheck.py), never
+stops the daemon: it is kept beside as `<card>.nvram.corrupt`, logged, and the card starts from
+its defaults (issue 22 §4).
 """
 
 from __future__ import annotations
@@ -11,6 +16,7 @@ import os
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -49,11 +55,13 @@ class NvramStore:
             os.close(dir_fd)
         self.saves[card] = self.saves.get(card, 0) + 1
 
-    def load(self, card: str) -> dict[str, Any] | None:
-        """The saved image, or None when the card never saved one or its image is unreadable:
-        the card then starts from its power-on defaults, as a real card does after a flash
-        checksum error. An unreadable image is kept beside, as `<card>.nvram.corrupt`, and
-        temporary files left by a save that was killed are removed."""
+    def load(self, card: str,
+             check: Callable[[dict[str, Any]], object] | None = None) -> dict[str, Any] | None:
+        """The saved image, or None when the card never saved one or its image is unreadable
+        or refused by `check` (which raises ValueError or TypeError naming what is wrong): the
+        card then starts from its power-on defaults, as a real card does after a flash checksum
+        error. Such an image is kept beside, as `<card>.nvram.corrupt`, and temporary files
+        left by a save that was killed are removed."""
         for stale in self.dir.glob(f".{card}.*"):
             stale.unlink(missing_ok=True)
         path = self.path(card)
@@ -65,14 +73,30 @@ class NvramStore:
             image = msgpack.unpackb(data, raw=False, strict_map_key=False)
         except Exception as exc:  # msgpack raises several unrelated types for bad input
             image = exc
-        if isinstance(image, dict):
-            return image
+        if not isinstance(image, dict):
+            self.quarantine(card, "unreadable",
+                            str(image) if isinstance(image, Exception) else "not a map")
+            return None
+        if check is not None:
+            try:
+                check(image)
+            except (ValueError, TypeError) as exc:
+                self.quarantine(card, "invalid", str(exc))
+                return None
+        return image
+
+    def quarantine(self, card: str, kind: str, reason: str) -> None:
+        """The card's image is no good (`kind`: unreadable, invalid; `reason`): kept as
+        `<card>.nvram.corrupt` (replacing an older one), logged; the card starts from its
+        defaults."""
+        path = self.path(card)
         kept = path.with_name(path.name + ".corrupt")
-        os.replace(path, kept)
-        log.warning("%s: unreadable flash image (%s); %s starts from its defaults, the image is "
-                    "kept as %s", path, image if isinstance(image, Exception) else "not a map",
-                    card, kept.name)
-        return None
+        try:
+            os.replace(path, kept)
+        except FileNotFoundError:
+            return
+        log.warning("%s: %s flash image (%s); %s starts from its defaults, the image is kept "
+                    "as %s", path, kind, reason, card, kept.name)
 
 
 #: seconds a writer waits for more images of a burst before it writes the last

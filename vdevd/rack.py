@@ -25,7 +25,7 @@ from vdevd.bounds import (
     check_rep_work,
 )
 from vdevd.devices.base import Card
-from vdevd.errors import ErrorCode, VdevError
+from vdevd.errors import ErrorCode, StartError, VdevError
 from vdevd.irq import IrqEvent
 from vdevd.metrics import Samples, TaggedSamples
 from vdevd.pacing import ClockMode, Pacer, Waker
@@ -42,7 +42,7 @@ from vdevd.region import Region
 from vdevd.rt import kernel
 from vdevd.rt.scheduler import Scheduler
 from vdevd.shm import Segment
-from vdevd.waits import Reply, Waiter, Waits, make_waiter
+from vdevd.waits import MAX_PENDING, Reply, Waiter, Waits, make_waiter, value_wait
 
 log = logging.getLogger("vdevd.rack")
 
@@ -159,9 +159,14 @@ class Rack:
         self.pacer.start(loop)
 
     async def open_services(self) -> None:
-        """Each card's own listeners (e.g. the PMAC Ethernet port), after `start`."""
-        for card in self.cards.values():
-            await card.open_services()
+        """Each card's own listeners (e.g. the PMAC Ethernet port), after `start`; a listener
+        that cannot start is a `StartError` naming the card as the configuration counts it
+        (`card[2] (pmac0) ethernet: 127.0.0.1:1025 already in use`)."""
+        for i, card in enumerate(self.cards.values()):
+            try:
+                await card.open_services()
+            except StartError as exc:
+                raise StartError(f"card[{i}] ({card.name}) {exc}") from None
 
     async def close_services(self) -> None:
         for card in self.cards.values():
@@ -394,6 +399,12 @@ class Rack:
                 i += 1
                 continue
             if op.op == "wait":
+                quick = None if len(self.waits.pending) >= MAX_PENDING else value_wait(
+                    op.args, self.cards, regions, self.now_ns)
+                if type(quick) is dict:  # a wait on a value that holds: Waits.add's answer
+                    append(quick)
+                    i += 1
+                    continue
                 # until _add_waiter returns, a result is kept here and this loop goes on
                 now: list[Any] = []
 
@@ -410,12 +421,17 @@ class Rack:
                         except Exception as exc:  # from Waits.service: no execute() around it
                             reply(self._internal(exc, f"batch op {i + 1}.."))
 
-                try:
-                    waiter = self._make_waiter(op.args, resume)
-                except VdevError as exc:
-                    raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
                 now.append(None)
-                self._add_waiter(waiter)
+                if isinstance(quick, Waiter):  # made in a few operations, known not to hold
+                    quick.reply = resume
+                    self.waits.keep(quick)
+                    self.pacer.waiting()
+                else:
+                    try:
+                        waiter = self._make_waiter(op.args, resume)
+                    except VdevError as exc:
+                        raise VdevError(exc.code, f"batch op {i}: {exc.message}") from None
+                    self._add_waiter(waiter)
                 res = now.pop()
                 if res is None:
                     return  # the wait goes on: resume runs the rest

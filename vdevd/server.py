@@ -18,7 +18,7 @@ import msgpack
 import zmq
 
 from vdevd import protocol
-from vdevd.errors import ErrorCode, StartError, VdevError
+from vdevd.errors import ErrorCode, VdevError
 from vdevd.heartbeat import PERIOD_NS as HEARTBEAT_NS
 from vdevd.heartbeat import TOPIC as HEARTBEAT_TOPIC
 from vdevd.heartbeat import Heartbeat
@@ -41,12 +41,13 @@ _READ_TAG = OP_TAGS["read"]
 
 
 def _bind(sock: zmq.Socket, endpoint: str, key: str) -> None:
-    """Bind `sock`; a `StartError` naming the configuration key when it cannot be."""
+    """Bind `sock`; when it cannot be, the `ZMQError` names the configuration key (`vdevd
+    serve` exits 1 on it: a port in use may be free at a restart)."""
     try:
         sock.bind(endpoint)
     except zmq.ZMQError as exc:
         reason = zmq.strerror(exc.errno) if exc.errno is not None else str(exc)
-        raise StartError(f"{key} {endpoint}: {reason}") from None
+        raise zmq.ZMQError(exc.errno, f"{key} {endpoint}: {reason}") from None
 
 
 class Publisher:

@@ -114,6 +114,45 @@ def make_waiter(args: Mapping[str, Any], card: Card, region: Callable[[str], Reg
     return w
 
 
+def value_wait(args: Mapping[str, Any], cards: Mapping[str, Card],
+               regions: Mapping[tuple[str, str], Region], now_ns: int
+               ) -> dict[str, Any] | Waiter | None:
+    """A batch's wait on a value (`args` of a validated `wait`) in a few operations, when every
+    field is one `make_waiter` accepts: what `Waits.add` answers at once if its condition holds
+    now ({fired, value, now_ns}: an RTC post's first wait, for the idle 3C2h), else its waiter as
+    `make_waiter` makes it, with no `reply` yet (the caller sets it, then adds it). None for
+    anything else (another kind of wait, a field `make_waiter` refuses, a card or region not
+    there): `make_waiter` and `Waits.add` then take it as always, and raise what they raise."""
+    if args.get("on") != "value":
+        return None
+    name = args.get("card")
+    card, region = cards.get(name), regions.get((name, args.get("region")))  # type: ignore[arg-type]
+    size = args.get("size", 4)
+    if card is None or region is None or "offset" not in args or "value" not in args \
+            or size not in (1, 2, 4, 8):
+        return None
+    full = (1 << (8 * size)) - 1
+    mask, value, cmp, timeout = (args.get("mask", full), args["value"], args.get("cmp", "eq"),
+                                 args["timeout_ns"])
+    if not 0 <= timeout <= MAX_WAIT_NS or cmp not in ("eq", "ne") or not 0 <= mask <= full \
+            or value & ~mask:
+        return None
+    offset = args["offset"]
+    try:
+        raw = region.get_peek(offset, size)  # (make_waiter's bounds check)
+    except VdevError:  # out of bounds: make_waiter says so
+        return None
+    equal = cmp == "eq"
+    if ((raw & mask) == value) == equal:
+        return {"fired": True, "value": raw, "now_ns": now_ns}
+    return Waiter(now_ns + timeout, _UNSET, card=card, on="value", region=region, offset=offset,
+                  size=size, mask=mask, value=value, equal=equal)
+
+
+def _UNSET(result: Any) -> None:
+    raise AssertionError("value_wait's waiter was added without its reply")
+
+
 class Waits:
     """The pending waiters and the timer heap, answered in simulated time."""
 
@@ -143,6 +182,13 @@ class Waits:
             return False
         self.pending.append(w)
         return True
+
+    def keep(self, w: Waiter) -> None:
+        """`add` of a waiter known not to hold now (`value_wait` made it after looking): kept,
+        BUSY beyond MAX_PENDING."""
+        if len(self.pending) >= MAX_PENDING:
+            raise VdevError(ErrorCode.BUSY, f"more than {MAX_PENDING} waits pending")
+        self.pending.append(w)
 
     def schedule_control(self, when_ns: int, card: Card, action: str,
                          params: Mapping[str, Any], done: Callable[[], None] | None = None) -> None:
@@ -197,8 +243,11 @@ class Waits:
 
     def any_fired(self) -> bool:
         """Whether a waiter resolves now; one whose condition raises does (`service` answers it)."""
-        try:
-            return any(w.fired() is not None for w in self.pending)
+        try:  # a loop, not any() of a generator: the lockstep drive asks after every tick
+            for w in self.pending:  # noqa: SIM110
+                if w.fired() is not None:
+                    return True
+            return False
         except Exception:
             return True
 

@@ -44,6 +44,9 @@ CARD_TYPE = "galil-dmc13x8"
 REGION = "a16"
 WRITE_BURST = DEFAULT_ALMOST_FULL  # bytes allowed after bit 4 reads 0 [M Ch4]
 TERMINATORS = b";\r"
+#: the longest command (text between terminators) the command FIFO takes whole with its
+#: terminator [M Ch4 Introduction: 512 characters]; the card answers a longer one `?`, TC 5
+MAX_COMMAND = FIFO_SIZE - 1
 REPLY_ENDS = b":?"
 FIRST_READS = 32  # reply bytes read per command in the first batch of a line not seen before
 MEMO_SIZE = 256  # commands whose reply length is remembered
@@ -191,6 +194,20 @@ class DmcBus:
                 and len(data) <= WRITE_BURST):
             self._learn_quick(data, replies)
         return reply
+
+    def command_line(self, data: bytes, replies: int) -> Reply:
+        """`command` for a line the command FIFO may not hold whole: in pieces of whole commands
+        (`fifo_pieces`), each sent once the replies of the one before have come, so the card
+        never waits for room to reply while the host waits for room to write."""
+        if len(data) <= FIFO_SIZE:
+            return self.command(data, replies)
+        got = b""
+        for piece in fifo_pieces(data):
+            reply = self.command(piece, terminators(piece), memo=False)
+            got += reply.data
+            if reply.timed_out:
+                return Reply(got, timed_out=True)
+        return Reply(got)
 
     def _quick_command(self, data: bytes, quick: tuple[Prepared, int, int]) -> Reply:
         """`command` in the common state with its prebuilt batch [the line's bytes, its reply
@@ -408,6 +425,30 @@ def _count(data: bytes | bytearray) -> int:
 def terminators(command: bytes) -> int:
     """Commands in a line: one per ';' or CR [DMCLIB DMCCommand]."""
     return command.count(b";") + command.count(b"\r")
+
+
+def fifo_pieces(line: bytes) -> list[bytes]:
+    """`line` cut after terminators into pieces of at most FIFO_SIZE bytes (a command longer
+    than MAX_COMMAND, which no piece holds, is `too_long`)."""
+    pieces: list[bytes] = []
+    start = end = 0
+    for k, byte in enumerate(line):
+        if byte in TERMINATORS:
+            if k + 1 - start > FIFO_SIZE and end > start:
+                pieces.append(line[start:end])
+                start = end
+            end = k + 1
+    if end > start and len(line) - start > FIFO_SIZE:
+        pieces.append(line[start:end])
+        start = end
+    return [*pieces, line[start:]] if start < len(line) else pieces
+
+
+def too_long(line: bytes) -> bool:
+    """A command of `line` the command FIFO cannot take whole (longer than MAX_COMMAND): no
+    client sends it, the card would answer it `?` (TC 5 "Input buffer full")."""
+    return len(line) > MAX_COMMAND and any(
+        len(command) > MAX_COMMAND for command in line.replace(b";", b"\r").split(b"\r"))
 
 
 # -- the data record, revision 4 (`QZ` -> axes,24,16,28) [DMCLIB dmcdrc.h; M Ch4 memory map] -------

@@ -8,8 +8,9 @@ Nothing here talks to a daemon; `vdevclient.mx4` posts what `encode` returns. Th
 
 from __future__ import annotations
 
+import operator
 import struct
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -241,8 +242,9 @@ def encode(name: str, head: Mapping[str, Any] | None = None, **per_axis: PerAxis
     from 0 for axis 1, or one value for all). A list longer than the 57-byte window is split by
     axes into several posts (spec Q-3); every post of one call starts within one sample of the
     first. Signed fields take a two's complement pattern too (FFAA0000h as well as -5636096)."""
-    layout = _layout(name)
-    head = dict(head or {})
+    layout = _LAYOUTS.get(name) or _layout(name)
+    if head is None:  # (read, never changed: not copied)
+        head = {}
     if head.keys() != layout.head_names or per_axis.keys() != layout.group_names:
         raise TypeError(f"{name} takes {sorted(layout.head_names)} and per axis "
                         f"{sorted(layout.group_names)}, not {sorted(head)} and {sorted(per_axis)}")
@@ -253,15 +255,24 @@ def encode(name: str, head: Mapping[str, Any] | None = None, **per_axis: PerAxis
     if not 0 <= mask <= 0xFF:
         raise ValueError(f"{name}: mask {mask:#x} outside 00h..FFh")
     axes = _AXES_OF[mask] if type(mask) is int else [a for a in range(MAX_AXES) if mask >> a & 1]
-    order = layout.group_order
-    columns = [per_axis[f] for f in order]
-    # one value for every axis (an int) is taken as it is; a sequence through _axis_value
-    rows = [[values if type(values) is int else _axis_value(name, f, values, a)
-             for f, values in zip(order, columns, strict=True)]
-            for a in axes]
+    columns = tuple(zip(layout.group_order, layout.group_values(per_axis), strict=True))
     per_post = layout.per_post
     if 0 < per_post >= len(axes):  # one post (the usual case): its mask is the mask given
-        return [Post(name, rtc.code, layout.pack(head, rows))]
+        # the values in DPR order, straight: one value for every axis (an int) as it is, an int
+        # of a list as it is, anything else through _axis_value
+        values = list(layout.head_values(head))
+        append = values.append
+        for a in axes:
+            for f, v in columns:
+                if type(v) is int:
+                    append(v)
+                elif type(v) is list and a < len(v) and type(v[a]) is int:
+                    append(v[a])
+                else:
+                    append(_axis_value(name, f, v, a))
+        return [Post(name, rtc.code, layout.pack_values(values, len(axes), head))]
+    rows = [[v if type(v) is int else _axis_value(name, f, v, a) for f, v in columns]
+            for a in axes]
     return [Post(name, rtc.code, layout.pack({**head, rtc.mask: sum(1 << a for a in axes[i:i + per_post])},
                                              rows[i:i + per_post]))
             for i in range(0, max(len(axes), 1), per_post)]
@@ -275,34 +286,46 @@ class _Layout:
         self.head_order = [n for n, _ in rtc.head]
         self.group_order = [n for n, _ in rtc.group]
         self.head_names = frozenset(self.head_order)
+        #: a mapping's head (group) values in DPR order, as a tuple (C-level itemgetters)
+        self.head_values = _getter(self.head_order)
+        self.group_values = _getter(self.group_order)
         self.group_names = frozenset(self.group_order) if rtc.mask is not None else frozenset()
         self.per_post = (ARG_BYTES - rtc.head_size) // rtc.group_size if rtc.group else 0
         self._codes = [c for _, c in rtc.head] + [c for _, c in rtc.group] * MAX_AXES
-        #: (position, code) of the signed fields among `_codes`
-        self._signed = [(i, c) for i, c in enumerate(self._codes) if c in _WRAP]
+        #: (position, 2^(bits-1), 2^bits) of the signed fields among `_codes`
+        self._signed = [(i, _HALF[c], _WRAP[c]) for i, c in enumerate(self._codes) if c in _WRAP]
         self._structs: dict[int, struct.Struct] = {}
 
-    def pack(self, head: dict[str, Any], rows: list[list[Any]]) -> bytes:
+    def pack(self, head: Mapping[str, Any], rows: list[list[Any]]) -> bytes:
         """The head and `rows` (one list of group values per group) as the DPR's bytes, signed
         fields taking two's complement patterns; a value that does not fit is a ValueError."""
-        k = len(rows)
+        return self.pack_values([head[n] for n in self.head_order] + [v for row in rows for v in row],
+                                len(rows), head)
+
+    def pack_values(self, values: list[Any], k: int, head: Mapping[str, Any]) -> bytes:
+        """`pack` of the head's values then `k` groups' in DPR order (`values`); `head` names
+        the fields in the error."""
         packer = self._structs.get(k)
         if packer is None:
             packer = self._structs[k] = struct.Struct("<" + "".join(
                 self._codes[:len(self.head_order) + k * len(self.group_order)]))
-        values = [head[n] for n in self.head_order] + [v for row in rows for v in row]
-        for i, c in self._signed:  # signed fields take a two's complement pattern too
-            if i >= len(values):
+        n = len(values)
+        given = values
+        for i, half, wrap in self._signed:  # signed fields take a two's complement pattern too
+            if i >= n:
                 break
             v = values[i]
-            if _HALF[c] <= v < _WRAP[c]:
-                values[i] = v - _WRAP[c]
+            if half <= v < wrap:
+                if values is given:
+                    values = list(given)
+                values[i] = v - wrap
         try:
             return packer.pack(*values)
         except struct.error:
-            raise self._unfit(head, rows) from None
+            g, h = len(self.group_order), len(self.head_order)
+            raise self._unfit(head, [given[i:i + g] for i in range(h, n, g)] if g else []) from None
 
-    def _unfit(self, head: dict[str, Any], rows: list[list[Any]]) -> ValueError:
+    def _unfit(self, head: Mapping[str, Any], rows: list[list[Any]]) -> ValueError:
         fields = list(head.items()) + [(f, v) for row in rows for f, v in zip(self.group_order, row,
                                                                                strict=True)]
         codes = dict(self.rtc.head) | dict(self.rtc.group)
@@ -315,6 +338,16 @@ class _Layout:
                     return ValueError(f"{self.rtc.name}: {f} = {v} does not fit "
                                       f"{'a signed' if c.islower() else 'an unsigned'} {bits}-bit field")
         return ValueError(f"{self.rtc.name}: the values {fields} do not fit its layout")
+
+
+def _getter(names: list[str]) -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
+    """A mapping's values of `names`, in order, as a tuple."""
+    if len(names) == 1:
+        one = names[0]
+        return lambda d: (d[one],)
+    if not names:
+        return lambda d: ()
+    return operator.itemgetter(*names)
 
 
 _WRAP = {c: 1 << b for c, b in _BITS.items() if c.islower()}

@@ -85,6 +85,7 @@ class _Device:
         self.scale: dict[int, float] = {}  # motor -> Ixx08 * 32
         self.interrupts: _Interrupts | None = None
         self.gather: Any = None  # PmacCollectGatherData's upload (_pcomm_gather.py)
+        self.vbg: Any = None  # the variable read buffer's users (_pcomm_dprvar.py)
         self.drain()
 
     # -- ops and batches ----------------------------------------------------------------------------

@@ -11,6 +11,11 @@ float) or the raw I50nn value `$8000B`; PmacStartGather/PmacStopGather answer 1 
 took the command, else 0; gathered values are the registers' own units (a 24-bit word as a signed
 integer, a D: word as a signed 48-bit integer, an L: word as its float): Gather.h's
 `dGatherScale` rules were not retrieved.
+
+With I5000 = 2 or 3 (GAT_DPR_NOWRAP, GAT_DPR_WRAP) the card gathers into the DPRAM (its README
+"Data gathering"): PmacInitGather sizes the buffer in 32-bit DPRAM words (no pad word) and
+PmacCollectGatherData reads the samples from 0x1140 up to the next-item offset at 0x113E
+(`_pcomm_dprgather.py`).
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ from vdevclient._cargs import target as _target
 from vdevclient._cargs import text as _text
 from vdevclient._pcomm_codes import COMM_EOT
 from vdevclient._pcomm_device import _Device, _guarded, _number
+from vdevclient._pcomm_dprgather import dpram_samples
 from vdevclient._pmac_bus import join48, pmac_float, sign24
 
 MAXGATHERS2 = 48
@@ -157,7 +163,7 @@ def PmacGetGatherMode(dev: _Device) -> int:
 
 @_guarded(False)
 def PmacSetGatherMode(dev: _Device, mode: int) -> bool:
-    """I5000 := mode; the DPRAM modes are refused by the card (README "Not emulated")."""
+    """I5000 := mode (0-3: GAT_RAM_NOWRAP ... GAT_DPR_WRAP)."""
     return _ok(dev, f"I5000={int(mode)}")
 
 
@@ -169,7 +175,8 @@ def PmacInitGather(dev: _Device, size: int, msec: float) -> bool:
     if not words or int(size) < 1:
         return False
     PmacSetGatherSampleTime(dev.number, msec)
-    return _ok(dev, "DELETE GATHER") and _ok(dev, f"DEFINE GATHER {(words + 1) // 2 * int(size)}")
+    reserve = words * int(size) if _ivar(dev, 5000) >= 2 else (words + 1) // 2 * int(size)
+    return _ok(dev, "DELETE GATHER") and _ok(dev, f"DEFINE GATHER {reserve}")
 
 
 @_guarded(False)
@@ -212,12 +219,19 @@ def PmacCollectGatherData(dev: _Device, sources: Any, samples: Any) -> bool:
     """Upload the buffer (LIST GATHER) and split it by the enabled sources; the number of
     sources and of samples into `sources` and `samples` (c_uint, byref, or a list)."""
     enabled = _enabled(dev)
-    data, status = dev.response(b"LIST GATHER")
-    if status != COMM_EOT or not enabled:
-        return False
-    stream = [int(part, 16) for tok in data.decode("latin-1").split() for part in (tok[6:], tok[:6])]
     sizes = [2 if v >> 23 else 1 for _, v in enabled]
-    per_sample = sum(sizes) + sum(sizes) % 2
+    if not enabled:
+        return False
+    if _ivar(dev, 5000) >= 2:  # the DPRAM buffer: no pad word
+        per_sample = sum(sizes)
+        stream = dpram_samples(dev, per_sample)
+    else:
+        data, status = dev.response(b"LIST GATHER")
+        if status != COMM_EOT:
+            return False
+        stream = [int(part, 16) for tok in data.decode("latin-1").split()
+                  for part in (tok[6:], tok[:6])]
+        per_sample = sum(sizes) + sum(sizes) % 2
     count = len(stream) // per_sample
     values: dict[int, list[float]] = {k: [] for k, _ in enabled}
     for i in range(count):

@@ -43,6 +43,7 @@ from vdevclient._galil_bus import (
     record_size,
     standard_type,
     terminators,
+    too_long,
 )
 from vdevclient.core import Rack, connect
 from vdevclient.errors import VdevClientError
@@ -154,15 +155,16 @@ def _ascii_command(command: Any) -> bytes:
 
 
 def _line(c: _Controller, command: Any) -> tuple[bytes, int]:
-    """The line DMCCommand sends for `command` and the replies it waits for (one per ';' or CR);
-    a str or bytes command's is remembered (a host repeats its polls), the oldest going first."""
+    """The line DMCCommand sends for `command` and the replies it waits for (one per ';' or CR;
+    -1: a command of it is longer than the command FIFO takes, `too_long`); a str or bytes
+    command's is remembered (a host repeats its polls), the oldest going first."""
     if type(command) is not str and type(command) is not bytes:
         data = _ascii_command(command)
-        return data, terminators(data)
+        return data, -1 if too_long(data) else terminators(data)
     line = c.lines.get(command)
     if line is None:
         data = _ascii_command(command)
-        line = (data, terminators(data))
+        line = (data, -1 if too_long(data) else terminators(data))
         if len(c.lines) >= LINES_MEMO_SIZE:
             del c.lines[next(iter(c.lines))]
         c.lines[command] = line
@@ -292,11 +294,16 @@ def DMCClose(hdmc: Any) -> int:
 @_guarded
 def DMCCommand(hdmc: Any, pszCommand: Any, pchResponse: Any, cbResponse: int) -> int:
     """Send an ASCII command line (CR appended unless it ends in CR or ';') and read the reply
-    until one ':' or '?' per command; '?' gives DMCERROR_COMMAND (DMCError tells why)."""
+    until one ':' or '?' per command; '?' gives DMCERROR_COMMAND (DMCError tells why). A line
+    longer than the command FIFO goes in pieces of whole commands; a command longer than the
+    FIFO takes (511 characters) is not sent: DMCERROR_ARGUMENT."""
     c = _handle(hdmc)
     if c is None:
         return DMCERROR_HANDLE
-    return _reply(c, c.bus.command(*_line(c, pszCommand)), pchResponse, cbResponse)
+    data, replies = _line(c, pszCommand)
+    if replies < 0:
+        return DMCERROR_ARGUMENT
+    return _reply(c, c.bus.command_line(data, replies), pchResponse, cbResponse)
 
 
 def command_text(hdmc: Any, command: Any, size: int) -> tuple[int, bytes]:
@@ -306,7 +313,10 @@ def command_text(hdmc: Any, command: Any, size: int) -> tuple[int, bytes]:
         c = _handle(hdmc)
         if c is None:
             return DMCERROR_HANDLE, b""
-        reply = c.bus.command(*_line(c, command))
+        data, replies = _line(c, command)
+        if replies < 0:
+            return DMCERROR_ARGUMENT, b""
+        reply = c.bus.command_line(data, replies)
     except (VdevClientError, zmq.ZMQError) as exc:
         log.warning("DMCCommand: %s", exc)
         return DMCERROR_DRIVER, b""
@@ -323,6 +333,8 @@ def DMCFastCommand(hdmc: Any, pszCommand: Any) -> int:
     if c is None:
         return DMCERROR_HANDLE
     command = _ascii_command(pszCommand)
+    if too_long(command):
+        return DMCERROR_ARGUMENT
     c.bus.send(command, terminators(command))
     return DMCNOERROR
 

@@ -182,8 +182,12 @@ class py:
             self._gcon = ctypes.c_long(0)
 
     def GCommand(self, command: str) -> str:
-        """Send a command and return its reply trimmed of the final ':' and of whitespace."""
+        """Send a command and return its reply trimmed of the final ':' and of whitespace; a
+        command longer than the card's command FIFO takes (511 characters) is not sent:
+        "value passed to function was bad or out of range"."""
         rc, text = galil.command_text(self._gcon, command, _BUF_SIZE)
+        if rc == galil.DMCERROR_ARGUMENT:  # a command longer than the command FIFO takes
+            _rc(G_BAD_VALUE_RANGE)
         _rc(rc)  # no connection: DMCERROR_HANDLE, "connection to hardware not established"
         response = text.decode("latin-1")
         return response[:-1].strip() if response.endswith(":") else response.strip()

@@ -97,6 +97,35 @@ from vdevclient._pcomm_dpr import (
     PmacDPRSetFloat,
     PmacDPRSetMem,
 )
+from vdevclient._pcomm_dprrot import (  # the binary rotary buffer, I45 [PComm32 dpr.h rotbuf]
+    DprBufBsy,
+    DprBufErr,
+    DprCmdErr,
+    DprEOF,
+    DprOk,
+    PmacDPRAsciiStrToRotA,
+    PmacDPRRotBuf,
+    PmacDPRRotBufChange,
+    PmacDPRRotBufInit,
+    PmacDPRRotBufRemove,
+)
+from vdevclient._pcomm_dprvar import (  # DPRAM variable buffers, I55 [PComm32 dprbkg.h]
+    MAX_VBGBUF_USERS,
+    VBG_L,
+    VBG_X,
+    VBG_Y,
+    PmacDPRBackGroundVar,
+    PmacDPRGetVBGNumEntries,
+    PmacDPRGetVBGServoTimer,
+    PmacDPRGetVBGTotalEntries,
+    PmacDPRVarBufChange,
+    PmacDPRVarBufInit,
+    PmacDPRVarBufRead,
+    PmacDPRVarBufReadEx,
+    PmacDPRVarBufRemove,
+    PmacDPRWriteBuffer,
+    VBGWFormat,
+)
 from vdevclient._pcomm_gather import (  # data gathering [PComm32 Gather.h]
     GAT_DPR_NOWRAP,
     GAT_DPR_WRAP,
@@ -167,6 +196,14 @@ __all__ = [
     "PmacSetGatherSampleTime",
     "PmacStartGather",
     "PmacStopGather",
+    # DPRAM variable buffers, I55 (_pcomm_dprvar.py)
+    "MAX_VBGBUF_USERS", "VBG_L", "VBG_X", "VBG_Y", "VBGWFormat", "PmacDPRBackGroundVar",
+    "PmacDPRGetVBGNumEntries", "PmacDPRGetVBGServoTimer", "PmacDPRGetVBGTotalEntries",
+    "PmacDPRVarBufChange", "PmacDPRVarBufInit", "PmacDPRVarBufRead", "PmacDPRVarBufReadEx",
+    "PmacDPRVarBufRemove", "PmacDPRWriteBuffer",
+    # the binary rotary buffer, I45 (_pcomm_dprrot.py)
+    "DprBufBsy", "DprBufErr", "DprCmdErr", "DprEOF", "DprOk", "PmacDPRAsciiStrToRotA",
+    "PmacDPRRotBuf", "PmacDPRRotBufChange", "PmacDPRRotBufInit", "PmacDPRRotBufRemove",
 ]
 
 log = logging.getLogger(__name__)

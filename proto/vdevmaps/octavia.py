@@ -276,18 +276,21 @@ class Truncated(ValueError):
 def unpack(rtc: Rtc, args: bytes | memoryview) -> tuple[dict[str, Any], list[tuple[int, dict[str, Any]]]]:
     """Decode `args` (the bytes from 3C3h on): the head fields and (axis, group fields) per
     group. Truncated when `args` is too short."""
-    hs = rtc._head_size
-    if len(args) < hs:
-        raise Truncated(f"{rtc.name}: {len(args)} argument bytes, the head needs {hs}")
+    hs, size = rtc._head_size, len(args)
+    if size < hs:
+        raise Truncated(f"{rtc.name}: {size} argument bytes, the head needs {hs}")
     head = dict(zip(rtc._head_names, struct.unpack_from(rtc._head_fmt, args), strict=True))
     axes = rtc.groups(head)
     gs = rtc._group_size
     need = hs + len(axes) * gs
-    if len(args) < need:
-        raise Truncated(f"{rtc.name}: {len(args)} argument bytes, {len(axes)} groups need {need}")
+    if size < need:
+        raise Truncated(f"{rtc.name}: {size} argument bytes, {len(axes)} groups need {need}")
     names, fmt = rtc._group_names, rtc._group_fmt
-    groups = [(a, dict(zip(names, struct.unpack_from(fmt, args, hs + i * gs), strict=True)))
-              for i, a in enumerate(axes)]
+    groups = []  # (a loop: the card unpacks every RTC it takes)
+    at = hs
+    for a in axes:
+        groups.append((a, dict(zip(names, struct.unpack_from(fmt, args, at), strict=True))))
+        at += gs
     return head, groups
 
 

@@ -57,8 +57,67 @@ BG_CS, BG_CS_SIZE = 0x069C, 128  # $0601A7 + $20(s-1): thirty-two 32-bit words p
 #: (`??` word 3, word 1), 9 axis positions (48-bit), program status (`??` word 2), remaining
 #: program lines, move time left, TA/TS time left, executing line, 3 spares
 CS_FEED, CS_TIMEBASE, CS_STATUS3, CS_STATUS1, CS_STATUS2 = 0, 2, 4, 5, 24
+#: the time-base pointer (bits 0-18 the address of the % source, 21 slewing, 22 feed hold), the
+#: first axis position (A; Z at +16), lines remaining, move time left, TA/TS time left, executing
+#: line [dprbkg.h backcTURBO fdptr, cpos, pr, timrem, tats, pe; bkfdptrTURBO]
+CS_FDPTR, CS_AXES, CS_PR, CS_TIMREM, CS_TATS, CS_PE = 3, 6, 25, 26, 27, 28
+FDPTR_SLEW, FDPTR_HOLD = 1 << 21, 1 << 22
 CS_COUNT = 16
 READY = 0x8000  # bit 15 of the host-busy and data-ready words
+
+# -- the background variable read and write buffers, I55 [UM p.407-410; EPICS tpmac drvPmac.c
+# drvPmacVarSetup/drvPmacVarRead; PComm32 dprbkg.h `backgvar`, `backgvarwrite`] --------------------
+#: read buffer: Y:$060411 control (bit 0 data ready, bit 8 multi-user mode), X:$060411 servo timer,
+#: Y:$060412 number of entries (1-128, 0 off), X:$060412 start (PMAC words from $060450)
+VB_CONTROL, VB_TIMER, VB_SIZE, VB_START = 0x1044, 0x1046, 0x1048, 0x104A
+VB_READY, VB_MULTI_USER, VB_ENTRY_READY = 0x0001, 0x0100, 0x8000
+VB_MAX_ENTRIES = 128
+#: write buffer: Y:$060413 entries to write (1-32; the card writes 0 when done), X:$060413 start
+VBW_SIZE, VBW_START = 0x104C, 0x104E
+VBW_MAX_ENTRIES = 32
+#: an address specification's second word: bits 0-2 address bits 16-18, bits 4-5 the register
+#: [EPICS drvPmac.c PMAC_VARTYP_Y/L/X = 0x00/0x10/0x20]
+VB_TYPE_Y, VB_TYPE_L, VB_TYPE_X = 0x00, 0x10, 0x20
+#: where vdevclient.pcomm puts the tables (ASSUMPTION: PComm32's placement was not retrieved):
+#: the read buffer in the last 384 words of the open-use space (128 specifications and 256 data
+#: words), the write buffer's 32 six-word entries below it; the gather buffer has the rest
+VB_CLIENT_START = (0x4000 - 0x1140) // 4 - 3 * VB_MAX_ENTRIES
+VBW_CLIENT_START = VB_CLIENT_START - 3 * VBW_MAX_ENTRIES
+
+# -- the binary rotary program buffer, I45 [PComm32 dpr.h `struct rotbuf` (its Turbo notes); PMAC1
+# DPRAM UM p.30 "DPRAM Binary Rotary Program Buffer"; Turbo UM p.45, p.402] ---------------------------
+#: Y:$060414 status (bits 0-7 error number, bit 14 the card's rotary buffer full, bit 15 error),
+#: X:$060414 coordinate system, Y:$060415 host index, X:$060415 PMAC index (32-bit words from the
+#: ring's start), Y:$060416 ring size (words), X:$060416 ring start (PMAC words from $060450)
+ROT_STATUS, ROT_CS, ROT_HOST, ROT_PMAC, ROT_SIZE, ROT_START = (0x1050, 0x1052, 0x1054, 0x1056,
+                                                                0x1058, 0x105A)
+ROT_BUSY, ROT_ERROR = 0x4000, 0x8000
+#: the end-of-buffer word the host leaves at its index after each transfer ($0800, $FFFF)
+ROT_END = 0xFFFF0800
+#: the smallest ring [PMAC1 DPRAM UM p.30: six words]
+ROT_MIN_SIZE = 6
+#: where vdevclient.pcomm puts its ring (ASSUMPTION, as VB_CLIENT_START): 256 words below the
+#: variable write table
+ROT_CLIENT_SIZE = 256
+ROT_CLIENT_START = VBW_CLIENT_START - ROT_CLIENT_SIZE
+
+
+def rot_line_words(text: str) -> list[int]:
+    """A program line as the binary rotary ring carries it here (ASSUMPTION: Delta Tau's binary
+    command coding was not published): a header word with its length in characters (1-255),
+    then its ASCII text four characters a 32-bit word, little-endian, NUL-padded."""
+    data = text.encode("latin-1")[:255]
+    n = len(data)
+    data += bytes(-n % 4)
+    return [n] + [int.from_bytes(data[i:i + 4], "little") for i in range(0, len(data), 4)]
+
+# -- DPRAM data gathering, I5000 = 2 or 3 [UM p.422; Turbo SRM DEFINE GATHER; PMAC1 DPRAM UM p.26;
+# PComm32 dpr.h `gatbuf`] -----------------------------------------------------------------------------
+#: Y:$06044F buffer size (32-bit words), X:$06044F the offset (words) where the next item goes;
+#: the buffer itself from $060450
+GAT_SIZE, GAT_INDEX, GAT_BUFFER = 0x113C, 0x113E, OPEN_USE
+#: 32-bit words from $060450 to the end of the 8k x 16 DPRAM ($060FFF)
+OPEN_USE_WORDS = (DPRAM_SIZE - OPEN_USE) // 4
 
 # -- the host port and interrupt controller (ASSUMPTION, §2.11: DSP563xx HI08 convention) ----------------
 HOST_SIZE = 16

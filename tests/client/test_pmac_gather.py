@@ -122,7 +122,6 @@ def test_pcomm_gather_functions_upload_scaled_as_the_registers(host: Pmac) -> No
     assert pcomm.PmacGetGatherSampleTime(dev) == pytest.approx(3 * servo_ms)
     assert pcomm.PmacInitPlotGather(dev, 50, 3)
     assert pcomm.PmacGetGatherMode(dev) == pcomm.GAT_RAM_NOWRAP
-    assert not pcomm.PmacSetGatherMode(dev, pcomm.GAT_DPR_NOWRAP)  # not emulated: ERR003
     out = ctypes.create_string_buffer(64)
     pcomm.PmacGetResponseA(dev, out, 64, "P1=2.5 I122=50 I119=5 I120=1 I121=0 #1J+")
     assert pcomm.PmacStartGather(dev) == 1

@@ -50,8 +50,9 @@ class MotionCore:
 
     def __init__(self, n: int, dt_ns: float, plant: PlantKind | Sequence[PlantKind] = PlantKind.SERVO,
                  compiled: bool | None = None) -> None:
-        """`compiled`: tick with the compiled kernel (vdevd.rt.kernel); None: when it is
-        available (numba installed, VDEVD_JIT not 0), False: the numpy path."""
+        """`compiled`: tick with the compiled kernel (vdevd.rt.kernel) and plan trapezoids with
+        the compiled planner (vdevd.rt.profile_kernel); None: when they are available (numba
+        installed, VDEVD_JIT not 0), False: the numpy and Python paths."""
         if n < 1 or dt_ns <= 0:
             raise ValueError("need at least one axis and a positive period")
         self.n, self.dt_ns, self.dt = n, dt_ns, dt_ns / 1e9
@@ -65,7 +66,8 @@ class MotionCore:
         self.coef = c = np.zeros((kn.ROWS, n))
         self.pid = Pid(n, self.axes.pid_terms, c[kn.PID_GAINS:kn.PID_HOLD_SAT + 1])
         self.pid.set(slice(None), **default_gains(self.dt))
-        self.profile = ProfileGenerator(self.axes, self.dt, c[kn.JSTEP:kn.JSTEP + 3])
+        self.profile = ProfileGenerator(self.axes, self.dt, c[kn.JSTEP:kn.JSTEP + 3],
+                                        compiled)
         self.plant = ServoPlant(n, self.dt, c[kn.GAIN_DT:kn.COUL_DT + 1])
         self._stepper = StepperPlant(n, self.dt, c[kn.STEP_GEN:kn.STEP_LIM + 1])
         self._own_stepper = True

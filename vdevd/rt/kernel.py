@@ -158,22 +158,28 @@ def jit_disabled() -> bool:
 def compiled() -> Kernel | None:
     """The compiled tick (loaded from numba's cache after the first compilation on this
     machine), or None when numba is missing, VDEVD_JIT=0, or compiling failed (logged once)."""
+    return _jit(tick_py, _probe_args(), "the compiled motion core", "the motion core runs its "
+                "numpy path")
+
+
+def _jit(fn: Callable[..., Any], probe: tuple[Any, ...], what: str, fallback: str) -> Any:
+    """`fn` compiled (nopython, cached beside the module) and called once on `probe`; None
+    without numba, with VDEVD_JIT=0, or when compiling fails (logged)."""
     if jit_disabled():
         return None
     try:
         import numba
     except ImportError:
-        log.info("numba is not installed: the motion core runs its numpy path")
+        log.info("numba is not installed: %s", fallback)
         return None
-    probe = _probe_args()
     for cache_it in (True, False):  # an unwritable cache directory: compile for this process
         try:
-            fn = numba.njit(cache=cache_it, nogil=True, boundscheck=False)(tick_py)
-            fn(*probe)
-            return fn
-        except Exception as exc:  # noqa: BLE001 - any failure: the numpy path serves
+            jitted = numba.njit(cache=cache_it, nogil=True, boundscheck=False)(fn)
+            jitted(*probe)
+            return jitted
+        except Exception as exc:  # noqa: BLE001 - any failure: the Python path serves
             failure = exc
-    log.warning("the compiled motion core is unavailable (%s): running the numpy path", failure)
+    log.warning("%s is unavailable (%s): %s", what, failure, fallback)
     return None
 
 

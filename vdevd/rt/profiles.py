@@ -4,9 +4,12 @@ Method. A command plans, from the axis's commanded state (p, v, a) at that insta
 *phases* of constant jerk (trapezoid: jerk 0 and a step in acceleration; S-curve: the seven
 jerk-limited segments) with absolute start times. Planning is scalar Python at command time, for
 the commanded axes only (a trapezoid's peak speed in closed form, an S-curve's by bisection); the
-phases go into per-axis rows of a phase table (MAX_PHASES columns). From a moving state a move
-first brings the acceleration to zero (S-curve), and if it cannot stop before the target it stops
-(with dec) and comes back: a retarget behind the axis reverses within the same bounds.
+phases go into per-axis rows of a phase table (MAX_PHASES columns). A trapezoid move's chain
+(`plan_move`, `to_phases`, `load`) and the commit after a plan run as one compiled call each
+(vdevd.rt.profile_kernel, the same operations; this module's Python is their reference). From a
+moving state a move first brings the acceleration to zero (S-curve), and if it cannot stop before
+the target it stops (with dec) and comes back: a retarget behind the axis reverses within the same
+bounds.
 
 Each tick is vectorised over all axes with no Python loop:
 - while no phase boundary is due (one Python float compare against the earliest end over all
@@ -31,9 +34,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from vdevd.rt import profile_kernel as pk
 from vdevd.rt.axes import Axes, ProfileMode
 
 INF = math.inf
+_TRAPEZOID = int(ProfileMode.TRAPEZOID)
 _nonzero = np.count_nonzero
 _min = np.minimum.reduce
 
@@ -173,9 +178,12 @@ class ProfileGenerator:
     at rest has not ended, or while a jog runs.
     """
 
-    def __init__(self, axes: Axes, dt: float, jstep: np.ndarray | None = None) -> None:
+    def __init__(self, axes: Axes, dt: float, jstep: np.ndarray | None = None,
+                 compiled: bool | None = None) -> None:
         """`jstep`: where the (3, n) jerk step lives (rows of a motion core's coefficient
-        block; its own otherwise)."""
+        block; its own otherwise). `compiled`: plan trapezoid moves and commit with the compiled
+        calls (vdevd.rt.profile_kernel); None: when they are available, False: in Python and
+        numpy (the reference)."""
         n = axes.n
         self.axes = axes
         self.t = 0.0
@@ -186,14 +194,11 @@ class ProfileGenerator:
         self.pt0, self.pend, self.pp0, self.pv0, self.pa0, self.pj = self.table
         self.pend[:] = INF
         self.k = np.zeros(n, dtype=np.intp)  # the current column of each axis
-        # the current phase of each axis
-        self.t0 = np.zeros(n)
-        self.p0 = np.zeros(n)
-        self.v0 = np.zeros(n)
-        self.a0 = np.zeros(n)
-        self.a0_3 = np.zeros(n)
-        self.j = np.zeros(n)
-        self.t_end = np.full(n, INF)
+        # the current phase of each axis: rows of one block (pk.CUR_*), which the
+        # compiled planner writes
+        self._cur = np.zeros((pk.CUR_ROWS, n))
+        (self.t0, self.t_end, self.p0, self.v0, self.a0, self.a0_3, self.j) = self._cur
+        self.t_end[:] = INF
         self.moving = np.zeros(n, dtype=bool)
         self.mode = np.zeros(n, dtype=np.int64)  # ProfileMode of each axis
         self.next_t = INF
@@ -209,6 +214,11 @@ class ProfileGenerator:
         self._tau = np.zeros(n)
         self._tmp = np.zeros(n)
         self._pva = axes.cmd_pva
+        jit = compiled is None or compiled
+        self._move = pk.move_compiled() if jit else None
+        self._commit = pk.commit_compiled() if jit else None
+        if compiled and (self._move is None or self._commit is None):
+            raise RuntimeError("the compiled profile planner is not available (numba)")
 
     def _set_matrices(self, dt: float) -> None:
         self.dt = dt
@@ -241,6 +251,15 @@ class ProfileGenerator:
     def move(self, axis: int, target: int, vmax: float, acc: float, dec: float,
              jerk: float) -> None:
         """Point-to-point to the integer `target`, from the present commanded state."""
+        if (jerk <= 0 and self._move is not None and isinstance(vmax, float)
+                and isinstance(acc, float) and isinstance(dec, float)):
+            # `plan_move`, `to_phases` and `load` compiled (ints take the Python path: its sums
+            # of ints are exact)
+            self.plans += 1
+            self._move(self.table, self._cur, self._pva, self._jstep, self._jcoef, self.k,
+                       self.moving, self.mode, axis, self.t, float(target), vmax, acc, dec,
+                       _TRAPEZOID)
+            return
         p0, v0, a0 = self.state(axis)
         if jerk <= 0:  # `_prepare`'s trapezoid case: from the state as it is
             segs = plan_move(p0, v0, float(target), vmax, acc, dec, jerk)
@@ -361,6 +380,9 @@ class ProfileGenerator:
 
     def commit(self) -> None:
         """After planning: refresh the tick's summary and evaluate the commanded state now."""
+        if self._commit is not None:  # `_refresh` and `evaluate` in one compiled call
+            self.next_t, self.jerky, self.active = self._commit(self._cur, self._pva, self.t)
+            return
         self._refresh()
         self.evaluate()
 
@@ -414,8 +436,7 @@ class ProfileGenerator:
         finished = idx[np.isinf(ends) & (self.v0[idx] == 0) & self.moving[idx]]
         self.moving[finished] = False
         self.mode[finished] = ProfileMode.IDLE
-        self._refresh()
-        self.evaluate()
+        self.commit()
         return finished
 
     def _enter(self, idx: np.ndarray) -> None:

@@ -104,7 +104,9 @@ def test_a_foreign_image_starts_the_card_from_its_defaults_with_a_warning(
     assert all(math.isfinite(v) for v in k.board_params.values.values())
 
 
-def test_an_image_of_the_4_axis_card_on_the_8_axis_card_keeps_what_fits(tmp_path: Path) -> None:
+def test_an_image_of_the_4_axis_card_on_the_8_axis_card_is_set_aside(tmp_path: Path) -> None:
+    """Rows of 4 values are no image an 8-axis card's commands make: the whole image is set
+    aside, the card starts from its defaults (issue 22 §4: no partial restore)."""
     store = NvramStore(tmp_path)
     small = new_card(store, "AMP-204C").kernel
     small.axis_params.set(1, PRA_ACC, 777.0)
@@ -112,5 +114,6 @@ def test_an_image_of_the_4_axis_card_on_the_8_axis_card_keeps_what_fits(tmp_path
     cmd_system.save_parameter_to_flash(small)
     store.save("amp0", {"flash": small.flash})
     k = new_card(store).kernel
-    assert k.axis_params.get(1, PRA_ACC) == 1e6  # 4 values for 8 axes: the row not taken
-    assert k.board_params.values[PRB_DO_LOGIC] == 1.0
+    assert k.axis_params.get(1, PRA_ACC) == 1e6
+    assert k.parameter_image() == defaults()
+    assert (tmp_path / "amp0.nvram.corrupt").exists()

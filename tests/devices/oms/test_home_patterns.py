@@ -26,6 +26,7 @@ VL, AC = 10000, 100000
 PERIOD, PHASE = 1000, 250  # index pulses at ..., -750, 250, 1250, ... (places 0-3 each)
 TYPES = ["stepper_encoder", "stepper_encoder", "servo", "stepper"]
 POWER_UP_LOADED = 0x00010004  # running, power-up set in working memory
+CHECKSUM_ERROR_FACTORY = 0x00041004  # running, archive checksum error, factory set
 
 
 @pytest.fixture
@@ -258,7 +259,9 @@ def test_an_image_without_tables_loads_with_the_factory_table(tmp_path: Path) ->
         assert maxk.query("AA HT?;") == "=1011,=1011,=1011,=1011"
 
 
-def test_a_bad_stored_table_loads_as_the_factory_table(tmp_path: Path) -> None:
+def test_a_bad_stored_table_sets_the_archive_aside(tmp_path: Path) -> None:
+    """Tables HT refuses (all ignored, too short, not text) are an image no command makes: the
+    archive is bad (issue 22 §4; a checksum error, the factory set loaded), kept as .corrupt."""
     with maxk_card(tmp_path, axis_types=TYPES) as maxk:
         maxk.send("AA HT0,0,1,1; APP;")
     store = NvramStore(tmp_path)
@@ -267,5 +270,6 @@ def test_a_bad_stored_table_loads_as_the_factory_table(tmp_path: Path) -> None:
     image["home_pattern"] = ["2222", "13", 7, "0111"]
     store.save("maxk0", image)
     with maxk_card(tmp_path, axis_types=TYPES) as maxk:
-        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == POWER_UP_LOADED
-        assert maxk.query("AA HT?;") == "=1011,=1011,=1011,=0111"
+        assert maxk.shm.read32(Shm.FIRMWARE_STATE) == CHECKSUM_ERROR_FACTORY
+        assert maxk.query("AA HT?;") == "=1011,=1011,=1011,=1011"
+    assert (tmp_path / "maxk0.nvram.corrupt").exists()

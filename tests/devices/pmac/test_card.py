@@ -268,7 +268,7 @@ def test_ethernet_port_in_use_stops_the_daemon_from_starting() -> None:
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
-        with pytest.raises(StartError, match=f"^pmac0 ethernet tcp://127.0.0.1:{port}: "
-                                              "address already in use$"), \
+        with pytest.raises(StartError, match=rf"^card\[0\] \(pmac0\) ethernet: 127.0.0.1:{port} "
+                                              "already in use$"), \
                 pmac_card(ethernet=f"tcp://127.0.0.1:{port}"):
             pass

@@ -225,8 +225,9 @@ def test_bias_returns_to_the_definition_offset_at_reset(card: Card) -> None:
 
 
 # -- commands that need programs: the card's error, the card keeps serving ------------------------------
-@pytest.mark.parametrize("line", ["&1B1", "&1R", "&1S", "&1Q"])
+@pytest.mark.parametrize("line", ["&1R", "&1S", "&1B1R", "&1B1S"])
 def test_program_commands_answer_err015_with_axes_defined(card: Card, line: str) -> None:
+    """R/S with no program to run: ERR015 "not pointing to valid program buffer" [§2.4]."""
     card.ask("&1#1->X")
     assert card.raw(line) == err(15)
     assert card.ask("&1#1->") == ["1X"]

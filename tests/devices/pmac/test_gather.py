@@ -182,12 +182,11 @@ def test_define_gather_size_out_of_range_is_err003(card: Card) -> None:
     assert not card.fw.gather.defined
 
 
-def test_gather_trigger_and_dpram_modes_are_refused(card: Card) -> None:
-    """Not emulated (README): the trigger source and the DPRAM gathering layout were not
-    retrieved (digest §2.10)."""
+def test_gather_trigger_is_refused(card: Card) -> None:
+    """Not emulated (README): the trigger source was not retrieved (digest §2.10). (The DPRAM
+    modes, I5000 = 2 and 3: test_dpram_gather.py.)"""
     card.ask(f"I5001={P1} I5050=1 DEFINE GATHER 10")
     assert card.raw("GATHER TRIGGER") == b"\x07ERR003\r"
-    assert card.raw("I5000=2") == b"\x07ERR003\r"
     assert not card.fw.gather.on
 
 

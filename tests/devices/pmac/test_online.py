@@ -283,7 +283,7 @@ def test_control_characters(card: Card) -> None:
 
 # -- not yet (README "Not yet") -----------------------------------------------------------------------
 @pytest.mark.parametrize(("line", "error"), [
-    ("OPEN PROG 1", b"ERR003"), ("&1B1R", b"ERR015"), ("MS0,I910", b"ERR008"),
+    ("OPEN PROG 0", b"ERR003"), ("&1B1R", b"ERR015"), ("MS0,I910", b"ERR008"),
     ("LIST PLCC 1", b"ERR003"),
     ("LEARN", b"ERR005"), ("#1J+^100", b"ERR003"), ("^5", b"ERR003"),
 ])

@@ -114,7 +114,7 @@ def test_buffer_size_is_bounded(card: Card) -> None:
 
 def test_open_plc_number_out_of_range_and_open_prog_are_refused(card: Card) -> None:
     assert card.raw("OPEN PLC 32") == b"\x07ERR003\r"
-    assert card.raw("OPEN PROG 1") == b"\x07ERR003\r"
+    assert card.raw("OPEN PROG 32768") == b"\x07ERR003\r"  # PROG 1-32767 [SRM OPEN PROGRAM]
     assert card.raw("ENABLE PLC 40") == b"\x07ERR003\r"
 
 

@@ -14,7 +14,7 @@ import logging
 import math
 import struct
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, ClassVar
 
 import numpy as np
@@ -31,6 +31,7 @@ from vdevmaps.adlink import (
     Bar,
 )
 
+from vdevd import nvcheck
 from vdevd.devices.adlink import cmd_io, pwm, trigger
 from vdevd.devices.adlink.kernel import Kernel
 from vdevd.devices.adlink.modes import IDLE
@@ -67,6 +68,8 @@ class AdlinkCard(Card):
     }
     axes_option: ClassVar[str] = ""  # the model counts the axes (check_options)
     runs_ticks: ClassVar[bool] = True  # cycles of the motion core's tick alone (`run`)
+    #: the wall clock the kernel's load figures (timing, over-cycle flags) are measured with
+    wall_ns: Callable[[], int] = staticmethod(time.perf_counter_ns)
 
     @classmethod
     def check_options(cls, opts: Any, where: str) -> None:
@@ -97,18 +100,12 @@ class AdlinkCard(Card):
         self.kernel.refused_rc = opts.refused_rc
         store = ctx.nvram
         self._writer = NvramWriter(store, name) if store is not None else None
-        saved = store.load(name) if store is not None else None
-        if isinstance(saved, dict) and isinstance(saved.get("flash"), dict):
-            dropped = self.kernel.restore_parameters(saved["flash"])
+        saved = (store.load(name, lambda image: self._check_image(image, model_code))
+                 if store is not None else None)
+        if saved:  # checked: every entry legal on this card (issue 22 §4)
+            self.kernel.restore_parameters(saved["flash"])
             self.kernel.board_params.values[0x8000] = float(opts.cycle_us)
             self.kernel.flash = self.kernel.parameter_image()  # what load_parameter_from_flash loads
-            if dropped:
-                log.warning("%s: %d entries of its flash image are not legal on this card (an "
-                            "image of another program or version); they keep their defaults",
-                            name, dropped)
-        elif saved:
-            log.warning("%s: its flash image holds no parameters; the card starts from its "
-                        "defaults", name)
         self.make_world(n)
         self._feedback_offset = np.zeros(n)
         self._ez_at = np.zeros(n)
@@ -116,6 +113,21 @@ class AdlinkCard(Card):
         self._world_changed()
         self.kernel.publish()
         self.inta.clear()
+
+    def _check_image(self, image: dict[str, Any], model_code: int) -> None:
+        """A saved image (`{"flash": parameters}`) whose every entry the commands could have set
+        on this card: restored on trial into a kernel of its own; `ImageError` otherwise (the
+        image is set aside and the card starts from its defaults, issue 22 §4)."""
+        nvcheck.only(image, ("flash",))
+        flash = nvcheck.mapping(image.get("flash"), "flash")
+        nvcheck.only(flash, self.kernel.parameter_image().keys(), "flash")
+        opts = self.opts
+        trial = Kernel(bytearray(BAR_SIZE), self.n, model_code, opts.card_id, opts.cycle_us,
+                       opts.drive, lambda *args: None, inp_window=opts.inp_window)
+        dropped = trial.restore_parameters(flash)
+        if dropped:
+            raise nvcheck.ImageError(f"flash: {dropped} entries not legal on this card (an "
+                                     "image of another program, version or model)")
 
     # -- the mailbox -----------------------------------------------------------------------------
     def _doorbell(self, offset: int, data: bytes) -> None:
@@ -128,9 +140,9 @@ class AdlinkCard(Card):
             args = b"\xff"
         else:
             args = bytes(buf[Bar.ARGS:Bar.ARGS + length])
-        t0 = time.perf_counter_ns()
+        t0 = self.wall_ns()
         self.kernel.execute(seq, code, args)
-        self.kernel.measure_host(time.perf_counter_ns() - t0)
+        self.kernel.measure_host(self.wall_ns() - t0)
         self._after_command()
 
     def _peek(self, offset: int, size: int) -> bytes:
@@ -154,9 +166,9 @@ class AdlinkCard(Card):
         if self.world.mechanical:
             self.sense_world()
         self._index_pulses()
-        t0 = time.perf_counter_ns()
+        t0 = self.wall_ns()
         self.kernel.cycle()
-        self.kernel.measure_motion(time.perf_counter_ns() - t0)
+        self.kernel.measure_motion(self.wall_ns() - t0)
         self._ran = True
 
     def run(self, room: int) -> int:
@@ -170,11 +182,11 @@ class AdlinkCard(Card):
         room = runs.room(room)
         if not room:
             return 0
-        t0 = time.perf_counter_ns()
+        t0 = self.wall_ns()
         ran = runs.ticks(room)
         self.ticks_run(ran)
         runs.finish(ran)
-        self.kernel.measure_motion((time.perf_counter_ns() - t0) // ran)
+        self.kernel.measure_motion((self.wall_ns() - t0) // ran)
         self._ran = True
         return ran
 

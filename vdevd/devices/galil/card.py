@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import os
 import sys
 from collections.abc import Mapping
 from typing import Any, ClassVar
@@ -23,16 +22,17 @@ from vdevmaps.galil import WINDOW_SIZE, A16Reg
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.galil.bus import FREEZE_MODES, A16Window
 from vdevd.devices.galil.channel import CommandChannel
-from vdevd.devices.galil.ethernet import EthernetServer, parse_endpoint
+from vdevd.devices.galil.ethernet import MAX_CONNECTIONS, EthernetServer, parse_endpoint
 from vdevd.devices.galil.firmware import Firmware
 from vdevd.devices.galil.interpreter import revision
+from vdevd.devices.galil.nv_image import check_image
 from vdevd.devices.galil.params import COUNTS_PER_VOLT
 from vdevd.devices.galil.syntax import AXIS_ALIASES, AXIS_LETTERS
-from vdevd.errors import StartError
 from vdevd.nvram import NvramWriter
 from vdevd.region import Region
 from vdevd.rt import PlantKind
 from vdevd.security import is_local
+from vdevd.tcp_listener import listener_options
 
 log = logging.getLogger(__name__)
 
@@ -65,6 +65,7 @@ class GalilCard(Card):
         "ethernet": Option(str, "",
                            help="tcp://HOST:PORT: serve the DMC command protocol there "
                                 "(loopback only, port 0: any free one); empty: off"),
+        **listener_options(MAX_CONNECTIONS),
     }
 
     #: the manual's axis letters; A B C D are synonyms of X Y Z W (any case)
@@ -128,7 +129,8 @@ class GalilCard(Card):
         # the flash (BP BV BN): one image in the state directory, restored at power-up
         store = ctx.nvram
         self._writer = NvramWriter(store, name) if store is not None else None
-        saved = store.load(name) if store is not None else None
+        saved = (store.load(name, lambda image: check_image(self.n, image))  # issue 22 §4
+                 if store is not None else None)
         self._flash: dict[str, Any] | None = saved.get("flash") if isinstance(saved, dict) else None
         self.firmware = Firmware(self.n, self.period_ns, self.plant, self.configured_tm_us, self.bus,
                                  raise_irq=self._raise_irq, clear_irq=self.irq.clear,
@@ -246,13 +248,10 @@ class GalilCard(Card):
         `StartError`."""
         if not self.ethernet:
             return
-        try:
-            self._server = await EthernetServer.start(
-                self.ethernet, lambda: CommandChannel(self.firmware), self.touched)
-        except OSError as exc:
-            reason = os.strerror(exc.errno) if exc.errno else str(exc)
-            raise StartError(f"{self.name} ethernet {self.ethernet}: "
-                             f"{reason[:1].lower()}{reason[1:]}") from None
+        self._server = await EthernetServer.start(
+            self.ethernet, lambda: CommandChannel(self.firmware), self.touched,
+            name=f"{self.name} ethernet", max_connections=self.opts.max_connections,
+            idle_timeout_s=self.opts.idle_timeout_s)
         self.ethernet_endpoint = self._server.endpoint
         log.info("%s: DMC command protocol on %s", self.name, self.ethernet_endpoint)
 

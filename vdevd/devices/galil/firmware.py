@@ -11,6 +11,7 @@ at every sample while one runs) and the flash (flash.py). Register offsets and c
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from functools import lru_cache
 from typing import Any
@@ -46,6 +47,7 @@ from vdevd.rt import wrap_int32
 
 #: a host repeats its lines (`TPX\r`): frame each content of the command FIFO once (pure)
 _next_frame = lru_cache(maxsize=256)(syntax.next_frame)
+_TERMINATOR = re.compile(rb"[\r;]")
 
 _EXCESS_ERROR = int(InterruptCondition.EXCESS_ERROR)  # plain ints on the sample path
 _ALL_COMPLETE = int(InterruptCondition.ALL_COMPLETE)
@@ -142,6 +144,7 @@ class Firmware:
         self.time_origin = self.ticks
         self.at_reference: dict[int | None, int] = {}  # per thread (None: the command line)
         self._trip: Trippoint | None = None
+        self._dropping = False  # inside an over-long line: dropped through its terminator
         self._out = bytearray()
         self.ar_base: dict[int, float] = {}  # AR: where the last AR trippoint ended per axis
         self.mark_unsolicited = True  # CW1 (README "Application programs")
@@ -288,11 +291,21 @@ class Firmware:
             buf = bus.command_bytes()
             if not buf:
                 return
+            if self._dropping:  # an over-long line: its bytes go, through its terminator
+                end = _TERMINATOR.search(buf)
+                bus.consume(len(buf) if end is None else end.end())
+                if end is None:
+                    return
+                self._dropping = False
+                continue
             frame, used = _next_frame(buf)
             if used:
                 bus.consume(used)
             if frame is None:
                 if used:
+                    continue
+                if len(buf) >= bus.fifo_size:  # full, and no command ends in it: none ever will
+                    self._overlong(len(buf))
                     continue
                 return
             if self.echo and not frame.binary:
@@ -307,12 +320,23 @@ class Firmware:
             else:
                 self._reply(result)
 
+    def _overlong(self, size: int) -> None:
+        """A line longer than the command FIFO holds: answered `?` with TC 5 "Input buffer
+        full" [M Ch4 Introduction: a 512-character FIFO; TC table], its bytes dropped through
+        its terminator; the commands after it run (the Ethernet channel does the same,
+        channel.py)."""
+        self.bus.consume(size)
+        self._dropping = True
+        self.error_code = int(TC.INPUT_BUFFER_FULL)
+        self._reply(b"?")
+
     def host_cleared(self) -> None:
         """The host cleared the FIFOs: "useful for emergency resets or Abort" [M Ch4]; a held
         command-line trippoint and a reply in progress go too."""
         self._trip = None
         self._out.clear()
         self.sink = None
+        self._dropping = False
 
     def _execute(self, frame: syntax.Frame) -> bytes | Trippoint | ArrayDownload:
         if not frame.binary:

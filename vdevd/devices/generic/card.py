@@ -12,6 +12,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from vdevd import nvcheck
 from vdevd.devices.base import Card, CardContext, Option, control
 from vdevd.devices.generic import regions as R
 from vdevd.devices.generic.regions import AxisReg, CardStatus, Command, CommandError
@@ -24,6 +25,8 @@ _FAULTS = int(AxisFlag.AMP_FAULT | AxisFlag.ENCODER_LOSS)
 _STOPS = int(AxisFlag.STOPPED_BY_LIMIT | AxisFlag.FE_TRIP | AxisFlag.AMP_FAULT)
 _DONE = int(AxisFlag.DONE)
 _MOTION = (Command.MOVE_ABS, Command.MOVE_REL, Command.JOG, Command.HOME)
+#: the motion parameters `save` keeps in flash
+_SAVED = ("vmax", "acc", "dec", "jerk")
 #: the configuration header (README.md "PCI configuration space"): not a vendor product, so the
 #: vendor ID is 1234 (the unassigned ID emulators use) and the class 1180 (other data
 #: acquisition and signal processing controller)
@@ -88,17 +91,24 @@ class GenericServoCard(Card):
         self._store_card_status()
         regs = self.axis_regs
         regs["vmax"], regs["acc"], regs["dec"] = 50_000, 500_000, 500_000
-        saved = self.ctx.nvram.load(self.name) if self.ctx.nvram else None
+        saved = self.ctx.nvram.load(self.name, self._check_image) if self.ctx.nvram else None
         if saved:
-            for field in ("vmax", "acc", "dec", "jerk"):
-                values = saved.get(field)
-                if isinstance(values, list) and len(values) == self.n:
-                    regs[field] = values
+            for field in _SAVED:
+                if field in saved:
+                    regs[field] = saved[field]
         self.core.servo_on(slice(None))
         self._world_changed()
 
     def nvram(self) -> dict[str, Any]:
-        return {f: self.axis_regs[f].tolist() for f in ("vmax", "acc", "dec", "jerk")}
+        return {f: self.axis_regs[f].tolist() for f in _SAVED}
+
+    def _check_image(self, image: dict[str, Any]) -> None:
+        """A saved image: per axis what a host write of the register takes (u32)."""
+        nvcheck.only(image, _SAVED)
+        for field in _SAVED:
+            if field in image:
+                for a, v in enumerate(nvcheck.sequence(image[field], field, self.n)):
+                    nvcheck.number(v, f"{field}[{a}]", 0, 0xFFFF_FFFF, integer=True)
 
     # -- firmware --------------------------------------------------------------------------------
     def tick(self, n: int) -> int:

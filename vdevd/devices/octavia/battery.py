@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vdevd import nvcheck
 from vdevd.devices.octavia.dspl import VAR_BYTES, VARIABLES
 from vdevd.devices.octavia.ram import RAM_WORDS
 from vdevd.nvram import NvramWriter as Writer  # noqa: F401  (the card's writer)
@@ -32,6 +33,20 @@ def image(fw: Firmware) -> dict[str, Any]:
     """The battery-backed state of the firmware, as the state file holds it."""
     return {"format": IMAGE_FORMAT, "ram": fw.ram.to_bytes(), "vars": fw.dspl.vars.tobytes(),
             "autostart": bool(fw.dspl.autostart), "loaded": bool(fw.dspl.loaded)}
+
+
+def check_image(saved: dict[str, Any]) -> None:
+    """`ImageError` naming what makes `saved` no image of this RAM (issue 22 §4): another
+    format, RAM or variables of another size, flags that are not flags, an unknown entry."""
+    nvcheck.only(saved, ("format", "ram", "vars", "autostart", "loaded"))
+    if saved.get("format") != IMAGE_FORMAT:
+        raise nvcheck.ImageError(f"format: {saved.get('format')!r}, not {IMAGE_FORMAT!r}")
+    for key, size in (("ram", 2 * RAM_WORDS), ("vars", VARIABLES * VAR_BYTES)):
+        value = saved.get(key)
+        if not isinstance(value, bytes) or len(value) != size:
+            raise nvcheck.ImageError(f"{key}: not {size} bytes")
+    for key in ("autostart", "loaded"):
+        nvcheck.flag(saved.get(key, False), key)
 
 
 def restore(fw: Firmware, saved: dict[str, Any]) -> bool:

@@ -95,7 +95,7 @@ class OctaviaCard(Card):
         # the battery-backed RAM across daemon restarts (battery.py, README "Battery-backed RAM")
         store = ctx.nvram if self.opts.battery_backup else None
         self._battery = battery.Writer(store, name) if store is not None else None
-        saved = store.load(name) if store is not None else None
+        saved = store.load(name, battery.check_image) if store is not None else None
         if saved is not None:
             battery.restore(self.fw, saved)
         self.make_world(n)
@@ -165,7 +165,8 @@ class OctaviaCard(Card):
         if fw.dspl.stale:  # a DSPL window refresh is due at the next 5 ms
             return None
         follow = fw.follow  # (its tables' copies are large: compared only while it follows)
-        return (core + state_bytes(fw.params, fw, fw.filters, fw.dspl, skip=("sample", "rtc_count"))
+        return (core + state_bytes(fw.params, fw, fw.filters, fw.dspl,
+                                   skip=("sample", "rtc_count", "_mem8"))  # (the DPR: below)
                 + (state_bytes(follow, follow.cam, follow.gears) if follow.active else b"")
                 + bytes(self.dpr.buf) + bytes((self.inta.asserted,)))
 

@@ -45,15 +45,22 @@ def axmove(relative: str, shape: str, fw: Firmware, head: dict[str, Any], groups
     [Ch5 AXMOVE ... REL_AXMOVE_T]. The axes start together; each ends on its own. A move of an
     axis already moving re-targets from its present state (Example 3). Zero acceleration, or a
     zero slew velocity, leaves that axis where it is."""
-    todo = fw.axes_of(groups)
-    if not todo or fw.discarded([a for a, _ in todo], CONTOURING):
+    todo, axes, n = [], [], fw.n  # `axes_of` and its axes, in one loop (every AXMOVE)
+    for a, g in groups:
+        if a <= n:
+            todo.append((a - 1, g))
+            axes.append(a - 1)
+    if not todo or fw.discarded(axes, CONTOURING):
         return
     core = fw.core
     cmd_pos, mode, prev = core.axes.cmd_pos, fw.mode, fw._prev_flags
     for a, g in todo:
         acc = acc_from_raw(g["acc"])
-        here = _rint(float(cmd_pos[a]))
-        target = here + g["pos"] if relative == "rel" else float(g["pos"])
+        if relative == "rel" or shape == "timed":  # (an AXMOVE needs no present position)
+            here = _rint(float(cmd_pos[a]))
+            target = here + g["pos"] if relative == "rel" else float(g["pos"])
+        else:
+            target = float(g["pos"])
         if shape == "timed":
             vel = min(move_time_velocity(acc, abs(target - here), float(g["tm"])), VMAX)
         else:

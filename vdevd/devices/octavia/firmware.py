@@ -42,6 +42,7 @@ from vdevd.devices.octavia import (
     cmd_motion,
     cmd_nurbs,
     cmd_tables,
+    pubkernel,
 )
 from vdevd.devices.octavia.commands import COMMANDS
 from vdevd.devices.octavia.contour import RingContour
@@ -76,6 +77,7 @@ _HOSTACC_ACTPOS, _HOSTACC_ACTVEL, _HOSTACC_ERROR = (
 _M4ACC_ACTPOS, _M4ACC_ACTVEL, _M4ACC_ERROR = (
     int(Dpr.M4ACC_ACTPOS), int(Dpr.M4ACC_ACTVEL), int(Dpr.M4ACC_ERROR))
 _ENCSTAT, _ADC, _INPUT = int(Dpr.ENCSTAT), int(Dpr.ADC), int(Dpr.INPUT)
+_ACTVEL_SCALE = float(ACTVEL_SCALE)
 #: DSPSTAT1 type bit -> its INTAXIS source byte (000h + bit number + 1) [Table 6-2]
 _SOURCE = {int(b): int(Dpr.DSPSTAT1) + 1 + int(b).bit_length() - 1 for b in DspStat1}
 
@@ -135,7 +137,7 @@ class Firmware:
         self.inputs = 0  # input levels after polarity: bit set = active (INPUT 094h)
         self.ext = 0  # *EXT1..4 active (bit 0 = EXT1)
         self.encstat = 0  # ENCSTAT (113h): encoder hardware failure bits
-        self.adc = np.zeros(4, dtype=np.int16)  # ADC1..4 (the ACC4000 option), codes
+        self.adc = np.zeros(4, dtype="<i2")  # ADC1..4 (the ACC4000 option), codes, as in the DPR
         #: index pulses (physical counts: phase + k * period; None: no encoder has any) and the
         #: physical positions at the last sample
         self.index_period: np.ndarray | None = None
@@ -161,6 +163,12 @@ class Firmware:
         bank1, bank2 = self.windows.state
         self._pub_banks = ((bank1[:, :k], pub[:, :k]),) + (
             ((bank2[:, :n - 4], pub[:, 4:n]),) if n > 4 else ())
+        #: the rows and their store in one compiled call (pubkernel; None: the numpy path) over
+        #: the DPR as bytes
+        self._pub_kernel = pubkernel.compiled()
+        self._mem8 = np.ndarray((DPR_SIZE,), np.uint8, buffer=buf)
+        #: the RTC arguments from 3C3h on, for `unpack` (the DPR never changes size)
+        self._args_view = memoryview(buf)[_ARGS:DPR_SIZE]
         # the battery-backed board RAM and DSPL surface (RESET keeps them) and the cam and gear
         # slaves (follow.py); nv_dirty: the battery image changed since it was last taken
         self.ram = BoardRam()  # the on-board RAM: tables a reset keeps [Ch8]
@@ -277,9 +285,8 @@ class Firmware:
                 self.unknown.add(code)
                 log.warning("octavia: RTC code %02Xh is not defined: cleared and ignored", code)
         else:
-            try:
-                with memoryview(buf) as view:  # read in place: no copy of the 7 KiB from 3C3h
-                    head, groups = unpack(rtc, view[_ARGS:DPR_SIZE])
+            try:  # read in place (a view made once): no copy of the 7 KiB from 3C3h
+                head, groups = unpack(rtc, self._args_view)
             except Truncated as exc:  # cannot happen within 8 KiB: a guard
                 log.warning("octavia: %s", exc)
             else:
@@ -460,7 +467,7 @@ class Firmware:
 
     def publish_adc(self) -> None:
         """ADC1..4 at 502h.. unless the host holds 500h/501h [Table 6-10]."""
-        self.windows.put_bytes(Window.ADC, Dpr.ADC, self.adc.astype("<i2").tobytes())
+        self.windows.put_bytes(Window.ADC, Dpr.ADC, self.adc.tobytes())
 
     # -- NURBS [Ch9] -------------------------------------------------------------------------------
     def nurbs_count(self) -> int:
@@ -580,15 +587,18 @@ class Firmware:
         reports it (Ch7 Table 7-1): "RTC ignored" (000h b7, 008h) for axes halting under STOP or
         *ESTOP (with `halting`), else "conflicting commands" (b6, 007h) for axes in one of the
         modes `conflicts`. No axis: discarded, unreported."""
-        if halting:
-            stopping = self.halting(axes)
-            if stopping:
-                self.post_stat1(DspStat1.IGNORED, sum(1 << a for a in stopping))
-                return True
         modes = self.mode.tolist()
-        busy = [a for a in axes if modes[a] in conflicts]
+        stopping = busy = 0  # the axes' bits (loops, not comprehensions: every motion RTC)
+        for a in axes:
+            if modes[a] in HALTING:
+                stopping |= 1 << a
+            if modes[a] in conflicts:
+                busy |= 1 << a
+        if halting and axes and (self.estop or stopping):  # `halting`, modes read once
+            self.post_stat1(DspStat1.IGNORED, sum(1 << a for a in axes) if self.estop else stopping)
+            return True
         if busy:
-            self.post_stat1(DspStat1.CONFLICT, sum(1 << a for a in busy))
+            self.post_stat1(DspStat1.CONFLICT, busy)
             return True
         return not axes
 
@@ -605,18 +615,25 @@ class Firmware:
         [Table 6-5; spec §2.5.1]."""
         ax, n, w, buf = self.core.axes, self.n, self.windows, self.buf
         pub = self._published
-        vel, fe, rows = self._pub_rows
-        pub[0] = ax.encoder  # ACTPOS, ACTVEL, ERROR: one (3, n) block in the DPR's row order
-        np.multiply(ax.vel, TS, out=vel)
-        vel *= ACTVEL_SCALE
-        np.rint(vel, out=vel)
-        np.rint(ax.ferr, out=fe)
-        rows[...] = self._pub_tmp  # counts as the card's int32 words: wrapping beyond 2^31 when stored
-        if (buf[_HOSTACC_ACTPOS] != 1 and buf[_HOSTACC_ACTVEL] != 1
-                and buf[_HOSTACC_ERROR] != 1):  # the usual case: one store a bank
+        free = (buf[_HOSTACC_ACTPOS] != 1 and buf[_HOSTACC_ACTVEL] != 1
+                and buf[_HOSTACC_ERROR] != 1)  # the usual case: one store a bank
+        if free:
             buf[_M4ACC_ACTPOS] = buf[_M4ACC_ACTVEL] = buf[_M4ACC_ERROR] = 1
-            for bank, part in self._pub_banks:
-                bank[...] = part
+        if self._pub_kernel is not None:  # the rows and (free) their store, compiled
+            self._pub_kernel(ax.encoder, ax.vel, ax.ferr, pub, self._mem8, n, TS, _ACTVEL_SCALE,
+                             free)
+        else:
+            vel, fe, rows = self._pub_rows
+            pub[0] = ax.encoder  # ACTPOS, ACTVEL, ERROR: one (3, n) block in the DPR's row order
+            np.multiply(ax.vel, TS, out=vel)
+            vel *= ACTVEL_SCALE
+            np.rint(vel, out=vel)
+            np.rint(ax.ferr, out=fe)
+            rows[...] = self._pub_tmp  # counts as the card's int32 words: wrapping beyond 2^31 when stored
+            if free:
+                for bank, part in self._pub_banks:
+                    bank[...] = part
+        if free:
             buf[_M4ACC_ACTPOS] = buf[_M4ACC_ACTVEL] = buf[_M4ACC_ERROR] = 0
         else:
             w.put(Window.ACTPOS, w.actpos, pub[0].astype(np.int32), n)
@@ -624,7 +641,7 @@ class Firmware:
             w.put(Window.ERROR, w.error, pub[2].astype(np.int32), n)
         if buf[_ENCSTAT] != self.encstat & 0xFF:
             w.put_bytes(Window.ENC, Dpr.ENCSTAT, bytes((self.encstat & 0xFF,)))
-        if buf[_ADC:_ADC + 8] != self.adc.astype("<i2").tobytes():
+        if buf[_ADC:_ADC + 8] != self.adc.tobytes():  # (little-endian int16 already)
             self.publish_adc()
         if self._deferred:
             self._deferred = [d for d in self._deferred if not w.put(d[1], d[0], d[2], n)]

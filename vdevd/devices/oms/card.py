@@ -40,7 +40,6 @@ from vdevmaps.oms import (
 
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.oms import rings
-from vdevd.devices.oms.defaults import IMAGE_FORMATS
 from vdevd.devices.oms.encoder import DEFAULT_INDEX
 from vdevd.devices.oms.firmware import Firmware
 from vdevd.devices.oms.layout import (
@@ -54,6 +53,7 @@ from vdevd.devices.oms.layout import (
     home_word,
 )
 from vdevd.devices.oms.mu import MessageUnit
+from vdevd.devices.oms.nv_image import check_image
 from vdevd.devices.oms.params import AXIS_TYPES, PROFILES, SERVO_OUTPUTS
 from vdevd.devices.rest import state_bytes
 from vdevd.pci import Bar, PciIdentity
@@ -252,17 +252,16 @@ class MaxkCard(Card):
 
     def _load_defaults(self) -> tuple[dict[str, Any] | None, bool]:
         """The stored power-up defaults and whether their archive is damaged: a file that
-        cannot be read, or an image of a format this firmware does not read (defaults.py), is a
-        checksum error (bit 12)."""
+        cannot be read, or an image this firmware does not read back (of another format, or a
+        value no command would set: nv_image.py; set aside as `.corrupt`), is a checksum error
+        (bit 12)."""
         store = self.ctx.nvram
         if store is None:
             return None, False
         existed = store.path(self.name).exists()
-        image = store.load(self.name)
+        image = store.load(self.name, lambda image: check_image(self.n, image))
         if image is None:
             return None, existed
-        if image.get("format") not in IMAGE_FORMATS:
-            return None, True
         return image, False
 
     def _save_defaults(self, image: dict[str, Any]) -> None:

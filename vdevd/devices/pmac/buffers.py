@@ -10,12 +10,14 @@ Compiled operations (`Op`) are tuples whose first element names them:
 ``("set", kind, index, value)``, ``("if", cond, target)`` (jump to `target` when false),
 ``("jump", target)``, ``("while", cond, target)``, ``("endwhile", target)`` (back to the WHILE;
 the scan ends there), ``("cmd", text)``, ``("send", port, text)`` (port "", "S" or "P"),
-``("enable", plcs)``, ``("disable", plcs)``, ``("address", motor, cs)``.
+``("enable", plcs)``, ``("disable", plcs)``, ``("pause", plcs)``, ``("resume", plcs)``,
+``("address", motor, cs)``.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,7 +42,8 @@ _ELSE = re.compile(r"ELSE")
 _CONTINUE = re.compile(rf"(AND|OR){_SP}\(")
 _CMD = re.compile(rf"(?:COMMAND|CMD){_SP}\"([^\"]*)\"")
 _SEND = re.compile(rf"SEND{_SP}([SP]?){_SP}\"([^\"]*)\"")
-_PLC_CONTROL = re.compile(rf"(ENABLE|ENA|DISABLE|DIS){_SP}PLC(C?){_SP}(\d+(?:{_SP},{_SP}\d+)*)")
+_PLC_CONTROL = re.compile(
+    rf"(ENABLE|ENA|DISABLE|DIS|PAUSE|RESUME){_SP}PLC(C?){_SP}(\d+(?:{_SP},{_SP}\d+)*)")
 #: compiled PLC n is program PLCC_BASE + n (plc.py)
 PLCC_BASE = 32
 _ADDRESS = re.compile(rf"(?:ADDRESS|ADR){_SP}(?:#{_SP}(\d+))?{_SP}(?:&{_SP}(\d+))?")
@@ -100,7 +103,8 @@ def parse_statement(s: str, i: int) -> tuple[Statement, int]:
             raise CommandError(ERR_DATA, "PLC number above 31")
         if m.group(2):  # ENABLE/DISABLE PLCC n
             plcs = tuple(PLCC_BASE + n for n in plcs)
-        return Statement("OP", ("enable" if m.group(1).startswith("E") else "disable", plcs)), m.end()
+        name = {"E": "enable", "D": "disable", "P": "pause", "R": "resume"}[m.group(1)[0]]
+        return Statement("OP", (name, plcs)), m.end()
     if (m := _ADDRESS.match(s, i)) and (m.group(1) or m.group(2)):
         motor = int(m.group(1)) if m.group(1) else 0
         cs = int(m.group(2)) if m.group(2) else 0
@@ -179,19 +183,23 @@ def parse_line(text: str) -> list[Statement]:
     return out
 
 
-def compile_lines(lines: list[str]) -> list[Op]:
+def compile_lines(lines: list[str],
+                  parse: Callable[[str], list[Statement]] | None = None,
+                  line_of: list[int] | None = None) -> list[Op]:
     """The buffer's operations; CommandError(9) for an unmatched IF/ELSE/ENDIF/WHILE/ENDWHILE.
+    `parse` parses one line (motion programs: prog_statements.parse_line; default PLC lines).
 
     A line `IF (c) stmts` or `WHILE (c) stmts` with statements after the condition is a
-    single-line IF or WHILE: it needs no ENDIF/ENDWHILE and takes no ELSE (README assumption)."""
+    single-line IF or WHILE: it needs no ENDIF/ENDWHILE and takes no ELSE (README assumption).
+    `line_of`, when given, receives the line number of each operation (PC/PE reports)."""
     ops: list[Op] = []
     stack: list[tuple[str, int]] = []  # ("IF"|"ELSE"|"WHILE", index of the op to patch)
 
     def error() -> CommandError:
         return CommandError(ERR_STRUCTURE, "unmatched IF/ELSE/ENDIF/WHILE/ENDWHILE")
 
-    for line in lines:
-        sts = parse_line(line)
+    for number, line in enumerate(lines):
+        sts = (parse or parse_line)(line)
         single = bool(sts) and sts[0].kind in ("IF", "WHILE") and len(sts) > 1
         if single and any(st.kind != "OP" for st in sts[1:]):
             raise error()
@@ -224,6 +232,8 @@ def compile_lines(lines: list[str]) -> list[Op]:
                 ops.append(st.op)
             if single and k == len(sts) - 1:
                 _close(ops, stack, (sts[0].kind, ), error)
+        if line_of is not None:
+            line_of.extend([number] * (len(ops) - len(line_of)))
     if stack:
         raise error()
     return ops

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import ipaddress
 import logging
-import os
 import re
 from collections.abc import Mapping
 from fractions import Fraction
@@ -40,8 +39,13 @@ from vdevmaps.pmac import (
 )
 
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
+from vdevd.devices.pmac import nv_image, prog_dpram
 from vdevd.devices.pmac.dpram import AsciiChannel, Reporting
+from vdevd.devices.pmac.dpram_gather import DpramGather
+from vdevd.devices.pmac.dpram_rotary import BinaryRotary
+from vdevd.devices.pmac.dpram_vars import VariableBuffers
 from vdevd.devices.pmac.eth_framing import KeptFraming
+from vdevd.devices.pmac.ethernet import MAX_PENDING
 from vdevd.devices.pmac.ethernet_server import EthernetServer, parse_endpoint
 from vdevd.devices.pmac.firmware import Firmware, Identity
 from vdevd.devices.pmac.hostport import HostPort, InterruptController
@@ -50,10 +54,10 @@ from vdevd.devices.pmac.reply import Reply, frame
 from vdevd.devices.pmac.servo_ic import ChannelFlag
 from vdevd.devices.pmac.status import MotorStatus2
 from vdevd.devices.rest import state_bytes, ticks_before_multiple
-from vdevd.errors import StartError
 from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region, passive_except
 from vdevd.security import is_local
+from vdevd.tcp_listener import listener_options
 
 log = logging.getLogger("vdevd.pmac")
 _CONTROL = re.compile("[\x01-\x1a]")  # control characters act at once, wherever they are
@@ -142,6 +146,9 @@ class CommandPort:
     def close(self) -> None:
         """A buffer this connection left open closes with it (plc.py `release`)."""
         self.card.fw.plc.release(self.state)
+        self.card.fw.rotary.release(self.state)
+        self.card.fw.kinematics.release(self.state)
+        self.card.fw.motion.store.release(self.state)
         self.card.ethernet_ports.discard(self)
 
 
@@ -179,6 +186,10 @@ class PmacCard(Card):
                            help="endpoint of the Ethernet protocol; empty: off"),
         "ethernet_allow": Option(list, None,
                                  help="client addresses allowed on a non-loopback Ethernet endpoint"),
+        **listener_options(),
+        "max_pending_kib": Option(int, MAX_PENDING >> 10, min=2, max=65536,
+                                  help="KiB of output an Ethernet connection leaves unfetched "
+                                       "(SENDLINE replies) before it is closed"),
         "plant": Option(str, "servo", choices=("servo", "ideal"),
                         help="servo: amplifier and motor model; ideal: motors follow exactly"),
         "macro_stations": Option(list, [], choices=tuple(range(64)),
@@ -270,11 +281,16 @@ class PmacCard(Card):
         self.dpram.hook(CMD_CONTROL, 2, on_write=self.ascii.command_control)
         self.dpram.hook(RESP_CONTROL, 2, on_write=self.ascii.response_control)
         self.reporting = Reporting(self.dpram.buf)
+        self.fw.gather.dpram = DpramGather(self.dpram.buf)  # I5000 = 2, 3 (dpram_gather.py)
+        self.varbufs = VariableBuffers(self.dpram.buf, self.fw.memory)  # I55 (dpram_vars.py)
+        #: I45's ring; its `on_rotary_line(cs, text)` feeds a C.S.'s rotary buffer (dpram_rotary.py)
+        self.binrot = BinaryRotary(self.dpram.buf)
+        self.binrot.on_rotary_line = self.fw.rotary.append
         self.host_port_state = CommandPort(self)
         self.hostport = HostPort(self.host_port_state.command, self.host_port_state.control)
         self.fw.plc.on_message = self._plc_message
         self._last_status2 = np.zeros(self.motors, dtype=np.int64)
-        self.fw.restore((store.load(name) if store is not None else None) or {})
+        nv_image.restore(self.fw, store, name)  # a saved image checked first (issue 22 §4)
         self.fw.on_reset = self._firmware_reset
         self.dpram.buf[:] = bytes(DPRAM_SIZE)
         self.ascii.reset()
@@ -355,6 +371,10 @@ class PmacCard(Card):
             self._report_realtime(cycle)
         if iv[49] and rep.background_due(cycle, iv[50]):
             self._report_background(cycle)
+        if iv[55] and self.varbufs.due():  # the variable buffers, served each cycle (ASSUMPTION)
+            self.varbufs.service(cycle)
+        if iv[45] and self.binrot.due():  # the binary rotary ring, each cycle (foreground)
+            self.binrot.service()
         if self.irq.mask & _MOTOR_SOURCES:
             self._irq_sources()
 
@@ -366,6 +386,8 @@ class PmacCard(Card):
         if self._sensing or self.irq.mask & _MOTOR_SOURCES:
             return 0
         cycle, iv = self.fw.servo_cycles, self.fw.ivars.values
+        if (iv[55] and self.varbufs.due()) or (iv[45] and self.binrot.due()):
+            return 0
         if iv[48]:
             room = min(room, ticks_before_multiple(cycle, max(int(iv[47]), 1)))
         if iv[49]:
@@ -389,11 +411,13 @@ class PmacCard(Card):
         work: a home search, an in-position scan count still short of its Ixx88, conversion
         entries with memory or the A/D ring running, a velocity buffer still filling (I60's
         slots hold different readings), armed compare, data gathering on (gather.py), backlash
-        still being taken up (comp1d.py), a PLC scanning (plc.py)."""
+        still being taken up (comp1d.py), a PLC scanning (plc.py), a motion program running
+        (program_runner.py)."""
         fw = self.fw
         m = fw.motors
         if (m.homing.any_searching or fw.ect._stateful or fw.servo_ic._any_armed or fw.gather.on
-                or fw.plc.running or not (m._vbuf == m.core.axes.fb).all() or m.counting_to_inpos()
+                or fw.plc.running or fw.motion.active or not (m._vbuf == m.core.axes.fb).all()
+                or m.counting_to_inpos()
                 or (fw.comp1d.active and fw.comp1d.busy(fw.reports.commanded()))):
             return None
         core = m.core.rest_state()
@@ -413,6 +437,8 @@ class PmacCard(Card):
     def quiet_ticks(self) -> int:
         """At rest, the cycles before the next reporting buffer the host asked for (I47, I50)."""
         cycle, iv, rep = self.fw.servo_cycles, self.fw.ivars.values, self.reporting
+        if (iv[55] and self.varbufs.due()) or (iv[45] and self.binrot.due()):
+            return 0  # the host waits for a variable buffer, or binary rotary lines wait
         k = 1 << 62
         if iv[48] and rep.realtime_requested():
             k = min(k, ticks_before_multiple(cycle, max(int(iv[47]), 1)))  # 0 counts as 1
@@ -447,7 +473,8 @@ class PmacCard(Card):
         n = self.reporting.cs_count()
         self.reporting.background(cycle, fw.global_status(),
                                   [fw.cs_status(c) for c in range(1, n + 1)],
-                                  fw.feed[:n] * fw.ivars.values[10] / 100)
+                                  fw.feed[:n] * fw.ivars.values[10] / 100,
+                                  prog_dpram.program_words(fw, n))
 
     def _irq_sources(self) -> None:
         """Rising edges of in-position and following-error bits of any motor, compare outputs."""
@@ -510,13 +537,10 @@ class PmacCard(Card):
         """Listen for the Ethernet protocol; a port that cannot be bound is a `StartError`."""
         if not self.ethernet:
             return
-        try:
-            self._server = await EthernetServer.start(self.ethernet, self._open_ethernet_port,
-                                                      allow=self.allow)
-        except OSError as exc:
-            reason = os.strerror(exc.errno) if exc.errno else str(exc)
-            raise StartError(f"{self.name} ethernet {self.ethernet}: "
-                             f"{reason[:1].lower()}{reason[1:]}") from None
+        self._server = await EthernetServer.start(
+            self.ethernet, self._open_ethernet_port, allow=self.allow,
+            name=f"{self.name} ethernet", max_connections=self.opts.max_connections,
+            idle_timeout_s=self.opts.idle_timeout_s, max_pending=self.opts.max_pending_kib << 10)
         self.ethernet_endpoint = self._server.endpoint
         log.info("%s: PMAC Ethernet protocol on %s", self.name, self.ethernet_endpoint)
 

@@ -8,14 +8,14 @@ commands are the longest word a run of letters starts with (after the variables 
 
 `COMMANDS.not_emulated` lists the on-line commands the digest documents that the card does not run
 yet, with the reason; `REFUSED` is the error number those the parser recognises answer (the others
-are unrecognised: ERR003). Motion programs come in issue 21, later (data gathering: gather.py, PLCs:
-plc.py) (README "Not yet").
+are unrecognised: ERR003). Data gathering: gather.py, PLCs: plc.py, motion programs: programs.py
+and program_runner.py (README "Not yet").
 """
 
 from __future__ import annotations
 
 from vdevd.devices.commands import Command, CommandTable
-from vdevd.devices.pmac.errors import ERR_NO_PROGRAM, ERR_NOT_OPEN
+from vdevd.devices.pmac.errors import ERR_NOT_OPEN
 
 CHAR, WORD = "char", "word"
 #: the variable letters: followed by a number or `(`, a variable, not a word [§2.5]
@@ -55,6 +55,14 @@ COMMANDS = CommandTable(
         # coordinate system [§2.5, §2.8]
         _word("A", "abort"),
         _word("H", "hold"),
+        # motion-program run control [§2.5, §2.8; program_runner.py]
+        _word("B", "begin", section="§2.8"),
+        _word("R", "run", False, section="§2.8"),
+        _word("S", "run", True, section="§2.8"),
+        _word("Q", "quit", section="§2.8"),
+        _word("ABR", "abort_run", section="§2.8 [A L3261]"),
+        _word("PC", "program_report", "PC", section="§2.8"),
+        _word("PE", "program_report", "PE", section="§2.8"),
         _word("UNDEFINE", "undefine", section=f"{_S25} [A L3284]"),
         _word("UNDEF", "undefine", section=f"{_S25} [A L3284]"),
         # global
@@ -65,6 +73,7 @@ COMMANDS = CommandTable(
         _word("MOVETIME", "movetime", section=f"{_S18} [A L3262]"),
         _word("SETPHASE", "setphase", section=f"{_S18} [A L3263]"),
         _word("MS", "macro_station", section="Turbo SRM MS/MSR/MSW; §3.3"),
+        _word("PR", "program_remaining", section="Turbo SRM PR, I16/I17; rotary.py"),
         # tables [§1.7]
         _word("DEFINE", "define", section=_S17), _word("DEF", "define", section=_S17),
         _word("DELETE", "delete", section=_S17), _word("DEL", "delete", section=_S17),
@@ -80,18 +89,15 @@ COMMANDS = CommandTable(
         _word("ENA", "plc_control", True, section="§2.9"),
         _word("DISABLE", "plc_control", False, section="§2.9"),
         _word("DIS", "plc_control", False, section="§2.9"),
+        _word("PAUSE", "plc_pause", False, section="§2.9; Turbo SRM PAUSE PLC"),
+        _word("RESUME", "plc_pause", True, section="§2.9; Turbo SRM RESUME PLC"),
         # memory words [§2.5, §2.1]
         *(_word(f"{rw}{space}", "memory", space, rw == "W")
           for rw in "RW" for space in "XYLD"),
     ],
     not_emulated={
         "CLEAR": "only the port with a buffer open may CLEAR it (plc.py)",
-        "LEARN": "no buffer can be open yet (issue 21)",
-        "B": "program run control: motion programs come in issue 21",
-        "R": "program run control: motion programs come in issue 21",
-        "S": "program run control: motion programs come in issue 21",
-        "Q": "program run control (quit; Q{n} is a variable): motion programs come in issue 21",
-        "ABR": "abort and run a program: motion programs come in issue 21",
+        "LEARN": "LEARN (program the present positions) is not emulated",
         "!": "the V1.936 axis-move command needs coordinate systems (issue 21): unrecognised",
     },
 )
@@ -99,6 +105,4 @@ COMMANDS = CommandTable(
 #: not emulated words the parser recognises -> the error number they answer (README "Not yet")
 REFUSED: dict[str, int] = {
     "CLEAR": ERR_NOT_OPEN, "LEARN": ERR_NOT_OPEN,
-    "ABR": ERR_NO_PROGRAM,
-    "B": ERR_NO_PROGRAM, "R": ERR_NO_PROGRAM, "S": ERR_NO_PROGRAM, "Q": ERR_NO_PROGRAM,
 }

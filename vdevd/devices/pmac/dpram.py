@@ -242,9 +242,11 @@ class Reporting:
         self._stamp(RT_TIMER, RT_READY, cycle)
 
     def background(self, cycle: int, global_words: tuple[int, int],
-                   cs: list[tuple[int, int, int]], time_base: np.ndarray) -> None:
+                   cs: list[tuple[int, int, int]], time_base: np.ndarray,
+                   program: np.ndarray | None = None) -> None:
         """Post the global status words (as `???` gives them) and, for the first len(`cs`)
-        coordinate systems, their `??` words and time base (I10 units, 24-bit)."""
+        coordinate systems, their `??` words and time base (I10 units, 24-bit), and the
+        program fields `program` gives (24-bit words, prog_dpram.py)."""
         struct.pack_into("<ii", self.mem, BG_STATUS, *sign24(np.array(global_words[::-1])))
         n = len(cs)
         rec = np.zeros((n, BG_CS_SIZE // 4), dtype=np.int64)
@@ -252,5 +254,7 @@ class Reporting:
             words = sign24(np.array(cs, dtype=np.int64).reshape(n, 3))
             rec[:, CS_STATUS1], rec[:, CS_STATUS2], rec[:, CS_STATUS3] = words.T
             rec[:, CS_TIMEBASE] = sign24(np.round(time_base[:n]).astype(np.int64))
+            if program is not None:
+                rec += sign24(program[:n])
         self._cs[:n] = rec
         self._stamp(BG_TIMER, BG_READY, cycle)

@@ -41,6 +41,10 @@ Decisions where the sources are silent (spec §6 question 16; recorded in the ca
   this connection only and echoed (a real card applies it after a power cycle).
 * A port that raises in `command` answers `<BELL>ERR003<CR>` (logged with its traceback); nothing
   raises out of `receive`.
+* Bounded (issue 22): pending output past `max_pending` bytes (SENDLINE replies never fetched)
+  closes the session (`overflowed`); `receive(data, limit=1)` runs one request and keeps the rest
+  for the next call (the server runs one a turn of its loop); bad requests are logged the first
+  few times a session and then only at each tenfold count (`CountedLog`), the total when it ends.
 """
 
 from __future__ import annotations
@@ -51,6 +55,8 @@ import struct
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
+
+from vdevd.tcp_listener import CountedLog
 
 log = logging.getLogger(__name__)
 
@@ -82,6 +88,8 @@ ETHERNET_DATA_SIZE = 1492  #: largest bData of a request
 MAX_REPLY = 1400  #: largest reply; a longer response continues through GETBUFFER
 HOST_PORT_SIZE = 8  #: host-port byte registers 0..7 [spec §2.11]
 LOOPBACK_ADDRESS = bytes((127, 0, 0, 1))
+#: pending output a session keeps (replies not fetched) before it is closed
+MAX_PENDING = 1 << 20
 
 REPLY_ACK = b"@"  #: one-byte acknowledgement: real units send 0x40 [EPICS-IP, bliss]
 REPLY_EMPTY = b"\x00"  #: nothing to return
@@ -181,14 +189,20 @@ def control_character(value: int) -> int | None:
 class EthernetSession:
     """One Ethernet connection to the card: request parsing and the port's pending output [spec §3.2]."""
 
-    def __init__(self, port: Port, *, ip_address: bytes = LOOPBACK_ADDRESS) -> None:
+    def __init__(self, port: Port, *, ip_address: bytes = LOOPBACK_ADDRESS,
+                 max_pending: int = MAX_PENDING) -> None:
         self.port = port
         self.ip_address = ip_address
-        #: set when the framing is lost; the server then closes the connection
+        self.max_pending = max_pending
+        #: set when the framing is lost or the pending output overflows; the server then closes
+        #: the connection
         self.closed = False
+        #: closed because the pending output passed `max_pending`
+        self.overflowed = False
         self._inbox = bytearray()
         self._output = bytearray()
         self._write_status = bytes(4)
+        self._bad = CountedLog()  # bad requests: logged the first few times, then tenfold
         self._handlers: dict[int, Callable[[Header, bytes], bytes]] = {
             VR_PMAC_GETRESPONSE: self._get_response,
             VR_PMAC_GETBUFFER: self._get_buffer,
@@ -214,17 +228,26 @@ class EthernetSession:
         """The port's output not yet fetched (by GETBUFFER/GETLINE)."""
         return bytes(self._output)
 
-    def receive(self, data: bytes) -> list[bytes]:
-        """Feed raw TCP bytes; return the replies to the complete requests, one bytes per request."""
+    @property
+    def ready(self) -> bool:
+        """A whole request waits in the input (`receive(b"", limit=1)` runs it)."""
+        if self.closed or len(self._inbox) < ETHERNET_CMD_SIZE:
+            return False
+        size = Header.unpack(self._inbox).data_length
+        return size > ETHERNET_DATA_SIZE or len(self._inbox) >= ETHERNET_CMD_SIZE + size
+
+    def receive(self, data: bytes, limit: int | None = None) -> list[bytes]:
+        """Feed raw TCP bytes; return the replies to the complete requests, one bytes per request,
+        at most `limit` of them (the rest wait for the next call: `ready`)."""
         if self.closed:
             return []
         if not self._inbox and len(data) > ETHERNET_CMD_SIZE and data[1] == VR_PMAC_GETRESPONSE \
                 and data[0] == VR_DOWNLOAD and len(data) == ETHERNET_CMD_SIZE + (data[6] << 8 | data[7]):
             # the common case, one whole GETRESPONSE in the segment: no header object, no buffering
-            return [self._response(data[ETHERNET_CMD_SIZE:]) or REPLY_EMPTY]
+            return [self._checked(self._response(data[ETHERNET_CMD_SIZE:]) or REPLY_EMPTY)]
         self._inbox += data
         replies: list[bytes] = []
-        while len(self._inbox) >= ETHERNET_CMD_SIZE:
+        while len(self._inbox) >= ETHERNET_CMD_SIZE and (limit is None or len(replies) < limit):
             header = Header.unpack(self._inbox)
             size = header.data_length
             if size > ETHERNET_DATA_SIZE:
@@ -238,21 +261,48 @@ class EthernetSession:
                 break
             payload = bytes(self._inbox[ETHERNET_CMD_SIZE:end])
             del self._inbox[:end]
-            replies.append(self._dispatch(header, payload))
+            replies.append(self._checked(self._dispatch(header, payload)))
+            if self.closed:
+                break
         return replies
+
+    def _checked(self, reply: bytes) -> bytes:
+        """`reply`, the pending output checked against its bound (past it: closed)."""
+        if len(self._output) > self.max_pending:
+            self.closed = self.overflowed = True
+            self._inbox.clear()
+            self._output.clear()
+        return reply
+
+    def close_log(self) -> None:
+        """The connection ends: say how many bad requests went unlogged, if any."""
+        if self._bad.count > self._bad.logged:
+            log.info("PMAC Ethernet: %d bad requests on the connection, %d of them logged",
+                     self._bad.count, self._bad.logged)
+
+    def _bad_request(self) -> str | None:
+        """Count a bad request: None when it goes unlogged, else a suffix for its log line."""
+        if not self._bad():
+            return None
+        if self._bad.count <= self._bad.first:
+            return ""
+        return f" (bad request {self._bad.count} of the connection; logged at each tenfold)"
 
     def _dispatch(self, header: Header, data: bytes) -> bytes:
         handler = self._handlers.get(header.request)
         if handler is None or header.request_type not in (VR_UPLOAD, VR_DOWNLOAD):
-            log.info("PMAC Ethernet: unsupported request %s", header)
+            if (more := self._bad_request()) is not None:
+                log.info("PMAC Ethernet: unsupported request %s%s", header, more)
             return REPLY_INVALID
         try:
             reply = handler(header, data)
         except ValueError as exc:
-            log.info("PMAC Ethernet request %s refused: %s", header, exc)
+            if (more := self._bad_request()) is not None:
+                log.info("PMAC Ethernet request %s refused: %s%s", header, exc, more)
             return REPLY_INVALID
         except Exception:
-            log.exception("PMAC Ethernet request %s failed", header)
+            if (more := self._bad_request()) is not None:
+                log.exception("PMAC Ethernet request %s failed%s", header, more)
             return REPLY_INVALID
         return reply or REPLY_EMPTY
 
@@ -271,14 +321,16 @@ class EthernetSession:
         try:
             return self.port.command(line)
         except Exception:
-            log.exception("PMAC port failed on command %r", line)
+            if (more := self._bad_request()) is not None:
+                log.exception("PMAC port failed on command %r%s", line, more)
             return PORT_FAILURE
 
     def _control(self, ch: int) -> bytes:
         try:
             text = self.port.control(ch)
         except Exception:
-            log.exception("PMAC port failed on control character %#04x", ch)
+            if (more := self._bad_request()) is not None:
+                log.exception("PMAC port failed on control character %#04x%s", ch, more)
             return b""
         if ch == CTRL_X:
             self._output.clear()

@@ -24,6 +24,7 @@ from vdevd.devices.pmac.feedback import FeedbackSelect
 from vdevd.devices.pmac.gather import GATHER_ON, GATHER_ON_TRIGGER, Gather, valid_source
 from vdevd.devices.pmac.gpio import GeneralIO
 from vdevd.devices.pmac.ivars import IVars
+from vdevd.devices.pmac.kinematics import Kinematics
 from vdevd.devices.pmac.macro import MacroStations
 from vdevd.devices.pmac.memory import TOP, Memory
 from vdevd.devices.pmac.motor_reports import MotorReports
@@ -32,6 +33,7 @@ from vdevd.devices.pmac.mvars import MVars
 from vdevd.devices.pmac.numbers import format_hex, format_value, quantize_float
 from vdevd.devices.pmac.online import Interpreter, PortState
 from vdevd.devices.pmac.plc import Plcs
+from vdevd.devices.pmac.program_runner import Motion
 from vdevd.devices.pmac.registers import (
     CS_BASE,
     CS_STRIDE,
@@ -44,6 +46,7 @@ from vdevd.devices.pmac.registers import (
     GlobalRegisters,
     MotorBlocks,
 )
+from vdevd.devices.pmac.rotary import RotaryBuffers
 from vdevd.devices.pmac.servo_ic import ServoIC
 from vdevd.devices.pmac.timebase import TimeBase
 from vdevd.rt import PlantKind
@@ -117,6 +120,12 @@ class Firmware:
         self.timebase = TimeBase(self.ivars, lambda: self.servo_cycles)  # `%` slew (Isx94)
         self.interpreter = Interpreter(self)
         self.plc = Plcs(self)
+        self.rotary = RotaryBuffers(self)          # rotary.py
+        self.kinematics = Kinematics(self)         # kinematics.py
+        self.buffer_checks.append(lambda: {"ROTARY"} if self.rotary.defined else set())
+        self.motion = Motion(self)  # motion programs (program_runner.py)
+        self.buffer_checks.append(  # the lookahead buffers (DEFINE LOOKAHEAD, lookahead.py)
+            lambda: {"LOOKAHEAD"} if any(r.lookahead_buffer for r in self.motion.cs) else set())
 
     # -- time -------------------------------------------------------------------------------------
     def tick(self, now_ns: int) -> int:
@@ -126,6 +135,8 @@ class Firmware:
         self.servo_cycles += 1
         if self.comp.tables or self._comp_applied or self.feedback.active or self.comp1d.active:
             self._offset_feedback()
+        if self.motion.active:  # running programs give their motors this cycle's position
+            self.motion.tick()
         events = self.motors.tick()
         self.servo_ic.tick()
         self.ect.tick()
@@ -259,6 +270,8 @@ class Firmware:
         `motors`) ignores it, as a deactivated motor does."""
         if motor > self.ivars.motors or not self.ivars.values[100 * motor]:
             return
+        if self.motion.motor_in_running_cs(motor):  # [UM "Kill All": not while it runs]
+            raise CommandError(1, "the motor's coordinate system runs a program")
         try:
             getattr(self.motors, name)(motor - 1, *args)
         except MotorError as exc:
@@ -285,25 +298,35 @@ class Firmware:
         return int(w1[motor - 1]), int(w2[motor - 1])
 
     def abort_cs(self, cs: int) -> None:
-        """`A` of a coordinate system: abort each of its motors [§2.5] (coord.py)."""
+        """`A` of a coordinate system: its program stops, each of its motors aborts [§2.5]."""
+        self.motion.runner(cs).abort()
         for motor in self.coord.members(cs):
             self.motor_call("abort", motor)
 
     def kill_cs(self, cs: int) -> None:
-        """`K` with a C.S. addressed: kill each of its motors (README "Coordinate systems")."""
+        """`K` with a C.S. addressed: its program stops, each of its motors is killed (README
+        "Coordinate systems")."""
+        self.motion.runner(cs).kill()
         for motor in self.coord.members(cs):
             self.motor_call("kill", motor)
 
     def cs_status(self, cs: int) -> tuple[int, int, int]:
         """`&n??`: the three status words of C.S. n [§2.6] (coord.py)."""
+        p1, p2, running = self.motion.status(cs)  # the program's bits (program_runner.py)
         if not self.coord.has_members(cs):  # no motors: in position, nothing else (no work)
-            return 0, 1 << 17, 0
+            return p1, p2 | (0 if running else 1 << 17), 0
         w1, w2 = self.reports.status_words()
-        return self.coord.status(cs, w1, w2)
+        c1, c2, c3 = self.coord.status(cs, w1, w2)
+        if running:
+            c2 &= ~(1 << 17)  # in a timed move or DWELL: not in position [SRM "??" bit 17]
+        return c1 | p1, c2 | p2, c3
 
     def define_axis(self, cs: int, motor: int, text: str, start: int) -> int:
-        """`&cs#motor->{definition}`; where the definition ends in `text`."""
+        """`&cs#motor->{definition}`; where the definition ends in `text` (ERR001 while the
+        C.S. runs a program)."""
         d, end = parse_axis_def(text, start)
+        if self.motion.runner(cs).running:
+            raise CommandError(1, "the coordinate system runs a program")
         self.coord.define(cs, motor, d)
         return end
 
@@ -336,7 +359,8 @@ class Firmware:
         mot = self.motors
         group = range(8 * (port.group - 1), min(8 * port.group, self.ivars.motors))
         match ch:
-            case 0x01:  # ^A abort all
+            case 0x01:  # ^A abort all: programs stop too
+                self.motion.abort_all()
                 for m in range(self.ivars.motors):
                     if self.ivars.values[100 * (m + 1)]:
                         mot.abort(m)
@@ -352,7 +376,8 @@ class Firmware:
                 return " ".join(report_counts(float(fe[m])) for m in group)
             case 0x07:  # ^G global status
                 return "".join(f"{w:06X}" for w in self.global_status())
-            case 0x0B:  # ^K kill all
+            case 0x0B:  # ^K kill all: programs stop too
+                self.motion.abort_all()
                 mot.kill_all()
                 return ""
             case 0x10:  # ^P positions
@@ -364,6 +389,9 @@ class Firmware:
             case 0x18:  # ^X cancel: the port flushes; echoed when I63 = 1
                 port.table_left = 0
                 return "\x18" if self.ivars.values[63] else ""
+            case 0x0F:  # ^O feed hold of every C.S. (program_runner.py)
+                self.motion.hold_all()
+                return ""
             case 0x04:  # ^D disable all PLCs (plc.py)
                 self.plc.disable_all()
                 return ""
@@ -482,6 +510,8 @@ class Firmware:
             "comp1d": self._comp1d_image(),
             "axes": self.coord.image(),
             "plc": self.plc.image(),
+            "kinematics": self.kinematics.image(),
+            "prog": self.motion.store.image(),
         }
 
     def save(self) -> None:
@@ -506,6 +536,8 @@ class Firmware:
         self._comp1d_restore(image.get("comp1d", []))
         self.coord.restore(image.get("axes", []))
         self.plc.restore(image.get("plc", {}))
+        self.kinematics.restore(image.get("kinematics", {}))
+        self.motion.store.restore(image.get("prog", {}))
         self._reset_hardware()
 
     def power_on_reset(self) -> None:
@@ -529,6 +561,10 @@ class Firmware:
         self.comp1d.clear()
         self.coord.undefine(None)
         self.plc.clear_all()
+        self.kinematics.clear_all()
+        self.motion.store.clear_all()
+        for runner in self.motion.cs:  # the lookahead buffers go with the other buffers
+            runner.lookahead_buffer = None
         self.locks = 0
 
     def _reset_hardware(self) -> None:
@@ -544,6 +580,9 @@ class Firmware:
         self.coord.reset()
         self.gather.reset()
         self.plc.power_on()
+        self.rotary.power_on()
+        self.kinematics.power_on()
+        self.motion.power_on()
         core = self.motors.core
         self.feedback.refresh(core.axes.encoder + core.encoder_slip)
         if self.on_reset is not None:

@@ -15,8 +15,10 @@ bits the address [DLS-ctl gatherchannel.py: `"$%X%05X" % (size, address)`, first
 
 I5050 bit k-1 enables source k (1-24), I5051 bit k-25 source k (25-48) [DLS-ctl gather.py]; I5049
 is the period in servo cycles (0 counts as 1, ASSUMPTION); I5000 the mode: 0 stop when the
-buffer is full, 1 wrap (GATMODE of [PComm Gather.h]: GAT_RAM_NOWRAP, GAT_RAM_WRAP; 2 and 3, the
-DPRAM modes, are not emulated: the DPRAM gathering layout was not retrieved, digest §2.10).
+buffer is full, 1 wrap (GATMODE of [PComm Gather.h]: GAT_RAM_NOWRAP, GAT_RAM_WRAP); 2 and 3 the
+same into the DPRAM (GAT_DPR_NOWRAP, GAT_DPR_WRAP; dpram_gather.py has the layout and its
+sources). I5000 at `DEFINE GATHER` places the buffer [Turbo SRM I5000: "where the data gathering
+buffer will be located when it is defined"], I5000 at `GATHER` says whether it wraps.
 
 A sample is the enabled sources' words in source order, padded with a zero word to a whole
 number of 48-bit words; `DEFINE GATHER n` reserves n 48-bit words. LIST GATHER prints each 48-bit
@@ -31,7 +33,10 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+from vdevmaps.pmac import OPEN_USE_WORDS
 
+from vdevd.devices.pmac.dpram import sign24
+from vdevd.devices.pmac.dpram_gather import DpramGather
 from vdevd.devices.pmac.errors import ERR_DATA, CommandError
 from vdevd.devices.pmac.memory import TOP, Memory
 
@@ -72,6 +77,10 @@ class Gather:
         self.period = 1
         self.countdown = 0             # servo cycles to the next sample
         self._reads: list[tuple[Callable[[str, int], int], str, int]] = []
+        #: the DPRAM buffer (the card's; None: no DPRAM, I5000 = 2 or 3 refused) and whether the
+        #: defined buffer is there
+        self.dpram: DpramGather | None = None
+        self.in_dpram = False
 
     @property
     def defined(self) -> bool:
@@ -79,14 +88,24 @@ class Gather:
 
     # -- commands ------------------------------------------------------------------------------
     def define(self, size: int | None) -> None:
-        """`DEFINE GATHER [n]`: reserve n 48-bit words (all of MAX_WORDS without n). ERR007 while
-        gathering; an existing buffer is replaced (ASSUMPTION, README)."""
+        """`DEFINE GATHER [n]`: reserve n 48-bit words (all of MAX_WORDS without n), or with
+        I5000 = 2 or 3 n 32-bit words of the DPRAM's open-use space (all of it without n).
+        ERR007 while gathering; an existing buffer is replaced (ASSUMPTION, README)."""
         if self.on:
             raise CommandError(ERR_BUFFER, "DEFINE GATHER while gathering")
-        n = MAX_WORDS if size is None else size
-        if not 1 <= n <= MAX_WORDS:
-            raise CommandError(ERR_DATA, f"DEFINE GATHER {n}: 1-{MAX_WORDS} words")
-        self.size = n
+        in_dpram = int(self.iv[5000]) >= 2
+        if in_dpram and self.dpram is None:
+            raise CommandError(ERR_DATA, "DEFINE GATHER in the DPRAM: no DPRAM")
+        top = OPEN_USE_WORDS if in_dpram else MAX_WORDS
+        n = top if size is None else size
+        if not 1 <= n <= top:
+            raise CommandError(ERR_DATA, f"DEFINE GATHER {n}: 1-{top} words")
+        self.size, self.in_dpram = n, in_dpram
+        if self.dpram is not None and in_dpram:
+            self.dpram.define(n)
+            self.words = np.zeros(0, dtype=np.uint32)
+            self.samples = 0
+            return
         self.words = np.zeros(2 * n, dtype=np.uint32)
         self.samples = 0
 
@@ -97,6 +116,9 @@ class Gather:
         self.size = 0
         self.words = np.zeros(0, dtype=np.uint32)
         self.samples = 0
+        if self.dpram is not None and self.in_dpram:
+            self.dpram.define(0)  # ASSUMPTION: the size register reads 0 with no buffer
+        self.in_dpram = False
 
     def start(self) -> None:
         """`GATHER`: gathering starts afresh at the buffer's start, with the sources, mask,
@@ -119,9 +141,13 @@ class Gather:
         if not reads:
             raise CommandError(ERR_DATA, "GATHER with no source enabled (I5050, I5051)")
         self._reads = reads
-        self.per_sample = len(reads) + len(reads) % 2
-        self.capacity = 2 * self.size // self.per_sample
-        self.wrap = int(iv[5000]) == 1
+        if self.dpram is not None and self.in_dpram:  # one 32-bit word per 24-bit word, no pad
+            self.per_sample = len(reads)
+            self.capacity = self.dpram.begin(self.per_sample, self.size)
+        else:
+            self.per_sample = len(reads) + len(reads) % 2
+            self.capacity = 2 * self.size // self.per_sample
+        self.wrap = int(iv[5000]) in (1, 3)
         self.period = max(int(iv[5049]), 1)
         self.countdown = 1
         self.samples = 0
@@ -155,16 +181,22 @@ class Gather:
         k = self.per_sample
         start = (self.samples % self.capacity) * k
         row = [read(space, addr) for read, space, addr in self._reads]
-        self.words[start:start + len(row)] = row
         self.samples += 1
+        if self.dpram is not None and self.in_dpram:
+            # the index of the next item: 0 again after the last sample when wrapping
+            nxt = (self.samples % self.capacity if self.wrap else self.samples) * k
+            self.dpram.post(start, sign24(np.array(row, dtype=np.int64)), nxt)
+        else:
+            self.words[start:start + len(row)] = row
         if self.samples >= self.capacity and not self.wrap:
             self.on = False  # full (I5000 = 0): gathering ends [PComm Gather.h GAT_RAM_NOWRAP]
 
     # -- LIST GATHER -----------------------------------------------------------------------------
     def list_lines(self) -> list[str]:
         """The gathered samples, one a line (LINE_WORDS at most), each 48-bit word as 12 hex
-        digits X then Y; after a wrap, the whole buffer in memory order."""
-        if not self.defined or not self.per_sample:
+        digits X then Y; after a wrap, the whole buffer in memory order. Nothing for a buffer in
+        the DPRAM: the host reads it there (ASSUMPTION)."""
+        if not self.defined or not self.per_sample or self.in_dpram:
             return []
         n = min(self.samples, self.capacity)
         k = self.per_sample

@@ -70,6 +70,8 @@ GLOBAL: dict[int, IVar] = {
     12: _FLAG,                  # lookahead time splining [A L1408]
     13: _FLAG,                  # foreground in-position check [A L3254]
     15: _FLAG,                  # degrees (0) / radians (1) [A L1137]
+    16: _int(0, 8_388_607, 5),  # rotary buffer request on point, lines (ASSUMPTION: default)
+    17: _int(0, 8_388_607, 10),  # rotary buffer request off point, lines [Turbo SRM I17]
     20: _ADDR, 21: _ADDR, 22: _ADDR, 23: _ADDR,  # MACRO IC 0-3 bases, $0 = absent [A L3228]
     24: _ADDR,
     30: _FLAG,                  # compensation-table wrap [A L1420]
@@ -141,13 +143,15 @@ CS: dict[int, IVar] = {
     87: IVar(0, 0, 8_388_607), 88: IVar(50, 0, 8_388_607), 89: IVar(1000, 0, 8_388_607),
     90: IVar(1000, 0, 8_388_607), 93: _ADDR, 94: IVar(1644, 0, 8_388_607),
     95: IVar(1644, 0, 8_388_607),
+    96: IVar(0, 0, 2.0**35),   # circle radius error limit, units (0: no error) [Turbo SRM Isx96]
+    97: IVar(0, 0, 2.0),       # minimum arc, half-circles (0: 2^-20) [Turbo SRM Isx97]
 }
 
 #: data gathering I5000-I5051 [digest §2.2; DLS-ctl gather.py; PComm Gather.h GATMODE]: I5000 mode
-#: (0 stop when full, 1 wrap; the DPRAM modes 2-3 are not emulated), I5001-I5048 sources (hex:
+#: (0 stop when full, 1 wrap; 2, 3 the same in the DPRAM), I5001-I5048 sources (hex:
 #: format digit + address), I5049 period in servo cycles, I5050/I5051 source masks (hex)
 GATHER: dict[int, IVar] = {
-    5000: _int(0, 1, 0),
+    5000: _int(0, 3, 0),
     **dict.fromkeys(range(5001, 5049), _ADDR),
     5049: _int(0, 0x7FFFFF, 0),
     5050: _ADDR, 5051: _ADDR,

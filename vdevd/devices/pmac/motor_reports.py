@@ -178,6 +178,7 @@ class MotorReports:
             amp_enabled=mo.amp_enabled, moving=core.profile.moving,
             searching=mo.homing.searching, abort_decel=mo.abort_decel, timed=mo.timed,
             limits=np.where(mo.amp_enabled, self.limit_bits_now(), mo.limit_bits))
+        w1 = w1 | (mo.dwell.astype(w1.dtype) << 15)  # dwell in progress [§2.6; SRM "?"]
         inpos = mo.inpos_scans > self._iv(88) if mo.count_inpos else self.in_position_now()
         warn_limit = self._iv(12) / 16
         warning = (closed & (warn_limit > 0) & (self._abs_ferr() > warn_limit)) | mo.fatal_error

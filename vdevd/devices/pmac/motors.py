@@ -101,6 +101,7 @@ class Motors:
         self.homing.clear()
         self.timed = np.zeros(n, dtype=bool)  # a move with a defined end (move timer)
         self.abort_decel = np.zeros(n, dtype=bool)
+        self.dwell = np.zeros(n, dtype=bool)  # word 1 bit 15: its C.S. program dwells
         self.fatal_error = np.zeros(n, dtype=bool)
         self.amp_error = np.zeros(n, dtype=bool)
         self.prejog = np.zeros(n)  # motor position before the last jog (J=)

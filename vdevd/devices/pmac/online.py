@@ -27,10 +27,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from vdevd.devices.pmac import expr
+from vdevd.devices.pmac import expr, prog_reports
 from vdevd.devices.pmac.buffers import PLCC_BASE
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
-from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_NOT_OPEN, CommandError
+from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_IN_USE, ERR_NOT_OPEN, CommandError
 from vdevd.devices.pmac.mvars import MDefError, parse_definition
 from vdevd.devices.pmac.numbers import format_value
 from vdevd.devices.pmac.reply import Reply
@@ -38,6 +38,8 @@ from vdevd.devices.pmac.reply import Reply
 if TYPE_CHECKING:
     from vdevd.devices.pmac.firmware import Firmware
 
+#: a motion program runs: buffers that may not open meanwhile [SRM OPEN FORWARD]
+ERR_RUNNING = 1
 #: compiled report lines kept per interpreter (the cache starts afresh when full)
 PLAN_CACHE = 256
 
@@ -174,6 +176,12 @@ class Interpreter:
     def execute(self, port: PortState, text: str) -> Reply:
         if port is self.fw.plc.owner:  # a buffer is open on this port: its lines go there (plc.py)
             return self.fw.plc.enter(port, text)
+        if port is self.fw.rotary.owner:  # rotary.py
+            return self.fw.rotary.enter(port, text)
+        if port is self.fw.kinematics.owner:  # kinematics.py
+            return self.fw.kinematics.enter(port, text)
+        if port is self.fw.motion.store.owner:  # a PROG buffer (programs.py)
+            return self.fw.motion.store.enter(port, text)
         plans = self._plans
         if text in plans:
             plan = plans[text]
@@ -462,7 +470,55 @@ class Interpreter:
         raise CommandError(code, f"{name} comes in a later issue")
 
     def hold(self, line: Line, port: PortState, out: list[str]) -> None:
-        """H: feed hold of the addressed C.S.; with no axes defined it holds nothing."""
+        """H: feed hold of the addressed C.S.'s program (program_runner.py); with none running it
+        holds nothing."""
+        self.fw.motion.runner(port.cs).feed_hold()
+
+    def begin(self, line: Line, port: PortState, out: list[str]) -> None:
+        """B{n}[.label] points the addressed C.S. to PROG n; B alone back to its top [SRM B]."""
+        line.skip()
+        value = None
+        if line.peek().isdigit() or line.peek() == ".":
+            m = re.compile(r"\d*\.?\d*").match(line.s, line.i)
+            assert m is not None
+            line.i = m.end()
+            try:
+                value = float(m.group())
+            except ValueError:
+                raise CommandError(ERR_DATA) from None
+        self.fw.motion.runner(port.cs).point(value)
+
+    def run(self, step: bool, line: Line, port: PortState, out: list[str]) -> None:
+        """R (run) / S (single step) of the addressed C.S.'s program [SRM R, S]."""
+        self.fw.motion.runner(port.cs).run(step)
+
+    def abort_run(self, line: Line, port: PortState, out: list[str]) -> None:
+        """ABR[{n}[.label]]: abort the addressed C.S.'s program and run PROG n, or the one
+        pointed to from its top (program_runner.py) [A L3261]."""
+        line.skip()
+        value = None
+        if line.peek().isdigit() or line.peek() == ".":
+            m = re.compile(r"\d*\.?\d*").match(line.s, line.i)
+            assert m is not None
+            line.i = m.end()
+            try:
+                value = float(m.group())
+            except ValueError:
+                raise CommandError(ERR_DATA) from None
+        self.fw.motion.runner(port.cs).abort_and_run(value)
+
+    def program_report(self, name: str, line: Line, port: PortState, out: list[str]) -> None:
+        """PC (program counter), PE (executing line) of the addressed C.S.: `P{prog}:{offset}`
+        (prog_reports.py) [SRM PC, PE]; PR is rotary.py's (`program_remaining`)."""
+        r = self.fw.motion.runner(port.cs)
+        if name == "PC":
+            out.append(prog_reports.program_counter(r))
+        else:
+            out.append(prog_reports.execution_line(r))
+
+    def quit(self, line: Line, port: PortState, out: list[str]) -> None:
+        """Q: quit at the end of the moves already calculated [SRM Q]."""
+        self.fw.motion.runner(port.cs).quit()
 
     def macro_station(self, line: Line, port: PortState, out: list[str]) -> None:
         """MS{node},MI{n} reads and MS{node},MI{n}={v} writes a station's MI-variable (`I` for `MI`
@@ -520,6 +576,13 @@ class Interpreter:
             line.take("HER")
             out.extend(self.fw.gather.list_lines())
             return
+        if line.take("FORWARD") or line.take("FWD"):  # LIST FORWARD / INVERSE (kinematics.py)
+            out.extend(self.fw.kinematics.list_lines(port.cs, "FORWARD"))
+            return
+        if line.take("INV"):
+            line.take("ERSE")
+            out.extend(self.fw.kinematics.list_lines(port.cs, "INVERSE"))
+            return
         if line.take("PLC") and not line.take("C"):  # LIST PLC n[,start[,count]] (plc.py)
             line.skip()
             n = line.integer()
@@ -537,12 +600,35 @@ class Interpreter:
                 raise CommandError(ERR_DATA)
             out.extend(self.fw.plc.list_lines(n, *args))
             return
-        raise CommandError(ERR_DATA, "LIST of motion programs comes in a later issue")
+        if line.take("PROG"):  # LIST PROG n[,start[,count]] (programs.py)
+            line.take("RAM")
+            n, args = _list_numbers(line)
+            out.extend(self.fw.motion.store.list_lines(n, *args))
+            return
+        raise CommandError(ERR_DATA, "LIST of this buffer is not emulated")
 
     def open_buffer(self, line: Line, port: PortState, out: list[str]) -> None:
-        """OPEN PLC n: the rest of the line and the port's next lines go into the buffer
-        (plc.py); OPEN PROG/ROT come with motion programs (ERR003)."""
+        """OPEN PLC n / OPEN PROG n: the rest of the line and the port's next lines go into the
+        buffer (plc.py, programs.py)."""
         line.skip()
+        if self._open_other(line, port, out):
+            return
+        if any(o is not None and o is not port for o in (self.fw.rotary.owner, self.fw.kinematics.owner)):
+            raise CommandError(ERR_IN_USE, "another port has a buffer open")
+        if line.take("PROG"):
+            line.take("RAM")
+            line.skip()
+            n = line.integer()
+            if n is None:
+                raise CommandError(ERR_DATA)
+            store = self.fw.motion.store
+            store.open(port, n)
+            rest, line.i = line.s[line.i:], len(line.s)
+            reply = store.enter(port, rest)
+            out.extend(reply.lines)
+            if reply.error is not None:
+                raise CommandError(reply.error)
+            return
         if not line.take("PLC"):
             raise CommandError(ERR_DATA, "only OPEN PLC n and OPEN PLCC n are emulated yet")
         compiled = line.take("C")
@@ -557,6 +643,44 @@ class Interpreter:
         if reply.error is not None:
             raise CommandError(reply.error)
 
+    def _open_other(self, line: Line, port: PortState, out: list[str]) -> bool:
+        """OPEN ROT (rotary.py), OPEN FORWARD / OPEN INVERSE of the addressed C.S.
+        (kinematics.py): the rest of the line goes into the buffer. False for another OPEN."""
+        fw = self.fw
+        kind = ""
+        if line.take("ROT"):
+            line.take("ARY")
+        elif line.take("FORWARD") or line.take("FWD"):
+            kind = "FORWARD"
+        elif line.take("INV"):
+            line.take("ERSE")
+            kind = "INVERSE"
+        else:
+            return False
+        owners = (fw.plc.owner, fw.motion.store.owner, fw.rotary.owner, fw.kinematics.owner)
+        if any(o is not None and o is not port for o in owners):
+            raise CommandError(ERR_IN_USE, "another port has a buffer open")
+        if kind and fw.motion.any_running():
+            raise CommandError(ERR_RUNNING, "a motion program is running")
+        if fw.plc.owner is port:
+            fw.plc.close()
+        if fw.motion.store.owner is port:
+            fw.motion.store.close()
+        if kind:
+            fw.kinematics.open(port, kind)
+        else:
+            fw.rotary.open(port)
+        rest, line.i = line.s[line.i:], len(line.s)
+        reply = (fw.kinematics if kind else fw.rotary).enter(port, rest)
+        out.extend(reply.lines)
+        if reply.error is not None:
+            raise CommandError(reply.error)
+        return True
+
+    def program_remaining(self, line: Line, port: PortState, out: list[str]) -> None:
+        """PR: the lines waiting in the addressed C.S.'s rotary buffer (rotary.py)."""
+        out.append(str(self.fw.rotary.remaining(port.cs)))
+
     def trigger_alone(self, line: Line, port: PortState, out: list[str]) -> None:
         """`^{c}` belongs to a definite jog (`J=^{c}`, `J:{c}^{c}` ..., parsed by `jog`); on its
         own, or after J+/J- (which cannot be triggered [PMAC1-SRM p.241]), it is ERR003."""
@@ -567,27 +691,20 @@ class Interpreter:
         to close, no error; the SRM's examples start every download with CLOSE "to make sure no
         other buffers have been left open" [SRM OPEN PROGRAM], and so do pmac_motorhome's PLCs.
         While another port has a buffer open only that port may CLOSE it: ERR005 [A L3234]."""
-        if self.fw.plc.owner is not None:
+        fw = self.fw
+        if any(o is not None for o in (fw.plc.owner, fw.motion.store.owner, fw.rotary.owner,
+                                       fw.kinematics.owner)):
             raise CommandError(ERR_NOT_OPEN, "another port has the buffer open")
         line.take(" ALL")
 
     def plc_control(self, on: bool, line: Line, port: PortState, out: list[str]) -> None:
         """ENABLE PLC n[,m...] / DISABLE PLC n[,m...], and PLCC for the compiled PLCs [§2.9]."""
-        line.skip()
-        if not line.take("PLC"):
-            raise CommandError(ERR_DATA, "ENABLE/DISABLE PLC n or PLCC n")
-        base = PLCC_BASE if line.take("C") else 0
-        plcs: list[int] = []
-        while True:
-            line.skip()
-            n = line.integer()
-            if n is None or not 0 <= n <= 31:
-                raise CommandError(ERR_DATA)
-            plcs.append(base + n)
-            line.skip()
-            if not line.take(","):
-                break
-        self.fw.plc.enable(tuple(plcs), on)
+        self.fw.plc.enable(_plc_numbers(line), on)
+
+    def plc_pause(self, resume: bool, line: Line, port: PortState, out: list[str]) -> None:
+        """PAUSE PLC n[,m...] stops PLCs where they are, RESUME PLC n[,m...] goes on from there
+        (PLCC too) [Turbo SRM PAUSE PLC, RESUME PLC; plc.py]."""
+        self.fw.plc.pause(_plc_numbers(line), resume)
 
     def define(self, line: Line, port: PortState, out: list[str]) -> None:
         line.take("INE")
@@ -596,6 +713,24 @@ class Interpreter:
             line.take("HER")
             line.skip()
             self.fw.gather.define(line.integer())
+            return
+        if line.take("ROT"):  # DEFINE ROT n (rotary.py)
+            line.take("ARY")
+            line.skip()
+            self.fw.rotary.define(port.cs, line.integer())
+            return
+        if line.take("LOOK"):  # DEFINE LOOKAHEAD {segments}[,{outputs}] (lookahead.py)
+            line.take("AHEAD")
+            line.skip()
+            segments = line.integer()
+            line.skip()
+            outputs: int | None = 0
+            if line.take(","):
+                line.skip()
+                outputs = line.integer()
+            if segments is None or outputs is None:
+                raise CommandError(ERR_DATA, "DEFINE LOOKAHEAD {segments},{outputs}")
+            self.fw.motion.runner(port.cs).define_lookahead(segments, outputs)
             return
         kind = _table_kind(line)
         if kind is None:
@@ -614,8 +749,14 @@ class Interpreter:
         elif line.take("GAT"):
             line.take("HER")
             self.fw.gather.delete()
-        elif line.take("ROTARY") or line.take("ROT") or line.take("TBUF"):
-            pass  # none of these buffers exists yet: deleting one is a no-op
+        elif line.take("LOOK"):  # DELETE LOOKAHEAD: the addressed C.S.'s (lookahead.py)
+            line.take("AHEAD")
+            self.fw.motion.runner(port.cs).define_lookahead(None, 0)
+        elif line.take("ROT"):  # DELETE ROT (rotary.py)
+            line.take("ARY")
+            self.fw.rotary.delete(port.cs)
+        elif line.take("TBUF"):
+            pass  # no TBUF buffer exists: deleting it is a no-op
         else:
             raise CommandError(ERR_DATA)
 
@@ -687,15 +828,18 @@ class Interpreter:
         self.fw.p[p] = 1.0 if held else 0.0
 
     def movetime(self, line: Line, port: PortState, out: list[str]) -> None:
-        """MOVETIME: time left in the C.S.'s present move, ms (V1.937 [A L3262]); no program
-        runs yet, so 0."""
-        out.append("0")
+        """MOVETIME: time left in the C.S.'s present move, ms (V1.937 [A L3262]), 0 with no
+        program running (program_runner.py)."""
+        out.append(format_value(round(self.fw.motion.runner(port.cs).move_time_left(), 3)))
 
     def undefine(self, line: Line, port: PortState, out: list[str]) -> None:
         """UNDEFINE [ALL]: clears axis definitions, of the addressed C.S. only since V1.938
         [A L3284]."""
         line.skip()
-        self.fw.coord.undefine(None if line.take("ALL") else port.cs)
+        every = line.take("ALL")
+        if self.fw.motion.any_running() if every else self.fw.motion.runner(port.cs).running:
+            raise CommandError(1, "a coordinate system runs a program")
+        self.fw.coord.undefine(None if every else port.cs)
 
     def setphase(self, line: Line, port: PortState, out: list[str]) -> None:
         """SETPHASE: Ixx75 into the phase position register [A L3263]; the motors here are not
@@ -704,6 +848,25 @@ class Interpreter:
     def passthrough(self, line: Line, port: PortState, out: list[str]) -> None:
         """A word accepted and ignored (PASSWORD on a card without one)."""
         line.i = len(line.s)
+
+
+def _plc_numbers(line: Line) -> tuple[int, ...]:
+    """`PLC n[,m...]` or `PLCC n[,m...]` after ENABLE/DISABLE/PAUSE/RESUME (PLCC n: PLCC_BASE + n)."""
+    line.skip()
+    if not line.take("PLC"):
+        raise CommandError(ERR_DATA, "ENABLE/DISABLE PLC n or PLCC n")
+    base = PLCC_BASE if line.take("C") else 0
+    plcs: list[int] = []
+    while True:
+        line.skip()
+        n = line.integer()
+        if n is None or not 0 <= n <= 31:
+            raise CommandError(ERR_DATA)
+        plcs.append(base + n)
+        line.skip()
+        if not line.take(","):
+            break
+    return tuple(plcs)
 
 
 def status_text(fw: Firmware, port: PortState, k: int) -> str:
@@ -730,6 +893,25 @@ def _longest_word(s: str, i: int) -> str:
         if word[:k] in _WORD_NAMES:
             return word[:k]
     return ""
+
+
+def _list_numbers(line: Line) -> tuple[int, list[int]]:
+    """`n[,start[,count]]` after LIST PROG."""
+    line.skip()
+    n = line.integer()
+    if n is None:
+        raise CommandError(ERR_DATA)
+    args: list[int] = []
+    while len(args) < 2:
+        line.skip()
+        if not line.take(","):
+            break
+        line.skip()
+        v = line.integer()
+        if v is None:
+            raise CommandError(ERR_DATA)
+        args.append(v)
+    return n, args
 
 
 def _table_kind(line: Line) -> str | None:

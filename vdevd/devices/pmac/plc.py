@@ -78,10 +78,14 @@ class Plcs:
         if not 0 <= n < PLC_COUNT:
             raise CommandError(ERR_DATA, "PLC number 0-31")
         n += PLCC if compiled else 0
-        if self.owner is not None and self.owner is not port:
+        progs = self.fw.motion.store  # a PROG buffer counts too (programs.py)
+        if (self.owner is not None and self.owner is not port) or \
+                (progs.owner is not None and progs.owner is not port):
             raise CommandError(ERR_IN_USE, "another port has a buffer open")
         if self.owner is port:  # another buffer of this port: it closes first
             self.close()
+        if progs.owner is port:
+            progs.close()
         plc = self.plcs[n]
         plc.enabled, plc.ops, plc.pc = False, None, 0
         self.on.discard(n)
@@ -177,6 +181,19 @@ class Plcs:
             else:
                 self.on.discard(n)
 
+    def pause(self, plcs: tuple[int, ...], resume: bool) -> None:
+        """PAUSE PLC n: the PLC stops where it is; RESUME PLC n: it goes on from there (from the
+        top after a DISABLE, which leaves it there) [Turbo SRM PAUSE PLC, RESUME PLC]."""
+        for n in plcs:
+            plc = self.plcs[n]
+            if resume and self.open_n == n:
+                continue
+            plc.enabled = resume
+            if resume and plc.ops:
+                self.on.add(n)
+            else:
+                self.on.discard(n)
+
     def disable_all(self) -> None:
         """^D: every PLC off."""
         for plc in self.plcs:
@@ -254,6 +271,11 @@ class Plcs:
                 self.enable(op[1], name == "enable")
                 if not plc.enabled:
                     plc.pc = 0
+                    return
+            elif name in ("pause", "resume"):
+                self.pause(op[1], name == "resume")
+                if not plc.enabled:  # paused itself: on from the next statement at RESUME
+                    plc.pc = pc
                     return
             elif name == "address":
                 if op[1]:
