@@ -4,6 +4,7 @@ daemon (issue 22 "Operations"; vdevd/http_health.py, vdevd/prom.py)."""
 from __future__ import annotations
 
 import asyncio
+import http.client
 import json
 import re
 import signal
@@ -24,6 +25,7 @@ import zmq.auth
 from prometheus_client.parser import text_string_to_metric_families
 
 from tests.conftest import rack_config
+from vdevd import http_health
 from vdevd.config import CardSpec, ConfigError, parse
 from vdevd.devices import card_class
 from vdevd.http_health import Liveness, MetricsConfig, parse_metrics
@@ -213,13 +215,87 @@ def own_address() -> str:
 def test_off_loopback_only_the_allowed_networks_are_answered() -> None:
     address = own_address()
     cfg = rack_config()
-    for allow, status in ((("10.0.0.0/8",), 403), ((f"{address}/32",), 200)):
+    for allow, answered in ((("10.0.0.0/8",), False), ((f"{address}/32",), True)):
         cfg.metrics = MetricsConfig(listen="0.0.0.0:0", allow=allow)
         with DaemonThread(cfg) as d:
             assert d.health is not None
-            port = d.health.url.rsplit(":", 1)[1]
-            assert get(f"http://{address}:{port}/healthz")[0] == status
+            port = int(d.health.url.rsplit(":", 1)[1])
+            if answered:
+                assert get(f"http://{address}:{port}/healthz")[0] == 200
+            else:  # closed as it is accepted: no thread, no read, no answer
+                assert closed_unanswered((address, port))
             assert get(f"http://127.0.0.1:{port}/healthz")[0] == 200  # loopback always
+
+
+def closed_unanswered(address: tuple[str, int], request: bytes = b"") -> bool:
+    """Whether a connection to `address` (sending `request`) is closed by the server without a
+    byte of answer (within 10 s, a guard)."""
+    with socket.create_connection(address, timeout=10) as conn:
+        try:
+            if request:
+                conn.sendall(request)
+            return conn.recv(100) == b""
+        except ConnectionResetError:
+            return True
+
+
+def handler_threads() -> int:
+    """The metrics endpoint's connection threads in this process (the daemon is in-process)."""
+    return sum("process_request_thread" in t.name for t in threading.enumerate())
+
+
+def test_idle_connections_are_bounded_and_closed_after_their_timeout(
+        monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
+    """Slowloris: connections that send part of a request and then nothing hold at most
+    MAX_CONNECTIONS threads, a connection past it is closed at once (logged once), each idle one
+    is closed after the idle timeout, and then probes are answered again."""
+    monkeypatch.setattr(http_health, "MAX_CONNECTIONS", 4)
+    monkeypatch.setattr(http_health._Quiet, "timeout", 3.0)
+    cfg = rack_config()
+    cfg.metrics = MetricsConfig(listen="127.0.0.1:0")
+    with DaemonThread(cfg) as d:
+        assert d.health is not None
+        url = d.health.url
+        host, port = url.removeprefix("http://").rsplit(":", 1)
+        address = (host, int(port))
+        idle = [socket.create_connection(address, timeout=10)]
+        idle[0].sendall(b"GET /healthz HTTP/1.1\r\n")  # and never the rest
+        assert get(url + "/healthz")[0] == 200  # one idle connection keeps no one out
+        idle += [socket.create_connection(address, timeout=10) for _ in range(3)]
+        for conn in idle[1:]:
+            conn.sendall(b"GET /healthz HTTP/1.1\r\nHost: x\r\n")
+        # the endpoint accepts in order: these come after the four, which hold every slot
+        with caplog.at_level("WARNING", logger="vdevd.http"):
+            for _ in range(5):
+                assert closed_unanswered(address, b"GET /healthz HTTP/1.0\r\n\r\n")
+        assert handler_threads() <= 4
+        assert [r.getMessage() for r in caplog.records].count(
+            "metrics endpoint: 4 connections open, the most it serves at once; closing new "
+            "ones until one ends") == 1
+        for conn in idle:  # each closed by the server once silent for its timeout
+            assert conn.recv(100) == b""
+            conn.close()
+        status = 0
+        for _ in range(100):  # the last slot is freed just after its connection is closed
+            try:
+                status = get(url + "/healthz")[0]
+            except (OSError, http.client.HTTPException):  # refused: no slot free yet
+                continue
+            break
+        assert status == 200
+
+
+def test_an_idle_connection_is_closed_after_the_idle_timeout(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(http_health._Quiet, "timeout", 0.5)
+    cfg = rack_config()
+    cfg.metrics = MetricsConfig(listen="127.0.0.1:0")
+    with DaemonThread(cfg) as d:
+        assert d.health is not None
+        host, port = d.health.url.removeprefix("http://").rsplit(":", 1)
+        with socket.create_connection((host, int(port)), timeout=10) as conn:
+            conn.sendall(b"GET /healthz HTTP/1.1\r\nHost: x\r\n")  # no end of headers
+            assert conn.recv(100) == b""  # closed by the server, long before the 10 s guard
 
 
 def test_metrics_configuration() -> None:

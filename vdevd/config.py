@@ -91,6 +91,8 @@ def load(path: str | Path | None) -> Config:
         raise ConfigError(f"{path}: {exc.strerror}") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: not UTF-8 (byte {exc.start})") from None
     return parse(data)
 
 
@@ -197,9 +199,10 @@ def parse(data: dict[str, Any]) -> Config:
 def check_endpoints(cfg: Config) -> None:
     """Non-loopback endpoints need CURVE keys (DESIGN.md "Security")."""
     for key, ep in (("server.endpoint", cfg.endpoint), ("server.events", cfg.events)):
-        if not _ENDPOINT.fullmatch(ep):
+        match = _ENDPOINT.fullmatch(ep)
+        if not match or match[2] not in (None, "*") and int(match[2]) > 65535:
             raise ConfigError(f"{key}: {ep!r} is not a ZeroMQ endpoint (tcp://HOST:PORT with "
-                              "PORT a number or *, [IPv6]:PORT, ipc://PATH)")
+                              "PORT 0..65535 or *, [IPv6]:PORT, ipc://PATH)")
         if not is_local(ep) and cfg.curve is None and not cfg.open_networks:
             raise ConfigError(
                 f"{key}: {ep!r} is not loopback; add a [security] section "

@@ -119,14 +119,16 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
     health = None
     try:
         health = open_health(cfg.metrics, server.rack, loop)  # /healthz answers during start
+        # before the clock starts: a rack with no card compiles the motion core here, which
+        # would otherwise hold the first scheduler pass (a false stall at every start)
+        core = server.rack.stats()["motion_core"]
         await server.start(loop)
         cards = ", ".join(f"{c.name} ({c.type_name})" for c in server.rack.cards.values())
         if not cards:
             cards = "none"
             log.warning("the configuration has no [[card]]: the rack is empty")
         log.info("listening on %s, events on %s, clock %s, motion core %s; cards: %s",
-                 server.endpoint, server.events, cfg.clock, server.rack.stats()["motion_core"],
-                 cards)
+                 server.endpoint, server.events, cfg.clock, core, cards)
         if ready_file is not None:
             listeners = server.listeners()
             if health is not None:

@@ -13,15 +13,20 @@ or not) and tells when the loop itself no longer answers:
   time only; 503 when the loop does not answer within 2 s.
 
 Like the ZeroMQ endpoint it listens on loopback unless told otherwise: a non-loopback `listen`
-needs `allow`, the networks that may connect (loopback always may); any other peer gets 403.
+needs `allow`, the networks that may connect (loopback always may); any other peer's
+connection is closed as it is accepted. At most MAX_CONNECTIONS connections are served at once,
+each closed after IDLE_TIMEOUT_S of silence, so that idle or slow clients cannot hold threads
+and file descriptors (or keep a probe out) for long.
 """
 
 from __future__ import annotations
 
 import asyncio
+import errno
 import ipaddress
 import logging
 import socket
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -148,9 +153,70 @@ class Liveness:
             self.last_beat = self._clock()
 
 
+#: connections served at once (probes and scrapes take one each, briefly); past it a new one
+#: is closed as it is accepted, logged once until the endpoint has room again
+MAX_CONNECTIONS = 32
+#: wall seconds a connection may stay silent while its request is read or its reply written
+#: (a client that opens a connection and sends nothing, or a header a byte at a time, is closed)
+IDLE_TIMEOUT_S = 10.0
+
+
 class _Quiet(WSGIRequestHandler):
+    timeout = IDLE_TIMEOUT_S  # the connection's socket timeout (StreamRequestHandler)
+
     def log_message(self, format: str, *args: Any) -> None:
         log.debug("%s " + format, self.client_address[0], *args)
+
+
+class _Server(ThreadingMixIn, WSGIServer):
+    """A thread a connection, at most MAX_CONNECTIONS at once; a peer `allows` refuses is
+    closed at accept, before any thread or read."""
+
+    daemon_threads = True
+
+    def __init__(self, address: tuple[str, int], allows: Callable[[str], bool]) -> None:
+        self._allows = allows
+        self._slots = threading.BoundedSemaphore(MAX_CONNECTIONS)
+        self._full = False  # refusing for want of room (logged once until there is room)
+        super().__init__(address, _Quiet)
+
+    def get_request(self) -> tuple[socket.socket, Any]:
+        try:
+            return super().get_request()
+        except OSError as exc:
+            if exc.errno in (errno.EMFILE, errno.ENFILE, errno.ENOBUFS, errno.ENOMEM):
+                time.sleep(0.1)  # the connection waits in the backlog: do not spin on it
+            raise
+
+    def verify_request(self, request: Any, client_address: Any) -> bool:
+        if not self._allows(str(client_address[0])):
+            return False
+        if not self._slots.acquire(blocking=False):
+            if not self._full:
+                self._full = True
+                log.warning("metrics endpoint: %d connections open, the most it serves at once; "
+                            "closing new ones until one ends", MAX_CONNECTIONS)
+            return False
+        self._full = False
+        return True
+
+    def process_request(self, request: Any, client_address: Any) -> None:
+        try:
+            super().process_request(request, client_address)
+        except BaseException:
+            self._slots.release()  # no thread took the slot
+            raise
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        """A connection that failed (timed out, reset by its peer): a debug line, not a
+        traceback on stderr."""
+        log.debug("connection from %s: %r", client_address[0], sys.exc_info()[1])
+
+    def process_request_thread(self, request: Any, client_address: Any) -> None:
+        try:
+            super().process_request_thread(request, client_address)
+        finally:
+            self._slots.release()
 
 
 class HealthServer:
@@ -175,10 +241,9 @@ class HealthServer:
         """Bind and serve; a `StartError` naming `metrics.listen` when it cannot bind."""
         host, port = split_listen(self.cfg.listen)
         family = socket.AF_INET6 if ":" in host else socket.AF_INET
-        server_class = type("_Server", (ThreadingMixIn, WSGIServer),
-                            {"address_family": family, "daemon_threads": True})
+        server_class = type("_Server", (_Server,), {"address_family": family})
         try:
-            httpd = server_class((host, port), _Quiet)
+            httpd = server_class((host, port), self._allows)
         except OSError as exc:
             raise StartError(f"metrics.listen {self.cfg.listen}: "
                              f"{exc.strerror or exc}") from None
@@ -220,8 +285,6 @@ class HealthServer:
 
     def _app(self, environ: dict[str, Any],
              start_response: Callable[..., Any]) -> Iterable[bytes]:
-        if not self._allows(str(environ.get("REMOTE_ADDR", ""))):
-            return _text(start_response, "403 Forbidden", "forbidden\n")
         path = environ.get("PATH_INFO", "/")
         if path == "/healthz":
             ok, waited = self.liveness.probe()

@@ -15,6 +15,7 @@ from collections.abc import Callable, Iterable
 from typing import Any, Protocol
 
 from vdevd.bounds import (
+    MAX_HELD_OPS,
     MAX_READ,
     MAX_SCHEDULED,
     MAX_SCHEDULED_PER_CLIENT,
@@ -111,6 +112,8 @@ class Rack:
         self.waits = Waits(self._internal)
         #: scheduled `control` actions pending, per client and in all (`busy` past the limits)
         self.scheduled = ScheduledCount(max_scheduled_per_client, max_scheduled)
+        #: the ops of batches with a wait not yet answered (bounds.MAX_HELD_OPS)
+        self.held_ops = 0
         #: who sent the request being served (`Request.client`)
         self._client = b""
         self.pacer = Pacer(self.sched, self.waits, mode, wake_ns=wake_ns, waker=waker,
@@ -331,15 +334,38 @@ class Rack:
 
     def op_batch(self, args: dict[str, Any], reply: Reply) -> Any:
         ops: list[Request | Access] = args["ops"]
-        check_batch(ops, self._rep_hook_calls)
-        results: list[Any] = []
-        self._run_batch(ops, 0, results, reply)
+        if not check_batch(ops, self._hook_calls):
+            self._run_batch(ops, 0, [], reply)
+            return _DEFERRED
+        # a batch with a wait may be held until the wait resolves: its ops count against
+        # MAX_HELD_OPS until it is answered
+        n = len(ops)
+        if self.held_ops + n > MAX_HELD_OPS:
+            raise VdevError(ErrorCode.BUSY, f"batch of {n} ops with a wait: batches with waits "
+                            f"hold {self.held_ops} ops, the most the daemon holds is "
+                            f"{MAX_HELD_OPS}")
+        self.held_ops += n
+        held = [n]
+
+        def answer(result: Any) -> None:
+            self.held_ops -= held.pop() if held else 0
+            reply(result)
+
+        try:
+            self._run_batch(ops, 0, [], answer)
+        except BaseException:
+            self.held_ops -= held.pop() if held else 0
+            raise
         return _DEFERRED
 
-    def _rep_hook_calls(self, card: str, region: str, offset: int, size: int, write: bool) -> int:
-        """`Region.rep_hook_calls` by name (0 for no such region: the op fails when it runs)."""
+    def _hook_calls(self, card: str, region: str, offset: int, size: int, write: bool,
+                    rep: bool) -> int:
+        """`Region.hook_calls` (`rep_hook_calls` for a repeated access) by name (0 for no such
+        region: the op fails when it runs)."""
         r = self._regions.get((card, region))
-        return r.rep_hook_calls(offset, size, write) if r is not None else 0
+        if r is None:
+            return 0
+        return r.rep_hook_calls(offset, size, write) if rep else r.hook_calls(offset, size, write)
 
     def _run_batch(self, ops: list[Request | Access], start: int, results: list[Any],
                    reply: Reply) -> None:

@@ -57,6 +57,17 @@ class Hook:
     #: optional fast paths of a repeated access (`read_rep`/`write_rep`), same effect as the loop
     on_read_rep: RepReadHook | None = None
     on_write_rep: RepWriteHook | None = None
+    #: the one offset whose repeated accesses the fast paths serve (a FIFO port); None: every
+    #: offset of the register. Elsewhere a repeated access is one hook call per single access.
+    rep_at: int | None = None
+
+    def rep_read(self, offset: int) -> RepReadHook | None:
+        """The fast path of a repeated read at `offset`, if it serves that offset."""
+        return self.on_read_rep if self.rep_at is None or self.rep_at == offset else None
+
+    def rep_write(self, offset: int) -> RepWriteHook | None:
+        """The fast path of a repeated write at `offset`, if it serves that offset."""
+        return self.on_write_rep if self.rep_at is None or self.rep_at == offset else None
 
     @property
     def end(self) -> int:
@@ -124,6 +135,8 @@ class Region:
         #: (offset, size) -> whether `peek` of it is plain memory (no hook's peek serves it):
         #: a wait's condition peeks at every tick it watches
         self._peek_plain: dict[tuple[int, int], bool] = {}
+        #: (offset, size, write) -> the hook calls of that (non-repeated) access
+        self._hook_calls: dict[tuple[int, int, bool], int] = {}
         #: told of every host access (the card's `touched`: an input may have changed)
         self.on_access: Callable[[], None] | None = None
 
@@ -138,10 +151,12 @@ class Region:
         peek: PeekHook | None = None,
         on_read_rep: RepReadHook | None = None,
         on_write_rep: RepWriteHook | None = None,
+        rep_at: int | None = None,
     ) -> Hook:
         """Declare a register with side effects; hooks may not overlap. `on_read_rep(offset,
-        size)`/`on_write_rep(offset, data)` may serve a repeated access in one call."""
-        h = Hook(offset, size, on_read, on_write, peek, on_read_rep, on_write_rep)
+        size)`/`on_write_rep(offset, data)` may serve a repeated access in one call (at offset
+        `rep_at` only, when given)."""
+        h = Hook(offset, size, on_read, on_write, peek, on_read_rep, on_write_rep, rep_at)
         if offset < 0 or h.end > self.size:
             raise ValueError(f"region {self.name}: hook at {offset:#x} outside the region")
         i = bisect.bisect_left(self._starts, offset)
@@ -157,7 +172,7 @@ class Region:
             self._read_spans.append((offset, h.end))
             self._read_spans.sort()
         for plans in (self._read_plans, self._write_plans, self._read_rep_plans,
-                      self._write_rep_plans, self._peek_plain):
+                      self._write_rep_plans, self._peek_plain, self._hook_calls):
             plans.clear()
         return h
 
@@ -230,17 +245,40 @@ class Region:
 
     def rep_hook_calls(self, offset: int, size: int, write: bool) -> int:
         """The hook calls a repeated access of `size` bytes at `offset` makes: one per access of
-        the smallest width on a register whose hook has no repeated-access fast path, else 0
-        (plain memory is one copy; `bounds.check_rep_work` limits the rest). No checks: an
-        access the bus refuses is refused when it runs."""
+        the smallest width on a register whose hook has no repeated-access fast path there, else
+        0 (plain memory is one copy; `bounds.check_rep_work` limits the rest). No checks: an access
+        the bus refuses is refused when it runs."""
         h = self._hook_at(offset)
         if h is None or size <= 0:
             return 0
         if write:
-            slow = h.on_write is not None and h.on_write_rep is None
+            slow = h.on_write is not None and h.rep_write(offset) is None
         else:
-            slow = h.on_read is not None and h.on_read_rep is None
+            slow = h.on_read is not None and h.rep_read(offset) is None
         return size // self._unit if slow else 0
+
+    def hook_calls(self, offset: int, size: int, write: bool) -> int:
+        """The hook calls a plain (not repeated) access makes: 1 for a single access of a
+        register, one per register or bus unit of one for a block access (`_pieces`), 0 for
+        plain memory and for an access the bus refuses (refused when it runs)."""
+        key = (offset, size, write)
+        calls = self._hook_calls.get(key)
+        if calls is None:
+            calls = _keep(self._hook_calls, key, self._count_hook_calls(offset, size, write))
+        return calls
+
+    def _count_hook_calls(self, offset: int, size: int, write: bool) -> int:
+        if size <= 0 or offset < 0 or offset + size > self.size or not self._hooks:
+            return 0
+        if not self._overlapping(offset, offset + size):
+            return 0
+        try:
+            pieces = [(offset, size)] if self._check(offset, size) else self._pieces(offset, size)
+            hooks = [self._register(o, n) for o, n in pieces]
+        except VdevError:
+            return 0
+        return sum(1 for h in hooks if h is not None
+                   and (h.on_write if write else h.on_read) is not None)
 
     # -- access plans: the checks and the hook lookup of one (offset, size), done once ---------
     def _plan_read(self, offset: int, size: int) -> ReadPlan:
@@ -270,8 +308,9 @@ class Region:
         unit = self._unit
         self._check_rep(offset, size)
         h = self._register(offset, unit)
-        if h is not None and h.on_read_rep is not None:
-            return h.on_read_rep
+        fast = h.rep_read(offset) if h is not None else None
+        if fast is not None:
+            return fast
         read = self._read_register(offset, unit)
         if read == self._read_plain:  # plain memory reads the same bytes again: one copy
             mem = self.mem
@@ -282,8 +321,9 @@ class Region:
         unit = self._unit
         self._check_rep(offset, size)
         h = self._register(offset, unit)
-        if h is not None and h.on_write_rep is not None:
-            return h.on_write_rep
+        fast = h.rep_write(offset) if h is not None else None
+        if fast is not None:
+            return fast
         write = self._write_register(offset, unit)
         if write == self._write_plain:  # plain memory keeps the last access: one copy
             return lambda _offset, data: self._write_plain(offset, data[-unit:]) if data else None
@@ -462,7 +502,7 @@ def _ranges(name: str, size: int, ranges: Iterable[tuple[int, int]]
     return tuple(merged)
 
 
-def _keep(plans: dict[tuple[int, int], Any], key: tuple[int, int], plan: Any) -> Any:
+def _keep(plans: dict[Any, Any], key: tuple[int, ...], plan: Any) -> Any:
     """Remember `plan` for `key`, within MAX_PLANS (all are forgotten when full)."""
     if len(plans) >= MAX_PLANS:
         plans.clear()

@@ -40,6 +40,16 @@ _POLLIN = int(zmq.POLLIN)
 _READ_TAG = OP_TAGS["read"]
 
 
+def _bind(sock: zmq.Socket, endpoint: str, key: str) -> None:
+    """Bind `sock`; when it cannot be, the `ZMQError` names the configuration key (`vdevd
+    serve` exits 1 on it: a port in use may be free at a restart)."""
+    try:
+        sock.bind(endpoint)
+    except zmq.ZMQError as exc:
+        reason = zmq.strerror(exc.errno) if exc.errno is not None else str(exc)
+        raise zmq.ZMQError(exc.errno, f"{key} {endpoint}: {reason}") from None
+
+
 class Publisher:
     """The rack's event sink (`vdevd.rack.EventSink`) on the PUB socket: events are dropped until
     the server binds it, as a PUB socket drops them while no one subscribes. `heartbeat_ns`:
@@ -131,11 +141,11 @@ class Server:
         self.rack.start(loop)
         await self.rack.open_services()
         endpoint, events = self._bind_to
-        self.pub.bind(events)
+        _bind(self.pub, events, "server.events")
         self.publisher.attach(self.pub)
         self.events = self.publisher.endpoint
         self._heartbeat.start(loop)
-        self.router.bind(endpoint)
+        _bind(self.router, endpoint, "server.endpoint")
         self.endpoint = self.router.getsockopt_string(zmq.LAST_ENDPOINT)
         loop.add_reader(self.router.getsockopt(zmq.FD), self._on_readable)
         self._reading = True

@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
+import re
 import sys
 from importlib import metadata
 from pathlib import Path
@@ -34,9 +36,9 @@ def parser() -> argparse.ArgumentParser:
         epilog="exit status: 0 done, 1 an error (an error reply, no reply, a daemon gone), "
                "2 a usage or configuration error")
     p.add_argument("--version", action="version", version=f"vdevctl {_version()}")
-    p.add_argument("--endpoint", metavar="URL",
+    p.add_argument("--endpoint", metavar="URL", type=_endpoint,
                    help=f"request endpoint (default: $VDEVD_ENDPOINT, else {DEFAULT_ENDPOINT})")
-    p.add_argument("--events", metavar="URL",
+    p.add_argument("--events", metavar="URL", type=_endpoint,
                    help="events endpoint (default: $VDEVD_EVENTS, else the one the daemon "
                         "reports in hello)")
     p.add_argument("--timeout", type=_seconds, default=10.0, metavar="S",
@@ -96,7 +98,22 @@ def _param(text: str) -> tuple[str, Any]:
     key, sep, value = text.partition("=")
     if not sep or not key:
         raise argparse.ArgumentTypeError(f"parameter {text!r} is not KEY=VALUE")
-    return key, _value(value)
+    parsed = _value(value)
+    if not _fits(parsed):
+        raise argparse.ArgumentTypeError(f"parameter {key}: {value!r} holds an integer outside "
+                                         f"{_INT_RANGE[0]}..{_INT_RANGE[1]}")
+    return key, parsed
+
+
+def _fits(value: Any) -> bool:
+    """Whether every integer in `value` (a JSON value) fits a request (msgpack's range)."""
+    if isinstance(value, int):
+        return _INT_RANGE[0] <= value <= _INT_RANGE[1]
+    if isinstance(value, list):
+        return all(_fits(v) for v in value)
+    if isinstance(value, dict):
+        return all(_fits(v) for v in value.values())
+    return True
 
 
 def dropin_path() -> Path:
@@ -104,11 +121,31 @@ def dropin_path() -> Path:
     return Path(__file__).resolve().parent / "dropin"
 
 
+#: what a client can connect to: tcp://HOST:PORT (HOST a name, an address or [IPv6]), ipc://,
+#: inproc:// (ZeroMQ takes a tcp PORT modulo 65536: 65536 and more are refused here)
+_ENDPOINT = re.compile(r"tcp://(\[[0-9A-Fa-f:.%\w]+\]|[\w.-]+):(\d{1,5})|(ipc|inproc)://.+")
+#: the largest number of seconds a timeout takes (ZeroMQ's are int milliseconds)
+MAX_SECONDS = 1_000_000.0
+#: the integers a request can carry (msgpack's)
+_INT_RANGE = (-(1 << 63), (1 << 64) - 1)
+
+
+def _endpoint(text: str) -> str:
+    match = _ENDPOINT.fullmatch(text)
+    if match is None or (match[2] is not None and int(match[2]) > 65535):
+        raise argparse.ArgumentTypeError(f"{text!r} is not an endpoint (tcp://HOST:PORT with PORT "
+                                         "0..65535, tcp://[IPv6]:PORT, ipc://PATH)")
+    return text
+
+
 def _int(text: str) -> int:
     try:
-        return int(text, 0)
+        value = int(text, 0)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number (decimal or 0x hex)") from None
+    if not 0 <= value < 1 << 63:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number in 0..2**63-1")
+    return value
 
 
 def _count(text: str) -> int:
@@ -122,9 +159,13 @@ def _count(text: str) -> int:
 
 
 def _seconds(text: str) -> float:
-    value = float(text)
-    if not value >= 0:  # also NaN
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds >= 0")
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0 <= value <= MAX_SECONDS:  # also NaN and infinities
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds >= 0 (and at "
+                                         f"most {MAX_SECONDS:.0f})")
     return value
 
 
@@ -164,6 +205,14 @@ def _main(args: argparse.Namespace) -> int:
     if args.command == "dropin-path":  # no daemon needed
         print(dropin_path())
         return 0
+    for name in ("VDEVD_ENDPOINT", "VDEVD_EVENTS"):  # used when the option is not given
+        value = os.environ.get(name)
+        if value and not getattr(args, name.removeprefix("VDEVD_").lower()):
+            try:
+                _endpoint(value)
+            except argparse.ArgumentTypeError as exc:
+                print(f"vdevctl: ${name}: {exc}", file=sys.stderr)
+                return 2
     try:
         with connect(args.endpoint, args.events, timeout=args.timeout) as rack:
             return _run(rack, args)

@@ -12,7 +12,13 @@ import msgpack
 import pytest
 
 from tests.conftest import RawClient, error_code, rack_config
-from vdevd.bounds import MAX_READ, MAX_REP_HOOK_CALLS, MAX_SCHEDULED, MAX_SCHEDULED_PER_CLIENT
+from vdevd.bounds import (
+    MAX_BATCH_CONTROLS,
+    MAX_READ,
+    MAX_REP_HOOK_CALLS,
+    MAX_SCHEDULED,
+    MAX_SCHEDULED_PER_CLIENT,
+)
 from vdevd.devices.base import Card, CardContext, control
 from vdevd.protocol import MAX_MESSAGE
 from vdevd.region import Region
@@ -163,9 +169,16 @@ def test_other_clients_are_served_while_an_oversized_read_is_refused() -> None:
 
 
 def schedule(c: RawClient, n: int, after_ns: int = DAY_NS) -> dict[str, object]:
-    """`n` scheduled controls `after_ns` ahead, in one batch."""
+    """`n` scheduled controls `after_ns` ahead, in batches of MAX_BATCH_CONTROLS: the results
+    of all ({"ok": [...]}), or the first error reply."""
     op = {"op": "control", "card": "f0", "action": "tally", "after_ns": after_ns}
-    return c.call(op="batch", ops=[op] * n)
+    results: list[object] = []
+    while len(results) < n:
+        reply = c.call(op="batch", ops=[op] * min(MAX_BATCH_CONTROLS, n - len(results)))
+        if "ok" not in reply:
+            return reply
+        results += reply["ok"]
+    return {"ok": results}
 
 
 def test_scheduled_controls_are_bounded_per_client_and_counted_in_stats(

@@ -90,7 +90,12 @@ class GalilCard(Card):
             raise ValueError(f"{where}.address: {address!r} is not a gclib address (one word, "
                              "no commas, not a --flag)")
         if opts.ethernet:
-            parse_endpoint(opts.ethernet)
+            try:
+                if parse_endpoint(opts.ethernet)[1] > 65535:  # the socket would take it modulo 65536
+                    raise ValueError
+            except ValueError:
+                raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not tcp://HOST:PORT "
+                                 "(PORT 0..65535; empty: off)") from None
             if not is_local(opts.ethernet):
                 raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not loopback (the DMC "
                                  "command protocol has no authentication)")
@@ -119,7 +124,7 @@ class GalilCard(Card):
             description="A16 short I/O, D08(O): FIFOs N+1, control N+3, secondary FIFO N+5/N+7"))
         self.a16.hook(0, WINDOW_SIZE, on_read=self._host_read, on_write=self._host_write,
                       peek=self._host_peek, on_read_rep=self._host_read_rep,
-                      on_write_rep=self._host_write_rep)
+                      on_write_rep=self._host_write_rep, rep_at=_DATA)
         self.irq = self.add_irq("irq")
         # the flash (BP BV BN): one image in the state directory, restored at power-up
         store = ctx.nvram

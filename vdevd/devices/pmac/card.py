@@ -229,10 +229,11 @@ class PmacCard(Card):
         if not opts.ethernet:
             return
         try:
-            parse_endpoint(opts.ethernet)
+            if parse_endpoint(opts.ethernet)[1] > 65535:  # the socket would take it modulo 65536
+                raise ValueError
         except ValueError:
             raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not tcp://HOST:PORT "
-                             "(empty: off)") from None
+                             "(PORT 0..65535; empty: off)") from None
         if not is_local(opts.ethernet) and not allow:
             raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not loopback: add "
                              "ethernet_allow, the client addresses allowed (the PMAC protocol "
