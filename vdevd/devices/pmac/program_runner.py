@@ -319,6 +319,11 @@ class CsProgram:
             raise CommandError(ERR_NO_PROGRAM, "not pointing to a program")
         if program.ops is None:
             raise CommandError(ERR_BAD_PROGRAM if program.bad else ERR_NO_PROGRAM, "not runnable")
+        self.check_motors()
+
+    def check_motors(self) -> None:
+        """R's checks of the C.S.'s motors (ERR014, ERR013, ERR012, ERR010, ERR011)."""
+        fw = self.fw
         members = [m - 1 for m in fw.coord.members(self.cs) if m <= fw.ivars.motors]
         if not members:
             raise CommandError(ERR_NO_MOTORS, "no motors in the C.S.")
@@ -332,6 +337,34 @@ class CsProgram:
             raise CommandError(ERR_BOTH_LIMITS, "a motor has both limits")
         if mo.core.profile.moving[idx].any():
             raise CommandError(ERR_MOVING, "a motor is moving")
+
+    def start_online(self) -> None:
+        """An idle C.S. set running with nothing to calculate, for the moves an on-line command
+        queues (`!`, altdest.py); it stops once they have run, the program pointer unchanged."""
+        self.error = self.radius_error = False
+        self._blocked = self._glide = None
+        self.hold = self.hold_target = 1.0
+        self.state, self.stopping, self.wait = "run", True, ""
+        self.calc = self.started = 0
+        self.move_at.clear()
+        self._map_motors()
+        self._read_position()
+        self._forward()
+        self.exec_pos = self.pos.copy()
+        self.planner = self.segmenter = None
+        self.fw.motors.timed[self.members] = True
+        self.fw.motors.abort_decel[self.members] = False
+
+    def rapid_to(self, target: np.ndarray) -> None:
+        """`!` (altdest.py): a RAPID move from where the motion calculated so far ends to
+        `target`, queued after it; the calculation goes on from `target`."""
+        planner = RapidPlanner(self.pos)
+        prm: dict[str, Any] = dict(self._rapid_limits())
+        self.calc += 1
+        self._enqueue(planner.add(Move(target, target != self.pos, prm)), self.calc, scaled=True)
+        self.pos = target.astype(float).copy()
+        if self.planner is not None:
+            self.planner.position = self.pos.copy()
 
     def quit(self) -> None:
         """Q: no more calculation; the moves already calculated finish, then the program stops
