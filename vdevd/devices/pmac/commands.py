@@ -101,7 +101,7 @@ COMMANDS = CommandTable(
     ],
     not_emulated={
         "CLEAR": "only the port with a buffer open may CLEAR it (plc.py)",
-        "LEARN": "LEARN (program the present positions) is not emulated",
+        "LEARN": "on-line (no buffer open on the port) ERR005; into an open buffer: learn.py",
     },
 )
 
