@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vdevd.devices.pmac import kin_velocity, mode_blend
+from vdevd.devices.pmac import kin_velocity, mode_blend, rollover
 from vdevd.devices.pmac.circle import CirclePlanner
 from vdevd.devices.pmac.coord import AXES, CS_COUNT
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, CommandError
@@ -1078,6 +1078,10 @@ class CsProgram:
             named[k] = True
             if v is not None:
                 vel[k] = float(v.eval(env))
+        ixx27 = self.fw.ivars.values[100 * (self.members + 1) + 27]
+        if ixx27.any():  # rotary-axis rollover of ABS moves (rollover.py) [SRM Ixx27]
+            target = rollover.destination(self.pos, target, named & ~self.inc,
+                                          rollover.revolutions(ixx27, self.scale))
         prm = self._params()
         per = prm["FEED_PERIOD"]
         prm["V"] = vel / per
