@@ -66,3 +66,72 @@ def test_bang_needs_an_axis_and_a_value(card: Card) -> None:
 
 def test_bang_with_no_motors_in_the_cs_is_err014(card: Card) -> None:
     assert card.raw("&2!X1") == b"\x07ERR014\r"
+
+
+def _run_then_alter(card: Card, t_alter: float, command: str) -> np.ndarray:
+    """`!X10` from rest, `command` after t_alter seconds; (t, X, Y) every cycle to the end."""
+    card.ask(_JOG)
+    card.ask("&1!X10")
+    first = trace(card, t_alter)
+    card.ask(command)
+    return np.vstack([first, trace(card, 3.0, t0=first[-1, 0])])
+
+
+def _peak(rows: np.ndarray, t_alter: float, delay: float) -> float:
+    """Where X stops when the move at 20 units/s (after its 50 ms ramp from rest) breaks in
+    `delay` after the command (sent at the cycle nearest t_alter), with 400 units/s²: the break
+    position plus 20²/(2·400) units, in counts."""
+    t_cmd = float(rows[int(round(t_alter / DT)) - 1, 0])
+    return (0.5 + (t_cmd + delay - 0.05) * 20.0 + 0.5) * 1000.0
+
+
+def test_bang_breaks_into_a_rapid_move_after_ixx92_and_blends(card: Card) -> None:
+    """At 0.2 s X cruises at 20 units/s (at 3.5); `!X6` breaks in at 0.21 s (Ixx92 = 10 ms,
+    X at 3.7) and goes on at speed to a stop at 6: 0.09 s at 20 units/s, 0.05 s ramp: the
+    move ends at 0.35 s, never turning back, its speed never above Ixx22 [UM
+    "Altered-Destination Moves"]."""
+    rows = _run_then_alter(card, 0.2, "&1!X6")
+    end = rows[np.flatnonzero(rows[:, 1] >= 6000.0)[0], 0]
+    assert abs(end - 0.35) < 2 * DT
+    assert xy(card) == (6000.0, 0.0)
+    step = np.diff(rows[:, 1])
+    assert (step >= -1e-9).all()
+    assert step.max() <= 20.0 * DT * 1000 + 1e-6
+
+
+def test_bang_behind_the_axis_stops_then_comes_back(card: Card) -> None:
+    """`!X3` at 0.2 s: the break at 0.21 s (X 3.7 at 20 units/s) cannot stop before 3, so X
+    stops at 3.7 + 20²/(2·400) = 4.2 and comes back to 3, ending at 0.21 + 0.05 + 0.11 s."""
+    rows = _run_then_alter(card, 0.2, "&1!X3")
+    assert abs(rows[:, 1].max() - _peak(rows, 0.2, 0.010)) < 0.01
+    assert abs(_peak(rows, 0.2, 0.010) - 4200.0) < 3.0
+    assert xy(card) == (3000.0, 0.0)
+    back = rows[np.flatnonzero(rows[:, 1] == rows[:, 1].max())[0]:, :]
+    end = back[np.flatnonzero(back[:, 1] <= 3000.0)[0], 0]
+    assert abs(end - 0.37) < 2 * DT
+
+
+def test_ixx92_delays_the_break(card: Card) -> None:
+    """I192 = 60 ms: the break comes at 0.26 s (X 4.7), so X stops at 5.2 before coming back."""
+    card.ask("I192=60")
+    rows = _run_then_alter(card, 0.2, "&1!X3")
+    assert abs(rows[:, 1].max() - _peak(rows, 0.2, 0.060)) < 0.01
+    assert abs(_peak(rows, 0.2, 0.060) - 5200.0) < 3.0
+    assert xy(card) == (3000.0, 0.0)
+
+
+def test_bang_after_the_move_ends_starts_from_rest_there(card: Card) -> None:
+    """A rotary buffer's last RAPID move done, the program waits for lines: `!X2` moves from the
+    end point, the same end as if sent during the move [UM "Use of Altered Destination"]."""
+    card.ask(_JOG)
+    card.ask("&1 DEFINE ROT 100 &1B0")
+    card.ask("OPEN ROT")
+    card.ask("RAPID X1")
+    card.ask("CLOSE")
+    card.ask("&1R")
+    card.tick(2000)
+    assert xy(card) == (1000.0, 0.0)
+    assert card.fw.motion.any_running()   # waiting for rotary lines
+    assert card.raw("&1!X2") == b"\x06"
+    card.tick(2000)
+    assert xy(card) == (2000.0, 0.0)

@@ -175,6 +175,7 @@ class CsProgram:
         #: the `/` stop (stop_commands.py): (move number, prog, pc, stack, ops, start point)
         self.move_from: tuple[int, int, int, list[_Frame], list[Any], np.ndarray] | None = None
         self.move_blend = (0, 0)
+        self.online = False   # running an on-line `!` move only (altdest.py)
         self.reset_modes()
 
     def reset_modes(self) -> None:
@@ -345,6 +346,7 @@ class CsProgram:
         self._blocked = self._glide = None
         self.hold = self.hold_target = 1.0
         self.state, self.stopping, self.wait = "run", True, ""
+        self.online = True
         self.calc = self.started = 0
         self.move_at.clear()
         self._map_motors()
@@ -365,6 +367,42 @@ class CsProgram:
         self.pos = target.astype(float).copy()
         if self.planner is not None:
             self.planner.position = self.pos.copy()
+
+    def rapid_limits(self) -> dict[str, np.ndarray]:
+        """The RAPID speed, acceleration and jerk per axis (`_rapid_limits`), for altdest.py."""
+        if not len(self.members):
+            self._map_motors()
+        return self._rapid_limits()
+
+    def break_in(self, delay: float, build: Any, target: np.ndarray) -> bool:
+        """`!` into a RAPID move in progress (altdest.py): the motion queued is cut `delay`
+        program seconds from now and `build(pos, vel)` gives the pieces from there on; False
+        (nothing changed) when the queued motion ends before that."""
+        pieces = ([self.cur] if self.cur is not None else []) + list(self.queue)
+        left = delay + (self.tau if self.cur is not None else 0.0)
+        k = 0
+        while k < len(pieces) and left >= pieces[k].piece.dur:
+            left -= pieces[k].piece.dur
+            k += 1
+        if k == len(pieces):
+            return False
+        q = pieces[k]
+        pos, vel = q.piece.at(left)
+        cut = _Queued(Piece(left, q.piece.coef), q.scaled, q.starts)
+        kept = pieces[:k] + ([cut] if left > 0 else [])
+        self._glide = None
+        if self.cur is not None:
+            self.cur = kept.pop(0) if kept else None
+            if self.cur is None:
+                self.tau = 0.0
+        self.queue = deque(kept)
+        self.calc += 1
+        for j, piece in enumerate(build(pos, vel)):
+            self.queue.append(_Queued(piece, True, self.calc if j == 0 else 0))
+        self.pos = target.astype(float).copy()
+        if self.planner is not None:
+            self.planner.position = self.pos.copy()
+        return True
 
     def quit(self) -> None:
         """Q: no more calculation; the moves already calculated finish, then the program stops
@@ -400,6 +438,7 @@ class CsProgram:
         mo.dwell[self.members] = False
         self._glide = None
         self.state, self.stopping, self.wait = "idle", False, ""
+        self.online = False
         self.queue.clear()
         self.cur, self.tau = None, 0.0
         self.planner = None
