@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from tests.devices.pmac.test_cycle_runs import Twin
 from tests.devices.pmac.test_online import Card
 from tests.devices.pmac.test_programs import DT, card, download, trace, xy
 
@@ -135,3 +136,24 @@ def test_bang_after_the_move_ends_starts_from_rest_there(card: Card) -> None:
     assert card.raw("&1!X2") == b"\x06"
     card.tick(2000)
     assert xy(card) == (2000.0, 0.0)
+
+
+def test_a_bang_move_is_not_at_rest_and_batches_match_cycles_one_by_one() -> None:
+    """Decision 0008: a card running a `!` move works at every cycle (batched and cycle-by-cycle
+    runs end alike, a new destination in the middle included) and rests once it is over."""
+    twin = Twin(True, "servo")
+    for line in ("&1#1->1000X", "#1J/", "I122=20 I119=1 I120=50 I121=0", "&1!X2"):
+        twin.send(line)
+    fast = twin.cards[0]
+    assert fast.rest_state() is None
+    for n in [1, 2, 3, 5, 7, 11, 13, 17, 19, 23] * 6:
+        twin.tick(n)
+        twin.same()
+    twin.send("&1!X1")
+    for n in [1, 2, 3, 5, 7, 11, 13, 17, 19, 23] * 6:
+        twin.tick(n)
+        twin.same()
+    twin.tick(2000)
+    twin.same()
+    assert not fast.fw.motion.active
+    assert fast.rest_state() is not None
