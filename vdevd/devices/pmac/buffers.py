@@ -41,6 +41,8 @@ _WHILE = re.compile(rf"WHILE{_SP}\(")
 _ELSE = re.compile(r"ELSE")
 _CONTINUE = re.compile(rf"(AND|OR){_SP}\(")
 _CMD = re.compile(rf"(?:COMMAND|CMD){_SP}\"([^\"]*)\"")
+#: CMD^{c}: the control character CTRL-{c} as if from the host [SRM p.424 "CMD^D", "CMD^K"]
+_CMD_CTRL = re.compile(rf"(?:COMMAND|CMD){_SP}\^{_SP}([A-Z])")
 _SEND = re.compile(rf"SEND{_SP}([SP]?){_SP}\"([^\"]*)\"")
 _PLC_CONTROL = re.compile(
     rf"(ENABLE|ENA|DISABLE|DIS|PAUSE|RESUME){_SP}PLC(C?){_SP}(\d+(?:{_SP},{_SP}\d+)*)")
@@ -95,6 +97,8 @@ def parse_statement(s: str, i: int) -> tuple[Statement, int]:
         return Statement(m.group(1), cond=cond), j
     if m := _CMD.match(s, i):
         return Statement("OP", ("cmd", m.group(1))), m.end()
+    if m := _CMD_CTRL.match(s, i):  # the control character's text, run by plc.py's queue
+        return Statement("OP", ("cmd", chr(ord(m.group(1)) - 64))), m.end()
     if m := _SEND.match(s, i):  # SEND / SENDS / SENDP "message" (plc.py)
         return Statement("OP", ("send", m.group(1), m.group(2))), m.end()
     if m := _PLC_CONTROL.match(s, i):

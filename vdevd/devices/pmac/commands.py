@@ -45,6 +45,7 @@ COMMANDS = CommandTable(
         _char("^", "trigger_alone"),          # {jog}^{c}: J's (online.jog); alone ERR003
         _char("/", "stop_at_move_end", section="§2.8"),   # stop_commands.py [SRM /]
         _char("\\", "quick_stop", section="§2.8"),       # stop_commands.py [SRM \]
+        _char("!", "altered_destination", section="§1.8 [A L3232]"),  # !{axis}{data} altdest.py
         # identity [§2.4 "Number formatting"]
         *(_word(name, "identity", name, section=_S24) for name in IDENTITY),
         # motor commands and reports [§2.5, §2.7]
@@ -100,8 +101,7 @@ COMMANDS = CommandTable(
     ],
     not_emulated={
         "CLEAR": "only the port with a buffer open may CLEAR it (plc.py)",
-        "LEARN": "LEARN (program the present positions) is not emulated",
-        "!": "the V1.936 axis-move command needs coordinate systems (issue 21): unrecognised",
+        "LEARN": "on-line (no buffer open on the port) ERR005; into an open buffer: learn.py",
     },
 )
 

@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from vdevd.devices.pmac import expr, prog_reports, stop_commands
+from vdevd.devices.pmac import altdest, expr, learn, prog_reports, stop_commands
 from vdevd.devices.pmac.buffers import PLCC_BASE
 from vdevd.devices.pmac.commands import CHAR, COMMANDS, REFUSED, VARIABLES, WORD
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_ILLEGAL, ERR_IN_USE, ERR_NOT_OPEN, CommandError
@@ -176,6 +176,14 @@ class Interpreter:
     def execute(self, port: PortState, text: str) -> Reply:
         if port is self.fw.plc.owner:  # a buffer is open on this port: its lines go there (plc.py)
             return self.fw.plc.enter(port, text)
+        if (port is self.fw.rotary.owner or port is self.fw.motion.store.owner) \
+                and learn.is_learn(text):  # LEARN: the line of present axis positions (learn.py)
+            try:
+                text = learn.learn_line(self.fw, port.cs, text)
+            except CommandError as exc:
+                return Reply(error=exc.code)
+            if not text:
+                return Reply()
         if port is self.fw.rotary.owner:  # rotary.py
             return self.fw.rotary.enter(port, text)
         if port is self.fw.kinematics.owner:  # kinematics.py
@@ -411,6 +419,13 @@ class Interpreter:
             raise CommandError(ERR_DATA, "^ needs the post-trigger distance")
         fw.motor_call("jog_trigger", port.motor, c, value, distance, variable)
         return True
+
+    def altered_destination(self, line: Line, port: PortState, out: list[str]) -> None:
+        """!{axis}{data}...: the addressed C.S.'s altered-destination RAPID move (altdest.py)
+        [A L3232]."""
+        line.take("!")
+        dest, named = altdest.parse(line, self.fw.env(port))
+        altdest.altered_destination(self.fw, port.cs, dest, named)
 
     def home(self, zero: bool, line: Line, port: PortState, out: list[str]) -> None:
         """HM/HOME home search, HMZ/HOMEZ zero-move homing [§2.7]."""

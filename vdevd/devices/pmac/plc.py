@@ -226,7 +226,10 @@ class Plcs:
         execute = self.fw.interpreter.execute
         while self.queue:
             port, text = self.queue.popleft()
-            execute(port, text)  # no ACK, no reply [SRM p.424]
+            if len(text) == 1 and ord(text) < 32:  # CMD^{c}: the control character [SRM p.424]
+                self.fw.control(port, ord(text))
+            else:
+                execute(port, text)  # no ACK, no reply [SRM p.424]
         deliver = self.on_message
         while self.messages:
             if deliver is not None and not deliver(*self.messages[0]):

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vdevd.devices.pmac import kin_velocity, mode_blend
+from vdevd.devices.pmac import kin_velocity, mode_blend, rollover
 from vdevd.devices.pmac.circle import CirclePlanner
 from vdevd.devices.pmac.coord import AXES, CS_COUNT
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, CommandError
@@ -175,6 +175,7 @@ class CsProgram:
         #: the `/` stop (stop_commands.py): (move number, prog, pc, stack, ops, start point)
         self.move_from: tuple[int, int, int, list[_Frame], list[Any], np.ndarray] | None = None
         self.move_blend = (0, 0)
+        self.online = False   # running an on-line `!` move only (altdest.py)
         self.reset_modes()
 
     def reset_modes(self) -> None:
@@ -319,6 +320,11 @@ class CsProgram:
             raise CommandError(ERR_NO_PROGRAM, "not pointing to a program")
         if program.ops is None:
             raise CommandError(ERR_BAD_PROGRAM if program.bad else ERR_NO_PROGRAM, "not runnable")
+        self.check_motors()
+
+    def check_motors(self) -> None:
+        """R's checks of the C.S.'s motors (ERR014, ERR013, ERR012, ERR010, ERR011)."""
+        fw = self.fw
         members = [m - 1 for m in fw.coord.members(self.cs) if m <= fw.ivars.motors]
         if not members:
             raise CommandError(ERR_NO_MOTORS, "no motors in the C.S.")
@@ -332,6 +338,71 @@ class CsProgram:
             raise CommandError(ERR_BOTH_LIMITS, "a motor has both limits")
         if mo.core.profile.moving[idx].any():
             raise CommandError(ERR_MOVING, "a motor is moving")
+
+    def start_online(self) -> None:
+        """An idle C.S. set running with nothing to calculate, for the moves an on-line command
+        queues (`!`, altdest.py); it stops once they have run, the program pointer unchanged."""
+        self.error = self.radius_error = False
+        self._blocked = self._glide = None
+        self.hold = self.hold_target = 1.0
+        self.state, self.stopping, self.wait = "run", True, ""
+        self.online = True
+        self.calc = self.started = 0
+        self.move_at.clear()
+        self._map_motors()
+        self._read_position()
+        self._forward()
+        self.exec_pos = self.pos.copy()
+        self.planner = self.segmenter = None
+        self.fw.motors.timed[self.members] = True
+        self.fw.motors.abort_decel[self.members] = False
+
+    def rapid_to(self, target: np.ndarray) -> None:
+        """`!` (altdest.py): a RAPID move from where the motion calculated so far ends to
+        `target`, queued after it; the calculation goes on from `target`."""
+        planner = RapidPlanner(self.pos)
+        prm: dict[str, Any] = dict(self._rapid_limits())
+        self.calc += 1
+        self._enqueue(planner.add(Move(target, target != self.pos, prm)), self.calc, scaled=True)
+        self.pos = target.astype(float).copy()
+        if self.planner is not None:
+            self.planner.position = self.pos.copy()
+
+    def rapid_limits(self) -> dict[str, np.ndarray]:
+        """The RAPID speed, acceleration and jerk per axis (`_rapid_limits`), for altdest.py."""
+        if not len(self.members):
+            self._map_motors()
+        return self._rapid_limits()
+
+    def break_in(self, delay: float, build: Any, target: np.ndarray) -> bool:
+        """`!` into a RAPID move in progress (altdest.py): the motion queued is cut `delay`
+        program seconds from now and `build(pos, vel)` gives the pieces from there on; False
+        (nothing changed) when the queued motion ends before that."""
+        pieces = ([self.cur] if self.cur is not None else []) + list(self.queue)
+        left = delay + (self.tau if self.cur is not None else 0.0)
+        k = 0
+        while k < len(pieces) and left >= pieces[k].piece.dur:
+            left -= pieces[k].piece.dur
+            k += 1
+        if k == len(pieces):
+            return False
+        q = pieces[k]
+        pos, vel = q.piece.at(left)
+        cut = _Queued(Piece(left, q.piece.coef), q.scaled, q.starts)
+        kept = pieces[:k] + ([cut] if left > 0 else [])
+        self._glide = None
+        if self.cur is not None:
+            self.cur = kept.pop(0) if kept else None
+            if self.cur is None:
+                self.tau = 0.0
+        self.queue = deque(kept)
+        self.calc += 1
+        for j, piece in enumerate(build(pos, vel)):
+            self.queue.append(_Queued(piece, True, self.calc if j == 0 else 0))
+        self.pos = target.astype(float).copy()
+        if self.planner is not None:
+            self.planner.position = self.pos.copy()
+        return True
 
     def quit(self) -> None:
         """Q: no more calculation; the moves already calculated finish, then the program stops
@@ -367,6 +438,7 @@ class CsProgram:
         mo.dwell[self.members] = False
         self._glide = None
         self.state, self.stopping, self.wait = "idle", False, ""
+        self.online = False
         self.queue.clear()
         self.cur, self.tau = None, 0.0
         self.planner = None
@@ -1045,6 +1117,10 @@ class CsProgram:
             named[k] = True
             if v is not None:
                 vel[k] = float(v.eval(env))
+        ixx27 = self.fw.ivars.values[100 * (self.members + 1) + 27]
+        if ixx27.any():  # rotary-axis rollover of ABS moves (rollover.py) [SRM Ixx27]
+            target = rollover.destination(self.pos, target, named & ~self.inc,
+                                          rollover.revolutions(ixx27, self.scale))
         prm = self._params()
         per = prm["FEED_PERIOD"]
         prm["V"] = vel / per
