@@ -178,3 +178,29 @@ def test_estop_halts_the_contouring_axes_at_estop_acc_and_ends_the_contour() -> 
     host.acknowledge()
     host.rtc("START", {"n": 0x03})
     assert host.stat1() == DspStat1.IGNORED and host.u8(Dpr.INTAXIS_IGNORED) == 0x03
+
+
+def test_gear_naming_a_contouring_axis_as_its_slave_is_conflicting_commands() -> None:
+    """A slave that contours makes GEAR conflict: the command is discarded with "conflicting
+    commands" (000h b6, 007h), as Ch7 Table 7-1 rules for contouring against RTC motion (README
+    assumption); the contour goes on to its end."""
+    host = Host()
+    host.put(ramp(12, 100))
+    host.rtc("START", {"n": 0x01})
+    host.acknowledge()
+    host.rtc("GEAR", {"n": 0x02, "m": 0x01}, [{"r": 0x0100}])  # leader 2, slave 1 (contouring)
+    assert host.stat1() == DspStat1.CONFLICT and host.u8(Dpr.INTAXIS_CONFLICT) == 0x01
+    host.run(12 * N)
+    assert host.actpos(1) == 1200
+
+
+def test_cam_naming_a_contouring_axis_as_its_slave_is_conflicting_commands() -> None:
+    """The same for CAM [Ch5 CAM; Ch7 Table 7-1]."""
+    host = Host()
+    host.put(ramp(12, 100))
+    host.rtc("START", {"n": 0x01})
+    host.acknowledge()
+    host.rtc("CAM", {"n": 0x02, "m": 0x01}, [{"tablestart": 0, "tablesize": 10}])
+    assert host.stat1() == DspStat1.CONFLICT and host.u8(Dpr.INTAXIS_CONFLICT) == 0x01
+    host.run(12 * N)
+    assert host.actpos(1) == 1200
