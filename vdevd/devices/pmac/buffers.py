@@ -23,6 +23,7 @@ from typing import Any
 
 from vdevd.devices.pmac import expr
 from vdevd.devices.pmac.errors import ERR_DATA, CommandError
+from vdevd.devices.pmac.reply import Reply
 
 #: lines one buffer holds, characters a line holds, lines all buffers hold (ERR006 beyond)
 MAX_LINES = 4096
@@ -254,3 +255,58 @@ def _close(ops: list[Op], stack: list[tuple[str, int]], kinds: tuple[str, ...], 
         ops[at] = ("jump", len(ops))
     else:
         ops[at] = (*ops[at][:2], len(ops))
+
+
+_CONTROL_WORDS = ("CLOSE", "CLEAR", "LIST", "OPEN")
+
+
+def enter_line(text: str, lines: list[str], list_words: tuple[str, ...], *,
+               parse: Callable[[str, int], tuple[Any, int]], append: Callable[[str], None],
+               close: Callable[[], None], execute: Callable[[str], Reply]) -> Reply:
+    """A line from the port that has a PLC or PROG buffer open [spec §2.8, §2.9; A L3234]:
+    CLOSE, CLEAR, LIST and OPEN act (CLOSE/OPEN end the line's buffer part, the rest of the line
+    runs on-line through `execute`; `LIST` alone or with one of `list_words` lists the open
+    buffer `lines`, another LIST runs on-line); the statements between them are checked with
+    `parse` and go to `append` as one line (ERR003: none of the line is kept)."""
+    reply = Reply()
+    s = normalise(text)
+    if len(s) > MAX_LINE:
+        reply.error = ERR_DATA
+        return reply
+    i, start, end = skip(s, 0), -1, -1
+    try:
+        while i < len(s):
+            word = next((w for w in _CONTROL_WORDS if s.startswith(w, i)), "")
+            if word:
+                append(s[start:end] if start >= 0 else "")
+                start = -1
+                if word in ("CLOSE", "OPEN"):
+                    if word == "CLOSE":
+                        close()
+                        i += len(word)
+                    rest = execute(s[i:])
+                    reply.lines.extend(rest.lines)
+                    reply.error = rest.error
+                    return reply
+                i += len(word)
+                if word == "CLEAR":
+                    lines.clear()
+                elif s[i:].strip() in ("", *list_words):  # LIST: the open buffer
+                    reply.lines.extend(lines)
+                    i = len(s)
+                else:  # LIST PLC n, LIST GATHER ...: on-line
+                    rest = execute(s[i - 4:])
+                    reply.lines.extend(rest.lines)
+                    reply.error = rest.error
+                    return reply
+            else:
+                _, j = parse(s, i)
+                start = i if start < 0 else start
+                end = j
+                i = j
+            i = skip(s, i)
+        append(s[start:end] if start >= 0 else "")
+    except CommandError as exc:
+        reply.error = exc.code
+    return reply
+

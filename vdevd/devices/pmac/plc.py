@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from vdevd.devices.pmac import buffers
-from vdevd.devices.pmac.buffers import MAX_LINE, MAX_LINES, MAX_TOTAL, Cond, Op
+from vdevd.devices.pmac.buffers import MAX_LINES, MAX_TOTAL, Cond, Op
 from vdevd.devices.pmac.errors import ERR_DATA, CommandError
 from vdevd.devices.pmac.expr import ExprError
 from vdevd.devices.pmac.mvars import MDefError
@@ -92,49 +92,10 @@ class Plcs:
         self.owner, self.open_n = port, n
 
     def enter(self, port: PortState, text: str) -> Reply:
-        """A line from the port that has the buffer open: CLOSE, CLEAR, LIST and OPEN act, the
-        statements are checked and appended as one line (ERR003: none of the line is kept)."""
-        reply = Reply()
-        s = buffers.normalise(text)
-        if len(s) > MAX_LINE:
-            reply.error = ERR_DATA
-            return reply
-        i, start, end = buffers.skip(s, 0), -1, -1
-        try:
-            while i < len(s):
-                word = _control_word(s, i)
-                if word:
-                    self._append(s[start:end] if start >= 0 else "")
-                    start = -1
-                    if word in ("CLOSE", "OPEN"):
-                        if word == "CLOSE":
-                            self.close()
-                            i += len(word)
-                        rest = self.fw.interpreter.execute_general(port, s[i:])
-                        reply.lines.extend(rest.lines)
-                        reply.error = rest.error
-                        return reply
-                    i += len(word)
-                    if word == "CLEAR":
-                        self.plcs[self.open_n].lines.clear()
-                    elif s[i:].strip() in ("", "PLC"):  # LIST: the open buffer
-                        reply.lines.extend(self.plcs[self.open_n].lines)
-                        i = len(s)
-                    else:  # LIST PLC n, LIST GATHER ...: on-line
-                        rest = self.fw.interpreter.execute_general(port, s[i - 4:])
-                        reply.lines.extend(rest.lines)
-                        reply.error = rest.error
-                        return reply
-                else:
-                    _, j = buffers.parse_statement(s, i)
-                    start = i if start < 0 else start
-                    end = j
-                    i = j
-                i = buffers.skip(s, i)
-            self._append(s[start:end] if start >= 0 else "")
-        except CommandError as exc:
-            reply.error = exc.code
-        return reply
+        """A line from the port that has the buffer open (buffers.enter_line)."""
+        return buffers.enter_line(
+            text, self.plcs[self.open_n].lines, ("PLC",), parse=buffers.parse_statement, append=self._append,
+            close=self.close, execute=lambda rest: self.fw.interpreter.execute_general(port, rest))
 
     def _append(self, line: str) -> None:
         if not line:
@@ -327,12 +288,6 @@ class Plcs:
             plc = self.plcs[n]
             plc.lines, plc.ops = [buffers.normalise(line) for line in lines], ops
 
-
-def _control_word(s: str, i: int) -> str:
-    for word in ("CLOSE", "CLEAR", "LIST", "OPEN"):
-        if s.startswith(word, i):
-            return word
-    return ""
 
 
 def _true(cond: Cond, env: Any) -> bool:

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from vdevd.devices.pmac import buffers, prog_statements
-from vdevd.devices.pmac.buffers import MAX_LINE, MAX_LINES, MAX_TOTAL, Op
+from vdevd.devices.pmac.buffers import MAX_LINES, MAX_TOTAL, Op
 from vdevd.devices.pmac.errors import ERR_DATA, CommandError
 from vdevd.devices.pmac.reply import Reply
 
@@ -82,49 +82,11 @@ class ProgramStore:
         self.owner, self.open_n = port, n
 
     def enter(self, port: PortState, text: str) -> Reply:
-        """A line from the port with the buffer open: CLOSE, CLEAR, LIST and OPEN act; the
-        statements are checked and appended as one line (ERR003: none of it is kept)."""
-        reply = Reply()
-        s = buffers.normalise(text)
-        if len(s) > MAX_LINE:
-            reply.error = ERR_DATA
-            return reply
-        i, start, end = buffers.skip(s, 0), -1, -1
-        try:
-            while i < len(s):
-                word = _control_word(s, i)
-                if word:
-                    self._append(s[start:end] if start >= 0 else "")
-                    start = -1
-                    if word in ("CLOSE", "OPEN"):
-                        if word == "CLOSE":
-                            self.close()
-                            i += len(word)
-                        rest = self.fw.interpreter.execute_general(port, s[i:])
-                        reply.lines.extend(rest.lines)
-                        reply.error = rest.error
-                        return reply
-                    i += len(word)
-                    if word == "CLEAR":
-                        self.programs[self.open_n].lines.clear()
-                    elif s[i:].strip() in ("", "PROG", "PROGRAM"):  # LIST: the open buffer
-                        reply.lines.extend(self.programs[self.open_n].lines)
-                        i = len(s)
-                    else:
-                        rest = self.fw.interpreter.execute_general(port, s[i - 4:])
-                        reply.lines.extend(rest.lines)
-                        reply.error = rest.error
-                        return reply
-                else:
-                    _, j = prog_statements.parse_statement(s, i)
-                    start = i if start < 0 else start
-                    end = j
-                    i = j
-                i = buffers.skip(s, i)
-            self._append(s[start:end] if start >= 0 else "")
-        except CommandError as exc:
-            reply.error = exc.code
-        return reply
+        """A line from the port with the buffer open (buffers.enter_line)."""
+        return buffers.enter_line(
+            text, self.programs[self.open_n].lines, ("PROG", "PROGRAM"),
+            parse=prog_statements.parse_statement, append=self._append, close=self.close,
+            execute=lambda rest: self.fw.interpreter.execute_general(port, rest))
 
     def _append(self, line: str) -> None:
         if not line:
@@ -199,9 +161,3 @@ class ProgramStore:
             except CommandError:
                 self.programs[n] = Program(lines, None, {}, True)
 
-
-def _control_word(s: str, i: int) -> str:
-    for word in ("CLOSE", "CLEAR", "LIST", "OPEN"):
-        if s.startswith(word, i):
-            return word
-    return ""
