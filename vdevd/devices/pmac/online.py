@@ -502,17 +502,7 @@ class Interpreter:
 
     def begin(self, line: Line, port: PortState, out: list[str]) -> None:
         """B{n}[.label] points the addressed C.S. to PROG n; B alone back to its top [SRM B]."""
-        line.skip()
-        value = None
-        if line.peek().isdigit() or line.peek() == ".":
-            m = re.compile(r"\d*\.?\d*").match(line.s, line.i)
-            assert m is not None
-            line.i = m.end()
-            try:
-                value = float(m.group())
-            except ValueError:
-                raise CommandError(ERR_DATA) from None
-        self.fw.motion.runner(port.cs).point(value)
+        self.fw.motion.runner(port.cs).point(_program_label(line))
 
     def run(self, step: bool, line: Line, port: PortState, out: list[str]) -> None:
         """R (run) / S (single step) of the addressed C.S.'s program [SRM R, S]."""
@@ -521,17 +511,7 @@ class Interpreter:
     def abort_run(self, line: Line, port: PortState, out: list[str]) -> None:
         """ABR[{n}[.label]]: abort the addressed C.S.'s program and run PROG n, or the one
         pointed to from its top (program_runner.py) [A L3261]."""
-        line.skip()
-        value = None
-        if line.peek().isdigit() or line.peek() == ".":
-            m = re.compile(r"\d*\.?\d*").match(line.s, line.i)
-            assert m is not None
-            line.i = m.end()
-            try:
-                value = float(m.group())
-            except ValueError:
-                raise CommandError(ERR_DATA) from None
-        self.fw.motion.runner(port.cs).abort_and_run(value)
+        self.fw.motion.runner(port.cs).abort_and_run(_program_label(line))
 
     def program_report(self, name: str, line: Line, port: PortState, out: list[str]) -> None:
         """PC (program counter), PE (executing line) of the addressed C.S.: `P{prog}:{offset}`
@@ -1033,3 +1013,21 @@ def _select(line: Line, out: list[str], current: int, top: int) -> int:
 
 def _number(text: str) -> int:
     return int(text[1:], 16) if text.startswith("$") else int(text)
+
+
+def _program_label(line: Line) -> float | None:
+    """The `{n}[.{label}]` after B or ABR as one number (None: none given) [SRM B, ABR]."""
+    line.skip()
+    if not (line.peek().isdigit() or line.peek() == "."):
+        return None
+    m = _PROGRAM_LABEL.match(line.s, line.i)
+    assert m is not None
+    line.i = m.end()
+    try:
+        return float(m.group())
+    except ValueError:
+        raise CommandError(ERR_DATA) from None
+
+
+_PROGRAM_LABEL = re.compile(r"\d*\.?\d*")
+
