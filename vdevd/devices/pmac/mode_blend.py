@@ -7,10 +7,10 @@ LINEAR, CIRCLE1 and CIRCLE2 does not end the sequence: the CIRCLE planner (circl
 on, taking LINEAR moves as straight elements of its path, with the same TA/TS blend along the
 path at each boundary; a LINEAR sequence running into a CIRCLE move hands its last move, still
 held at its speed, over to the CIRCLE planner as the first element. A sequence of LINEAR moves
-alone keeps the LINEAR planner (corner rounding, Ixx16/Ixx17). ASSUMPTION: the blend at a
-LINEAR/CIRCLE boundary acts along the path, as circle.py blends its arcs (the path keeps its
-corner, the speed follows TA/TS); Isx13 = 0 keeps the stop at each change (CIRCLE moves are then
-straight LINEAR-like moves of their own planner).
+alone keeps the LINEAR planner (corner rounding, Ixx16/Ixx17). The blend at a LINEAR/CIRCLE
+boundary is circle.py's (each move's displacement blended over TA/TS, the corner cut).
+ASSUMPTION: Isx13 = 0 keeps the stop at each change (CIRCLE moves are then straight LINEAR-like
+moves of their own planner).
 """
 
 from __future__ import annotations
@@ -57,5 +57,5 @@ def from_linear(p: LinearPlanner, frax: np.ndarray) -> CirclePlanner:
     z = np.zeros(3)
     c.elements.append(_Element(p.tail.copy(), p.position.copy(), False, z, z, z, z, 0.0, 0.0,
                                0.0, 0.0, length, length / p.left, 0.0, p.left,
-                               blend.widths(0.0, 0.0), 0.0))
+                               blend.widths(0.0, 0.0)))
     return c
