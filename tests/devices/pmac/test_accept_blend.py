@@ -56,3 +56,30 @@ def test_line_into_reversing_arc_turns_over_the_blend(lookahead: bool) -> None:
     y = v[:, 1]
     down = int(np.flatnonzero(y < -5)[0])
     assert down - np.flatnonzero(y[:down] > 5)[-1] > 0.45 * TA / DT
+
+
+@pytest.mark.parametrize("stop", ["&1Q", "&1/"])
+def test_quit_while_the_linear_move_is_handed_to_the_circle_planner(stop: str) -> None:
+    """Q (and `/`, as Q here) during the first of X10, Y10, CIRCLE1: the program stops at the
+    end of the move calculated, (10, 10) [SRM Q]. That move keeps F (10 counts/ms) and ends in a
+    TA deceleration: the sequence lasts TA + 20 units / F = 2.1 s; it was one cubic from the
+    corner to the end, peaking at 13.3 counts/ms."""
+    c = Card()
+    c.raw("I3=2")
+    for line in ["&1#1->1000X", "&1#2->1000Y", "#1J/", "#2J/", "I5113=10",
+                 "OPEN PROG 3 CLEAR", "LINEAR ABS TA100 TS0 F10", "X10 Y0", "X10 Y10",
+                 "CIRCLE1 X0 Y0 R10", "CLOSE", "&1B3R"]:
+        c.ask(line)
+    xs = [c.fw.reports.commanded()[:2].copy()]
+    for k in range(round(3.0 / DT)):
+        if k == round(0.5 / DT):
+            c.ask(stop)
+        c.tick()
+        xs.append(c.fw.reports.commanded()[:2].copy())
+    x = np.array(xs)
+    v = np.diff(x, axis=0) / (DT * 1000)
+    assert np.abs(v).max() < F * 1.001
+    assert np.abs(np.diff(v, axis=0) / (DT * 1000)).max() < 0.3
+    assert c.ask("#1P") == "10000" and c.ask("#2P") == "10000"
+    at_rest = np.flatnonzero(np.abs(v).max(axis=1) > 1e-6)[-1] * DT
+    assert at_rest == pytest.approx(0.1 + 20 / F, abs=0.005)

@@ -75,6 +75,7 @@ class _Element:
     t0: float                   # start of its constant-speed interval, seconds
     dur: float
     kern: tuple[float, float]   # blend kernel at its start boundary
+    stop: tuple[float, float] | None = None   # its stop's kernel when last (None: kern)
 
     def at(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Positions and d/du along the move at fractions `u` (n,), shape (n, NAXES)."""
@@ -217,11 +218,19 @@ class CirclePlanner(Planner):
         if not self.elements:
             return []
         last = self.elements[-1]
-        out = self._emit(last.t0 + last.dur + sum(last.kern) / 2, final=True)
+        out = self._emit(last.t0 + last.dur + sum(self._kend(len(self.elements) - 1)) / 2,
+                         final=True)
         self._reset()
         return out
 
     # -- evaluating it ------------------------------------------------------------------------
+    def _kend(self, i: int) -> tuple[float, float]:
+        """The blend kernel at the end of element i: the next one's, or its stop."""
+        els = self.elements
+        if i + 1 < len(els):
+            return els[i + 1].kern
+        return els[i].stop or els[i].kern
+
     def _grid(self, horizon: float, final: bool) -> np.ndarray:
         if self.seg > 0:
             k1 = int(np.floor(horizon / self.seg + 1e-9))
@@ -233,7 +242,7 @@ class CirclePlanner(Planner):
         marks = [self.emitted_t, horizon]
         for i, el in enumerate(self.elements):
             marks += list(el.t0 + blend.breakpoints(*el.kern))
-            kend = self.elements[i + 1].kern if i + 1 < len(self.elements) else el.kern
+            kend = self._kend(i)
             marks += list(el.t0 + el.dur + blend.breakpoints(*kend))
         ts = np.unique(np.array(marks))
         return ts[(ts >= self.emitted_t - 1e-12) & (ts <= horizon + 1e-12)]
@@ -267,7 +276,7 @@ class CirclePlanner(Planner):
         for i, el in enumerate(els):
             if el.length <= 0:
                 continue
-            kend = els[i + 1].kern if i + 1 < len(els) else el.kern
+            kend = self._kend(i)
             s = el.speed * (blend.ramp(ts - el.t0, *el.kern) - blend.ramp(ts - el.t0 - el.dur, *kend))
             sd = el.speed * (blend.ramp_rate(ts - el.t0, *el.kern)
                              - blend.ramp_rate(ts - el.t0 - el.dur, *kend))

@@ -39,17 +39,22 @@ def carry_on(r: CsProgram, new_mode: str) -> bool:
     if isinstance(p, CirclePlanner):
         return True
     if isinstance(p, LinearPlanner) and new_mode != "LINEAR":
-        frax = np.asarray(r._params().get("FRAX", DEFAULT_FRAX), dtype=bool)
-        r.planner = from_linear(p, frax)
+        prm = r._params()
+        frax = np.asarray(prm.get("FRAX", DEFAULT_FRAX), dtype=bool)
+        r.planner = from_linear(p, frax, float(prm["SEG"]),
+                                blend.widths(float(prm["TA"]), float(prm["TS"])))
         return True
     return False
 
 
-def from_linear(p: LinearPlanner, frax: np.ndarray) -> CirclePlanner:
+def from_linear(p: LinearPlanner, frax: np.ndarray, seg: float,
+                stop: tuple[float, float]) -> CirclePlanner:
     """A CIRCLE planner that goes on from where the LINEAR planner's pieces end: its held move
     (from `tail` to the corner at `vel`, `left` seconds) becomes a straight first element already
-    at speed (no blend at its start)."""
+    at speed (no blend at its start), segmented every `seg` s, stopping in the LINEAR moves'
+    TA/TS kernel `stop` when the sequence ends on it (Q, `/`)."""
     c = CirclePlanner(p.position)
+    c.seg = seg
     if not p.vel.any() or p.left <= 0:
         return c
     d = p.position - p.tail
@@ -57,5 +62,5 @@ def from_linear(p: LinearPlanner, frax: np.ndarray) -> CirclePlanner:
     z = np.zeros(3)
     c.elements.append(_Element(p.tail.copy(), p.position.copy(), False, z, z, z, z, 0.0, 0.0,
                                0.0, 0.0, length, length / p.left, 0.0, p.left,
-                               blend.widths(0.0, 0.0)))
+                               blend.widths(0.0, 0.0), stop))
     return c
