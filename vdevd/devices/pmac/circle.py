@@ -16,10 +16,11 @@ start of the move with the circle-radius-error bit [SRM Isx96]. R with the end o
 nothing (no full circle with R).
 
 Speed: F along the path (the circle axes are feedrate axes, with the other FRAX axes), or the move
-time TM; the acceleration to, from and between the moves of a sequence is the TA/TS blend along the
-path (blend.py), so the path stays on the arcs (ASSUMPTION: the SRM blends LINEAR and CIRCLE moves
-alike; here the blend acts on the distance along the path). A move takes at least its acceleration
-time [PMAC UM "Short Moves"], at most 8,388,607 ms.
+time TM; the acceleration to, from and between the moves of a sequence is the TA/TS blend of each
+move's distance along its own path (blend.py), the position the sum of the moves' displacements, as
+LINEAR moves blend [SRM TA; UM "Circular Interpolation": CIRCLE moves blend as LINEAR moves do]: a
+corner between moves is cut over the blend, the velocity vector turning with no jump. A move takes
+at least its acceleration time [PMAC UM "Short Moves"], at most 8,388,607 ms.
 
 Segmentation: the card computes the path every Isx13 ms and fine-interpolates with cubics [SRM
 Isx13]: each segment here is the Hermite cubic of the exact positions and velocities at its ends.
@@ -74,7 +75,7 @@ class _Element:
     t0: float                   # start of its constant-speed interval, seconds
     dur: float
     kern: tuple[float, float]   # blend kernel at its start boundary
-    s0: float = 0.0             # distance along the sequence at its start
+    stop: tuple[float, float] | None = None   # its stop's kernel when last (None: kern)
 
     def at(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Positions and d/du along the move at fractions `u` (n,), shape (n, NAXES)."""
@@ -163,7 +164,6 @@ class CirclePlanner(Planner):
 
     def _reset(self) -> None:
         self.elements: list[_Element] = []
-        self.base_s = 0.0          # distance of the elements already dropped
         self.emitted_t = 0.0       # time up to which pieces were returned
         self.emitted_k = 0         # segments returned
         self.seg = 0.0
@@ -204,11 +204,11 @@ class CirclePlanner(Planner):
             dur = _EPS
         if self.elements:
             last = self.elements[-1]
-            t0, s0 = last.t0 + last.dur, last.s0 + last.length
+            t0 = last.t0 + last.dur
         else:
-            t0, s0 = accel / 2, self.base_s
+            t0 = accel / 2
         self.elements.append(_Element(start, end, arc, centre, e1, e2, n, sweep, rho0, rho1, rise,
-                                      length, length / dur, t0, dur, kern, s0))
+                                      length, length / dur, t0, dur, kern))
         self.position = end
         # times before this move's start blend are final
         return self._emit(t0 - accel / 2, final=False)
@@ -218,11 +218,19 @@ class CirclePlanner(Planner):
         if not self.elements:
             return []
         last = self.elements[-1]
-        out = self._emit(last.t0 + last.dur + sum(last.kern) / 2, final=True)
+        out = self._emit(last.t0 + last.dur + sum(self._kend(len(self.elements) - 1)) / 2,
+                         final=True)
         self._reset()
         return out
 
     # -- evaluating it ------------------------------------------------------------------------
+    def _kend(self, i: int) -> tuple[float, float]:
+        """The blend kernel at the end of element i: the next one's, or its stop."""
+        els = self.elements
+        if i + 1 < len(els):
+            return els[i + 1].kern
+        return els[i].stop or els[i].kern
+
     def _grid(self, horizon: float, final: bool) -> np.ndarray:
         if self.seg > 0:
             k1 = int(np.floor(horizon / self.seg + 1e-9))
@@ -234,7 +242,7 @@ class CirclePlanner(Planner):
         marks = [self.emitted_t, horizon]
         for i, el in enumerate(self.elements):
             marks += list(el.t0 + blend.breakpoints(*el.kern))
-            kend = self.elements[i + 1].kern if i + 1 < len(self.elements) else el.kern
+            kend = self._kend(i)
             marks += list(el.t0 + el.dur + blend.breakpoints(*kend))
         ts = np.unique(np.array(marks))
         return ts[(ts >= self.emitted_t - 1e-12) & (ts <= horizon + 1e-12)]
@@ -259,28 +267,22 @@ class CirclePlanner(Planner):
         return pieces
 
     def _eval(self, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        s = np.full(ts.shape, self.base_s)
-        sd = np.zeros(ts.shape)
+        """The sum of the moves' own blended progress, as LINEAR moves blend [SRM TA]: at a
+        corner the velocity vector turns over the blend (the corner is cut), no jump."""
         els = self.elements
-        for i, el in enumerate(els):
-            kend = els[i + 1].kern if i + 1 < len(els) else el.kern
-            s += el.speed * (blend.ramp(ts - el.t0, *el.kern) - blend.ramp(ts - el.t0 - el.dur, *kend))
-            sd += el.speed * (blend.ramp_rate(ts - el.t0, *el.kern)
-                              - blend.ramp_rate(ts - el.t0 - el.dur, *kend))
-        starts = np.array([el.s0 for el in els])
-        which = np.clip(np.searchsorted(starts, s, side="right") - 1, 0, len(els) - 1)
         pos = np.empty((len(ts), NAXES))
-        vel = np.empty((len(ts), NAXES))
-        for i in np.unique(which):
-            el = els[i]
-            m = which == i
+        pos[:] = els[0].start
+        vel = np.zeros((len(ts), NAXES))
+        for i, el in enumerate(els):
             if el.length <= 0:
-                pos[m], vel[m] = el.start, 0.0
                 continue
-            u = np.clip((s[m] - el.s0) / el.length, 0.0, 1.0)
-            p, dp = el.at(u)
-            pos[m] = p
-            vel[m] = dp * (sd[m] / el.length)[:, None]
+            kend = self._kend(i)
+            s = el.speed * (blend.ramp(ts - el.t0, *el.kern) - blend.ramp(ts - el.t0 - el.dur, *kend))
+            sd = el.speed * (blend.ramp_rate(ts - el.t0, *el.kern)
+                             - blend.ramp_rate(ts - el.t0 - el.dur, *kend))
+            p, dp = el.at(np.clip(s / el.length, 0.0, 1.0))
+            pos += p - el.start
+            vel += dp * (sd / el.length)[:, None]
         return pos, vel
 
     def _drop(self) -> None:
@@ -289,5 +291,4 @@ class CirclePlanner(Planner):
             el, nxt = self.elements[0], self.elements[1]
             if el.t0 + el.dur + sum(nxt.kern) / 2 > self.emitted_t:
                 return
-            self.base_s += el.length
             self.elements.pop(0)

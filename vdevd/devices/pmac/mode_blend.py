@@ -7,10 +7,10 @@ LINEAR, CIRCLE1 and CIRCLE2 does not end the sequence: the CIRCLE planner (circl
 on, taking LINEAR moves as straight elements of its path, with the same TA/TS blend along the
 path at each boundary; a LINEAR sequence running into a CIRCLE move hands its last move, still
 held at its speed, over to the CIRCLE planner as the first element. A sequence of LINEAR moves
-alone keeps the LINEAR planner (corner rounding, Ixx16/Ixx17). ASSUMPTION: the blend at a
-LINEAR/CIRCLE boundary acts along the path, as circle.py blends its arcs (the path keeps its
-corner, the speed follows TA/TS); Isx13 = 0 keeps the stop at each change (CIRCLE moves are then
-straight LINEAR-like moves of their own planner).
+alone keeps the LINEAR planner (corner rounding, Ixx16/Ixx17). The blend at a LINEAR/CIRCLE
+boundary is circle.py's (each move's displacement blended over TA/TS, the corner cut).
+ASSUMPTION: Isx13 = 0 keeps the stop at each change (CIRCLE moves are then straight LINEAR-like
+moves of their own planner).
 """
 
 from __future__ import annotations
@@ -39,17 +39,22 @@ def carry_on(r: CsProgram, new_mode: str) -> bool:
     if isinstance(p, CirclePlanner):
         return True
     if isinstance(p, LinearPlanner) and new_mode != "LINEAR":
-        frax = np.asarray(r._params().get("FRAX", DEFAULT_FRAX), dtype=bool)
-        r.planner = from_linear(p, frax)
+        prm = r._params()
+        frax = np.asarray(prm.get("FRAX", DEFAULT_FRAX), dtype=bool)
+        r.planner = from_linear(p, frax, float(prm["SEG"]),
+                                blend.widths(float(prm["TA"]), float(prm["TS"])))
         return True
     return False
 
 
-def from_linear(p: LinearPlanner, frax: np.ndarray) -> CirclePlanner:
+def from_linear(p: LinearPlanner, frax: np.ndarray, seg: float,
+                stop: tuple[float, float]) -> CirclePlanner:
     """A CIRCLE planner that goes on from where the LINEAR planner's pieces end: its held move
     (from `tail` to the corner at `vel`, `left` seconds) becomes a straight first element already
-    at speed (no blend at its start)."""
+    at speed (no blend at its start), segmented every `seg` s, stopping in the LINEAR moves'
+    TA/TS kernel `stop` when the sequence ends on it (Q, `/`)."""
     c = CirclePlanner(p.position)
+    c.seg = seg
     if not p.vel.any() or p.left <= 0:
         return c
     d = p.position - p.tail
@@ -57,5 +62,5 @@ def from_linear(p: LinearPlanner, frax: np.ndarray) -> CirclePlanner:
     z = np.zeros(3)
     c.elements.append(_Element(p.tail.copy(), p.position.copy(), False, z, z, z, z, 0.0, 0.0,
                                0.0, 0.0, length, length / p.left, 0.0, p.left,
-                               blend.widths(0.0, 0.0), 0.0))
+                               blend.widths(0.0, 0.0), stop))
     return c

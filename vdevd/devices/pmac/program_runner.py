@@ -537,7 +537,8 @@ class CsProgram:
 
     def _new_segmenter(self) -> Segmenter | None:
         """LINEAR with Isx13 > 0: Isx13 ms segments, through the lookahead's Ixx16/Ixx17 limits
-        when the C.S. has a lookahead buffer and Isx20 > 0 (lookahead.py)."""
+        when the C.S. has a lookahead buffer and Isx20 > 0 (lookahead.py). A C.S. with
+        inverse-kinematic motors segments in axis units, without the motor limits (README)."""
         iv, base = self.fw.ivars.values, 5000 + 100 * self.cs
         seg_ms = float(iv[base + 13])
         if self.mode != "LINEAR" or seg_ms <= 0:
@@ -550,6 +551,10 @@ class CsProgram:
             v = iv[motors + 16] * 1000.0
             vmax = np.where(v > 0, v, np.inf)
             amax = iv[motors + 17] * 1e6
+        if len(self.inv_rows):   # `#n->I` motors have no scale row: segment in axis units
+            n = self.scale.shape[1]
+            return Segmenter(self.pos, seg_ms / 1000, depth, np.eye(n), np.full(n, np.inf),
+                             np.zeros(n))
         return Segmenter(self.pos, seg_ms / 1000, depth, self.scale, vmax, amax)
 
     def define_lookahead(self, segments: int | None, outputs: int) -> None:
