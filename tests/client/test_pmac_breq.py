@@ -6,18 +6,15 @@ global status word 2 bit 20 while the binary rotary buffer is open [Turbo SRM I1
 
 from __future__ import annotations
 
-import ctypes
 import threading
 from collections.abc import Iterator
 from typing import Any
 
 import pytest
-import vdevclient
 from vdevclient import pcomm
 from vdevmaps.pmac import IR_STATUS, HostIrq
 
-from tests.devices.pmac.conftest import PERIOD_NS, Pmac, card_config
-from vdevd.testing import DaemonThread
+from tests.devices.pmac.conftest import PERIOD_NS, Pmac, pcomm_ask, pcomm_device
 
 DEVICE = 0
 DT = PERIOD_NS / 1e9
@@ -27,21 +24,12 @@ BREQ = int(HostIrq.BUFFER_REQUEST)
 
 @pytest.fixture
 def host() -> Iterator[Pmac]:
-    cfg = card_config(plant="ideal", device=DEVICE)
-    with DaemonThread(cfg) as d, vdevclient.connect(d.endpoint, d.events, timeout=10) as rack:
-        h = Pmac(rack)
-        assert pcomm.OpenPmacDevice(DEVICE, endpoint=d.endpoint)
-        try:
-            yield h
-        finally:
-            pcomm.ClosePmacDevice(DEVICE)
-            h.close()
+    with pcomm_device(DEVICE, plant="ideal") as h:
+        yield h
 
 
 def ask(command: str) -> str:
-    out = ctypes.create_string_buffer(256)
-    pcomm.PmacGetResponseA(DEVICE, out, 256, command)
-    return out.value.decode("latin-1").strip("\r\x06")
+    return pcomm_ask(DEVICE, command)
 
 
 def status_word2() -> int:

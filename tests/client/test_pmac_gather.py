@@ -8,11 +8,9 @@ import ctypes
 from collections.abc import Iterator
 
 import pytest
-import vdevclient
 from vdevclient import pcomm
 
-from tests.devices.pmac.conftest import Pmac, card_config
-from vdevd.testing import DaemonThread
+from tests.devices.pmac.conftest import Pmac, pcomm_device
 
 DEVICE = 0
 #: motor n's block and the registers dls-pmaccontrol gathers [DLS-ctl gatherchannel.py]
@@ -23,15 +21,8 @@ LONG = 0x8  # format digit: 48-bit
 
 @pytest.fixture
 def host() -> Iterator[Pmac]:
-    cfg = card_config(plant="ideal", device=DEVICE)
-    with DaemonThread(cfg) as d, vdevclient.connect(d.endpoint, d.events, timeout=10) as rack:
-        h = Pmac(rack)
-        assert pcomm.OpenPmacDevice(DEVICE, endpoint=d.endpoint)
-        try:
-            yield h
-        finally:
-            pcomm.ClosePmacDevice(DEVICE)
-            h.close()
+    with pcomm_device(DEVICE, plant="ideal") as h:
+        yield h
 
 
 def dls_collect(ret: str) -> list[str]:

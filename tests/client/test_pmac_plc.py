@@ -4,37 +4,25 @@
 
 from __future__ import annotations
 
-import ctypes
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-import vdevclient
 from vdevclient import pcomm
 
-from tests.devices.pmac.conftest import Pmac, card_config
-from vdevd.testing import DaemonThread
+from tests.devices.pmac.conftest import Pmac, pcomm_ask, pcomm_device
 
 DEVICE = 0
 
 
 @pytest.fixture
 def host() -> Iterator[Pmac]:
-    cfg = card_config(plant="ideal", device=DEVICE)
-    with DaemonThread(cfg) as d, vdevclient.connect(d.endpoint, d.events, timeout=10) as rack:
-        h = Pmac(rack)
-        assert pcomm.OpenPmacDevice(DEVICE, endpoint=d.endpoint)
-        try:
-            yield h
-        finally:
-            pcomm.ClosePmacDevice(DEVICE)
-            h.close()
+    with pcomm_device(DEVICE, plant="ideal") as h:
+        yield h
 
 
 def ask(command: str) -> str:
-    out = ctypes.create_string_buffer(256)
-    pcomm.PmacGetResponseA(DEVICE, out, 256, command)
-    return out.value.decode("latin-1").strip("\r\x06")
+    return pcomm_ask(DEVICE, command)
 
 
 def test_downloaded_plc_counts_every_background_cycle(host: Pmac, tmp_path: Path) -> None:

@@ -5,16 +5,13 @@ pmac.md §2.8, §3.1, §3.3; Turbo UM "Linear Blended Moves"; README "Motion pro
 
 from __future__ import annotations
 
-import ctypes
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-import vdevclient
 from vdevclient import pcomm
 
-from tests.devices.pmac.conftest import PERIOD_NS, Pmac, card_config
-from vdevd.testing import DaemonThread
+from tests.devices.pmac.conftest import PERIOD_NS, Pmac, pcomm_ask, pcomm_device
 
 DEVICE = 0
 DT = PERIOD_NS / 1e9
@@ -42,21 +39,12 @@ CLOSE
 
 @pytest.fixture
 def host() -> Iterator[Pmac]:
-    cfg = card_config(plant="ideal", device=DEVICE)
-    with DaemonThread(cfg) as d, vdevclient.connect(d.endpoint, d.events, timeout=10) as rack:
-        h = Pmac(rack)
-        assert pcomm.OpenPmacDevice(DEVICE, endpoint=d.endpoint)
-        try:
-            yield h
-        finally:
-            pcomm.ClosePmacDevice(DEVICE)
-            h.close()
+    with pcomm_device(DEVICE, plant="ideal") as h:
+        yield h
 
 
 def ask(command: str) -> str:
-    out = ctypes.create_string_buffer(256)
-    pcomm.PmacGetResponseA(DEVICE, out, 256, command)
-    return out.value.decode("latin-1").strip("\r\x06")
+    return pcomm_ask(DEVICE, command)
 
 
 def position(motor: int) -> float:

@@ -13,12 +13,10 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-import vdevclient
 from vdevclient import pcomm
 
 from tests.client.test_pmac_program_gather import trapezoid
-from tests.devices.pmac.conftest import PERIOD_NS, Pmac, card_config
-from vdevd.testing import DaemonThread
+from tests.devices.pmac.conftest import PERIOD_NS, Pmac, pcomm_device
 
 DEVICE = 0
 DT = PERIOD_NS / 1e9
@@ -36,15 +34,8 @@ CLOSE
 
 @pytest.fixture
 def host() -> Iterator[Pmac]:
-    cfg = card_config(plant="ideal", device=DEVICE)
-    with DaemonThread(cfg) as d, vdevclient.connect(d.endpoint, d.events, timeout=10) as rack:
-        h = Pmac(rack)
-        assert pcomm.OpenPmacDevice(DEVICE, endpoint=d.endpoint)
-        try:
-            yield h
-        finally:
-            pcomm.ClosePmacDevice(DEVICE)
-            h.close()
+    with pcomm_device(DEVICE, plant="ideal") as h:
+        yield h
 
 
 def dpram(command: str) -> str:

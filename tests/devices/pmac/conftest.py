@@ -107,6 +107,34 @@ def pmac_card(state_dir: Path | None = None, **options: Any) -> Iterator[Pmac]:
             host.close()
 
 
+@contextmanager
+def pcomm_device(device: int = 0, **options: Any) -> Iterator[Pmac]:
+    """A daemon of its own with `pmac0` (`options`, the PComm `device` number) and
+    `vdevclient.pcomm` device `device` opened on it; the host-side handle for stepping."""
+    from vdevclient import pcomm
+
+    cfg = card_config(device=device, **options)
+    with DaemonThread(cfg) as d, vdevclient.connect(d.endpoint, d.events, timeout=10) as rack:
+        host = Pmac(rack)
+        assert pcomm.OpenPmacDevice(device, endpoint=d.endpoint)
+        try:
+            yield host
+        finally:
+            pcomm.ClosePmacDevice(device)
+            host.close()
+
+
+def pcomm_ask(device: int, command: str, size: int = 256) -> str:
+    """PmacGetResponseA of one command: the reply without its CR/ACK framing."""
+    import ctypes
+
+    from vdevclient import pcomm
+
+    out = ctypes.create_string_buffer(size)
+    pcomm.PmacGetResponseA(device, out, size, command)
+    return out.value.decode("latin-1").strip("\r\x06")
+
+
 @pytest.fixture
 def pmac() -> Iterator[Pmac]:
     with pmac_card(plant="ideal") as host:
