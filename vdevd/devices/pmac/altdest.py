@@ -23,7 +23,7 @@ import numpy as np
 
 from vdevd.devices.pmac.coord import AXES
 from vdevd.devices.pmac.errors import ERR_DATA, CommandError
-from vdevd.devices.pmac.linear import Phase, _axis_profile, _breaks
+from vdevd.devices.pmac.linear import Phase, _axis_profile, cut_pieces
 from vdevd.devices.pmac.pieces import NAXES, Piece
 
 if TYPE_CHECKING:
@@ -118,23 +118,9 @@ def blend_pieces(p0: np.ndarray, v0: np.ndarray, target: np.ndarray, vmax: np.nd
                                  float(amax[k]))
             if prof:
                 profiles.append((k, prof))
-    cuts = sorted({0.0, *(t for _, prof in profiles for t in _breaks(prof))})
-    out: list[Piece] = []
-    for t0, t1 in zip(cuts, cuts[1:], strict=False):
-        if t1 - t0 <= 1e-12:
-            continue
-        coef = np.zeros((4, NAXES))
-        coef[0] = target
-        coef[0][v0 == 0] = p0[v0 == 0]
-        for k, prof in profiles:
-            coef[:, k] = _state(prof, t0, float(p0[k]), float(v0[k]), float(target[k]))
-        out.append(Piece(t1 - t0, coef))
-    if out:  # the end exactly on the target, free of rounding
-        last = out[-1]
-        coef = last.coef.copy()
-        coef[0] += target - last.end()[0]
-        out[-1] = Piece(last.dur, coef)
-    return out
+    base = np.where(v0 == 0, p0, target)
+    return cut_pieces(profiles, base, lambda k, prof, t0: _state(
+        prof, t0, float(p0[k]), float(v0[k]), float(target[k])), target)
 
 
 def _state(prof: list[Phase], t0: float, p: float, v: float, end: float) -> np.ndarray:

@@ -24,6 +24,7 @@ seconds). The move ends when the slowest axis ends; nothing blends into or out o
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -187,23 +188,8 @@ class RapidPlanner(Planner):
             profiles.append((k, _axis_profile(float(dist[k]), float(vmax[k]), float(amax[k]),
                                               float(jerk[k]))))
         self.position = move.target.astype(float).copy()
-        if not profiles:
-            return []
-        cuts = sorted({0.0, *(t for _, prof in profiles for t in _breaks(prof))})
-        out: list[Piece] = []
-        for t0, t1 in zip(cuts, cuts[1:], strict=False):
-            if t1 - t0 <= 1e-12:
-                continue
-            coef = np.zeros((4, NAXES))
-            coef[0] = start
-            for k, prof in profiles:
-                coef[:, k] = _shifted(prof, t0, float(start[k]))
-            out.append(Piece(t1 - t0, coef))
-        last = out[-1]
-        coef = last.coef.copy()
-        coef[0] += self.position - last.end()[0]
-        out[-1] = Piece(last.dur, coef)
-        return out
+        return cut_pieces(profiles, start, lambda k, prof, t0: _shifted(prof, t0, float(start[k])),
+                          self.position)
 
 
 def _axis_profile(d: float, vmax: float, amax: float, jerk: float) -> list[Phase]:
@@ -239,6 +225,30 @@ def _axis_profile(d: float, vmax: float, amax: float, jerk: float) -> list[Phase
 
 #: one phase of an axis's RAPID profile: (seconds, acceleration at its start, jerk)
 Phase = tuple[float, float, float]
+
+
+def cut_pieces(profiles: list[tuple[int, list[Phase]]], base: np.ndarray,
+               state: Callable[[int, list[Phase], float], np.ndarray],
+               end: np.ndarray) -> list[Piece]:
+    """Per-axis phase profiles as pieces, cut wherever any axis changes phase: the axes without
+    a profile stay at `base`, axis k's cubic from each cut t0 is `state(k, prof, t0)`; the last
+    piece is moved to end exactly on `end` (free of rounding). RAPID moves and `!` (altdest.py)."""
+    cuts = sorted({0.0, *(t for _, prof in profiles for t in _breaks(prof))})
+    out: list[Piece] = []
+    for t0, t1 in zip(cuts, cuts[1:], strict=False):
+        if t1 - t0 <= 1e-12:
+            continue
+        coef = np.zeros((4, NAXES))
+        coef[0] = base
+        for k, prof in profiles:
+            coef[:, k] = state(k, prof, t0)
+        out.append(Piece(t1 - t0, coef))
+    if out:
+        last = out[-1]
+        coef = last.coef.copy()
+        coef[0] += end - last.end()[0]
+        out[-1] = Piece(last.dur, coef)
+    return out
 
 
 def _breaks(prof: list[Phase]) -> list[float]:

@@ -596,20 +596,7 @@ class Interpreter:
             out.extend(self.fw.kinematics.list_lines(port.cs, "INVERSE"))
             return
         if line.take("PLC") and not line.take("C"):  # LIST PLC n[,start[,count]] (plc.py)
-            line.skip()
-            n = line.integer()
-            args: list[int] = []
-            while n is not None and len(args) < 2:
-                line.skip()
-                if not line.take(","):
-                    break
-                line.skip()
-                v = line.integer()
-                if v is None:
-                    raise CommandError(ERR_DATA)
-                args.append(v)
-            if n is None:
-                raise CommandError(ERR_DATA)
+            n, args = _list_numbers(line)
             out.extend(self.fw.plc.list_lines(n, *args))
             return
         if line.take("PROG"):  # LIST PROG n[,start[,count]] (programs.py)
@@ -908,7 +895,7 @@ def _longest_word(s: str, i: int) -> str:
 
 
 def _list_numbers(line: Line) -> tuple[int, list[int]]:
-    """`n[,start[,count]]` after LIST PROG."""
+    """`n[,start[,count]]` after LIST PLC and LIST PROG."""
     line.skip()
     n = line.integer()
     if n is None:
