@@ -50,8 +50,20 @@ def parse_endpoint(endpoint: str, key: str = "ethernet") -> tuple[str, int]:
     match = _ENDPOINT.fullmatch(endpoint)
     if match is None:
         raise ValueError(f"{key}: {endpoint!r} is not tcp://HOST:PORT")
-    port = match["port"]
-    return match["v6"] or match["host"], 0 if port == "*" else int(port)
+    port = 0 if match["port"] == "*" else int(match["port"])
+    if port > 65535:  # the socket would take it modulo 65536
+        raise ValueError(f"{key}: {endpoint!r}: the port is over 65535")
+    return match["v6"] or match["host"], port
+
+
+def check_endpoint(endpoint: str, where: str) -> None:
+    """A card's `ethernet` key at configuration time: ValueError naming `{where}.ethernet`
+    unless it is tcp://HOST:PORT with PORT 0..65535."""
+    try:
+        parse_endpoint(endpoint)
+    except ValueError:
+        raise ValueError(f"{where}.ethernet: {endpoint!r} is not tcp://HOST:PORT "
+                         "(PORT 0..65535; empty: off)") from None
 
 
 def peer_ip(address: str) -> IPAddress:

@@ -22,7 +22,7 @@ from vdevmaps.galil import WINDOW_SIZE, A16Reg
 from vdevd.devices.base import Card, CardContext, CardOptions, Option, control
 from vdevd.devices.galil.bus import FREEZE_MODES, A16Window
 from vdevd.devices.galil.channel import CommandChannel
-from vdevd.devices.galil.ethernet import MAX_CONNECTIONS, EthernetServer, parse_endpoint
+from vdevd.devices.galil.ethernet import MAX_CONNECTIONS, EthernetServer
 from vdevd.devices.galil.firmware import Firmware
 from vdevd.devices.galil.interpreter import revision
 from vdevd.devices.galil.nv_image import check_image
@@ -32,7 +32,7 @@ from vdevd.nvram import NvramWriter
 from vdevd.region import Region
 from vdevd.rt import PlantKind
 from vdevd.security import is_local
-from vdevd.tcp_listener import listener_options
+from vdevd.tcp_listener import check_endpoint, listener_options
 
 log = logging.getLogger(__name__)
 
@@ -90,12 +90,7 @@ class GalilCard(Card):
             raise ValueError(f"{where}.address: {address!r} is not a gclib address (one word, "
                              "no commas, not a --flag)")
         if opts.ethernet:
-            try:
-                if parse_endpoint(opts.ethernet)[1] > 65535:  # the socket would take it modulo 65536
-                    raise ValueError
-            except ValueError:
-                raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not tcp://HOST:PORT "
-                                 "(PORT 0..65535; empty: off)") from None
+            check_endpoint(opts.ethernet, where)
             if not is_local(opts.ethernet):
                 raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not loopback (the DMC "
                                  "command protocol has no authentication)")

@@ -46,7 +46,7 @@ from vdevd.devices.pmac.dpram_rotary import BinaryRotary
 from vdevd.devices.pmac.dpram_vars import VariableBuffers
 from vdevd.devices.pmac.eth_framing import KeptFraming
 from vdevd.devices.pmac.ethernet import MAX_PENDING
-from vdevd.devices.pmac.ethernet_server import EthernetServer, parse_endpoint
+from vdevd.devices.pmac.ethernet_server import EthernetServer
 from vdevd.devices.pmac.firmware import Firmware, Identity
 from vdevd.devices.pmac.hostport import HostPort, InterruptController
 from vdevd.devices.pmac.online import PortState
@@ -57,7 +57,7 @@ from vdevd.devices.rest import state_bytes, ticks_before_multiple
 from vdevd.pci import Bar, PciIdentity
 from vdevd.region import Region, passive_except
 from vdevd.security import is_local
-from vdevd.tcp_listener import listener_options
+from vdevd.tcp_listener import check_endpoint, listener_options
 
 log = logging.getLogger("vdevd.pmac")
 _CONTROL = re.compile("[\x01-\x1a]")  # control characters act at once, wherever they are
@@ -228,12 +228,7 @@ class PmacCard(Card):
                                  "or network (\"192.168.1.0/24\", \"10.0.0.5\")") from None
         if not opts.ethernet:
             return
-        try:
-            if parse_endpoint(opts.ethernet)[1] > 65535:  # the socket would take it modulo 65536
-                raise ValueError
-        except ValueError:
-            raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not tcp://HOST:PORT "
-                             "(PORT 0..65535; empty: off)") from None
+        check_endpoint(opts.ethernet, where)
         if not is_local(opts.ethernet) and not allow:
             raise ValueError(f"{where}.ethernet: {opts.ethernet!r} is not loopback: add "
                              "ethernet_allow, the client addresses allowed (the PMAC protocol "
