@@ -37,13 +37,13 @@ from typing import TYPE_CHECKING, Any
 from wsgiref.simple_server import WSGIRequestHandler, WSGIServer
 
 from vdevd.errors import StartError
+from vdevd.security import IPNetwork, is_loopback_host, loopback_or_in
 
 if TYPE_CHECKING:
     from vdevd.rack import Rack
 
 log = logging.getLogger("vdevd.http")
 
-IPNetwork = ipaddress.IPv4Network | ipaddress.IPv6Network
 DEFAULT_LISTEN = "127.0.0.1:9750"
 DEFAULT_UNRESPONSIVE_S = 5.0
 _KEYS = ("listen", "allow", "unresponsive_s")
@@ -77,15 +77,6 @@ def split_listen(listen: str, key: str = "metrics.listen") -> tuple[str, int]:
     return host, int(port)
 
 
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
-
-
 def parse_metrics(table: Any, where: str = "metrics") -> MetricsConfig:
     """`[metrics]` checked (ValueError naming the key): `listen` host:port, `allow` a list of IP
     networks (required when `listen` is not loopback), `unresponsive_s` 0.1..600."""
@@ -106,7 +97,7 @@ def parse_metrics(table: Any, where: str = "metrics") -> MetricsConfig:
             ipaddress.ip_network(a, strict=False)
         except ValueError:
             raise ValueError(f"{where}.allow: {a!r} is not an IP network (\"10.0.0.0/8\")") from None
-    if not is_loopback(host) and not allow:
+    if not is_loopback_host(host) and not allow:
         raise ValueError(f"{where}.listen: {listen!r} is not loopback; name the networks that may "
                          f"connect in {where}.allow (e.g. [\"10.0.0.0/8\"])")
     limit = table.get("unresponsive_s", DEFAULT_UNRESPONSIVE_S)
@@ -276,12 +267,7 @@ class HealthServer:
             self._httpd = None
 
     def _allows(self, peer: str) -> bool:
-        try:
-            ip = ipaddress.ip_address(peer.partition("%")[0])
-        except ValueError:
-            return False
-        ip = getattr(ip, "ipv4_mapped", None) or ip
-        return ip.is_loopback or any(ip in net for net in self._networks)
+        return loopback_or_in(peer, self._networks)
 
     def _app(self, environ: dict[str, Any],
              start_response: Callable[..., Any]) -> Iterable[bytes]:

@@ -14,6 +14,35 @@ from zmq.auth.thread import ThreadAuthenticator
 log = logging.getLogger("vdevd.security")
 
 IPNetwork = ipaddress.IPv4Network | ipaddress.IPv6Network
+IPAddress = ipaddress.IPv4Address | ipaddress.IPv6Address
+
+
+def peer_ip(address: str) -> IPAddress:
+    """A peer's address without its IPv6 scope; an IPv4-mapped IPv6 address as IPv4 (ValueError
+    when it is no IP address)."""
+    ip = ipaddress.ip_address(address.split("%", 1)[0])
+    if isinstance(ip, ipaddress.IPv6Address) and ip.ipv4_mapped is not None:
+        return ip.ipv4_mapped
+    return ip
+
+
+def loopback_or_in(address: object, networks: tuple[IPNetwork, ...]) -> bool:
+    """A peer address that is loopback or in one of `networks` (False when it is no IP)."""
+    try:
+        ip = peer_ip(str(address))
+    except ValueError:
+        return False
+    return ip.is_loopback or any(ip in net for net in networks)
+
+
+def is_loopback_host(host: str) -> bool:
+    """`localhost` or a loopback IP address."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
 
 
 @dataclass(frozen=True)
@@ -31,13 +60,7 @@ def is_local(endpoint: str) -> bool:
         return True
     if scheme != "tcp":
         return False
-    host = rest.rsplit(":", 1)[0].strip("[]")
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
+    return is_loopback_host(rest.rsplit(":", 1)[0].strip("[]"))
 
 
 def check_curve(curve: CurveConfig) -> tuple[bytes, bytes]:
@@ -75,12 +98,7 @@ class _Networks(set[str]):
         self.networks = networks
 
     def __contains__(self, address: object) -> bool:
-        try:
-            ip = ipaddress.ip_address(str(address).partition("%")[0])
-        except ValueError:
-            return False
-        ip = getattr(ip, "ipv4_mapped", None) or ip
-        return ip.is_loopback or any(ip in net for net in self.networks)
+        return loopback_or_in(address, self.networks)
 
     def __len__(self) -> int:
         return 1  # never empty: the authenticator then checks every address

@@ -9,7 +9,6 @@ then PUB, then the ROUTER last, so a client that reaches the endpoint finds ever
 from __future__ import annotations
 
 import asyncio
-import ipaddress
 import logging
 import time
 from typing import Any
@@ -25,7 +24,7 @@ from vdevd.heartbeat import Heartbeat
 from vdevd.irq import IrqEvent
 from vdevd.metrics import OP_TAGS
 from vdevd.rack import Rack
-from vdevd.security import CurveConfig, allow_networks, secure
+from vdevd.security import CurveConfig, allow_networks, peer_ip, secure
 
 log = logging.getLogger("vdevd.server")
 
@@ -221,9 +220,7 @@ class Server:
         if scheme != "tcp" or self._last_frame is None:
             return False
         try:
-            peer = ipaddress.ip_address(str(self._last_frame.get("Peer-Address")).partition("%")[0])
-            mapped = getattr(peer, "ipv4_mapped", None)  # ::ffff:127.0.0.1
-            return bool((mapped or peer).is_loopback)
+            return peer_ip(str(self._last_frame.get("Peer-Address"))).is_loopback  # ::ffff:127.0.0.1 too
         except (zmq.ZMQError, ValueError):
             return False
 

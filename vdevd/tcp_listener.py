@@ -28,11 +28,10 @@ from typing import Any, cast
 
 from vdevd.devices.options import Option
 from vdevd.errors import StartError
+from vdevd.security import peer_ip
 
 log = logging.getLogger("vdevd.tcp")
 
-IPNetwork = ipaddress.IPv4Network | ipaddress.IPv6Network
-IPAddress = ipaddress.IPv4Address | ipaddress.IPv6Address
 
 #: connections a port serves at once, unless its card says otherwise
 DEFAULT_MAX_CONNECTIONS = 64
@@ -64,14 +63,6 @@ def check_endpoint(endpoint: str, where: str) -> None:
     except ValueError:
         raise ValueError(f"{where}.ethernet: {endpoint!r} is not tcp://HOST:PORT "
                          "(PORT 0..65535; empty: off)") from None
-
-
-def peer_ip(address: str) -> IPAddress:
-    """A peer's address without its IPv6 scope; an IPv4-mapped IPv6 address as IPv4."""
-    ip = ipaddress.ip_address(address.split("%", 1)[0])
-    if isinstance(ip, ipaddress.IPv6Address) and ip.ipv4_mapped is not None:
-        return ip.ipv4_mapped
-    return ip
 
 
 def listener_options(max_connections: int = DEFAULT_MAX_CONNECTIONS) -> dict[str, Option]:
