@@ -189,24 +189,19 @@ class RackCollector(Collector):
 
 def _stalls(sched: dict[str, Any], cards: dict[str, Any]) -> Iterator[Any]:
     """The scheduler's stalls (a pass more than 100 ms late: `stats` "scheduler" "stalls",
-    {count, longest_ns, total_ns}), per card when `stats` has them per card, else once for the
-    rack (the one scheduler stalls every card). Absent from `stats`: no series."""
+    {count, longest_ns, total_ns}) under every card's label: the rack's one scheduler stalls
+    every card."""
+    stalls = sched["stalls"]
     count = CounterMetricFamily("vdevd_stalls", "scheduler passes more than 100 ms late",
                                 labels=["card"])
     total = CounterMetricFamily("vdevd_stall_seconds", "time lost in stalls", labels=["card"])
     longest = GaugeMetricFamily("vdevd_stall_longest_seconds", "the longest stall",
                                 labels=["card"])
-    found = False
-    sources = [(name, c["stalls"]) for name, c in cards.items() if isinstance(c.get("stalls"), dict)]
-    if not sources and isinstance(sched.get("stalls"), dict):
-        sources = [(name, sched["stalls"]) for name in cards]
-    for name, stalls in sources:
-        found = True
-        count.add_metric([name], stalls.get("count", 0))
-        total.add_metric([name], stalls.get("total_ns", 0) / 1e9)
-        longest.add_metric([name], stalls.get("longest_ns", 0) / 1e9)
-    if found:
-        yield from (count, total, longest)
+    for name in cards:
+        count.add_metric([name], stalls["count"])
+        total.add_metric([name], stalls["total_ns"] / 1e9)
+        longest.add_metric([name], stalls["longest_ns"] / 1e9)
+    yield from (count, total, longest)
 
 
 def registry_of(rack: Rack, loop: asyncio.AbstractEventLoop) -> CollectorRegistry:
