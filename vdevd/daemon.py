@@ -58,11 +58,13 @@ def build_server(cfg: Config, ctx: zmq.Context | None = None) -> Server:
     """A server of the rack of `cfg`, its passive regions in the daemon's shared segment."""
     rack = build_rack(cfg, shared_memory(cfg))
     try:
-        return Server(rack, cfg.endpoint, cfg.events, ctx=ctx, curve=cfg.curve,
-                      open_networks=cfg.open_networks)
+        server = Server(rack, cfg.endpoint, cfg.events, ctx=ctx, curve=cfg.curve,
+                        open_networks=cfg.open_networks)
     except BaseException:
         rack.stop()
         raise
+    server.new_memory = lambda: shared_memory(cfg)  # a snapshot loaded: its segment
+    return server
 
 
 def sd_notify(message: str) -> None:

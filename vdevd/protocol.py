@@ -24,7 +24,7 @@ HARD_MAX_MESSAGE = 4 * MAX_MESSAGE
 MAX_WAIT_NS = 86_400 * 1_000_000_000
 
 CAPABILITIES = ("read", "write", "rep", "batch", "batch.compact", "wait.irq", "wait.value", "sim",
-                "control", "stats", "sync", "shm", "heartbeat")
+                "control", "stats", "sync", "shm", "heartbeat", "snapshot")
 
 
 
@@ -84,6 +84,8 @@ SCHEMA: dict[str, dict[str, Field]] = {
     },
     "stats": {},
     "sync": {"card": _f(_STR)},
+    "snapshot": {"action": _f(_STR), "offset": _f(_INT, False), "size": _f(_INT, False),
+                 "data": _f(_BYTES, False)},
 }
 _META = ("id", "op", "v")
 _REQUIRED = {op: tuple(k for k, f in fields.items() if f.required) for op, fields in SCHEMA.items()}

@@ -93,6 +93,8 @@ class DaemonThread:
         except BaseException:
             rack.stop()
             raise
+        if self._rack is None:  # a snapshot loaded: its shared segment
+            self.server.new_memory = lambda: shared_memory(self.cfg)
         try:
             self.health = open_health(self.cfg.metrics, rack, self._loop)
             await self.server.start(self._loop)
@@ -125,19 +127,40 @@ class DaemonThread:
 
     async def _reset(self) -> None:
         assert self.server is not None and self._loop is not None
-        server, old = self.server, self.server.rack
+        server = self.server
         bound = server.listeners()["cards"]  # each card's ports as bound: the new rack's too
-        await old.close_services()
-        old.stop()
         cfg = replace(self.cfg, cards=[
             replace(spec, options={**spec.options, **bound.get(spec.name, {})})
             for spec in self.cfg.cards])
         rack = build_rack(cfg, shared_memory(cfg))
-        assert isinstance(rack.sink, Publisher)
-        server.rack, server.publisher = rack, rack.sink
-        rack.sink.attach(server.pub)
-        rack.start(self._loop)
-        await rack.open_services()
+        await server.swap(rack)
+
+    def restore(self, data: bytes, timeout: float = 30.0) -> None:
+        """Serve the rack of the snapshot `data` (`Rack.snapshot`) in place of the one served,
+        as a `snapshot load` request does; `VdevError` (`bad_snapshot`) when it does not load,
+        the rack served then untouched."""
+        if self._loop is None or self.server is None:
+            raise RuntimeError("the daemon is not running")
+        asyncio.run_coroutine_threadsafe(self._restore(data), self._loop).result(timeout)
+
+    async def _restore(self, data: bytes) -> None:
+        assert self.server is not None
+        done: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
+        self.server.restore(data, done.set_result)
+        result = await done
+        if isinstance(result, Exception):
+            raise result
+
+    def snapshot(self, timeout: float = 30.0) -> bytes:
+        """The snapshot of the rack served (`Rack.snapshot`), taken on the daemon's loop."""
+        if self._loop is None or self.server is None:
+            raise RuntimeError("the daemon is not running")
+
+        async def take() -> bytes:
+            assert self.server is not None
+            return self.server.rack.snapshot()
+
+        return asyncio.run_coroutine_threadsafe(take(), self._loop).result(timeout)
 
     def stop(self) -> None:
         if self._loop is not None and self._stop is not None and self._thread.is_alive():

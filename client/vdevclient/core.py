@@ -328,6 +328,19 @@ class Rack:
         wait_s = sum(op.get("timeout_ns", 0) for op in ops if op.get("op") == "wait") / _NS
         return self.request("batch", _wait_s=wait_s, ops=list(ops))
 
+    def snapshot(self) -> bytes:
+        """The daemon's rack as a snapshot file (every card's state and the clock)."""
+        from vdevclient import snapshot
+
+        return snapshot.save(self)
+
+    def restore(self, data: bytes) -> dict[str, Any]:
+        """Serve the snapshot `data` in place of the daemon's rack (`bad_snapshot` when it
+        does not load); reconnect to map the new shared memory."""
+        from vdevclient import snapshot
+
+        return snapshot.load(self, data)
+
 
 class Sim:
     """The daemon's clock."""
