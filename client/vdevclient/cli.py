@@ -19,6 +19,7 @@ from typing import Any, NoReturn
 import zmq
 from vdevmaps.pci import IDENTITY_SIZE, lspci_line
 
+from vdevclient import snapshot
 from vdevclient.core import DEFAULT_ENDPOINT, connect
 from vdevclient.errors import ConfigurationError, VdevClientError
 
@@ -75,6 +76,10 @@ def parser() -> argparse.ArgumentParser:
                           "(true, 3, 0.5), True/False as booleans, else a string (default: none)")
     sub.add_parser("dropin-path", help="print the directory of the drop-in vendor modules "
                    "(gclib): put it first on PYTHONPATH")
+    snap = sub.add_parser("snapshot", help="save the rack (every card's state and the clock) "
+                          "to FILE, or load FILE in its place")
+    snap.add_argument("action", choices=("save", "load"), help="save or load (required)")
+    snap.add_argument("file", type=Path, help="the snapshot file, on this machine (required)")
     return p
 
 
@@ -268,6 +273,8 @@ def _run(rack: Any, args: argparse.Namespace) -> int:
         result = rack.control(args.card, args.action, **dict(args.params))
         if result is not None:
             print(json.dumps(result), file=out)
+    elif args.command == "snapshot":
+        print(snapshot.run(rack, args.action, args.file), file=out)
     return 0
 
 

@@ -5,7 +5,10 @@ the client's machine."""
 from __future__ import annotations
 
 import hashlib
-from typing import TYPE_CHECKING
+import os
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from vdevclient.core import Rack
@@ -14,6 +17,8 @@ if TYPE_CHECKING:
 CHUNK = 512 << 10
 #: wall seconds a load may take past the client's timeout (the daemon rebuilds the rack)
 LOAD_WAIT_S = 30.0
+#: the largest snapshot a daemon takes (vdevd.snapshot.MAX_SNAPSHOT)
+MAX_SNAPSHOT = 64 << 20
 
 
 def save(rack: Rack) -> bytes:
@@ -34,15 +39,42 @@ def save(rack: Rack) -> bytes:
     return data
 
 
-def load(rack: Rack, data: bytes) -> dict[str, object]:
+def load(rack: Rack, data: bytes) -> dict[str, Any]:
     """Send a snapshot to the daemon, which serves it in place of its rack once it is whole
     (`RemoteError` `bad_snapshot` naming why it does not load: the rack is then untouched)."""
     if not data:
         raise ValueError("snapshot load: the file is empty")
-    result: dict[str, object] = {}
+    result: dict[str, Any] = {}
     for offset in range(0, len(data), CHUNK):
         chunk = data[offset:offset + CHUNK]
         last = offset + len(chunk) >= len(data)
         result = rack.request("snapshot", _wait_s=LOAD_WAIT_S if last else 0.0, action="load",
                               offset=offset, size=len(data), data=chunk)
     return result
+
+
+def run(rack: Rack, action: str, path: Path) -> str:
+    """`vdevctl snapshot save|load FILE`: what was done, in one line (OSError, RemoteError
+    naming what failed)."""
+    if action == "save":
+        data = save(rack)
+        write_file(path, data)
+        return f"saved {len(data)} bytes to {path} at {rack.sim.now_ns()} ns"
+    size = path.stat().st_size
+    if size > MAX_SNAPSHOT:
+        raise OSError(f"{path}: {size} bytes, a snapshot is at most {MAX_SNAPSHOT}")
+    result = load(rack, path.read_bytes())
+    return f"loaded {path}: {len(result.get('cards', []))} cards at {result.get('now_ns')} ns"
+
+
+def write_file(path: Path, data: bytes) -> None:
+    """`data` to `path` atomically (a temporary file beside it, renamed): a reader sees the old
+    file or the whole new one."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
