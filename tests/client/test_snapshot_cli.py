@@ -247,3 +247,49 @@ def test_card_ports_serve_after_a_load_on_the_same_ports(
             assert pmac.sendCommand("I10")[0].split("\r")[0].isdigit()
         finally:
             pmac.disconnect()
+
+
+def test_vdevd_serve_saves_and_loads_snapshots(tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    """The daemon's own serve path (not the test thread's): a load swaps the rack in, on a new
+    shared segment that a client connecting after it maps; a refused load leaves the rack."""
+    import subprocess
+    import sys
+
+    from tests.conftest import free_endpoint
+
+    endpoint, events = free_endpoint(), free_endpoint()
+    path = tmp_path / "rack.snap"
+    with subprocess.Popen([sys.executable, "-m", "vdevd", "serve", "--clock", "lockstep",
+                           "--endpoint", endpoint, "--events", events, "--no-card-ports"],
+                          stderr=subprocess.PIPE, text=True) as proc:
+        try:
+            assert proc.stderr is not None
+            assert "listening on" in proc.stderr.readline()
+            argv = ["--endpoint", endpoint]
+            with vdevclient.connect(endpoint) as rack:
+                bar = rack.card("servo0").region("bar0")
+                assert bar.mapped
+                bar.write32(0x104, 5000)  # TARGET, then MOVE_ABS
+                bar.write32(0x100, 1)
+                rack.sim.step(seconds=0.05)
+                moving = bar.read32(0x11C)
+                assert 0 < moving < 5000
+            assert vdevctl([*argv, "snapshot", "save", str(path)]) == 0
+            assert vdevctl([*argv, "step", "2"]) == 0
+            assert vdevctl([*argv, "snapshot", "load", str(path)]) == 0
+            with vdevclient.connect(endpoint) as rack:
+                bar = rack.card("servo0").region("bar0")
+                assert bar.mapped and bar.read32(0x11C) == moving  # through the new segment
+                assert rack.sim.now_ns() == 50_000_000
+                rack.sim.step(seconds=2)
+                assert bar.read32(0x11C) == 5000
+            path.write_bytes(path.read_bytes()[:-1])
+            capsys.readouterr()
+            assert vdevctl([*argv, "snapshot", "load", str(path)]) == 1
+            assert "bad_snapshot: truncated" in capsys.readouterr().err
+            with vdevclient.connect(endpoint) as rack:
+                assert rack.sim.now_ns() == 2_050_000_000
+        finally:
+            proc.terminate()
+            proc.communicate(timeout=20)

@@ -1,0 +1,62 @@
+"""`snapshot` (PROTOCOL.md "snapshot"): the fields it takes and the errors of a transfer out of
+its order; a save while scheduled actions are pending; a load of a rack no server serves. The
+transfers themselves, the refusals and the replay are tests/client/test_snapshot_cli.py's and
+test_snapshot_cards.py's."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from tests.conftest import RawClient, error_code, rack_config
+from vdevd import snapshot
+from vdevd.daemon import build_rack
+from vdevd.errors import ErrorCode, VdevError
+from vdevd.protocol import Request
+
+
+def message(reply: dict[str, Any]) -> str:
+    return str(reply["error"]["message"])
+
+
+@pytest.mark.parametrize(("fields", "code", "says"), [
+    ({"action": "rewind"}, "bad_param", "snapshot: unknown action 'rewind' (save, load)"),
+    ({"action": "load", "offset": 0, "data": b"x"}, "malformed", "give size and data"),
+    ({"action": "load", "offset": 0, "size": 0, "data": b""}, "bad_snapshot",
+     "a snapshot of 0 bytes"),
+    ({"action": "save", "offset": 10}, "bad_param", "no save under way (begin at offset 0)"),
+    ({"action": "save", "offset": "0"}, "malformed", "field 'offset' has the wrong type"),
+    ({"action": "load", "offset": 0, "size": 5, "data": b"VDEVSNAP"}, "bad_snapshot",
+     "snapshot load: chunks beyond the size given (5)"),
+])
+def test_bad_fields_are_refused_naming_them(raw: RawClient, fields: dict[str, Any], code: str,
+                                            says: str) -> None:
+    reply = raw.call(op="snapshot", **fields)
+    assert error_code(reply) == code and says in message(reply), reply
+
+
+def test_a_save_reads_to_its_end_and_past_it_is_refused(raw: RawClient) -> None:
+    first = raw.call(op="snapshot", action="save", offset=0)["ok"]
+    assert first["data"].startswith(snapshot.MAGIC) and first["size"] == len(first["data"])
+    again = raw.call(op="snapshot", action="save", offset=first["size"])
+    assert error_code(again) == "bad_param"  # its last chunk was read: the save is over
+
+
+def test_a_save_with_scheduled_actions_pending_is_busy(raw: RawClient) -> None:
+    raw.call(op="control", card="servo0", action="set_inputs", params={"value": 5},
+             after_ns=1_000_000)
+    reply = raw.call(op="snapshot", action="save", offset=0)
+    assert error_code(reply) == "busy" and "1 scheduled control actions pending" in message(reply)
+
+
+def test_a_rack_no_server_serves_cannot_load() -> None:
+    rack = build_rack(rack_config())
+    data = rack.snapshot()
+    got: list[Any] = []
+    rack.execute(Request(1, "snapshot", {"action": "load", "offset": 0, "size": len(data),
+                                         "data": data}), got.append)
+    assert isinstance(got[0], VdevError) and got[0].code == ErrorCode.WRONG_MODE
+    restored = rack.restore(data)  # in process: a new rack, this one as it was
+    assert restored is not rack and list(restored.cards) == ["servo0"]
+    assert restored.cards["servo0"] is not rack.cards["servo0"]
