@@ -154,7 +154,8 @@ class Rack:
     def restore(self, data: bytes, memory: Segment | None = None) -> Rack:
         """A NEW rack with this one's settings, the cards and clock of the snapshot `data`, its
         shared regions in `memory`; this rack is untouched. `bad_snapshot` naming why a snapshot
-        does not load (another version or layout, truncated, changed)."""
+        does not load (another version or layout, truncated, changed). Its NV images go to the
+        store once it serves (`snapshot.write_nv_images`, `Server.restore`)."""
         return snapshot.load(data, self, memory)
 
     def empty_like(self, memory: Segment | None = None) -> Rack:

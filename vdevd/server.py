@@ -17,7 +17,7 @@ from typing import Any
 import msgpack
 import zmq
 
-from vdevd import protocol
+from vdevd import protocol, snapshot
 from vdevd.card_ports import PORT_KEYS
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.heartbeat import PERIOD_NS as HEARTBEAT_NS
@@ -178,15 +178,17 @@ class Server:
             self._auth.stop()
 
     # -- swapping the rack (a reset, a snapshot loaded) ----------------------------------------
-    async def swap(self, rack: Rack) -> None:
+    async def swap(self, rack: Rack, bound: dict[str, dict[str, str]] | None = None) -> None:
         """Serve `rack` in place of the rack served, on the same endpoints: the old rack's card
-        ports close and its clock stops, the new one's clock starts and its cards listen on the
-        ports the old ones had bound (a card's port option is an attribute of the same name,
+        ports close and its clock stops (unless `bound`, the ports it had bound, is given: it
+        was stopped already), the new one's clock starts and its cards listen on the ports the
+        old ones had bound (a card's port option is an attribute of the same name,
         `card_ports.PORT_KEYS`). Clients keep their connection, not their shared memory."""
         old = self.rack
-        bound = {name: card.listeners() for name, card in old.cards.items()}
-        await old.close_services()
-        old.stop()
+        if bound is None:
+            bound = {name: card.listeners() for name, card in old.cards.items()}
+            await old.close_services()
+            old.stop()
         for name, ports in bound.items():
             card = rack.cards.get(name)
             for key, endpoint in ports.items():
@@ -220,8 +222,12 @@ class Server:
             return
 
         async def swap() -> None:
+            old = self.rack
             try:
                 await self.swap(rack)
+                _drop_waits(old)
+                # after the old cards' writers have flushed: the NV images of the snapshot
+                await asyncio.to_thread(snapshot.write_nv_images, rack)
             except Exception as exc:  # a card port taken meanwhile: the rack serves without it
                 log.exception("swapping in a restored rack")
                 reply(VdevError(ErrorCode.INTERNAL, f"snapshot load: {exc}"))
@@ -353,6 +359,15 @@ class Server:
         if not self._draining:
             # an edge-triggered FD may have swallowed a readable edge while we sent
             self._schedule_drain()
+
+
+def _drop_waits(rack: Rack) -> None:
+    """Answer the waits pending on a rack no longer served (`busy`): their clients need not
+    wait for their timeouts."""
+    pending, rack.waits.pending = rack.waits.pending, []
+    for waiter in pending:
+        waiter.reply(VdevError(ErrorCode.BUSY, "the rack was replaced (snapshot load): the wait "
+                               "is dropped"))
 
 
 def _no_memory() -> Segment | None:

@@ -60,7 +60,7 @@ FORMAT = 1
 #: the largest snapshot file the daemon writes or reads (compressed), and the largest payload
 #: it decompresses
 MAX_SNAPSHOT = 64 << 20
-MAX_PAYLOAD = 512 << 20
+MAX_PAYLOAD = 256 << 20
 MAX_HEADER = 64 << 10
 _PICKLE_PROTOCOL = 5
 
@@ -483,12 +483,16 @@ def load(data: bytes, old: Rack, memory: Segment | None = None) -> Rack:
             or [getattr(c, "name", None) for c in cards] != list(old.cards):
         raise bad("corrupt: its payload is not the rack its header describes")
     new.adopt(sched)
-    if nvram is not None:  # the NV image as it was: what a restart of the daemon finds
-        for card in new.cards.values():
-            image = card.nvram()
-            if image:
-                nvram.save(card.name, image)
     return new
+
+
+def write_nv_images(rack: Rack) -> None:
+    """Each card's NV image to the non-volatile store (a restored rack's, once the rack it
+    replaced has written its last: what a restart of the daemon then finds)."""
+    for card in rack.cards.values():
+        image = card.nvram() if card.ctx.nvram is not None else None
+        if image and card.ctx.nvram is not None:
+            card.ctx.nvram.save(card.name, image)
 
 
 #: the packages whose classes and functions a snapshot names (vdevd and its register maps)

@@ -127,13 +127,15 @@ class DaemonThread:
 
     async def _reset(self) -> None:
         assert self.server is not None and self._loop is not None
-        server = self.server
+        server, old = self.server, self.server.rack
         bound = server.listeners()["cards"]  # each card's ports as bound: the new rack's too
+        await old.close_services()  # its flash written: the new rack loads it
+        old.stop()
         cfg = replace(self.cfg, cards=[
             replace(spec, options={**spec.options, **bound.get(spec.name, {})})
             for spec in self.cfg.cards])
         rack = build_rack(cfg, shared_memory(cfg))
-        await server.swap(rack)
+        await server.swap(rack, bound)
 
     def restore(self, data: bytes, timeout: float = 30.0) -> None:
         """Serve the rack of the snapshot `data` (`Rack.snapshot`) in place of the one served,

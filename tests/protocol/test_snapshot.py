@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import msgpack
 import pytest
 
 from tests.conftest import RawClient, error_code, rack_config
@@ -14,6 +15,7 @@ from vdevd import snapshot
 from vdevd.daemon import build_rack
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.protocol import Request
+from vdevd.testing import DaemonThread
 
 
 def message(reply: dict[str, Any]) -> str:
@@ -60,3 +62,25 @@ def test_a_rack_no_server_serves_cannot_load() -> None:
     restored = rack.restore(data)  # in process: a new rack, this one as it was
     assert restored is not rack and list(restored.cards) == ["servo0"]
     assert restored.cards["servo0"] is not rack.cards["servo0"]
+
+
+def test_a_load_answers_the_waits_pending_on_the_rack_it_replaces(daemon: DaemonThread,
+                                                                  raw: RawClient) -> None:
+    """Another client's wait is answered `busy` at once, not at its timeout."""
+    data = raw.call(op="snapshot", action="save", offset=0)["ok"]["data"]
+    waiter = RawClient(daemon.endpoint)
+    try:
+        waiter.sock.send(msgpack.packb({"id": 7, "op": "wait", "card": "servo0", "on": "irq",
+                                        "timeout_ns": 10**12}))
+        for _ in range(1000):  # until the daemon holds the wait (another connection)
+            if raw.call(op="stats")["ok"]["requests"]["pending_waits"]:
+                break
+        else:
+            pytest.fail("the wait never reached the daemon")
+        reply = raw.call(op="snapshot", action="load", offset=0, size=len(data), data=data)
+        assert reply["ok"]["now_ns"] == 0
+        dropped = msgpack.unpackb(waiter.sock.recv())
+        assert error_code(dropped) == "busy" and "snapshot load" in message(dropped)
+    finally:
+        waiter.close()
+    assert raw.call(op="sim", action="step", ns=1000)["ok"]["now_ns"] == 1000  # the new rack
