@@ -93,11 +93,17 @@ def galil_session(d: DaemonThread) -> Iterator[gclib.py]:
 
 
 def galil_before(d: DaemonThread) -> None:
+    with vdevclient.connect(d.endpoint, shm=False) as rack:  # the host enables the line
+        a16 = rack.card("galil0").region("a16")
+        a16.write(3, b"\x02")
+        a16.write(3, b"\x04")
     with galil_session(d) as g:
+        g.GCommand("EI 15")  # an interrupt at each motion complete of X..W
         g.GCommand("SP 50000,50000;AC 200000,200000;DC 200000,200000")
         g.GProgramDownload(GALIL_PROGRAM)
         g.GCommand("XQ #A")
         g.GCommand("JG ,,5000;BG Z")
+        g.GCommand("CM W;DT 5;CD 300;CD 300;CD 300;CD 300;CD 300;CD 300")  # a contour on W
     step(d, 0.1)
 
 
@@ -110,8 +116,14 @@ def galil_after(d: DaemonThread) -> None:
             g.GCommand("TS")
             g.GCommand("MG _BGX, _BGY, _RPZ")
         g.GCommand("ST Z")
+        g.GCommand("UI 3")  # a user interrupt
         step(d, 0.5)
         g.GCommand("TP")
+    with vdevclient.connect(d.endpoint, shm=False) as rack:  # the codes queued, popped
+        a16 = rack.card("galil0").region("a16")
+        for _ in range(4):
+            a16.write(3, b"\x06")
+            a16.read(3, 1)
     dump_regions(d, "galil0")
 
 
@@ -163,7 +175,6 @@ def maxk_before(d: DaemonThread) -> None:
         m.send_string("AX VL20000 AC100000 MR50000 GO")
         m.send_string("AY VL10000 MR-30000 GO ID")
         m.send_string("AZ JG3000")
-    step(d, 0.2)
 
 
 def maxk_after(d: DaemonThread) -> None:
@@ -218,6 +229,9 @@ def adlink_before(d: DaemonThread) -> None:
             assert aps.APS_set_servo_on(axis, 1) == 0
         assert aps.APS_absolute_move(0, 50_000, 20_000) == 0
         assert aps.APS_relative_move(1, -30_000, 10_000) == 0
+        for axis in (2, 3):
+            assert aps.APS_set_servo_on(axis, 1) == 0
+        assert aps.APS_line(2, [2, 3], 0, [3000.0, 4000.0], None) == 0  # interpolated
     step(d, 0.5)
 
 
@@ -225,7 +239,7 @@ def adlink_after(d: DaemonThread) -> None:
     with aps_session(d):
         for _ in range(4):
             step(d, 0.2)
-            for axis in (0, 1):
+            for axis in (0, 1, 2, 3):
                 pos = ctypes.c_double()
                 aps.APS_get_position_f(axis, ctypes.byref(pos))
                 aps.APS_motion_status(axis)
@@ -253,7 +267,16 @@ def moving(d: DaemonThread, kind: str) -> bool:
             step(d, 0.001)
             return mx4.read_axes(h, mx4.Window.ACTPOS) != first
     with aps_session(d):
-        return any(not aps.APS_motion_status(a) & aps.MTS_MDN_V for a in (0, 1))
+        return any(not aps.APS_motion_status(a) & aps.MTS_MDN_V for a in (0, 1, 2, 3))
+
+
+#: the cards whose scenario raises interrupts after the snapshot (their irq_seq is in the digest)
+INTERRUPTING = {"galil": "galil0"}
+
+
+def irq_seq(d: DaemonThread, card: str) -> int:
+    with vdevclient.connect(d.endpoint, shm=False) as rack:
+        return int(rack.stats()["cards"][card]["irq_seq"])
 
 
 SCENARIOS: dict[str, tuple[Callable[[DaemonThread], None], Callable[[DaemonThread], None]]] = {
@@ -275,8 +298,11 @@ def test_a_snapshot_replays_byte_identical_replies(kind: str,
         with vdevclient.connect(d.endpoint, shm=False) as rack:
             snap = rack.snapshot()
             taken_ns = rack.sim.now_ns()
+        seq = irq_seq(d, INTERRUPTING[kind]) if kind in INTERRUPTING else 0
         with digest(monkeypatch) as first:
             after(d)
+        if kind in INTERRUPTING:  # the sequence met interrupts
+            assert irq_seq(d, INTERRUPTING[kind]) > seq
         with vdevclient.connect(d.endpoint, shm=False) as rack:
             assert rack.sim.now_ns() > taken_ns
             assert rack.restore(snap)["now_ns"] == taken_ns
