@@ -365,11 +365,22 @@ def _compiled(module: str, name: str, index: Any) -> Any:
     return value[index] if isinstance(index, int) else value
 
 
+#: vdevd's modules of I/O: their objects held by a card (its listeners and their connections)
+#: are dropped at a save, and nothing of them is ever built from a snapshot
+_IO_MODULES = frozenset({
+    "vdevd.tcp_listener", "vdevd.devices.galil.ethernet", "vdevd.devices.pmac.ethernet_server"})
+#: ... and what a snapshot never names either: the daemon's own I/O and files
+_NEVER_NAMED = _IO_MODULES | {
+    "vdevd.nvram", "vdevd.shm", "vdevd.server", "vdevd.daemon", "vdevd.testing", "vdevd.rack",
+    "vdevd.pacing", "vdevd.http_health", "vdevd.prom", "vdevd.cli", "vdevd.pytest_plugin",
+    "vdevd.config", "vdevd.card_ports", "vdevd.heartbeat", "vdevd.docs", "vdevd.nvcheck"}
+
+
 def _is_io(obj: Any) -> bool:
-    """An object of the event loop or of a socket (a card's listener, a timer handle)."""
+    """An object of the event loop, of a socket, or of a card's listener."""
     module = type(obj).__module__
     return module.startswith(("asyncio", "uvloop", "socket", "_socket", "selectors", "zmq",
-                              "concurrent."))
+                              "concurrent.")) or module in _IO_MODULES
 
 
 def save(rack: Rack) -> bytes:
@@ -483,6 +494,11 @@ def load(data: bytes, old: Rack, memory: Segment | None = None) -> Rack:
             or [getattr(c, "name", None) for c in cards] != list(old.cards):
         raise bad("corrupt: its payload is not the rack its header describes")
     new.adopt(sched)
+    for card in new.cards.values():
+        # the connections to the saving daemon's card ports are gone: closed as a dropped
+        # connection closes (what it left open is released)
+        for port in list(getattr(card, "ethernet_ports", ())):
+            port.close()
     return new
 
 
@@ -670,7 +686,8 @@ def _lookup(module: str, name: str) -> Any:
     if (module, name) in _ALLOWED_GLOBALS:
         mod = sys.modules.get(module)
         return getattr(mod, name, None) if mod is not None else None
-    if module.partition(".")[0] not in _PACKAGES or name.startswith("__"):
+    if module.partition(".")[0] not in _PACKAGES or name.startswith("__") \
+            or module in _NEVER_NAMED:
         return None
     obj: Any = sys.modules.get(module)
     for part in name.split("."):

@@ -293,3 +293,37 @@ def test_vdevd_serve_saves_and_loads_snapshots(tmp_path: Path,
         finally:
             proc.terminate()
             proc.communicate(timeout=20)
+
+
+def test_a_snapshot_taken_with_card_port_connections_open_loads_without_them() -> None:
+    """A buffer a PMAC Ethernet connection had open when the snapshot was taken is released
+    at the load (that connection is gone, as if it had dropped); a Galil TCP connection open
+    at the save is no part of the snapshot either."""
+    pmacremote = pytest.importorskip("dls_pmaclib.dls_pmacremote")
+    from tests.client.test_snapshot_cards import pmac_ask, pmac_session
+
+    with default_rack() as d:
+        ports = d.listeners()["cards"]
+        host, port = ports["pmac0"]["ethernet"].removeprefix("tcp://").rsplit(":", 1)
+        other = pmacremote.PmacEthernetInterface()
+        other.setConnectionParams(host, int(port))
+        assert other.connect() is None
+        ghost = socket.create_connection(
+            tuple(ports["galil0"]["ethernet"].removeprefix("tcp://").rsplit(":", 1)), timeout=10)
+        try:
+            with pmac_session(d):
+                pmac_ask("OPEN PROG 3 CLEAR")
+                pmac_ask("X1")
+                pmac_ask("CLOSE")
+                pmac_ask("#1$")
+            other.sendCommand("OPEN PROG 4")  # left open by the Ethernet port
+            with pmac_session(d):
+                assert "ERR015" in pmac_ask("&1B3R")  # a buffer left open
+            with vdevclient.connect(d.endpoint, shm=False) as rack:
+                snap = rack.snapshot()
+                rack.restore(snap)
+        finally:
+            other.disconnect()
+            ghost.close()
+        with pmac_session(d):
+            assert "ERR015" not in pmac_ask("&1B3R")  # the buffer is no longer open
