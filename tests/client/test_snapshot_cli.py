@@ -32,6 +32,7 @@ from tests.client.test_snapshot_cards import (
     galil_session,
 )
 from vdevd import snapshot as snapmod
+from vdevd.nvram import NvramStore
 from vdevd.testing import DaemonThread
 
 
@@ -53,6 +54,14 @@ def with_payload(data: bytes, raw: bytes) -> bytes:
     payload = zlib.compress(raw)
     return rewrite_header(data, payload, raw_size=len(raw), payload_size=len(payload),
                           payload_sha256=hashlib.sha256(payload).hexdigest())
+
+
+class CallsVdevd:
+    """Pickles as a call of one of vdevd's functions (a class may be found, a function of
+    vdevd named, but only reconstructors are called)."""
+
+    def __reduce__(self) -> tuple[object, tuple[()]]:
+        return snapmod.vdevd_version, ()
 
 
 def state(d: DaemonThread) -> tuple[int, str]:
@@ -100,6 +109,9 @@ def test_a_snapshot_saved_by_one_daemon_replays_in_a_fresh_one(
     (lambda data: with_payload(data, pickle.dumps(os.system)),
      "corrupt: it names posix.system, which a snapshot never holds"),
     (lambda data: with_payload(data, b"\x80\x05}q\x00."), "corrupt: its payload is not the rack"),
+    (lambda data: with_payload(data, pickle.dumps(NvramStore("/etc"))),
+     "corrupt: it names vdevd.nvram.NvramStore, which a snapshot never holds"),
+    (lambda data: with_payload(data, pickle.dumps(CallsVdevd())), "corrupt: it calls <function"),
 ])
 def test_a_damaged_snapshot_is_refused_in_one_line_and_the_rack_untouched(
         saved: tuple[Path, str], tmp_path: Path, capsys: pytest.CaptureFixture[str],
