@@ -121,6 +121,8 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
     health = None
     try:
         health = open_health(cfg.metrics, server.rack, loop)  # /healthz answers during start
+        if health is not None:
+            server.on_swap.append(health.follow)  # a snapshot loaded: its rack's metrics
         # before the clock starts: a rack with no card compiles the motion core here, which
         # would otherwise hold the first scheduler pass (a false stall at every start)
         core = server.rack.stats()["motion_core"]

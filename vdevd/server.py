@@ -135,6 +135,8 @@ class Server:
         #: the shared segment a restored rack's regions take (`daemon.shared_memory` of the
         #: configuration; the default: none, private memory)
         self.new_memory: Callable[[], Segment | None] = _no_memory
+        #: told of each rack swapped in (`swap`): what reports the rack follows it
+        self.on_swap: list[Callable[[Rack], None]] = []
         rack.on_restore = self.restore
         # pyzmq's own send, without the Python wrapper of zmq.Socket (routing ids, groups and
         # Frame objects, none used here) that costs ~0.5 us a frame
@@ -203,6 +205,8 @@ class Server:
         assert self._loop is not None
         rack.start(self._loop)
         await rack.open_services()
+        for follow in self.on_swap:
+            follow(rack)
 
     def restore(self, data: bytes, reply: Callable[[Any], None]) -> None:
         """`snapshot load` (Rack.op_snapshot): a new rack from the snapshot, swapped in; the

@@ -97,6 +97,8 @@ class DaemonThread:
             self.server.new_memory = lambda: shared_memory(self.cfg)
         try:
             self.health = open_health(self.cfg.metrics, rack, self._loop)
+            if self.health is not None:
+                self.server.on_swap.append(self.health.follow)
             await self.server.start(self._loop)
             self.endpoint, self.events = self.server.endpoint, self.server.events
             if self.health is not None:
