@@ -212,3 +212,11 @@ def test_a_test_starts_from_a_snapshot_by_marker(pytester: pytest.Pytester) -> N
     result = pytester.runpytest("-v")
     result.assert_outcomes(passed=2, errors=1)  # at its set-up
     result.stdout.fnmatch_lines(["*vdevd_snapshot *cut.snap: bad_snapshot: truncated or extended*"])
+    # the ini option: every test of the session from the snapshot
+    pytester.makeini("[pytest]\nvdevd_snapshot = homed.snap\n")
+    pytester.makepyfile(test_homed=HOMED.replace("TAKEN_NS", str(taken)).replace(
+        "def test_without_the_marker_a_power_on_rack(vdevd_rack):",
+        "def test_without_the_marker_the_ini_snapshot(vdevd_rack):\n"
+        "    assert vdevd_rack.card(\"stage\").region(\"bar0\").read32(POSITION) == 5000\n\n\n"
+        "def _unused(vdevd_rack):"))
+    pytester.runpytest("-v").assert_outcomes(passed=2, errors=1)

@@ -9,6 +9,7 @@ from typing import Any
 
 import msgpack
 import pytest
+from vdevclient.errors import RemoteError
 
 from tests.conftest import RawClient, error_code, rack_config
 from vdevd import snapshot
@@ -84,3 +85,22 @@ def test_a_load_answers_the_waits_pending_on_the_rack_it_replaces(daemon: Daemon
     finally:
         waiter.close()
     assert raw.call(op="sim", action="step", ns=1000)["ok"]["now_ns"] == 1000  # the new rack
+
+
+def test_a_snapshot_of_the_other_clock_mode_is_refused_and_realtime_goes_on_from_it() -> None:
+    """A lockstep snapshot does not load into a realtime daemon (nor the reverse); a realtime
+    daemon's own snapshot loads, and its clock goes on from the snapshot's time."""
+    import vdevclient
+
+    with DaemonThread(rack_config()) as lock, vdevclient.connect(lock.endpoint) as rack:
+        rack.sim.step(seconds=5)
+        locked = rack.snapshot()
+    with DaemonThread(rack_config(clock="realtime")) as real, \
+            vdevclient.connect(real.endpoint) as rack:
+        with pytest.raises(RemoteError, match="bad_snapshot: saved with the lockstep clock, this "
+                                              "daemon runs the realtime clock"):
+            rack.restore(locked)
+        own = rack.snapshot()
+        taken = snapshot.read_header(own)[0]["now_ns"]
+        rack.restore(own)
+        assert taken <= rack.sim.now_ns() < taken + 5_000_000_000  # not from 0, not ahead
