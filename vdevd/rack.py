@@ -43,7 +43,7 @@ from vdevd.region import Region
 from vdevd.rt import kernel
 from vdevd.rt.scheduler import Scheduler
 from vdevd.shm import Segment
-from vdevd.snapshot import Transfers
+from vdevd.snapshot_transfer import Transfers
 from vdevd.waits import MAX_PENDING, Reply, Waiter, Waits, make_waiter, value_wait
 
 log = logging.getLogger("vdevd.rack")

@@ -32,6 +32,7 @@ from tests.client.test_snapshot_cards import (
     galil_session,
 )
 from vdevd import snapshot as snapmod
+from vdevd import snapshot_transfer
 from vdevd.nvram import NvramStore
 from vdevd.testing import DaemonThread
 
@@ -159,7 +160,7 @@ def test_a_snapshot_over_the_size_bound_and_a_chunk_too_large_are_refused(
                          data=b"VDEVSNAP")
         with pytest.raises(RemoteError, match="too_large: snapshot load: a chunk of 524289"):
             rack.request("snapshot", action="load", offset=0, size=1 << 20,
-                         data=bytes(snapmod.CHUNK + 1))
+                         data=bytes(snapshot_transfer.CHUNK + 1))
         huge = tmp_path / "huge.snap"
         with huge.open("wb") as f:
             f.truncate(snapmod.MAX_SNAPSHOT + 1)
@@ -173,7 +174,7 @@ def test_transfers_go_in_chunks_one_per_client_and_bounded(
     drops the load; a client's new transfer replaces its last; MAX_TRANSFERS at once."""
     from vdevclient import snapshot as client_snapshot
 
-    monkeypatch.setattr(snapmod, "CHUNK", 4096)
+    monkeypatch.setattr(snapshot_transfer, "CHUNK", 4096)
     monkeypatch.setattr(client_snapshot, "CHUNK", 4096)
     with default_rack() as d, vdevclient.connect(d.endpoint, shm=False) as rack:
         rack.sim.step(seconds=0.01)
@@ -189,7 +190,7 @@ def test_transfers_go_in_chunks_one_per_client_and_bounded(
         rack.sim.step(seconds=0.01)
         assert rack.restore(data)["now_ns"] == 10_000_000
         assert rack.sim.now_ns() == 10_000_000
-        others = [vdevclient.connect(d.endpoint, shm=False) for _ in range(snapmod.MAX_TRANSFERS)]
+        others = [vdevclient.connect(d.endpoint, shm=False) for _ in range(snapshot_transfer.MAX_TRANSFERS)]
         try:
             for other in others[:-1]:
                 other.request("snapshot", action="save", offset=0)
