@@ -179,8 +179,9 @@ def load(data: bytes, old: Rack, memory: Segment | None = None) -> Rack:
     raw = _inflate(payload, header["raw_size"])
     new = old.empty_like(memory)
     nvram = next((c.ctx.nvram for c in old.cards.values() if c.ctx.nvram is not None), None)
+    unpickler = SnapshotUnpickler(io.BytesIO(raw), new, nvram, memory)
     try:
-        state = SnapshotUnpickler(io.BytesIO(raw), new, nvram, memory).load()
+        state = unpickler.load()
     except VdevError:
         raise
     except Exception as exc:  # whatever a damaged or hostile payload makes the unpickler meet
@@ -191,6 +192,10 @@ def load(data: bytes, old: Rack, memory: Segment | None = None) -> Rack:
             or [getattr(c, "name", None) for c in cards] != list(old.cards):
         raise bad("corrupt: its payload is not the rack its header describes")
     new.adopt(sched)
+    for card in new.cards.values():  # where each shared region is in the new segment
+        for region in card.regions.values():
+            if region.shared_offset is not None:
+                region.shared_offset = unpickler.shared_offsets.get(id(region.buf))
     for card in new.cards.values():
         # the connections to the saving daemon's card ports are gone: closed as a dropped
         # connection closes (what it left open is released)

@@ -375,6 +375,8 @@ class SnapshotUnpickler(_PyUnpickler):
         super().__init__(file)
         self.rack, self.nvram, self.memory = rack, nvram, memory
         self._shared: dict[int, Any] = {}
+        #: id of a shared region's new memory -> its offset in the new segment
+        self.shared_offsets: dict[int, int] = {}
         self._callable: set[int] = set()  # ids of what find_class gave that may be called
         self._found: set[int] = set()  # ids of the classes find_class gave
         self._codes: dict[str, CodeIndex] = {}
@@ -436,12 +438,16 @@ class SnapshotUnpickler(_PyUnpickler):
         raise bad(f"corrupt: an unknown persistent id {kind!r}")
 
     def _shm(self, index: int, data: bytes | None) -> Any:
+        """A shared region's memory: a part of the new segment (private memory without one)
+        holding the saved bytes; its offset in the segment is kept (`shared_offsets`)."""
         if data is None:
             return self._shared[index]
         shared = self.memory.allocate(len(data)) if self.memory is not None else None
         buf: Any = shared[0] if shared is not None else bytearray(len(data))
         buf[:] = data
         self._shared[index] = buf
+        if shared is not None:
+            self.shared_offsets[id(buf)] = shared[1]
         return buf
 
     # the opcodes that call or set something: only what find_class allowed
