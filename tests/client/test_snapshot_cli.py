@@ -340,3 +340,22 @@ def test_a_snapshot_taken_with_card_port_connections_open_loads_without_them() -
             ghost.close()
         with pmac_session(d):
             assert "ERR015" not in pmac_ask("&1B3R")  # the buffer is no longer open
+
+
+@pytest.mark.parametrize(("argv", "status", "says"), [
+    (["snapshot", "restore", "x.snap"], 2, "argument action: invalid choice: 'restore'"),
+    (["snapshot", "save"], 2, "the following arguments are required: file"),
+    (["snapshot", "load", "/nonexistent/x.snap"], 1, "No such file or directory"),
+    (["snapshot", "save", "/nonexistent/dir/x.snap"], 1, "No such file or directory"),
+])
+def test_snapshot_usage_and_file_errors_are_one_line(argv: list[str], status: int, says: str,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    with default_rack() as d:
+        if status == 2:
+            with pytest.raises(SystemExit) as exited:
+                cli(d, *argv)
+            assert exited.value.code == 2
+        else:
+            assert cli(d, *argv) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("vdevctl") and says in err and err.count("\n") == 1, err
