@@ -1,4 +1,4 @@
-"""Snapshots of every card type (issue 23 §2): a scenario runs in lockstep through the vendor
+"""Snapshots of every card type of the default rack (issue 23 §2): a scenario runs in lockstep
 client, a snapshot is taken mid-motion, then a fixed sequence of requests runs while a digest
 (SHA-256) of every reply is kept; the snapshot is loaded and the same sequence gives the same
 digest. A reset rack running the same sequence gives another digest: the replies depend on the
@@ -250,8 +250,38 @@ def adlink_after(d: DaemonThread) -> None:
     dump_regions(d, "adlink0")
 
 
+#: the generic servo card's registers (vdevd/devices/generic/README.md): axis 0 and 1
+TARGET, COMMAND, POSITION, IRQ_ENABLE, AXIS = 0x104, 0x100, 0x11C, 0x24, 0x40
+
+
+def generic_before(d: DaemonThread) -> None:
+    with vdevclient.connect(d.endpoint, shm=False) as rack:
+        bar = rack.card("servo0").region("bar0")
+        bar.write32(IRQ_ENABLE, 1)  # an interrupt at each move's end
+        for axis, target in ((0, 40_000), (1, -25_000)):
+            bar.write32(TARGET + axis * AXIS, target & 0xFFFFFFFF)
+            bar.write32(COMMAND + axis * AXIS, 1)
+        rack.control("servo0", "set_home", axis=1)
+        rack.sim.step(seconds=0.05)
+
+
+def generic_after(d: DaemonThread) -> None:
+    with vdevclient.connect(d.endpoint, shm=False) as rack:
+        bar = rack.card("servo0").region("bar0")
+        for _ in range(4):
+            rack.sim.step(seconds=0.1)
+            bar.read32(POSITION)
+            bar.read32(POSITION + AXIS)
+        rack.card("servo0").irq.wait(timeout_s=5.0)
+        rack.sim.step(seconds=2.0)
+    dump_regions(d, "servo0")
+
+
 def moving(d: DaemonThread, kind: str) -> bool:
     """The scenario's axes are moving (the snapshot is taken mid-motion)."""
+    if kind == "generic":
+        with vdevclient.connect(d.endpoint, shm=False) as rack:
+            return 0 < rack.card("servo0").region("bar0").read32(POSITION) < 40_000
     if kind == "galil":
         with galil_session(d) as g:
             return "1.0000" in g.GCommand("MG _BGX, _BGY, _BGZ")
@@ -271,7 +301,7 @@ def moving(d: DaemonThread, kind: str) -> bool:
 
 
 #: the cards whose scenario raises interrupts after the snapshot (their irq_seq is in the digest)
-INTERRUPTING = {"galil": "galil0"}
+INTERRUPTING = {"galil": "galil0", "generic": "servo0"}
 
 
 def irq_seq(d: DaemonThread, card: str) -> int:
@@ -280,6 +310,7 @@ def irq_seq(d: DaemonThread, card: str) -> int:
 
 
 SCENARIOS: dict[str, tuple[Callable[[DaemonThread], None], Callable[[DaemonThread], None]]] = {
+    "generic": (generic_before, generic_after),
     "galil": (galil_before, galil_after),
     "pmac": (pmac_before, pmac_after),
     "maxk": (maxk_before, maxk_after),
