@@ -1,0 +1,370 @@
+"""Acceptance: the Turbo PMAC's motion-program features together, through a real daemon on the
+lockstep clock, driven by the clients a beamline uses: dls-pmaclib over the Ethernet port (text
+commands) and vdevclient.pcomm (PComm32: download, gather, the DPRAM binary rotary ring). Each
+test checks what the manual says the combination does [Turbo SRM, Turbo UM "Writing and
+Executing Motion Programs", "Kinematic Calculations", "Data Gathering"; spec pmac.md §2.8, §3.1;
+README "Motion programs", "Move modes", "Rotary buffers", "Kinematic programs"].
+
+Positions are read with `#nP` (counts, 1/32 count resolution) while the test steps the clock; a
+program's time origin is the R that the test sends between steps (the first program servo cycle
+is the next one)."""
+
+from __future__ import annotations
+
+import ctypes
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from vdevclient import pcomm
+
+from tests.devices.pmac.conftest import PERIOD_NS, Pmac, pcomm_ask, pcomm_device
+
+DEVICE = 0
+DT = PERIOD_NS / 1e9
+GATHER_BIT = 1 << 19          # global status word 1 (`???`) bit 19: data gathering [digest §2.1]
+RUNNING = 1                   # `&n??` word 1 bit 0: program running [SRM ??]
+RUN_TIME_ERROR = 1 << 22      # `&n??` word 2 bit 22: run-time error [SRM ??]
+
+
+@pytest.fixture
+def host() -> Iterator[Pmac]:
+    with pcomm_device(DEVICE, plant="ideal") as h:
+        yield h
+
+
+def ask(command: str) -> str:
+    """One command through PComm (`PmacGetResponseA`): the reply without its CR/ACK framing."""
+    return pcomm_ask(DEVICE, command)
+
+
+def positions(*motors: int) -> np.ndarray:
+    return np.array([float(ask(f"#{m}P")) for m in motors])
+
+
+def cs_words(cs: int) -> tuple[int, int]:
+    """`&s??`: C.S. status words 1 and 2."""
+    status = ask(f"&{cs}??")
+    return int(status[:6], 16), int(status[6:12], 16)
+
+
+def running(cs: int) -> bool:
+    return bool(cs_words(cs)[0] & RUNNING)
+
+
+def send_all(host: Pmac, lines: list[str]) -> None:
+    """Lines through dls-pmaclib's sendCommand (the Ethernet port), each acknowledged."""
+    pmac = host.dls()
+    for line in lines:
+        reply, ok = pmac.sendCommand(line)
+        assert ok and reply.endswith("\x06") and "\x07" not in reply, (line, reply)
+
+
+def download(tmp_path: Path, text: str) -> None:
+    """A source file through PComm's `PmacDownloadA` (its #define preprocessing)."""
+    source = tmp_path / "prog.pmc"
+    source.write_text(text)
+    messages: list[str] = []
+    assert pcomm.PmacDownloadA(DEVICE, lambda t, nl: messages.append(t), None, None,
+                               str(source)) == 1, messages
+
+
+def blended(t: np.ndarray, points: list[tuple[float, ...]], times: list[float], ta: float,
+            ts: float) -> np.ndarray:
+    """LINEAR moves through `points` (the start first) in `times` from rest to rest: each
+    move's velocity over its span, blended with TA centred on each corner, the acceleration
+    ramped over TS at both ends [UM "Linear Blended Moves"; SRM TA, TS]: the velocity steps
+    smoothed by a TA-wide kernel, a box of TA - TS convolved with a box of TS (TA >= 2 TS)."""
+    pts = np.asarray(points, dtype=float)
+    fine = 1e-5
+    grid = np.arange(0.0, ta + sum(times) + 0.01, fine)
+    corners = ta / 2 + np.concatenate([[0.0], np.cumsum(times)])
+    v = np.zeros((len(grid), pts.shape[1]))
+    for k, move_t in enumerate(times):
+        v[(grid >= corners[k]) & (grid < corners[k + 1])] = (pts[k + 1] - pts[k]) / move_t
+    kernel = np.convolve(np.ones(round((ta - ts) / fine)), np.ones(max(1, round(ts / fine))))
+    kernel /= kernel.sum()
+    half = len(kernel) // 2
+    pos = pts[0] + np.cumsum(np.stack([np.convolve(v[:, j], kernel)[half:half + len(grid)]
+                                       for j in range(pts.shape[1])], axis=1), axis=0) * fine
+    return np.stack([np.interp(t, grid, pos[:, j]) for j in range(pts.shape[1])], axis=1)
+
+
+# -- a kinematic C.S. running a segmented LINEAR program -----------------------------------------
+#: a polar stage: motor 1 the angle (100 counts a degree), motor 2 the radius (1000 counts a
+#: unit); the C.S. is programmed in Cartesian X Y [UM "Kinematic Calculations": P1..P32 the
+#: motors, Q7 Q8 the X Y axes; ATAN2 takes its cosine argument in Q0, A §ATAN2]
+FORWARD = ["Q7=P2/1000*COS(P1/100)", "Q8=P2/1000*SIN(P1/100)"]
+INVERSE = ["Q0=Q7", "P1=ATAN2(Q8)*100", "P2=SQRT(Q7*Q7+Q8*Q8)*1000"]
+POLAR_PATH = ["LINEAR ABS TA200 TS50 F20", "X5 Y0", "X5 Y5", "X0 Y5"]
+POLAR_POINTS = [(0.0, 0.0), (5.0, 0.0), (5.0, 5.0), (0.0, 5.0)]
+POLAR_TIMES = [0.25, 0.25, 0.25]        # 5 units at F20 (units per Isx90 = 1000 ms)
+
+
+def polar(xy: np.ndarray) -> np.ndarray:
+    """The inverse kinematics above, in motor counts (degrees: I15 = 0)."""
+    return np.column_stack([np.degrees(np.arctan2(xy[:, 1], xy[:, 0])) * 100,
+                            np.hypot(xy[:, 0], xy[:, 1]) * 1000])
+
+
+def setup_polar(host: Pmac) -> None:
+    """C.S. 1: motors 1 and 2 `#n->I` through the kinematic programs (I5150 = 1); C.S. 2: motors
+    3 and 4 the same X Y axes directly (1000 counts a unit); both segmented every 10 ms."""
+    send_all(host, ["&1#1->I &1#2->I &2#3->1000X &2#4->1000Y #1J/ #2J/ #3J/ #4J/",
+                    "I5113=10 I5213=10 I5150=1",
+                    "&1OPEN FORWARD CLEAR", *FORWARD, "CLOSE",
+                    "&1OPEN INVERSE CLEAR", *INVERSE, "CLOSE",
+                    "OPEN PROG 5 CLEAR", *POLAR_PATH, "CLOSE"])
+
+
+def test_kinematic_cs_runs_a_segmented_linear_program_through_its_inverse(host: Pmac) -> None:
+    """The same LINEAR program (TA200 TS50 F20, Isx13 = 10 ms) in the kinematic C.S. 1 and in
+    the Cartesian C.S. 2, started on one line: every servo cycle the inverse program gives
+    motors 1 and 2 the polar coordinates of the axis positions C.S. 2's motors show, so they
+    stay on the inverse of that path all along; both end in the same servo cycle, motors 1 and
+    2 on 90° and radius 5 [UM "Kinematic Calculations"; SRM Isx13, Isx50]."""
+    setup_polar(host)
+    assert ask("&1B5R &2B5R") == ""
+    worst = 0.0
+    for _ in range(24):
+        host.step(40)
+        m = positions(1, 2, 3, 4)
+        assert running(1) and running(2)
+        # the inverse of C.S. 2's path, through the 1/32-count resolution of its motors
+        want = polar(m[None, 2:] / 1000)[0]
+        worst = max(worst, float(np.abs(m[:2] - want).max()))
+    assert worst < 2.0                        # 1/32 count in X Y is < 1 count of either motor
+    host.step(round(0.85 / DT) - 24 * 40)
+    for _ in range(round(0.2 / DT)):             # the two C.S. end in the same servo cycle
+        host.step(1)
+        if not running(2):
+            break
+    assert not running(1) and not running(2)
+    assert positions(1, 2, 3, 4) == pytest.approx([9000, 5000, 0, 5000], abs=1e-3)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "Isx13 segmentation times each segment 2·length/(speed in + speed out) (lookahead.py "
+    "Segmenter) instead of Isx13 ms of the programmed profile: under a TS S-curve the motion "
+    "runs up to 4.4 ms ahead of the TA/TS profile (88 counts at 20 counts/ms); the Isx13 "
+    "acceleration defect helper `plook` works on"))
+def test_kinematic_motors_follow_the_inverse_of_the_blended_ta_ts_profile(host: Pmac) -> None:
+    """Motors 1 and 2 of the kinematic C.S. against the inverse of the LINEAR profile the
+    manual gives (TA centred on each corner, TS ramps), sampled every 40 servo cycles: within
+    the segments' cubic fit (a few counts); the program ends after ΣT + TA [UM "Linear
+    Blended Moves"; SRM Isx13]."""
+    setup_polar(host)
+    ask("&1B5R")
+    t, got = [], []
+    for k in range(1, 24):
+        host.step(40)
+        t.append(40 * k * DT)
+        got.append(positions(1, 2))
+    want = polar(blended(np.array(t), POLAR_POINTS, POLAR_TIMES, 0.2, 0.05))
+    error = float(np.abs(np.array(got) - want).max())
+    assert error < 10, error
+    host.step(round(0.95 / DT) - 23 * 40 - 5)      # the program ends after ΣT + TA = 0.95 s
+    assert running(1)
+    host.step(10)
+    assert not running(1)
+
+
+# -- a PVT scan gathered into the DPRAM ------------------------------------------------------------
+PVT_SCAN = """\
+; a PVT scan: point k at P(100+k) units with velocity P(200+k) units/s, every P3 ms
+#define POINT  P1
+#define POINTS P2
+OPEN PROG 6 CLEAR
+ABS
+PVT(P3)
+POINT = 0
+WHILE (POINT < POINTS)
+  X(P(100 + POINT)):(P(200 + POINT))
+  POINT = POINT + 1
+ENDWHILE
+CLOSE
+"""
+
+
+def hermite(t: np.ndarray, knots: np.ndarray, pos: np.ndarray, vel: np.ndarray) -> np.ndarray:
+    """The PVT path: on each segment the cubic of its end positions and velocities [SRM PVT:
+    "the unique cubic position profile"]; before the first knot and after the last, held."""
+    t = np.clip(t, knots[0], knots[-1])
+    k = np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2)
+    h = knots[k + 1] - knots[k]
+    s = (t - knots[k]) / h
+    return ((2 * s**3 - 3 * s**2 + 1) * pos[k] + (s**3 - 2 * s**2 + s) * h * vel[k]
+            + (-2 * s**3 + 3 * s**2) * pos[k + 1] + (s**3 - s**2) * h * vel[k + 1])
+
+
+@pytest.mark.parametrize("mode", [pcomm.GAT_DPR_NOWRAP, pcomm.GAT_DPR_WRAP])
+def test_pvt_scan_gathered_into_the_dpram_follows_the_commanded_path(
+        host: Pmac, tmp_path: Path, mode: int) -> None:
+    """A 12-point PVT scan whose points and velocities come from P-variables (PVT50), motor 1
+    commanded position gathered into the DPRAM every 4 servo cycles (PComm GATMODE
+    GAT_DPR_NOWRAP / GAT_DPR_WRAP: I5000 = 2 / 3), started on the R's servo cycle: every sample
+    read back with PmacCollectGatherData / PmacGetGatherSamples is the Hermite cubic of the
+    programmed points at its program time, in 1/(Ixx08·32) counts [SRM PVT, DEFINE GATHER;
+    UM "Real-Time Data Gathering Through the Dual-Ported RAM"]. Without wrap gathering ends
+    when the buffer is full; with wrap it goes on, the upload holding the samples since the
+    last wrap."""
+    send_all(host, ["&1#1->1000X #1J/"])
+    download(tmp_path, PVT_SCAN)
+    points = 12
+    seg = 0.05
+    x = 2.0 * np.sin(np.linspace(0, 2 * np.pi, points + 1))[1:]     # units; ends on 0
+    v = 2.0 * 2 * np.pi / (points * seg) * np.cos(np.linspace(0, 2 * np.pi, points + 1))[1:]
+    v[-1] = 0.0                                                       # ends at rest
+    x, v = x.round(6), v.round(6)             # the values as the assignments carry them
+    assigns = [f"P{100 + k}={x[k]:.6f} P{200 + k}={v[k]:.6f}" for k in range(points)]
+    send_all(host, [*assigns, f"P2={points} P3={seg * 1000:g}"])
+    period, samples = 4, 100                  # 0.177 s of the 0.6 s scan
+    assert pcomm.PmacSetGatherMode(DEVICE, mode)
+    assert pcomm.PmacSetGather(DEVICE, 0, "D:$000088", True)          # motor 1 commanded
+    assert pcomm.PmacInitPlotGather(DEVICE, samples, period)
+    assert pcomm.PmacStartGather(DEVICE) == 1
+    assert ask("&1B6R") == ""
+    host.step(period * samples + 10)
+    gathering = bool(int(ask("???")[:6], 16) & GATHER_BIT)
+    assert gathering == (mode == pcomm.GAT_DPR_WRAP)
+    sources, count = ctypes.c_uint(), ctypes.c_uint()
+    assert pcomm.PmacCollectGatherData(DEVICE, ctypes.byref(sources), ctypes.byref(count))
+    n = count.value
+    got: list[float] = []
+    assert pcomm.PmacGetGatherSamples(DEVICE, 0, None, got, n)
+    if mode == pcomm.GAT_DPR_NOWRAP:
+        assert (sources.value, n) == (1, samples)
+        first = 0
+    else:                                     # wrapped after 100 samples: those since the wrap
+        assert sources.value == 1 and 0 < n <= 3
+        first = samples
+    scale = pcomm.PmacGetVariable(DEVICE, "I", 108) * 32
+    knots = seg * np.arange(points + 1)
+    servo = int(ask("I10")) / 2**23 / 1000    # the exact servo period, s [SRM I10]
+    t = (1 + period * (first + np.arange(n))) * servo
+    want = 1000 * hermite(t, knots, np.concatenate([[0.0], x]), np.concatenate([[0.0], v]))
+    assert np.abs(np.array(got) / scale - want).max() <= 1 / scale   # the register's LSB
+    host.step(round(0.6 / DT))
+    assert not running(1)
+    assert positions(1)[0] == pytest.approx(1000 * x[-1], abs=1e-3)
+
+
+# -- rotary buffers fed while they run -----------------------------------------------------------
+def test_rotary_buffer_fed_from_dls_pmaclib_while_it_runs(host: Pmac) -> None:
+    """`&1 DEFINE ROT`, `B0`, `OPEN ROT` and three lines, R; then one line every 100 ms over
+    the Ethernet port while it runs, with `PR` from the same port: the moves (TM100 TA50,
+    1 unit each) blend into one motion at 10 counts/ms as long as a line waits (X at time t is
+    10000·(t − TA/2)); once the buffer runs dry the program waits (still running) with the
+    last move done, and a line sent then moves from rest in TM + TA [UM "Rotary Motion Program
+    Buffers"; SRM OPEN ROT, PR, B0]."""
+    pmac = host.dls()
+
+    def send(line: str) -> str:
+        reply, ok = pmac.sendCommand(line)
+        assert ok and reply.endswith("\x06"), (line, reply)
+        return reply.rstrip("\r\x06")
+
+    for line in ("&1#1->1000X #1J/", "&1 DEFINE ROT 200", "&1B0", "OPEN ROT",
+                 "LINEAR ABS TA50 TS0 TM100", "X1", "X2", "X3"):
+        send(line)
+    assert send("PR") == "4"                                   # lines waiting [SRM PR]
+    send("R")
+    ticks = 0
+    servo = int(ask("I10")) / 2**23 / 1000
+    for k in range(4, 13):                                     # lines 4 ... 12, one per move
+        step = round(0.1 * (k - 3) / DT) - ticks
+        host.step(step)
+        ticks += step
+        x = positions(1)[0]
+        assert x == pytest.approx(10_000 * (ticks * servo - 0.025), abs=1.0)
+        assert int(send("PR")) <= 1                          # taken as the calculation needs it
+        send(f"X{k}")
+    host.step(round(1.3 / DT) - ticks)                         # 12 moves + TA: done at 1.25 s
+    assert positions(1)[0] == 12_000.0
+    assert running(1) and send("PR") == "0"                    # waiting for lines
+    send("X11.5")
+    host.step(round(0.14 / DT))
+    assert 11_500 < positions(1)[0] < 11_550
+    host.step(round(0.02 / DT))
+    assert positions(1)[0] == 11_500.0                         # TM100 + TA50 from rest
+    send("CLOSE")
+    assert ask("&1A") == ""
+    assert not running(1)
+
+
+def ring_through_lookahead(host: Pmac) -> np.ndarray:
+    """C.S. 1's rotary buffer fed through the PComm binary rotary ring (PmacDPRRotBufInit,
+    PmacDPRAsciiStrToRotA) with `DEFINE LOOKAHEAD` active (Isx13 = 10 ms, Isx20 = 20
+    segments, Ixx16 = 15 counts/ms, Ixx17 = 0.1 counts/ms²): three sides of a 5-unit square at
+    F20, R, and at 0.6 s (on the second side) two more lines back along the fourth side and
+    the first again; both motors gathered into the DPRAM every 9 servo cycles, for 2.2 s. The
+    program ends waiting for lines with the motors on the last point. Returns the gathered path
+    (counts, samples x 2)."""
+    send_all(host, ["&1#1->1000X &1#2->1000Y #1J/ #2J/", "&1 DEFINE ROT 200",
+                    "&1 DEFINE LOOKAHEAD 100,0",
+                    "I5113=10 I5120=20 I116=15 I117=0.1 I216=15 I217=0.1", "&1B0"])
+    dev = DEVICE
+    assert pcomm.PmacDPRRotBufInit(dev, 0) == pcomm.DprOk        # the ring of C.S. 1
+    for line in ("LINEAR ABS TA50 TS0 F20", "X5", "X5 Y5", "X0 Y5"):
+        assert pcomm.PmacDPRAsciiStrToRotA(dev, line, 0) == pcomm.DprOk
+    period, samples = 9, 560                                     # 2.2 s, 2240 DPRAM words
+    assert pcomm.PmacSetGatherMode(dev, pcomm.GAT_DPR_NOWRAP)
+    assert pcomm.PmacSetGather(dev, 0, "D:$000088", True)
+    assert pcomm.PmacSetGather(dev, 1, "D:$000108", True)
+    assert pcomm.PmacInitPlotGather(dev, samples, period)
+    host.step(1)                                                 # the card takes the ring
+    assert ask("PR") == "4"
+    assert pcomm.PmacStartGather(dev) == 1 and ask("&1R") == ""
+    host.step(round(0.6 / DT))                                   # on the second side
+    assert cs_words(1)[1] & 1 << 23                              # running in the lookahead
+    for line in ("X0 Y0", "X5 Y0"):
+        assert pcomm.PmacDPRAsciiStrToRotA(dev, line, 0) == pcomm.DprOk
+    host.step(period * samples + 10 - round(0.6 / DT))
+    assert running(1) and ask("PR") == "0"                       # waiting for more lines
+    assert (positions(1, 2) == [5000, 0]).all()
+    count = ctypes.c_uint()
+    assert pcomm.PmacCollectGatherData(dev, None, ctypes.byref(count))
+    assert count.value == samples
+    xs: list[float] = []
+    ys: list[float] = []
+    assert pcomm.PmacGetGatherSamples(dev, 0, None, xs, samples)
+    assert pcomm.PmacGetGatherSamples(dev, 1, None, ys, samples)
+    scale = pcomm.PmacGetVariable(dev, "I", 108) * 32
+    return np.column_stack([xs, ys]) / scale
+
+
+def ring_velocity(path: np.ndarray) -> np.ndarray:
+    """Counts/ms of each motor between the samples (9 servo cycles apart)."""
+    return np.diff(path, axis=0) / (9 * int(ask("I10")) / 2**23)
+
+
+def test_dpram_binary_rotary_ring_runs_through_the_special_lookahead(host: Pmac) -> None:
+    """The lookahead keeps every motor within Ixx16 = 15 counts/ms (F20 asks for 20) and its
+    change of velocity within twice Ixx17 (the README's bound in a right-angle corner); the
+    lines sent while it runs are run and the motors end on the last one's point [SRM DEFINE
+    LOOKAHEAD, Isx13, Isx20, Ixx16, Ixx17; UM "Special Lookahead"; PComm32 dpr.h rotbuf]."""
+    path = ring_through_lookahead(host)
+    v = ring_velocity(path)
+    dt_ms = 9 * int(ask("I10")) / 2**23
+    assert np.abs(v).max() <= 15 * 1.0001
+    assert np.abs(v).max() > 14.9                               # Ixx16, not F, sets the speed
+    assert np.abs(np.diff(v, axis=0) / dt_ms).max() <= 2 * 0.1
+    assert tuple(path[-1]) == (5000.0, 0.0) and np.abs(v[-10:]).max() == 0  # ended in the window
+    assert path[:, 1].max() == 5000.0 and path[:, 0].min() == 0.0  # the square's far corner
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "rotary refill through the lookahead: the lines that reach the rotary buffer while the "
+    "motion runs in the lookahead are not blended in, the motion stops on the end of the lines "
+    "that were there at R (X0 Y5, 1.27 s) although X0 Y0 was added at 0.6 s, then starts "
+    "again from rest; the rotary refill defect helper `plook` works on"))
+def test_lines_fed_through_the_ring_while_it_runs_blend_in_without_a_stop(host: Pmac) -> None:
+    """The lookahead calculates ahead over what the buffer holds: lines that arrive 0.67 s
+    before the motion reaches the end of the earlier ones continue it without a stop (the
+    speed stays up between the first ramp and the last) [UM "Special Lookahead", "Rotary
+    Motion Program Buffers"]."""
+    speed = np.hypot(*ring_velocity(ring_through_lookahead(host)).T)
+    fast = np.flatnonzero(speed > 7.0)    # from the end of the first ramp to the last's start
+    slowest = float(speed[fast[0]:fast[-1]].min())
+    assert slowest > 5.0, slowest
