@@ -368,3 +368,88 @@ def test_lines_fed_through_the_ring_while_it_runs_blend_in_without_a_stop(host: 
     fast = np.flatnonzero(speed > 7.0)    # from the end of the first ramp to the last's start
     slowest = float(speed[fast[0]:fast[-1]].min())
     assert slowest > 5.0, slowest
+
+
+# -- `%` override, a PLC's CMD to another C.S., holds and resumes on a CIRCLE program -------------
+CIRCLE = ["OPEN PROG 7 CLEAR", "CIRCLE1 INC TA100 TS0 F20",
+          "X10 Y0 I5 J0", "X-10 Y0 I-5 J0", "CLOSE"]       # a full circle, two half circles
+START_PLC = ["OPEN PLC 1 CLEAR", "IF (P10 = 1)", 'CMD"&2B8R"', "P10 = 2", "DISABLE PLC 1",
+             "ENDIF", "CLOSE"]
+SLEW = 18569          # Isx94 / Isx95 in I10 units per servo cycle: 0.5 % a cycle at I10 3713707
+
+
+def circle_setup(host: Pmac) -> None:
+    """C.S. 1: X Y on motors 1 and 2, Isx13 = 10 ms (arcs), Isx94 = Isx95 = SLEW; C.S. 2: X on
+    motor 3 with PROG 8 (5 units at F10); PLC 1 starts it with CMD"&2B8R" once P10 = 1."""
+    send_all(host, ["&1#1->1000X &1#2->1000Y &2#3->1000X #1J/ #2J/ #3J/",
+                    f"I5113=10 I5194={SLEW} I5195={SLEW}", *CIRCLE,
+                    "OPEN PROG 8 CLEAR", "LINEAR INC TA50 TS0 F10", "X5", "CLOSE",
+                    *START_PLC, "P10=0 ENABLE PLC 1"])
+
+
+def angle() -> float:
+    """The angle (degrees) of motors 1 and 2 about the circle's centre (5000, 0); their radius
+    must be the circle's, 5 units, within the segments' cubic fit."""
+    x, y = positions(1, 2)
+    assert np.hypot(x - 5000, y) == pytest.approx(5000, abs=2.0)
+    return float(np.degrees(np.arctan2(y, x - 5000)))
+
+
+def program_cycles(cycles: int, start: float, target: float) -> float:
+    """Servo cycles of program time in `cycles` real ones while the time base slews from
+    `start` to `target` percent at SLEW (`%` slewing, Isx94/Isx95 [SRM p.191])."""
+    rate = SLEW / 3_713_707 * 100
+    k = np.arange(1, cycles + 1)
+    step = np.sign(target - start) * np.minimum(rate * k, abs(target - start))
+    return float(np.sum(start + step) / 100)
+
+
+#: degrees of the arc a servo cycle at 100 %: F20 on radius 5 is 4 rad/s
+DEG_PER_CYCLE = np.degrees(20 / 5 * PERIOD_NS / 1e9)
+
+
+def test_override_slews_on_a_circle_while_a_plc_starts_another_cs_then_hold_and_resume(
+        host: Pmac) -> None:
+    """C.S. 1 runs a full circle (CIRCLE1, two half circles, F20 on radius 5, Isx13 = 10 ms).
+    At its cruise `&1%50`: the time base slews to 50 % at Isx94, the arc goes on at the speed
+    the time base gives (its angle the program time's), on the circle; at the same time P10 = 1
+    lets PLC 1 send CMD"&2B8R": C.S. 2 runs its own program at its own 100 % (`&2%`) while C.S.
+    1 keeps its 50 %. `&1H` slews the time base to 0 at Isx95 and holds the motors on the
+    circle; `R` slews back to the 50 % commanded; `\\` (a feed hold outside a lookahead
+    sequence) holds the same way and `R` resumes; the circle ends where it started [SRM `%`,
+    `H`, `\\`, `R`, Isx94, Isx95, CIRCLE1, CMD; UM "Time-Base Control"]."""
+    circle_setup(host)
+    assert ask("&1B7R") == ""
+    host.step(550)                                           # cruising on the first half
+    a0 = angle()
+    assert ask("&1%50 P10=1") == ""
+    host.step(300)
+    want = a0 - DEG_PER_CYCLE * program_cycles(300, 100, 50)  # clockwise: the angle falls
+    assert angle() == pytest.approx(want, abs=DEG_PER_CYCLE)
+    assert running(1) and running(2)                          # the PLC's CMD started C.S. 2
+    assert (ask("&1%"), ask("&2%")) == ("50", "100")
+    assert float(ask("P10")) == 2 and positions(3)[0] > 0
+    a1 = angle()
+    assert ask("&1H") == ""                                   # feed hold: slew to 0 at Isx95
+    host.step(150)
+    held = angle()
+    assert held == pytest.approx(a1 - DEG_PER_CYCLE * program_cycles(150, 50, 0),
+                                 abs=DEG_PER_CYCLE)
+    host.step(100)
+    assert angle() == held and running(1)                     # held on the path, not ended
+    assert ask("&1R") == ""                                   # back to the commanded 50 %
+    host.step(300)
+    a2 = angle()
+    assert a2 == pytest.approx(held - DEG_PER_CYCLE * program_cycles(300, 0, 50),
+                               abs=DEG_PER_CYCLE)
+    assert running(2) and 3000 < positions(3)[0] < 5000      # C.S. 2 at its 100 %: 0.55 s
+    assert ask("&1\\") == ""                                  # quick stop: a hold here
+    host.step(150)
+    held = angle()
+    host.step(50)
+    assert angle() == held and held < a2
+    assert ask("&1R") == ""
+    host.step(round(3.0 / DT))
+    assert not running(1) and not cs_words(1)[1] & RUN_TIME_ERROR
+    assert (positions(1, 2) == [0.0, 0.0]).all()              # the full circle, back at its start
+    assert positions(3)[0] == 5000.0 and not running(2)

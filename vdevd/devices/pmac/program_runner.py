@@ -691,9 +691,11 @@ class CsProgram:
     def _execute(self, dt: float) -> np.ndarray | None:
         fw = self.fw
         if self.hold != self.hold_target:
+            # the time base itself moves by Isx95 I10-units a cycle, whatever the `%` under it
             iv = fw.ivars.values
             rate = float(iv[5000 + 100 * self.cs + 95]) / max(float(iv[10]), 1.0)
-            step = rate if rate > 0 else 1.0
+            pct = fw.timebase.present(self.cs - 1) / 100
+            step = rate / pct if rate > 0 and pct > 0 else 1.0
             self.hold = min(self.hold + step, 1.0) if self.hold_target > self.hold \
                 else max(self.hold - step, 0.0)
         tb = fw.timebase.present(self.cs - 1) / 100 * self.hold  # `%` slewing at Isx94
