@@ -532,3 +532,38 @@ def test_two_cs_and_a_homing_plc_run_at_once_while_ethernet_reads_positions(
     assert int(float(ask("P1101"))) == 0                   # StatusDone
     assert int(float(ask("M573"))) == 4000 and float(ask("#5P")) == 0
     assert ask("M545") == "1"
+
+
+# -- altered destination and rollover inside a running program -----------------------------------
+ROTARY_PROGRAM = ["OPEN PROG 12 CLEAR", "ABS RAPID X10 A350", "LINEAR TA50 TS0 TM200 A10",
+                  "INC X1", "DWELL 10", "ABS A200", "CLOSE"]
+
+
+def test_altered_destination_and_rollover_inside_a_running_program(host: Pmac) -> None:
+    """X on motor 1, a rotary A axis on motor 4 (100 counts a degree, I427 = 36000: one
+    revolution). The program's RAPID move to X10 gets `&1!X4` from the host while it runs:
+    X ends on 4 (never past it) and the program goes on from there (INC X1 ends on 5). Its ABS
+    A moves take the shortest way round (Ixx27 > 0): A350 from 0 is −10°, A10 then +20°, A200
+    from 10° is −170° (not +190°); the motor position itself does not roll over [UM
+    "Altered-Destination Moves"; A L3232; SRM Ixx27]."""
+    send_all(host, ["&1#1->1000X &1#4->100A #1J/ #4J/ I427=36000",
+                    "I122=20 I422=20 I119=0.5 I419=0.5 I121=0 I421=0", *ROTARY_PROGRAM])
+    assert ask("&1B12R") == ""
+    seen: list[tuple[str, float, float]] = []         # (PE: the line executing, X, A motors)
+    for k in range(30):
+        host.step(100)
+        x, a = positions(1, 4)
+        seen.append((ask("PE"), x, a))
+        if k == 2:
+            assert seen[-1][0] == "P12:0" and 0 < x < 4000  # in the RAPID move
+            assert ask("&1!X4") == ""
+    rapid = [x for pe, x, _ in seen if pe == "P12:0"]
+    assert rapid == sorted(rapid) and rapid[-1] <= 4000    # toward 4, never past it
+    a_rapid = [a for pe, _, a in seen if pe == "P12:0"]
+    assert min(a_rapid) == -1000 and max(a_rapid) <= 0     # A350: −10°, not +350°
+    turning = [(x, a) for pe, x, a in seen if pe == "P12:1"]  # the LINEAR A move, from there
+    assert turning and all(x == 4000.0 for x, _ in turning)
+    assert all(-1000 <= a <= 1000 for _, a in turning)     # −10° to +10°: the short way
+    host.step_ms(1000)
+    assert not running(1) and not cs_words(1)[1] & RUN_TIME_ERROR
+    assert (positions(1, 4) == [5000.0, -16000.0]).all()
