@@ -44,6 +44,14 @@ def host_axes() -> Iterator[Pmac]:
         yield h
 
 
+@pytest.fixture
+def host_limits() -> Iterator[Pmac]:
+    """The card with an axis world: motor 1's +LIM at 3000 counts."""
+    axes: list[dict[str, list[int]]] = [{"limits": [-20000, 3000]}]
+    with pcomm_device(DEVICE, plant="ideal", axis=axes) as h:
+        yield h
+
+
 def ask(command: str) -> str:
     """One command through PComm (`PmacGetResponseA`): the reply without its CR/ACK framing."""
     return pcomm_ask(DEVICE, command)
@@ -567,3 +575,45 @@ def test_altered_destination_and_rollover_inside_a_running_program(host: Pmac) -
     host.step_ms(1000)
     assert not running(1) and not cs_words(1)[1] & RUN_TIME_ERROR
     assert (positions(1, 4) == [5000.0, -16000.0]).all()
+
+
+# -- errors in combination ------------------------------------------------------------------------
+def test_a_limit_in_one_cs_aborts_it_and_the_other_runs_on_and_running_refuses_commands(
+        host_limits: Pmac) -> None:
+    """C.S. 1 (motor 1, its +LIM at 3000 counts) runs X10 at F10, C.S. 2 (motor 3) X5 at F5.
+    While they run, the commands the manual refuses during program execution answer ERR001
+    and change nothing (OPEN PROG of the running program or any other, B, a motor command or
+    an axis definition for one of the C.S.'s motors, UNDEFINE, DEFINE LOOKAHEAD, OPEN
+    FORWARD, PMATCH) [digest §2.4 ERR001; SRM OPEN PROGRAM; README "Motion programs"]. At the
+    limit C.S. 1 stops with a run-time error (`??` word 2 bit 22, the motor's +limit bit) and
+    its motor decelerates past the switch at Ixx15; C.S. 2 runs on to X5 at 1.1 s, unaltered
+    (X at t is 5000·(t − TA/2) while it cruises); OPEN PROG is refused until it ends [SRM
+    "Run-time error"; UM "Overtravel limits"]."""
+    host = host_limits
+    send_all(host, ["&1#1->1000X &2#3->1000X #1J/ #3J/ I116=1000 I117=100 I316=1000 I317=100",
+                    "OPEN PROG 1 CLEAR", "LINEAR ABS TA100 TS0 F10", "X10", "CLOSE",
+                    "OPEN PROG 2 CLEAR", "LINEAR ABS TA100 TS0 F5", "X5", "CLOSE"])
+    assert ask("&1B1R &2B2R") == ""
+    host.step(100)
+    for command in ("OPEN PROG 1", "OPEN PROG 2", "OPEN PROG 3", "&1B2", "&2B1", "#1J+",
+                    "#1HM", "#3J/", "&1#1->500X", "&1#2->1000Y", "&2UNDEFINE",
+                    "&1DEFINE LOOKAHEAD 10", "&1OPEN FORWARD", "&2PMATCH"):
+        assert ask(command) == "\x07ERR001", command
+    assert ask("CLOSE LIST PROG 1") == "LINEAR ABS TA100 TS0 F10\rX10"
+    assert ask("&1#1->") == "1000X" and ask("&2#3->") == "1000X"
+    servo = int(ask("I10")) / 2**23 / 1000
+    host.step(round(0.3 / DT) - 100)
+    ticks = round(0.3 / DT)
+    assert running(1) and running(2)
+    host.step(round(0.15 / DT))                             # X 3000 at 0.35 s: the limit
+    ticks += round(0.15 / DT)
+    assert not running(1) and cs_words(1)[1] & RUN_TIME_ERROR
+    assert int(ask("#1?")[:6], 16) & 1 << 21                  # motor 1: +limit [SRM #n?]
+    assert 3000 < positions(1)[0] < 3500
+    assert running(2) and not cs_words(2)[1] & RUN_TIME_ERROR
+    assert positions(3)[0] == pytest.approx(5000 * (ticks * servo - 0.05), abs=1.0)
+    assert ask("OPEN PROG 3") == "\x07ERR001"                 # C.S. 2 still runs
+    assert ask("#1J-") == ""                                  # off the limit: C.S. 1 is free
+    host.step(round(0.65 / DT))
+    assert not running(2) and positions(3)[0] == 5000.0
+    assert ask("OPEN PROG 3") == "" and ask("CLOSE") == ""
