@@ -479,6 +479,30 @@ def test_override_slews_on_a_circle_while_a_plc_starts_another_cs_then_hold_and_
     assert positions(3)[0] == 5000.0 and not running(2)
 
 
+
+def test_stop_at_end_of_move_while_the_override_slews_then_resume(host: Pmac) -> None:
+    """A segmented LINEAR square side by side (Isx13 = 10 ms, F10) with `&1%50` slewing the time
+    base at the factory Isx94 (about a second from 100 % to 0): `/` during the first move stops
+    the program on that move's end point, X5 Y0 (the blend into the next move becomes the
+    deceleration, X never passes 5, Y never moves), the program no longer runs; `R` goes on
+    with the next moves to X0 Y5 [SRM `/`, `R`, Isx13; README "Motion programs" `/`]."""
+    send_all(host, ["&1#1->1000X &1#2->1000Y #1J/ #2J/",
+                    "I116=1000 I117=100 I216=1000 I217=100 I5113=10",
+                    "OPEN PROG 1 CLEAR", "LINEAR ABS TA100 TS0 F10", "X5", "Y5", "X0", "CLOSE"])
+    assert ask("&1%50") == "" and ask("&1B1R") == ""
+    host.step(800)
+    assert ask("&1/") == ""
+    path = []
+    for _ in range(14):
+        host.step(200)
+        path.append(positions(1, 2))
+    assert max(x for x, _ in path) == 5000.0 and all(y == 0 for _, y in path)
+    assert tuple(path[-1]) == (5000.0, 0.0) and not running(1)
+    assert ask("PE") == "P1:1" and not cs_words(1)[1] & RUN_TIME_ERROR
+    assert ask("&1R") == ""
+    host.step(round(3.0 / DT))
+    assert not running(1) and (positions(1, 2) == [0.0, 5000.0]).all()
+
 # -- two C.S. running at once and a homing PLC on a third motor ----------------------------------
 RASTER = ["OPEN PROG 10 CLEAR", "LINEAR ABS TA100 TS0 F50",
           "X10", "Y1", "X0", "Y2", "X10", "CLOSE"]
