@@ -194,6 +194,49 @@ def test_kinematic_motors_follow_the_inverse_of_the_blended_ta_ts_profile(host: 
     assert not running(1)
 
 
+
+#: the inverse program with the velocity flag: Q10 = 1 in PVT mode, the axis velocities in
+#: Q17 Q18, the motor velocities into P101 P102 (the polar Jacobian) [UM "Kinematic
+#: Calculations", "Velocity Calculation Flag"]
+INVERSE_PVT = [*INVERSE, "IF (Q10 = 1)",
+               "P101=(Q7*Q18-Q8*Q17)/(Q7*Q7+Q8*Q8)*5729.5779513",
+               "P102=(Q7*Q17+Q8*Q18)/SQRT(Q7*Q7+Q8*Q8)*1000", "ENDIF"]
+
+
+def test_kinematic_pvt_with_velocities_under_an_override(host: Pmac) -> None:
+    """A PVT200 path of the polar C.S. from X5 Y0 round to X0 Y5, at `%50` (Isx94 = 0: at
+    once): the inverse program runs at each segment's ends with Q10 = 1 and gives the motors'
+    positions and velocities there, and each motor follows the cubic through them in its own
+    space (a PVT move of the motor), on the program time, half the real time [UM "Kinematic
+    Calculations"; SRM PVT, `%`]."""
+    send_all(host, ["&1#1->I &1#2->I #1J/ #2J/ I5150=1 I5194=0", "#2J=5000",
+                    "&1OPEN FORWARD CLEAR", *FORWARD, "CLOSE",
+                    "&1OPEN INVERSE CLEAR", *INVERSE_PVT, "CLOSE",
+                    "OPEN PROG 9 CLEAR", "ABS PVT200", "X5:0 Y2:10", "X4:-10 Y4:10",
+                    "X2:-10 Y5:0", "X0 Y5", "CLOSE"])
+    host.step_ms(1500)                                      # the jog to radius 5: X5 Y0
+    assert (positions(1, 2) == [0.0, 5000.0]).all()
+    assert ask("&1%50") == "" and ask("&1B9R") == ""
+    servo = int(ask("I10")) / 2**23 / 1000
+    ticks, seen = 0, []
+    for _ in range(20):
+        ticks += round(0.08 / servo)
+        host.step(round(0.08 / servo))
+        seen.append((ticks * servo / 2, *positions(1, 2)))    # program time: half
+    got = np.array(seen)
+    pts = np.array([(5, 0), (5, 2), (4, 4), (2, 5), (0, 5)], dtype=float)
+    vel = np.array([(0, 0), (0, 10), (-10, 10), (-10, 0), (0, 0)], dtype=float)
+    r2 = (pts**2).sum(axis=1)
+    motor_pos = polar(pts)
+    motor_vel = np.column_stack([np.degrees((pts[:, 0] * vel[:, 1] - pts[:, 1] * vel[:, 0]) / r2)
+                                 * 100, (pts * vel).sum(axis=1) / np.sqrt(r2) * 1000])
+    knots = 0.2 * np.arange(5)
+    for m in range(2):
+        want = hermite(got[:, 0], knots, motor_pos[:, m], motor_vel[:, m])
+        error = float(np.abs(got[:, 1 + m] - want).max())
+        assert error <= 1.0, (m, error)                     # the encoder's whole counts
+    assert not running(1) and (positions(1, 2) == [9000.0, 5000.0]).all()
+
 # -- a PVT scan gathered into the DPRAM ------------------------------------------------------------
 PVT_SCAN = """\
 ; a PVT scan: point k at P(100+k) units with velocity P(200+k) units/s, every P3 ms
