@@ -651,7 +651,9 @@ def test_a_limit_in_one_cs_aborts_it_and_the_other_runs_on_and_running_refuses_c
     While they run, the commands the manual refuses during program execution answer ERR001
     and change nothing (OPEN PROG of the running program or any other, B, a motor command or
     an axis definition for one of the C.S.'s motors, UNDEFINE, DEFINE LOOKAHEAD, OPEN
-    FORWARD, PMATCH) [digest §2.4 ERR001; SRM OPEN PROGRAM; README "Motion programs"]. At the
+    FORWARD, PMATCH) [digest §2.4 ERR001; SRM OPEN PROGRAM; README "Motion programs"]; a PLC's
+    CMD"&2B1R" and CMD"#3J+" are refused the same way, without a reply to any port, and the PLC
+    goes on [SRM p.424 COMMAND; README "PLCs"]. At the
     limit C.S. 1 stops with a run-time error (`??` word 2 bit 22, the motor's +limit bit) and
     its motor decelerates past the switch at Ixx15; C.S. 2 runs on to X5 at 1.1 s, unaltered
     (X at t is 5000·(t − TA/2) while it cruises); OPEN PROG is refused until it ends [SRM
@@ -659,9 +661,14 @@ def test_a_limit_in_one_cs_aborts_it_and_the_other_runs_on_and_running_refuses_c
     host = host_limits
     send_all(host, ["&1#1->1000X &2#3->1000X #1J/ #3J/ I116=1000 I117=100 I316=1000 I317=100",
                     "OPEN PROG 1 CLEAR", "LINEAR ABS TA100 TS0 F10", "X10", "CLOSE",
-                    "OPEN PROG 2 CLEAR", "LINEAR ABS TA100 TS0 F5", "X5", "CLOSE"])
+                    "OPEN PROG 2 CLEAR", "LINEAR ABS TA100 TS0 F5", "X5", "CLOSE",
+                    "OPEN PLC 3 CLEAR", 'CMD"&2B1R"', 'CMD"#3J+"', "P30 = P30 + 1",
+                    "DISABLE PLC 3", "CLOSE"])
     assert ask("&1B1R &2B2R") == ""
-    host.step(100)
+    assert ask("P30=0 ENABLE PLC 3") == ""    # a PLC's CMDs that C.S. 2 refuses (ERR001):
+    host.step(20)                             # dropped without a reply, the PLC goes on
+    assert float(ask("P30")) == 1
+    host.step(80)
     for command in ("OPEN PROG 1", "OPEN PROG 2", "OPEN PROG 3", "&1B2", "&2B1", "#1J+",
                     "#1HM", "#3J/", "&1#1->500X", "&1#2->1000Y", "&2UNDEFINE",
                     "&1DEFINE LOOKAHEAD 10", "&1OPEN FORWARD", "&2PMATCH"):
