@@ -5,9 +5,9 @@ test checks what the manual says the combination does [Turbo SRM, Turbo UM "Writ
 Executing Motion Programs", "Kinematic Calculations", "Data Gathering"; spec pmac.md §2.8, §3.1;
 README "Motion programs", "Move modes", "Rotary buffers", "Kinematic programs"].
 
-Positions are read with `#nP` (counts, 1/32 count resolution) while the test steps the clock; a
-program's time origin is the R that the test sends between steps (the first program servo cycle
-is the next one)."""
+Positions are read with `#nP` while the test steps the clock (the `ideal` plant: the encoder's
+whole counts); a program's time origin is the R that the test sends between steps (the first
+program servo cycle is the next one)."""
 
 from __future__ import annotations
 
@@ -151,15 +151,15 @@ def test_kinematic_cs_runs_a_segmented_linear_program_through_its_inverse(host: 
     setup_polar(host)
     assert ask("&1B5R &2B5R") == ""
     worst = 0.0
-    for _ in range(24):
+    for _ in range(45):                                  # 0.8 s of the 0.95 s
         host.step(40)
         m = positions(1, 2, 3, 4)
         assert running(1) and running(2)
-        # the inverse of C.S. 2's path, through the 1/32-count resolution of its motors
+        # the inverse of C.S. 2's path, through the whole counts of its motors' encoders
         want = polar(m[None, 2:] / 1000)[0]
         worst = max(worst, float(np.abs(m[:2] - want).max()))
-    assert worst < 2.0                        # 1/32 count in X Y is < 1 count of either motor
-    host.step(round(0.85 / DT) - 24 * 40)
+    assert worst < 2.0          # a count of X or Y at radius ≥ 5 units: ~1 count of either motor
+    host.step(round(0.85 / DT) - 45 * 40)
     for _ in range(round(0.2 / DT)):             # the two C.S. end in the same servo cycle
         host.step(1)
         if not running(2):
@@ -192,7 +192,6 @@ def test_kinematic_motors_follow_the_inverse_of_the_blended_ta_ts_profile(host: 
     assert running(1)
     host.step(10)
     assert not running(1)
-
 
 
 #: the inverse program with the velocity flag: Q10 = 1 in PVT mode, the axis velocities in
