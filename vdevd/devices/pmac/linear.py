@@ -145,6 +145,20 @@ class LinearPlanner(Planner):
                 duration *= float(np.max(r))
         return duration
 
+    def advance(self) -> list[Piece]:
+        """The held move's cruise up to where a stop in its own TA would begin (TA/2 before its
+        corner), for a calculation that must go on without the next move yet (a rotary buffer
+        waiting for its next line, program_runner.py): the next move added still blends from
+        there, in at most that TA (the bound of `add`)."""
+        if not self.vel.any():
+            return []
+        keep = min(self.last_ta, 2 * self.left) / 2
+        out = cruise(self.tail, self.vel, self.left - keep)
+        if out:
+            self.tail = out[-1].end()[0]
+            self.left = keep
+        return out
+
     def flush(self) -> list[Piece]:
         """Decelerate to a stop at the last move's end in its own TA."""
         if not self.vel.any():

@@ -864,14 +864,11 @@ class CsProgram:
 
     def _next_rotary_line(self) -> bool:
         """The next line the host sent to the rotary buffer, compiled on its own (rotary.py).
-        None waiting: once the motion calculated has started to run out, the last move is
-        completed to a stop (the planner flushed) and the program waits for lines."""
+        None waiting: the program waits for lines (`_rotary_dry`)."""
         line = self.fw.rotary.take(self.cs)
         if line is None:
-            if not self.rot_flushed and not self.queue:
-                self._flush()
-                self._restart_planner()
-                self.rot_flushed = True
+            if not self.rot_flushed:
+                self._rotary_dry()
             return False
         self.rot_flushed = False
         try:
@@ -881,6 +878,38 @@ class CsProgram:
             self._runtime_error()
         self.rot.ops, self.rot.labels, self.pc = ops, labels, 0
         return bool(ops)
+
+    def _rotary_dry(self) -> None:
+        """No line waits in the rotary buffer. The buffer is dry only when the card needs the
+        next move [UM "Rotary Motion Program Buffers"; SRM I16, I17]: the LINEAR move held for
+        its blend runs on (`LinearPlanner.advance`) as far as a stop in its TA allows, the
+        lookahead buffer (Isx20) filling from it; once the motion calculated would run out in
+        this servo cycle, the last move is completed to a stop (the planner flushed) and the
+        next line sent starts from rest. A line that comes before blends."""
+        seg = self.segmenter
+        if not (seg is not None and seg.lookahead and not seg.full()) and not self._running_out():
+            return
+        if isinstance(self.planner, LinearPlanner):
+            more = self.planner.advance()
+            if more:
+                self._enqueue(more, starts=0)
+        if self._running_out():
+            self._flush()
+            self._restart_planner()
+            self.rot_flushed = True
+
+    def _running_out(self) -> bool:
+        """The motion queued ends within this servo cycle (at the present time base)."""
+        rate = self.fw.timebase.present(self.cs - 1) / 100 * self.hold
+        step = rate * self.fw.period_ns / 1e9
+        if step <= 0:
+            return False   # held: nothing runs out
+        left = self.cur.piece.dur - self.tau if self.cur is not None else 0.0
+        for q in self.queue:
+            if left > step:
+                break
+            left += q.piece.dur
+        return left <= step
 
     def _read_position_after_wait(self) -> None:
         self.exec_pos = self.pos.copy()
