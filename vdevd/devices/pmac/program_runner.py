@@ -726,6 +726,8 @@ class CsProgram:
                 real -= need
                 self.exec_pos = q.piece.end()[0]
                 self.cur = None
+                if self.prog == 0 and self.rot_flushed and not self.queue:
+                    self.exec_pos = self.pos.copy()   # a dry rotary buffer: on the end exactly
         fw.motors.dwell[self.members] = self.cur is not None and not self.cur.scaled
         if self.cur is not None:
             c, tau = self.cur.piece.coef, self.tau
