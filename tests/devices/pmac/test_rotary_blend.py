@@ -90,7 +90,7 @@ def test_a_line_sent_while_the_move_runs_blends_through_the_corner(isx13: int) -
     dipping to 20/√2 = 14.1 counts/ms in its middle, and the sequence ends at 1.05 s: the
     trajectory of the same moves stored in a PROG."""
     rows = feed(isx13, {0.45: "Y10"})
-    assert np.array_equal(rows, stored(isx13))
+    assert np.allclose(rows, stored(isx13), rtol=0, atol=1e-6)
     assert corner_speed(rows) == pytest.approx(20 / np.sqrt(2), abs=0.05)
     assert end_time(rows) == pytest.approx(1.05, abs=2 * DT)
 
@@ -131,6 +131,16 @@ def test_lines_fed_just_in_time_keep_the_speed(isx13: int) -> None:
     assert xs[-1] == 8000.0
 
 
+def test_a_blend_ixx17_stretches_keeps_its_room_while_the_line_is_awaited() -> None:
+    """Isx13 = 0, Ixx17 = 0.2 counts/ms²: the corner's 20 counts/ms change needs a 100 ms blend,
+    not TA50 [SRM Ixx17], beginning at 0.475 s. Waiting for Y10, X10 runs on only as far as
+    the motion needs (10 ms at a time), so Y10 sent at 0.44 s still gets the stretched blend:
+    the stored program's trajectory."""
+    rows = feed(0, {0.44: "Y10"}, accel=0.2, seconds=2.0)
+    assert np.allclose(rows, stored(0, accel=0.2, seconds=2.0), rtol=0, atol=1e-6)
+    assert corner_speed(rows) > 5.0
+
+
 def test_the_lookahead_fills_from_the_rotary_buffer() -> None:
     """Isx13 = 10 with a lookahead of Isx20 = 10 segments: the lookahead calculates 0.1 s of path
     ahead, so Y10 must come 0.1 s before the blend: at 0.35 s it blends (and the lookahead bit
@@ -148,7 +158,7 @@ def test_the_lookahead_slows_a_rotary_corner_within_ixx17() -> None:
     stored program, the corner slowed but not stopped, every motor's segment-to-segment change
     within Ixx17 (but where the path turns inside a segment: 1.1×, README), ending on (10, 10)."""
     rows = feed(10, {0.1: "Y10"}, lookahead=10, accel=0.2, seconds=2.0)
-    assert np.array_equal(rows, stored(10, lookahead=10, accel=0.2, seconds=2.0))
+    assert np.allclose(rows, stored(10, lookahead=10, accel=0.2, seconds=2.0), rtol=0, atol=1e-6)
     assert np.array_equal(rows[-1], [10000.0, 10000.0])
     assert corner_speed(rows) > 5.0
     w = round(0.010 / DT)

@@ -27,6 +27,7 @@ bit 22 (run-time error) is set until the next R.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -118,6 +119,9 @@ class _Glide:
 
 #: servo cycles one glide computes at most
 GLIDE_MAX = 4096
+#: program time a LINEAR move waiting for the rotary buffer's next line runs on at a time, s
+#: (ASSUMPTION: the sources give no calculation step)
+ROTARY_CHUNK = 0.010
 
 
 @dataclass
@@ -884,17 +888,24 @@ class CsProgram:
     def _rotary_dry(self) -> None:
         """No line waits in the rotary buffer. The buffer is dry only when the card needs the
         next move [UM "Rotary Motion Program Buffers"; SRM I16, I17]: the LINEAR move held for
-        its blend runs on (`LinearPlanner.advance`) as far as a stop in its TA allows, the
-        lookahead buffer (Isx20) filling from it; once the motion calculated would run out in
-        this servo cycle, the last move is completed to a stop (the planner flushed) and the
-        next line sent starts from rest. A line that comes before blends."""
+        its blend runs on (`LinearPlanner.advance`, ROTARY_CHUNK at a time as the motion needs
+        it, so the blend keeps the room Ixx17 may stretch it into) as far as a stop in its TA
+        allows, the lookahead buffer (Isx20) filling from it; once the motion calculated would
+        run out in this servo cycle, the last move is completed to a stop (the planner flushed)
+        and the next line sent starts from rest. A line that comes before blends."""
         seg = self.segmenter
-        if not (seg is not None and seg.lookahead and not seg.full()) and not self._running_out():
+        hungry = seg is not None and seg.lookahead and not seg.full()
+        if not hungry and not self._running_out():
             return
-        if isinstance(self.planner, LinearPlanner):
-            more = self.planner.advance()
-            if more:
+        planner = self.planner
+        if isinstance(planner, LinearPlanner):
+            for _ in range(MAX_STEPS):
+                more = planner.advance(math.inf if hungry else ROTARY_CHUNK)
+                if not more:
+                    break
                 self._enqueue(more, starts=0)
+                if not self._running_out():
+                    return
         if self._running_out():
             self._flush()
             self._restart_planner()
