@@ -166,3 +166,54 @@ def test_the_lookahead_slows_a_rotary_corner_within_ixx17() -> None:
         vel = (trace[w:] - trace[:-w]) / (w * DT * 1000)
         acc = (vel[w:] - vel[:-w]) / (w * DT * 1000)
         assert np.max(np.abs(acc)) <= 0.2 * 1.1
+
+
+def run_lines(lines: list[str], send: dict[float, str], seconds: float) -> np.ndarray:
+    """Isx13 = 10: `lines` into C.S. 1's rotary buffer (B0 R) with `send` (time: line) sent as it
+    runs, or, `send` empty, as PROG 1 (B1 R); motors 1 and 2 each cycle."""
+    c = Card()
+    c.raw("I3=2")
+    for line in ["&1 #1->1000X #2->1000Y", "#1J/ #2J/", "I5113=10", "&1 DEFINE ROT 200"]:
+        c.ask(line)
+    start = ["&1 B0", "OPEN ROT", *lines, "&1 R"] if send else \
+        ["OPEN PROG 1 CLEAR", *lines, "CLOSE", "&1 B1 R"]
+    for line in start:
+        c.ask(line)
+    waiting = sorted(send.items())
+    rows = [c.fw.reports.commanded()[:2].copy()]
+    for k in range(round(seconds / DT)):
+        while waiting and waiting[0][0] <= k * DT:
+            c.ask(waiting.pop(0)[1])
+        c.tick()
+        rows.append(c.fw.reports.commanded()[:2].copy())
+    return np.array(rows)
+
+
+ARCS = ["ABS CIRCLE1 TA50 TS0 F20", "X10 Y10 I10 J0"]   # then X20 Y0 I0 J-10, on the same circle
+
+
+def test_a_circle_sequence_fed_in_time_blends_as_stored() -> None:
+    """CIRCLE moves (Isx13 > 0) blend as LINEAR ones [UM "Circular Interpolation"]: the second
+    arc sent at 0.6 s, while the first (0.785 s of path from 0.025 s) runs, gives the stored
+    program's trajectory, at F without a slow-down (the arcs are tangent); sent at 0.78 s,
+    after its blend would have begun, the first arc stops on its end first."""
+    second = "X20 Y0 I0 J-10"
+    stored_arcs = run_lines([*ARCS, second], {}, 2.5)
+    fed = run_lines(ARCS, {0.6: second}, 2.5)
+    assert np.allclose(fed, stored_arcs, rtol=0, atol=1e-6)
+    v = speed(fed)[round(0.1 / DT):round(1.5 / DT)]
+    assert np.min(v) > 19.99
+    late = run_lines(ARCS, {0.78: second}, 2.5)
+    assert np.min(speed(late)[round(0.1 / DT):round(1.5 / DT)]) < 0.1
+    assert np.array_equal(late[-1], [20000.0, 0.0])
+
+
+def test_linear_into_circle_and_back_fed_in_time_runs_as_stored() -> None:
+    """LINEAR X10, then CIRCLE1 and LINEAR again sent while the move before runs (mode_blend.py:
+    the sequence goes on in the CIRCLE planner): the stored program's trajectory."""
+    lines = ["ABS LINEAR TA50 TS0 F20", "X10"]
+    more = {0.3: "CIRCLE1 X20 Y10 I0 J10", 0.8: "LINEAR Y20"}
+    fed = run_lines(lines, more, 5.0)
+    stored_seq = run_lines([*lines, *more.values()], {}, 5.0)
+    assert np.allclose(fed, stored_seq, rtol=0, atol=1e-6)
+    assert np.array_equal(fed[-1], [20000.0, 20000.0])

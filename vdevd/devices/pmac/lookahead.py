@@ -74,20 +74,18 @@ class Segmenter:
                 self.mark = starts
             t = self.phase
             while t < piece.dur - 1e-12:
-                if t > 1e-12 or self.tail is not None:   # a point on the piece's start ends
-                    self._point(*piece.at(t), self.seg, t > 1e-12)   # the segment before it
+                if t > 1e-12 or self.tail is not None:
+                    self._point(*piece.at(t), self.seg)
                 t += self.seg
             self.phase = t - piece.dur
             self.tail = piece
 
-    def _point(self, p: np.ndarray, v: np.ndarray, nominal: float, mark: bool = True) -> None:
-        """The next point and the segment ending there (with the move number starting in it
-        unless `mark` is False: the move starts on the point, in the next segment)."""
+    def _point(self, p: np.ndarray, v: np.ndarray, nominal: float) -> None:
         self.pts.append(p)
         self.vel.append(v)
         self.nom.append(nominal)
-        self.marks.append(self.mark if mark else 0)
-        self.mark = self.mark if not mark else 0
+        self.marks.append(self.mark)
+        self.mark = 0
 
     def release(self, final: bool) -> list[tuple[Piece, int]]:
         """The pieces that leave the buffer (with their move numbers): all of them when `final`

@@ -887,8 +887,8 @@ class CsProgram:
 
     def _rotary_dry(self) -> None:
         """No line waits in the rotary buffer. The buffer is dry only when the card needs the
-        next move [UM "Rotary Motion Program Buffers"; SRM I16, I17]: the LINEAR move held for
-        its blend runs on (`LinearPlanner.advance`, ROTARY_CHUNK at a time as the motion needs
+        next move [UM "Rotary Motion Program Buffers"; SRM I16, I17]: the LINEAR (or CIRCLE)
+        move held for its blend runs on (`advance` of its planner, ROTARY_CHUNK at a time as the motion needs
         it, so the blend keeps the room Ixx17 may stretch it into) as far as a stop in its TA
         allows, the lookahead buffer (Isx20) filling from it; once the motion calculated would
         run out in this servo cycle, the last move is completed to a stop (the planner flushed)
@@ -898,7 +898,7 @@ class CsProgram:
         if not hungry and not self._running_out():
             return
         planner = self.planner
-        if isinstance(planner, LinearPlanner):
+        if isinstance(planner, (LinearPlanner, CirclePlanner)):
             for _ in range(MAX_STEPS):
                 more = planner.advance(math.inf if hungry else ROTARY_CHUNK)
                 if not more:
