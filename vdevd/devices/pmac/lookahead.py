@@ -15,12 +15,14 @@ one per segment: the path speed (motor counts/s, Euclidean over the C.S.'s motor
 the segment points and each segment runs from point to point in its programmed time (Isx13)
 stretched by the slowing, 2·run/(speed in + speed out) where `run` is the programmed time × the
 mean programmed speed at its ends, the point velocity being the programmed velocity there scaled
-to the solved speed (Hermite cubics). Not slowed, a segment is the cubic of the exact trajectory's
-positions and velocities at its ends over Isx13 ms, so the fine interpolation keeps the TA/TS
-blend's acceleration (within what a cubic per segment can follow of it). Bounds on the speed at a point: the
-programmed speed (the lookahead only slows) and Ixx16 for each motor along the programmed
-direction; from point to point (a forward and a backward pass, the classic look-ahead
-recurrence) no motor's velocity may change by more than Ixx17 times the segment's time; the
+to the solved speed (Hermite cubics). Not slowed, a segment is the cubic of the exact
+trajectory's positions and velocities at its ends over Isx13 ms, so the fine interpolation keeps
+the TA/TS blend's acceleration (within what a cubic per segment can follow of it). Bounds on the
+speed at a point: the programmed speed (the lookahead only slows) and Ixx16 for each motor along
+the programmed direction; from point to point (a forward and a backward pass, the classic
+look-ahead recurrence) no motor's velocity may change by more than Ixx17 times the segment's
+time, a segment that turns the path having both ends at most at the even speed that turns it
+within Ixx17 (else the forward pass could reach a corner too fast to turn and stop in it); the
 last point the buffer holds is a stop.
 """
 

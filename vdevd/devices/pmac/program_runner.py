@@ -119,7 +119,7 @@ class _Glide:
 
 #: servo cycles one glide computes at most
 GLIDE_MAX = 4096
-#: program time a LINEAR move waiting for the rotary buffer's next line runs on at a time, s
+#: program time a LINEAR or CIRCLE move waiting for the rotary buffer's next line runs on at a time, s
 #: (ASSUMPTION: the sources give no calculation step)
 ROTARY_CHUNK = 0.010
 
@@ -888,9 +888,9 @@ class CsProgram:
     def _rotary_dry(self) -> None:
         """No line waits in the rotary buffer. The buffer is dry only when the card needs the
         next move [UM "Rotary Motion Program Buffers"; SRM I16, I17]: the LINEAR (or CIRCLE)
-        move held for its blend runs on (`advance` of its planner, ROTARY_CHUNK at a time as the motion needs
-        it, so the blend keeps the room Ixx17 may stretch it into) as far as a stop in its TA
-        allows, the lookahead buffer (Isx20) filling from it; once the motion calculated would
+        move held for its blend runs on (`advance` of its planner, ROTARY_CHUNK at a time as
+        the motion needs it, so the blend keeps the room Ixx17 may stretch it into) as far as a
+        stop in its TA allows, the lookahead buffer (Isx20) filling from it; once the motion calculated would
         run out in this servo cycle, the last move is completed to a stop (the planner flushed)
         and the next line sent starts from rest. A line that comes before blends."""
         seg = self.segmenter
