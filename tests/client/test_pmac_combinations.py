@@ -168,11 +168,6 @@ def test_kinematic_cs_runs_a_segmented_linear_program_through_its_inverse(host: 
     assert positions(1, 2, 3, 4) == pytest.approx([9000, 5000, 0, 5000], abs=1e-3)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "Isx13 segmentation times each segment 2·length/(speed in + speed out) (lookahead.py "
-    "Segmenter) instead of Isx13 ms of the programmed profile: under a TS S-curve the motion "
-    "runs up to 4.4 ms ahead of the TA/TS profile (88 counts at 20 counts/ms); the Isx13 "
-    "acceleration defect helper `plook` works on"))
 def test_kinematic_motors_follow_the_inverse_of_the_blended_ta_ts_profile(host: Pmac) -> None:
     """Motors 1 and 2 of the kinematic C.S. against the inverse of the LINEAR profile the
     manual gives (TA centred on each corner, TS ramps), sampled every 40 servo cycles: within
@@ -420,11 +415,6 @@ def test_dpram_binary_rotary_ring_runs_through_the_special_lookahead(host: Pmac)
     assert path[:, 1].max() == 5000.0 and path[:, 0].min() == 0.0  # the square's far corner
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "rotary refill through the lookahead: the lines that reach the rotary buffer while the "
-    "motion runs in the lookahead are not blended in, the motion stops on the end of the lines "
-    "that were there at R (X0 Y5, 1.27 s) although X0 Y0 was added at 0.6 s, then starts "
-    "again from rest; the rotary refill defect helper `plook` works on"))
 def test_lines_fed_through_the_ring_while_it_runs_blend_in_without_a_stop(host: Pmac) -> None:
     """The lookahead calculates ahead over what the buffer holds: lines that arrive 0.67 s
     before the motion reaches the end of the earlier ones continue it without a stop (the
