@@ -108,7 +108,10 @@ class Probe:
         self.attached = False
 
     def on_tick(self) -> None:
-        """After a tick of the core: a sample when one is due."""
+        """After a tick of the core: a sample when one is due (none once done: a run of
+        ticks under way may still call the hook it took before `detach`)."""
+        if self.rec.state == DONE:
+            return
         self.tick += 1
         c = self.countdown - 1
         if c:
@@ -123,6 +126,8 @@ class Probe:
 
     def on_skip(self, k: int) -> None:
         """After k ticks at rest: their samples, of the resting state."""
+        if self.rec.state == DONE:
+            return
         c, every = self.countdown, self.every
         first = self.tick + c  # the tick of the first sample among them
         self.tick += k

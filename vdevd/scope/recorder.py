@@ -49,7 +49,9 @@ class Recorder:
 
     # -- sampling (the tick's hot path) -----------------------------------------------------------
     def sample(self, t_ns: int, words: np.ndarray | None = None) -> None:
-        """Take one sample of the source now, at simulated time t_ns."""
+        """Take one sample of the source now, at simulated time t_ns (none once done)."""
+        if self.state == DONE:
+            return
         i = self.written
         slot = i % self.capacity
         np.take(self.source, self.flat, out=self.ring[slot])
