@@ -86,7 +86,8 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--trigger-wait", type=_seconds, default=10.0, metavar="S",
                    help="with a trigger, simulated seconds the command steps on at most for "
                         "it to fire and the recording to end (default: 10)")
-    p.add_argument("--csv", metavar="FILE", help="write the trace as CSV (time_s, AXIS.signal...) (default: none)")
+    p.add_argument("--csv", metavar="FILE",
+                   help="write the trace as CSV (time_s, AXIS.signal...) (default: none)")
     p.add_argument("--png", metavar="FILE",
                    help="plot one panel per signal (needs matplotlib: vdevd[plot]) (default: none)")
     p.add_argument("--title", default="", help="the plot's title (default: none)")

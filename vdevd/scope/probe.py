@@ -28,8 +28,9 @@ from vdevd.scope.recorder import ARMED, DONE, Recorder
 from vdevd.scope.signals import Signals
 from vdevd.scope.trigger import Trigger, TriggerMachine
 
-#: samples staged between two vectorised writes into the recorder
-STAGE = 256
+#: samples staged between two vectorised writes into the recorder: at most STAGE, in at most
+#: STAGE_BYTES (a write costs some 30 us: spread over a thousand ticks, 30 ns a tick)
+STAGE, STAGE_BYTES = 4096, 1 << 20
 
 
 class Probe:
@@ -61,10 +62,11 @@ class Probe:
         #: the staged rows of the state block (a view), and each float column's place in them
         self.src = core.axes.state[lo:hi]
         self.take = np.array([(r - lo) * n + a for r, a in rows], dtype=np.intp)
-        self.stage = np.zeros((min(STAGE, capacity * 2),) + self.src.shape)
+        size = max(16, min(STAGE, STAGE_BYTES // self.src.nbytes, capacity * every))
+        self.stage = np.zeros((size,) + self.src.shape)
+        self.stage.fill(0.0)  # its pages mapped now, at arming, not in the ticks
         self.wstage = np.zeros((len(self.stage), len(axes) * len(self.word_names)),
                                dtype=np.int64)
-        self.staged = 0
         self._axes = np.array(axes, dtype=np.intp)
         watch = -1
         if watch_row >= 0:
@@ -77,6 +79,7 @@ class Probe:
         self.tick = card.ticks  # the card's tick of the last sample flushed (or at arming)
         self.countdown = every  # ticks to the next sample
         self._regime = self._period_regime()
+        self.hook = CoreTick(self)  # holds the count of staged samples (`n`)
         self.attached = False
         self.attach()
 
@@ -122,7 +125,7 @@ class Probe:
     # -- hooks ---------------------------------------------------------------------------------------
     def attach(self) -> None:
         core = self.core
-        core.tick = CoreTick(self)  # type: ignore[method-assign]
+        core.tick = self.hook  # type: ignore[method-assign]
         core.skip = CoreSkip(self)  # type: ignore[method-assign]
         if self.trigger.kind in ("register", "irq") and self.rec.state == ARMED:
             self.card.tick = CardTicks(self)
@@ -138,10 +141,10 @@ class Probe:
     def flush(self) -> None:
         """Write the staged samples into the recorder (their ticks follow `tick` every
         `every`); detach once it is done."""
-        m = self.staged
+        m = self.hook.n
         if not m:
             return
-        self.staged = 0
+        self.hook.n = 0
         ticks = self.tick + self.every * np.arange(1, m + 1, dtype=np.int64)
         self.tick = int(ticks[-1])
         values = self.stage[:m].reshape(m, -1)[:, self.take]
@@ -195,35 +198,39 @@ class Probe:
 
 class CoreTick:
     """The core's `tick` while a scope records: the core's own, then a block copy of the
-    recorded rows into the stage (the hot path: no Python loop over axes or signals; every
-    tick with no word signal, the common case, takes the shortest path)."""
+    recorded rows into the next row of the stage (the hot path: no Python loop over axes or
+    signals; every tick with no word signal, the common case, takes the shortest path)."""
 
     def __init__(self, probe: Probe) -> None:
         self.probe = probe
         self.core = probe.core
         self.fn: Callable[[Any], int] = type(probe.core).tick
-        self.stage, self.src = probe.stage, probe.src
-        self.size = len(probe.stage)
+        self.src = probe.src
+        self.rows = list(probe.stage)  # a view per row: the cheapest copy into it
+        self.size = len(self.rows)
         self.plain = probe.every == 1 and not probe.word_names
+        self.n = 0  # samples staged
 
     def __call__(self) -> int:
         events = self.fn(self.core)
-        p = self.probe
         if self.plain:
-            i = p.staged
-            self.stage[i] = self.src
-        else:
-            c = p.countdown - 1
-            if c:
-                p.countdown = c
-                return events
-            p.countdown = p.every
-            i = p.staged
-            self.stage[i] = self.src
-            if p.word_names:
-                p.wstage[i] = p._words()
-        i += 1
-        p.staged = i
+            i = self.n
+            self.rows[i][...] = self.src
+            self.n = i = i + 1
+            if i == self.size:
+                self.probe.flush()
+            return events
+        p = self.probe
+        c = p.countdown - 1
+        if c:
+            p.countdown = c
+            return events
+        p.countdown = p.every
+        i = self.n
+        self.rows[i][...] = self.src
+        if p.word_names:
+            p.wstage[i] = p._words()
+        self.n = i = i + 1
         if i == self.size:
             p.flush()
         return events

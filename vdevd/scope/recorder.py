@@ -33,6 +33,8 @@ class Recorder:
         self.ring = np.zeros((capacity, columns))
         self.words = np.zeros((capacity, n_words), dtype=np.int64)
         self.times = np.zeros(capacity, dtype=np.int64)
+        for block in (self.ring, self.words, self.times):  # pages mapped now, not in the ticks
+            block.fill(0)
         self.machine = machine
         self.watch = watch
         self.written = 0  # samples taken since arming
