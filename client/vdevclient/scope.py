@@ -89,7 +89,8 @@ class Trace:
                             else "default")
             ax.set_ylabel(f"{s}\n({UNITS[s]})")
             ax.grid(True, alpha=0.3)
-            if self.trigger_index is not None and 0 <= self.trigger_index < len(t):
+            if (self.trigger_index is not None and 0 < self.trigger_index < len(t)
+                    and self.status.get("trigger", {}).get("kind") != "now"):
                 ax.axvline(t[self.trigger_index], color="grey", linestyle=":")
         panels[0, 0].legend(loc="best", fontsize="small")
         panels[-1, 0].set_xlabel("simulated time (s)")
