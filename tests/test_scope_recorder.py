@@ -128,3 +128,60 @@ def test_bad_capacity_or_pre() -> None:
         Recorder(1, 0, 4, 4, TriggerMachine(Trigger()))
     with pytest.raises(ValueError):
         Recorder(1, 0, 0, 0, TriggerMachine(Trigger()))
+
+
+def test_an_armed_recording_pickles_and_records_on() -> None:
+    """Snapshots pickle the rack: the recorder, its hooks and the trigger machine are plain
+    objects (the card and its core are the snapshot's own business, referred to here by
+    persistent ids and restored as a card brought to the same state). The restored recorder
+    records on the restored core's state block (views rebuilt, not copies of the old one) and
+    ends with the very samples of the original."""
+    import io
+    import pickle
+    from typing import Any
+
+    from vdevd.devices import card_class
+    from vdevd.devices.base import CardContext
+    from vdevd.rack import Rack
+    from vdevd.scope.op import Scopes
+    from vdevd.scope.probe import CoreSkip
+
+    def make() -> tuple[Any, Rack]:
+        card = card_class("generic-servo")("c", {"plant": "ideal"}, CardContext(emit=print))
+        card.core.move_absolute(0, 100, 1000, 10_000, 10_000, 0)
+        card.touched()
+        return card, Rack([card])
+
+    card, rack = make()
+    scopes = Scopes()
+    scopes.op(card, {"action": "arm", "axes": [0], "signals": ["position", "command"],
+                     "samples": 60, "pre": 5,
+                     "trigger": {"kind": "position", "axis": 0, "level": 50}})
+    rack.sched.advance(40_000_000)
+    twin, twin_rack = make()  # the card as a snapshot restores it: same state, new objects
+    twin_rack.sched.advance(40_000_000)
+    refs = {id(card): "card", id(card.core): "core"}
+
+    class Out(pickle.Pickler):
+        def persistent_id(self, obj: object) -> str | None:
+            return refs.get(id(obj))
+
+    class In(pickle.Unpickler):
+        def persistent_load(self, pid: Any) -> object:
+            return {"card": twin, "core": twin.core}[pid]
+
+    buf = io.BytesIO()
+    Out(buf).dump(scopes)
+    buf.seek(0)
+    copy: Scopes = In(buf).load()
+    probe = copy.probes["c"]
+    assert type(probe.hook).__name__ == "StaleCoreTick" and probe.hook.n == scopes.probes["c"].hook.n
+    twin.core.tick, twin.core.skip = probe.hook, CoreSkip(probe)  # as the core's dict holds them
+    for r in (rack, twin_rack):
+        r.sched.advance(300_000_000)
+    a = scopes.op(card, {"action": "read"})
+    b = copy.op(twin, {"action": "read"})
+    assert a is not None and b is not None and a["state"] == b["state"] == "done"
+    assert a["count"] == b["count"] == 60
+    assert a["columns"] == b["columns"] and a["time_ns"] == b["time_ns"]
+    assert not {"tick", "skip"} & set(vars(twin.core))  # done: detached from the twin

@@ -60,6 +60,7 @@ class Probe:
         lo, hi = (min(used), max(used) + 1) if used else (0, 1)
         n = core.n
         #: the staged rows of the state block (a view), and each float column's place in them
+        self.rows_span = (lo, hi)
         self.src = core.axes.state[lo:hi]
         self.take = np.array([(r - lo) * n + a for r, a in rows], dtype=np.intp)
         size = max(16, min(STAGE, STAGE_BYTES // self.src.nbytes, capacity * every))
@@ -82,6 +83,19 @@ class Probe:
         self.hook = CoreTick(self)  # holds the count of staged samples (`n`)
         self.attached = False
         self.attach()
+
+    # -- pickling (snapshots) ---------------------------------------------------------------------
+    def __getstate__(self) -> dict[str, Any]:
+        """Without the view of the core's state (a copy once unpickled): `rebuild` makes it."""
+        state = dict(vars(self))
+        state.pop("src", None)
+        return state
+
+    def rebuild(self) -> None:
+        """The views an unpickled probe and its hook need, of the objects unpickled with them."""
+        lo, hi = self.rows_span
+        self.src = self.core.axes.state[lo:hi]
+        self.hook.src, self.hook.rows = self.src, list(self.stage)
 
     # -- the card's state -------------------------------------------------------------------------
     def _register(self, t: Trigger) -> int:
@@ -157,6 +171,8 @@ class Probe:
         if self.rec.state == DONE:
             return
         self.flush()
+        if "src" not in vars(self):
+            self.rebuild()
         c, every = self.countdown, self.every
         ticks_before = self.tick + (every - c)  # the card's tick before the skip
         if k < c:
@@ -211,6 +227,15 @@ class CoreTick:
         self.plain = probe.every == 1 and not probe.word_names
         self.n = 0  # samples staged
 
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(vars(self))
+        del state["src"], state["rows"]  # views: rebuilt at the first call (StaleCoreTick)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        vars(self).update(state)
+        self.__class__ = StaleCoreTick
+
     def __call__(self) -> int:
         events = self.fn(self.core)
         if self.plain:
@@ -234,6 +259,16 @@ class CoreTick:
         if i == self.size:
             p.flush()
         return events
+
+
+class StaleCoreTick(CoreTick):
+    """An unpickled `CoreTick`: its first call rebuilds the views (`Probe.rebuild`), then it is
+    a `CoreTick` again (no test on the hot path)."""
+
+    def __call__(self) -> int:
+        self.probe.rebuild()
+        self.__class__ = CoreTick  # type: ignore[assignment]
+        return CoreTick.__call__(self)
 
 
 class CoreSkip:
