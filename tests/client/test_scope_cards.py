@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import vdevclient
 from vdevclient import aps, gclib, maxk, mx4, pcomm
+from vdevmaps.galil import AxisStatus
 
 from tests.client.galil import card, rack_config
 from vdevd.testing import DaemonThread
@@ -44,15 +45,19 @@ def test_galil_profiled_move(daemon: DaemonThread, rack: vdevclient.Rack) -> Non
         trace = rack.card("galil0").scope(["X"], ["position", "command", "velocity", "error"],
                                           seconds=0.01)  # at rest: 10 samples of 0
         assert (trace["X.position"] == 0).all() and len(trace) == 10
+        g.GCommand("SB 2")  # output 2 on: bit 1 of the output bank
         g.GCommand("SH X;PR 10000;SP 20000;DC 100000;AC 100000;BG X")
-        trace = rack.card("galil0").scope(["x"], ["position", "command", "velocity", "error"],
-                                          seconds=0.9)
+        trace = rack.card("galil0").scope(["x"], ["position", "command", "velocity", "error",
+                                                  "status", "outputs"], seconds=0.9)
         assert len(trace) == 900 and (np.diff(trace.time_ns) == 1_000_000).all()
         assert trace["X.position"][-1] == int(g.GCommand("TP X")) == 10_000
         assert trace["X.command"][-1] == int(g.GCommand("RP X")) == 10_000
         assert trace["X.velocity"].max() == pytest.approx(20_000, rel=0.05)
         assert np.abs(trace["X.error"]).max() > 0  # the servo lags while it accelerates
         assert int(g.GCommand("TE X")) == trace["X.error"][-1]
+        assert trace["X.outputs"][-1] == int(float(g.GCommand("MG _OP"))) == 2
+        moving, done = trace["X.status"][100], trace["X.status"][-1]
+        assert moving & AxisStatus.MOVING and not done & AxisStatus.MOVING  # the data record's
     finally:
         g.GClose()
 
