@@ -63,7 +63,9 @@ class Probe:
         self.rows_span = (lo, hi)
         self.src = core.axes.state[lo:hi]
         self.take = np.array([(r - lo) * n + a for r, a in rows], dtype=np.intp)
-        size = max(16, min(STAGE, STAGE_BYTES // self.src.nbytes, capacity * every))
+        # a `now` recording takes `capacity` samples at most; one waiting for its trigger, more
+        size = max(16, min(STAGE, STAGE_BYTES // self.src.nbytes,
+                           capacity if trigger.kind == "now" else STAGE))
         self.stage = np.zeros((size,) + self.src.shape)
         self.stage.fill(0.0)  # its pages mapped now, at arming, not in the ticks
         self.wstage = np.zeros((len(self.stage), len(axes) * len(self.word_names)),
@@ -73,7 +75,6 @@ class Probe:
         if watch_row >= 0:
             self.take = np.append(self.take, (watch_row - lo) * n + trigger.axis)
             watch = len(self.take) - 1  # an extra column, the watched position
-        self.watch_extra = watch >= 0
         machine = TriggerMachine(trigger, self._register(trigger), self._irq_seq(trigger))
         self.rec = Recorder(len(self.take), len(axes) * len(self.word_names), capacity, pre,
                             machine, watch)
