@@ -3,8 +3,8 @@ the page of a lockstep daemon, jogs a Galil axis and steps the clock with the pa
 trips the forward limit with a backdoor button, and checks what the page shows against the
 card's own answers (TP, TV, TS) through the vendor library; a screenshot is saved.
 
-Chromium is installed by `make test` where the machine allows (scripts/install-chromium.sh);
-without it the test is skipped, saying so. VDEVD_WEB_SCREENSHOT names where the screenshot goes
+Chromium is installed by `make test` where the machine allows (`make chromium`: root with
+apt); without it the test is skipped, saying so. VDEVD_WEB_SCREENSHOT names where the screenshot goes
 (default: the test's tmp dir); the README's docs/web-view.png is made that way.
 """
 
@@ -35,8 +35,8 @@ sync_api = pytest.importorskip("playwright.sync_api",
 
 pytestmark = pytest.mark.skipif(
     not (os.access(CHROMIUM, os.X_OK) or shutil.which(CHROMIUM)),
-    reason=f"no Chromium at {CHROMIUM}: `make test` installs it where it can (root with apt: "
-           "apt-get install chromium); set VDEVD_CHROMIUM to another binary")
+    reason=f"no Chromium at {CHROMIUM}: `make chromium` (part of `make test`'s install) "
+           "installs it as root with apt; or set VDEVD_CHROMIUM to a Chromium binary")
 
 
 @pytest.fixture
