@@ -357,6 +357,10 @@ def test_other_sites_in_the_browser_are_refused(served: DaemonThread) -> None:
     port = base.rsplit(":", 1)[1]
     assert get(base + "/", {"Host": f"evil.example:{port}"})[0] == 421  # DNS rebinding
     assert get(base + "/", {"Host": f"localhost:{port}"})[0] == 200
+    host, _ = base.removeprefix("http://").rsplit(":", 1)
+    with socket.create_connection((host, int(port)), timeout=10) as conn:  # no Host at all
+        conn.sendall(b"GET / HTTP/1.0\r\n\r\n")
+        assert conn.recv(100).startswith(b"HTTP/1.0 400 ")
     assert post(base + "/api/op", {"op": "sim", "action": "now"},
                 headers={"Origin": "http://evil.example"})[0] == 403
     assert post(base + "/api/op", {"op": "sim", "action": "now"},
@@ -459,3 +463,16 @@ def test_vdevd_serve_serves_the_page_and_lists_it_in_its_ready_file(tmp_path: Pa
         log.close()
     assert code == 0
     assert "web view on http://127.0.0.1:" in (tmp_path / "vdevd.log").read_text()
+
+
+def test_the_page_follows_the_rack_a_reset_serves(served: DaemonThread,
+                                                  client: vdevclient.Rack) -> None:
+    """`DaemonThread.reset` (the pytest plugin's, between tests) swaps in a fresh rack: the
+    page shows and drives that one."""
+    client.sim.step(seconds=0.1)
+    assert state(served)["clock"]["now_ns"] == 100 * MS
+    served.reset()
+    assert state(served)["clock"]["now_ns"] == 0
+    assert post(url(served) + "/api/op", {"op": "sim", "action": "step", "ns": MS})[0] == 200
+    assert state(served)["cards"]["galil0"]["ticks"] == 1
+    assert client.sim.now_ns() == MS

@@ -189,12 +189,15 @@ class WebView:
     @web.middleware
     async def _guard(self, request: web.Request,
                      handler: Callable[[web.Request], Any]) -> web.StreamResponse:
-        host = (request.url.host or "").strip("[]")
+        header = request.headers.get("Host")
+        if not header:  # (aiohttp would look the machine's name up instead: a blocking call)
+            return web.Response(status=400, text="web view: a request needs a Host header\n")
+        host = _host_name(header)
         if self._loopback_only and host != "localhost" and not _is_ip(host):
             return web.Response(status=421, text=f"web view: unknown host {host!r}: reach it by "
                                 "its address or as localhost\n")
         origin = request.headers.get("Origin")
-        if origin is not None and origin != f"{request.scheme}://{request.host}":
+        if origin is not None and origin != f"http://{header}":
             return web.Response(status=403, text=f"web view: origin {origin} is not the page's\n")
         response: web.StreamResponse = await handler(request)
         if not isinstance(response, web.WebSocketResponse):
@@ -309,6 +312,13 @@ class WebView:
             except (TimeoutError, ConnectionError, RuntimeError):
                 await client.ws.close()
                 return
+
+
+def _host_name(header: str) -> str:
+    """The name or address of a Host header, without its port (`[::1]:8080` -> `::1`)."""
+    if header.startswith("["):
+        return header[1:].partition("]")[0]
+    return header.rpartition(":")[0] if header.count(":") == 1 else header
 
 
 def _is_ip(host: str) -> bool:
