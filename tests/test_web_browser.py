@@ -1,7 +1,8 @@
 """The web view in a real browser (issue 23 §3): headless Chromium, driven by Playwright, loads
 the page of a lockstep daemon, jogs a Galil axis and steps the clock with the page's buttons,
 trips the forward limit with a backdoor button, and checks what the page shows against the
-card's own answers (TP, TV, TS) through the vendor library; a screenshot is saved.
+card's own answers (TP, RP, TS, _BG) through the vendor library; arms the scope and sees it
+plotted, sees an interrupt come, and a bad request's error; a screenshot is saved.
 
 Chromium is installed by `make test` where the machine allows (`make chromium`: root with
 apt); without it the test is skipped, saying so. VDEVD_WEB_SCREENSHOT names where the screenshot goes
@@ -41,7 +42,7 @@ pytestmark = pytest.mark.skipif(
 
 @pytest.fixture
 def daemon() -> Iterator[DaemonThread]:
-    cfg = rack_config(card(GALIL, "galil0"))
+    cfg = rack_config(card(GALIL, "galil0"), card("dspcg-octavia", "octavia0"))
     cfg.web = WebConfig("127.0.0.1:0")
     with DaemonThread(cfg) as d:
         yield d
@@ -131,6 +132,14 @@ def test_the_page_jogs_an_axis_steps_the_clock_and_trips_a_limit(
         expect(page.locator("#error")).to_contain_text("bad_param: set_limit: no axis 'Q'",
                                                        timeout=SHOWN_MS)
         assert int(command(h, "TPX")) == tp
+
+        # an interrupt as it comes: a DSPL program's INT_HOST on the Octavia, from its form
+        page.select_option("#action-octavia0", "dspl_host_interrupt")
+        page.fill("#params-octavia0", '{"value": 1}')
+        page.click("#btn-control-octavia0")
+        row = page.locator("#irqs tbody tr").first
+        expect(row).to_contain_text("octavia0", timeout=SHOWN_MS)
+        expect(row.locator("td").nth(1)).to_have_text("inta")
 
         shot = Path(os.environ.get("VDEVD_WEB_SCREENSHOT", tmp_path / "web-view.png"))
         page.click("#btn-step")  # the error clears at the next request that succeeds
