@@ -89,7 +89,8 @@ class Trace:
                             else "default")
             ax.set_ylabel(f"{s}\n({UNITS[s]})")
             ax.grid(True, alpha=0.3)
-            if self.trigger_index is not None and 0 <= self.trigger_index < len(t):
+            if (self.trigger_index is not None and 0 < self.trigger_index < len(t)
+                    and self.status.get("trigger", {}).get("kind") != "now"):
                 ax.axvline(t[self.trigger_index], color="grey", linestyle=":")
         panels[0, 0].legend(loc="best", fontsize="small")
         panels[-1, 0].set_xlabel("simulated time (s)")
@@ -182,16 +183,23 @@ class Scope:
 def record(card: Card, axes: Sequence[str | int] | None = None,
            signals: Sequence[str] | None = None, *, seconds: float, every: int = 1,
            trigger: dict[str, Any] | str | None = None, pre: int = 0,
-           step: bool = True, wait_s: float | None = None) -> Trace:
-    """Arm `seconds` of samples, step the lockstep clock `seconds`, read the trace. With `step`
-    false or a realtime clock, wait (at most `wait_s` wall seconds, default 2 x seconds + 1)
-    for the recording to be done instead, then read what there is."""
+           step: bool = True, wait_s: float | None = None,
+           trigger_s: float = 10.0) -> Trace:
+    """Arm `seconds` of samples, step the lockstep clock `seconds`, read the trace; with a
+    trigger, step on `seconds` at a time while the recording is not done, `trigger_s` simulated
+    seconds at most. With `step` false or a realtime clock, wait (at most `wait_s` wall
+    seconds, default 2 x seconds + 1) for the recording to be done instead. Then read what
+    there is (`Trace.state` says whether it is done)."""
     import time
 
     scope = Scope(card)
     scope.arm(axes, signals, seconds=seconds, every=every, trigger=trigger, pre=pre)
     if step and card.rack.sim.mode == "lockstep":
         card.rack.sim.step(seconds=seconds)
+        waited = 0.0
+        while waited < trigger_s and scope.status()["state"] != "done":
+            card.rack.sim.step(seconds=min(seconds, trigger_s - waited))
+            waited += seconds
     else:  # time runs by itself, or someone else steps it: wait (wall time) until done
         deadline = time.monotonic() + (wait_s if wait_s is not None else 2 * seconds + 1)
         while scope.status()["state"] != "done" and time.monotonic() < deadline:

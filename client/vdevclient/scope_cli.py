@@ -83,22 +83,29 @@ def add_parser(sub: Any) -> None:
                         "or register:REGION:OFFSET[:WIDTH[:MASK[:VALUE]]]")
     p.add_argument("--pre", type=_count, default=0, metavar="N",
                    help="samples kept before the trigger (default: 0)")
-    p.add_argument("--csv", metavar="FILE", help="write the trace as CSV (time_s, AXIS.signal...)")
+    p.add_argument("--trigger-wait", type=_seconds, default=10.0, metavar="S",
+                   help="with a trigger, simulated seconds the command steps on at most for "
+                        "it to fire and the recording to end (default: 10)")
+    p.add_argument("--csv", metavar="FILE",
+                   help="write the trace as CSV (time_s, AXIS.signal...) (default: none)")
     p.add_argument("--png", metavar="FILE",
-                   help="plot one panel per signal (needs matplotlib: vdevd[plot])")
+                   help="plot one panel per signal (needs matplotlib: vdevd[plot]) (default: none)")
     p.add_argument("--title", default="", help="the plot's title (default: none)")
     p.add_argument("--no-step", action="store_true",
-                   help="do not step the lockstep clock: wait for someone else to (or realtime)")
+                   help="do not step the lockstep clock: wait for someone else to (or realtime) "
+                        "(default: step it)")
 
 
 def run(rack: Any, args: argparse.Namespace) -> int:
     card = rack.card(args.card)
     trace = record(card, args.axes, args.signals, seconds=args.seconds, every=args.every,
                    trigger=args.trigger, pre=args.pre, step=not args.no_step,
+                   trigger_s=args.trigger_wait,
                    wait_s=max(args.timeout, 2 * args.seconds + 1) if args.no_step else None)
     if trace.state != "done":
+        waited = args.seconds + (args.trigger_wait if args.trigger else 0.0)
         print(f"vdevctl: scope on {card.name}: the recording is {trace.state} after "
-              f"{args.seconds:g} s ({len(trace)} samples)", file=sys.stderr)
+              f"{waited:g} s ({len(trace)} samples)", file=sys.stderr)
         if not len(trace):
             return 1
     written = []

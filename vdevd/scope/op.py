@@ -114,7 +114,10 @@ class Scopes:
 
     # -- status and read ---------------------------------------------------------------------------
     def _probe(self, card: Any) -> Probe | None:
-        return self.probes.get(card.name)
+        probe = self.probes.get(card.name)
+        if probe is not None:
+            probe.status()  # the staged samples written
+        return probe
 
     def status(self, card: Any) -> dict[str, Any]:
         probe = self._probe(card)

@@ -1,12 +1,12 @@
 """The scope's bounded ring buffer with pre-trigger samples, sans-I/O (issue 23 §1).
 
-A `Recorder` copies, at each sample, a fixed set of entries of a 2-D float block (the motion
-core's `Axes.state`: one `np.take` into a ring row, whatever the axes and signals) and a row
-of ints given to it (the card's words), with the sample's simulated time. It keeps the last
-`capacity` samples while armed; when its trigger fires at sample T it goes on to sample
-T + capacity - pre and stops (`DONE`), keeping samples T - pre .. T + capacity - pre - 1
-(fewer before T when fewer were taken). Ticks at rest are filled (`rest`) with the state then,
-which is constant (decision 0008). Only numpy arrays and ints: a snapshot pickles it.
+A `Recorder` keeps samples of `columns` floats and `n_words` ints with their simulated times,
+written in blocks (`write`: one vectorised ring write for any number of samples, axes and
+signals). While armed it keeps the last `capacity` samples; when its trigger fires at sample T
+it goes on to sample T + capacity - pre and stops (`DONE`), keeping samples T - pre ..
+T + capacity - pre - 1 (fewer before T when fewer were taken). Ticks at rest are written as one
+block of the resting state (`rest`, decision 0008). Only numpy arrays and ints: a snapshot
+pickles it.
 """
 
 from __future__ import annotations
@@ -21,23 +21,20 @@ ARMED, RECORDING, DONE = "armed", "recording", "done"
 
 
 class Recorder:
-    """Samples of `len(flat)` floats and `n_words` ints, at most `capacity` of them kept."""
+    """Samples of `columns` floats and `n_words` ints, at most `capacity` of them kept."""
 
-    def __init__(self, source: np.ndarray, flat: np.ndarray, n_words: int, capacity: int,
-                 pre: int, machine: TriggerMachine, watch: int = -1) -> None:
-        """`source`: the C-contiguous float block sampled; `flat`: the flat indices of its
-        entries taken, in column order; `pre`: the samples kept before the trigger (< capacity);
-        `watch`: the flat index of the position a `position` trigger watches (-1: none)."""
+    def __init__(self, columns: int, n_words: int, capacity: int, pre: int,
+                 machine: TriggerMachine, watch: int = -1) -> None:
+        """`pre`: the samples kept before the trigger (< capacity); `watch`: the float column
+        a `position` trigger watches (-1: none)."""
         if capacity < 1 or not 0 <= pre < capacity:
             raise ValueError(f"capacity {capacity}, pre {pre}: need 0 <= pre < capacity")
-        if not source.flags.c_contiguous:
-            raise ValueError("the sampled block must be C-contiguous")
-        self.source = source
-        self.flat = np.ascontiguousarray(flat, dtype=np.intp)
         self.capacity, self.pre = capacity, pre
-        self.ring = np.zeros((capacity, len(self.flat)))
+        self.ring = np.zeros((capacity, columns))
         self.words = np.zeros((capacity, n_words), dtype=np.int64)
         self.times = np.zeros(capacity, dtype=np.int64)
+        for block in (self.ring, self.words, self.times):  # pages mapped now, not in the ticks
+            block.fill(0)
         self.machine = machine
         self.watch = watch
         self.written = 0  # samples taken since arming
@@ -47,33 +44,39 @@ class Recorder:
         if machine.fired:  # `now`: the first sample is the trigger's
             self.fire(0)
 
-    # -- sampling (the tick's hot path) -----------------------------------------------------------
-    def sample(self, t_ns: int, words: np.ndarray | None = None) -> None:
-        """Take one sample of the source now, at simulated time t_ns (none once done)."""
-        if self.state == DONE:
+    def write(self, times: np.ndarray, values: np.ndarray,
+              words: np.ndarray | None = None) -> None:
+        """The next len(times) samples: `values` (m, columns), `words` (m, n_words). A
+        `position` trigger looks at its column; samples past the window's end are dropped."""
+        m = len(times)
+        if m == 0 or self.state == DONE:
             return
-        i = self.written
-        slot = i % self.capacity
-        np.take(self.source, self.flat, out=self.ring[slot])
+        if self.state == ARMED and self.watch >= 0:
+            hit = self.machine.position(values[:, self.watch])
+            if hit >= 0:
+                self.fire(self.written + hit)
+        keep = m if self.state == ARMED else min(m, self.end - self.written)
+        if keep <= 0:
+            self.state = DONE
+            return
+        first = max(0, keep - self.capacity)  # armed: only the last `capacity` matter
+        slots = (self.written + np.arange(first, keep)) % self.capacity
+        self.ring[slots] = values[first:keep]
         if words is not None:
-            self.words[slot] = words
-        self.times[slot] = t_ns
-        self.written = i + 1
-        if self.state == ARMED:
-            if self.watch >= 0 and self.machine.position(float(self.source.flat[self.watch])):
-                self.fire(i)
-        elif self.written >= self.end:
+            self.words[slots] = words[first:keep]
+        self.times[slots] = times[first:keep]
+        self.written += keep
+        if self.state == RECORDING and self.written >= self.end:
             self.state = DONE
 
-    def rest(self, count: int, times: Callable[[np.ndarray], np.ndarray],
+    def rest(self, count: int, times: Callable[[np.ndarray], np.ndarray], row: np.ndarray,
              words: np.ndarray | None = None) -> None:
-        """`count` samples at rest, the state constant (decision 0008), the words `words`:
+        """`count` samples at rest, each `row` (the constant state, decision 0008) and `words`:
         `times(j)` gives the times of samples j (0-based from the next one). Writes those it
         keeps: the last `capacity` while armed (a trigger cannot fire at rest), else up to the
         window's end."""
         if count <= 0 or self.state == DONE:
             return
-        row = np.take(self.source, self.flat)
         if self.state == RECORDING:
             first, count = 0, min(count, self.end - self.written)
         else:
@@ -89,7 +92,7 @@ class Recorder:
             self.state = DONE
 
     def fire(self, index: int) -> None:
-        """The trigger fired at sample `index` (the last taken or the next one)."""
+        """The trigger fired at sample `index` (one taken or the next one)."""
         if self.state != ARMED:
             return
         self.trigger_index = index

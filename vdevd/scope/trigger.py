@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 KINDS = ("now", "register", "irq", "position")
 DIRECTIONS = ("rising", "falling", "either")
 
@@ -80,17 +82,22 @@ class TriggerMachine:
         self.fired = seq > self._irq_seq
         return self.fired
 
-    def position(self, value: float) -> bool:
-        """The axis is at `value` at a sample: whether it crossed the level since the last."""
+    def position(self, values: np.ndarray) -> int:
+        """The axis was at `values` at the next samples, in order: the index of the first sample
+        at which it crossed the level since the one before (-1: none; vectorised)."""
         t = self.trigger
-        if self.fired or t.kind != "position":
-            return False
-        before, self._last_position = self._last_position, value
-        if before is None:
-            return False
+        if self.fired or t.kind != "position" or not len(values):
+            return -1
+        before = np.empty(len(values))
+        before[1:] = values[:-1]
+        before[0] = values[0] if self._last_position is None else self._last_position
+        self._last_position = float(values[-1])
         level = t.level
-        rising = before < level <= value
-        falling = before > level >= value
-        self.fired = (rising if t.direction == "rising" else falling if t.direction == "falling"
-                      else rising or falling)
-        return self.fired
+        rising = (before < level) & (values >= level)
+        falling = (before > level) & (values <= level)
+        hit = rising if t.direction == "rising" else falling if t.direction == "falling" \
+            else rising | falling
+        if not hit.any():
+            return -1
+        self.fired = True
+        return int(hit.argmax())
