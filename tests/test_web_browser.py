@@ -152,5 +152,13 @@ def test_the_page_jogs_an_axis_steps_the_clock_and_trips_a_limit(
         assert page.evaluate(INKED) > 2000
         page.screenshot(path=str(shot), full_page=True)
         assert shot.stat().st_size > 10_000
+
+        # Run steps the clock at real-time pace until Pause
+        page.click("#btn-run")
+        expect(page.locator("#clock-running")).to_have_text("running", timeout=SHOWN_MS)
+        expect(page.locator("#clock-now")).not_to_have_text("0.300000", timeout=SHOWN_MS)
+        page.click("#btn-pause")
+        expect(page.locator("#clock-running")).to_have_text("paused", timeout=SHOWN_MS)
+        assert page.locator("#error").is_hidden()
     finally:
         galil.DMCClose(h)
