@@ -30,6 +30,7 @@ from tests.client.galil import GALIL, card, rack_config
 from tests.client.pulser import Pulser
 from tests.test_http_health import closed_unanswered, own_address
 from vdevd.config import ConfigError, parse
+from vdevd.devices.base import control
 from vdevd.errors import StartError
 from vdevd.testing import DaemonThread, rack_of
 from vdevd.web import app as webapp
@@ -476,3 +477,24 @@ def test_the_page_follows_the_rack_a_reset_serves(served: DaemonThread,
     assert post(url(served) + "/api/op", {"op": "sim", "action": "step", "ns": MS})[0] == 200
     assert state(served)["cards"]["galil0"]["ticks"] == 1
     assert client.sim.now_ns() == MS
+
+
+class _Odd(Pulser):
+    """A card whose action answers what neither msgpack nor JSON can carry (a bug)."""
+
+    @control()
+    def odd(self) -> set[int]:
+        """A set."""
+        return {1, 2}
+
+
+def test_an_unencodable_result_is_an_internal_error_as_on_the_endpoint() -> None:
+    with DaemonThread(web_config(), rack=rack_of(functools.partial(_Odd, "p0"))) as d, \
+            vdevclient.connect(d.endpoint, d.events, timeout=10) as rack:
+        status, reply = post(url(d) + "/api/op", {"op": "control", "card": "p0",
+                                                  "action": "odd"})
+        with pytest.raises(RemoteError) as err:
+            rack.control("p0", "odd")
+        assert status == 500 and reply["error"]["code"] == err.value.code == "internal"
+        assert reply["error"]["message"].startswith("unencodable: ")
+        assert post(url(d) + "/api/op", {"op": "sim", "action": "now"})[0] == 200

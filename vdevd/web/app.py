@@ -97,6 +97,7 @@ class WebView:
         self._accepting: asyncio.Task[None] | None = None
         self._pushing: asyncio.Task[None] | None = None
         self._full = False
+        self._failing = False
         self.pushes = 0  # states read for the websockets (tests: none while none is open)
 
     # -- lifecycle -------------------------------------------------------------------------------
@@ -242,9 +243,12 @@ class WebView:
     async def _op(self, request: web.Request) -> web.Response:
         try:
             result = await self.ops.call(await self._body(request))
+            text = json.dumps({"ok": result}, allow_nan=False)
         except VdevError as exc:
             return _error(exc)
-        return web.json_response({"ok": result}, headers=_JSON_HEADERS)
+        except (TypeError, ValueError) as exc:  # as the ZeroMQ server answers it
+            return _error(VdevError(ErrorCode.INTERNAL, f"unencodable: {exc}"))
+        return web.json_response(text=text, headers=_JSON_HEADERS)
 
     async def _clock(self, request: web.Request) -> web.Response:
         try:
@@ -279,6 +283,8 @@ class WebView:
             async for msg in ws:  # the page sends nothing; a close or an error ends it
                 if msg.type in (WSMsgType.ERROR, WSMsgType.CLOSE):
                     break
+        except ConnectionError:  # gone before the layout was sent
+            pass
         finally:
             self.clients.discard(client)
             sender.cancel()
@@ -289,7 +295,15 @@ class WebView:
     async def _push(self) -> None:
         """While a websocket is open: the state read once, PUSH_HZ times a second, for all."""
         while self.clients:
-            payload = json.dumps({"kind": "state", **self._live(self.watch)})
+            try:
+                payload = json.dumps({"kind": "state", **self._live(self.watch)})
+            except Exception:  # a card's signal map failed: the pages keep their last state
+                if not self._failing:  # logged once until a push succeeds
+                    log.exception("web view: reading the rack's state")
+                self._failing = True
+                await asyncio.sleep(1 / PUSH_HZ)
+                continue
+            self._failing = False
             self.pushes += 1
             for client in self.clients:
                 client.latest = payload
