@@ -264,3 +264,16 @@ def test_unknown_card_and_malformed_fields(raw: RawClient) -> None:
     assert error_code(raw.call(op="scope", card="servo0")) == "malformed"
     reply = raw.call(op="scope", card="servo0", action="read")
     assert error_code(reply) == "bad_param" and "no recording" in reply["error"]["message"]
+
+
+def test_every_n_ticks_across_a_move_and_the_rest_after_it(rack: vdevclient.Rack) -> None:
+    """Every 7 ticks, 60 samples: the move's samples run, then the card rests and skips its
+    ticks; the samples go on every 7 ticks all the same, the last one at rest."""
+    t0 = rack.sim.now_ns()
+    scope(rack, "arm", axes=["0"], signals=["position", "command_velocity"], samples=60, every=7)
+    move(rack, 0, 200)
+    rack.sim.step(ns=420 * PERIOD_NS)
+    t, cols = read_all(rack)
+    assert t.tolist() == [t0 + 7 * PERIOD_NS * (k + 1) for k in range(60)]
+    assert cols["0.position"][-1] == 200 == i32(rack, 0, AxisReg.POSITION)
+    assert cols["0.command_velocity"][2] > 0 and cols["0.command_velocity"][-1] == 0

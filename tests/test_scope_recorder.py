@@ -185,3 +185,25 @@ def test_an_armed_recording_pickles_and_records_on() -> None:
     assert a["count"] == b["count"] == 60
     assert a["columns"] == b["columns"] and a["time_ns"] == b["time_ns"]
     assert not {"tick", "skip"} & set(vars(twin.core))  # done: detached from the twin
+
+
+def test_times_follow_a_change_of_period_during_the_recording() -> None:
+    """Tick k after a period change at tick n is n's time + (k - n) x the new period
+    (Card.set_period): the samples before it keep the old spacing."""
+    from vdevd.devices import card_class
+    from vdevd.devices.base import CardContext
+    from vdevd.rack import Rack
+    from vdevd.scope.op import Scopes
+
+    card = card_class("generic-servo")("c", {"plant": "ideal"}, CardContext(emit=print))
+    rack, scopes = Rack([card]), Scopes()
+    scopes.op(card, {"action": "arm", "signals": ["position"], "samples": 20})
+    rack.sched.advance(5_000_000)
+    card.set_period(2_500_000)
+    rack.sched.advance(rack.now_ns + 40_000_000)
+    reply = scopes.op(card, {"action": "read"})
+    assert reply is not None and reply["count"] == 20
+    times = np.frombuffer(reply["time_ns"], dtype="<i8")
+    # set at the time of tick 5: tick 6 one new period later (Card.set_period)
+    assert times[:5].tolist() == [1_000_000 * k for k in range(1, 6)]
+    assert np.diff(times).tolist() == [1_000_000] * 4 + [2_500_000] * 15
