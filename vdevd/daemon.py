@@ -119,6 +119,7 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
     watchdog = None
     written = False
     health = None
+    web = None
     try:
         health = open_health(cfg.metrics, server.rack, loop)  # /healthz answers during start
         if health is not None:
@@ -133,10 +134,16 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
             log.warning("the configuration has no [[card]]: the rack is empty")
         log.info("listening on %s, events on %s, clock %s, motion core %s; cards: %s",
                  server.endpoint, server.events, cfg.clock, core, cards)
+        if cfg.web is not None:
+            from vdevd.web.app import open_web  # aiohttp only for a daemon with a web view
+
+            web = await open_web(cfg.web, lambda: server.rack)
         if ready_file is not None:
             listeners = server.listeners()
             if health is not None:
                 listeners["metrics"] = health.url
+            if web is not None:
+                listeners["web"] = web.url
             write_ready_file(ready_file, listeners)
             written = True
         if health is not None:
@@ -154,6 +161,8 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
         sd_notify("STOPPING=1")
         if health is not None:
             health.ready = False
+        if web is not None:
+            await web.stop()
         await server.stop()
         if health is not None:
             health.stop()

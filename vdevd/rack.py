@@ -42,6 +42,7 @@ from vdevd.protocol import (
 from vdevd.region import Region
 from vdevd.rt import kernel
 from vdevd.rt.scheduler import Scheduler
+from vdevd.scope.op import Scopes
 from vdevd.shm import Segment
 from vdevd.snapshot_transfer import Transfers
 from vdevd.waits import MAX_PENDING, Reply, Waiter, Waits, make_waiter, value_wait
@@ -126,6 +127,8 @@ class Rack:
         self.errors = 0
         self.latency = TaggedSamples()  # tagged with the op (metrics.OP_TAGS)
         self.events_published = 0
+        #: the scope's recorder of each card (`scope` op)
+        self.scopes = Scopes()
         #: the ops a batch runs as requests (its plain accesses run inline)
         self._batchable: dict[str, Callable[[dict[str, Any], Reply], Any]] = {
             "read": self.op_read, "write": self.op_write, "control": self.op_control}
@@ -587,6 +590,10 @@ class Rack:
         """Publish a `sync` event on the card's topic (a subscriber's proof it is connected)."""
         self.sink.sync(self.card(args["card"]).name)
         return None
+
+    def op_scope(self, args: dict[str, Any], reply: Reply) -> Any:
+        """Arm, report, read or clear a card's scope (PROTOCOL.md "Scope")."""
+        return self.scopes.op(self.card(args["card"]), args)
 
     def op_snapshot(self, args: dict[str, Any], reply: Reply) -> Any:
         """`save`: the chunk at `offset` of a snapshot (taken at offset 0); `load`: a chunk of

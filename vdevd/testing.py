@@ -12,7 +12,7 @@ import asyncio
 import threading
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import zmq
 
@@ -22,6 +22,9 @@ from vdevd.devices.base import Card, CardContext
 from vdevd.http_health import HealthServer, open_health
 from vdevd.rack import Rack
 from vdevd.server import Publisher, Server
+
+if TYPE_CHECKING:
+    from vdevd.web.app import WebView
 
 
 def rack_of(*cards: Callable[[CardContext], Card], mode: str = "lockstep") -> Rack:
@@ -55,6 +58,8 @@ class DaemonThread:
         self.server: Server | None = None
         #: the `[metrics]` HTTP endpoint (its `url`), when the configuration has one
         self.health: HealthServer | None = None
+        #: the `[web]` view (its `url`), when the configuration has one
+        self.web: WebView | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop: asyncio.Event | None = None
         self._ready = threading.Event()
@@ -101,11 +106,18 @@ class DaemonThread:
                 self.server.on_swap.append(self.health.follow)
             await self.server.start(self._loop)
             self.endpoint, self.events = self.server.endpoint, self.server.events
+            if self.cfg.web is not None:
+                from vdevd.web.app import open_web
+
+                server = self.server
+                self.web = await open_web(self.cfg.web, lambda: server.rack)
             if self.health is not None:
                 self.health.ready = True
             self._ready.set()
             await self._stop.wait()
         finally:
+            if self.web is not None:
+                await self.web.stop()
             await self.server.stop()
             if self.health is not None:
                 self.health.stop()

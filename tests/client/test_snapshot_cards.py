@@ -1,8 +1,8 @@
 """Snapshots of every card type of the default rack (issue 23 §2): a scenario runs in lockstep
-through the vendor client (the registers for the generic card), a snapshot is taken mid-motion, then a fixed sequence of requests runs while a digest
-(SHA-256) of every reply is kept; the snapshot is loaded and the same sequence gives the same
-digest. A reset rack running the same sequence gives another digest: the replies depend on the
-state the snapshot brought back."""
+through the vendor client (the registers for the generic card), a snapshot is taken mid-motion,
+then a fixed sequence of requests runs while a digest (SHA-256) of every reply is kept; the
+snapshot is loaded and the same sequence gives the same digest. A reset rack running the same
+sequence gives another digest: the replies depend on the state the snapshot brought back."""
 
 from __future__ import annotations
 
