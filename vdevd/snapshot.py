@@ -1,7 +1,8 @@
 """Rack snapshots (issue 23 §2): every card's state and the simulated clock in one versioned file.
 
 A snapshot is the rack's object graph (the scheduler and its cards: regions, firmware, queues,
-programs, motion core arrays, the axis world, the NV image) pickled without its I/O
+programs, motion core arrays, the axis world, the NV image; the scope recorders armed on them)
+pickled without its I/O
 (vdevd/snapshot_pickle.py), behind a header that says what it fits:
 
     b"VDEVSNAP" | u32 header length (big-endian) | header (JSON) | zlib(pickle)
@@ -27,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 from vdevd.card_ports import PORT_KEYS
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.rt.scheduler import Scheduler
+from vdevd.scope.op import Scopes
 from vdevd.shm import Segment
 from vdevd.snapshot_pickle import SnapshotPickler, SnapshotUnpickler, bad
 
@@ -83,7 +85,7 @@ def save(rack: Rack) -> bytes:
     """The snapshot of `rack` (module docstring); `bad_snapshot` when it is larger than
     MAX_SNAPSHOT or holds what cannot be saved (a bug: named)."""
     buf = io.BytesIO()
-    state = {"sched": rack.sched, "cards": list(rack.cards.values())}
+    state = {"sched": rack.sched, "cards": list(rack.cards.values()), "scopes": rack.scopes}
     try:
         SnapshotPickler(buf, rack).dump(state)
     except (pickle.PicklingError, TypeError, AttributeError) as exc:
@@ -191,7 +193,11 @@ def load(data: bytes, old: Rack, memory: Segment | None = None) -> Rack:
     if not isinstance(cards, list) or not isinstance(sched, Scheduler) or sched.cards != cards \
             or [getattr(c, "name", None) for c in cards] != list(old.cards):
         raise bad("corrupt: its payload is not the rack its header describes")
+    scopes = state.get("scopes")
+    if not isinstance(scopes, Scopes):
+        raise bad("corrupt: its payload holds no scope recorders")
     new.adopt(sched)
+    new.scopes = scopes  # the recorders armed on its cards, as they were
     for card in new.cards.values():  # where each shared region is in the new segment
         for region in card.regions.values():
             if region.shared_offset is not None:

@@ -262,6 +262,8 @@ def generic_before(d: DaemonThread) -> None:
             bar.write32(TARGET + axis * AXIS, target & 0xFFFFFFFF)
             bar.write32(COMMAND + axis * AXIS, 1)
         rack.control("servo0", "set_home", axis=1)
+        rack.request("scope", card="servo0", action="arm", axes=[0, 1],  # a recording under way
+                     signals=["position", "command", "error"], samples=400, every=2)
         rack.sim.step(seconds=0.05)
 
 
@@ -274,6 +276,10 @@ def generic_after(d: DaemonThread) -> None:
             bar.read32(POSITION + AXIS)
         rack.card("servo0").irq.wait(timeout_s=5.0)
         rack.sim.step(seconds=2.0)
+        start = None if rack.request("scope", card="servo0", action="status")[
+            "state"] == "idle" else 0
+        while start is not None:  # the recording, begun before the snapshot
+            start = rack.request("scope", card="servo0", action="read", start=start)["next"]
     dump_regions(d, "servo0")
 
 

@@ -104,3 +104,25 @@ def test_a_snapshot_of_the_other_clock_mode_is_refused_and_realtime_goes_on_from
         taken = snapshot.read_header(own)[0]["now_ns"]
         rack.restore(own)
         assert taken <= rack.sim.now_ns() < taken + 5_000_000_000  # not from 0, not ahead
+
+
+def test_a_scope_armed_at_the_save_records_on_after_the_load(raw: RawClient) -> None:
+    """The recorder is part of the card's state: after the load it is where it was, and it
+    records the same samples as the run the snapshot was taken from."""
+    def scope(**fields: Any) -> Any:
+        return raw.call(op="scope", card="servo0", **fields)["ok"]
+
+    bar = {"card": "servo0", "region": "bar0"}
+    raw.call(op="write", offset=0x104, data=(9000).to_bytes(4, "little"), **bar)  # TARGET
+    raw.call(op="write", offset=0x100, data=(1).to_bytes(4, "little"), **bar)  # MOVE_ABS
+    scope(action="arm", axes=[0], signals=["position", "command"], samples=300)
+    raw.call(op="sim", action="step", ns=100_000_000)
+    taken = scope(action="status")
+    assert taken["state"] == "recording" and taken["available"] == 100
+    data = raw.call(op="snapshot", action="save", offset=0)["ok"]["data"]
+    raw.call(op="sim", action="step", ns=300_000_000)
+    first = scope(action="read")
+    raw.call(op="snapshot", action="load", offset=0, size=len(data), data=data)
+    assert scope(action="status") == taken
+    raw.call(op="sim", action="step", ns=300_000_000)
+    assert scope(action="read") == first and first["available"] == 300
