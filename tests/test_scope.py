@@ -106,18 +106,25 @@ def test_ticks_skipped_at_rest_still_give_samples(daemon: DaemonThread,
 
 def test_quiet_ticks_unchanged_after_a_recording_is_done(daemon: DaemonThread,
                                                         rack: vdevclient.Rack) -> None:
-    """Done or cleared, the recorder leaves no hook on the card: it rests as before."""
+    """Done or cleared, the recorder leaves no hook on the card and no stage on its core: it
+    rests and ticks as before."""
     assert daemon.server is not None
     card = daemon.server.rack.cards["servo0"]
     scope(rack, "arm", samples=10)
-    assert "tick" in vars(card.core)
+    assert "skip" in vars(card.core) and card.core.staging is not None  # the core stages
     rack.sim.step(ns=10 * PERIOD_NS)
     assert scope(rack, "status")["state"] == "done"
     assert not {"tick", "skip"} & set(vars(card.core)) and "tick" not in vars(card)
+    assert card.core.staging is None
+    scope(rack, "arm", samples=10, signals=["position", "status"])
+    assert "tick" in vars(card.core) and card.core.staging is None  # a word: the hook samples
+    scope(rack, "clear")
+    assert not {"tick", "skip"} & set(vars(card.core))
     scope(rack, "arm", samples=10, trigger={"kind": "irq"})
     assert "tick" in vars(card)
     scope(rack, "clear")
     assert not {"tick", "skip"} & set(vars(card.core)) and "tick" not in vars(card)
+    assert card.core.staging is None
     assert scope(rack, "status") == {"state": "idle", "card": "servo0"}
 
 

@@ -175,8 +175,11 @@ def test_an_armed_recording_pickles_and_records_on() -> None:
     buf.seek(0)
     copy: Scopes = In(buf).load()
     probe = copy.probes["c"]
-    assert type(probe.hook).__name__ == "StaleCoreTick" and probe.hook.n == scopes.probes["c"].hook.n
-    twin.core.tick, twin.core.skip = probe.hook, CoreSkip(probe)  # as the core's dict holds them
+    original = scopes.probes["c"]
+    assert probe.hook is None and original.core.staging is original.block  # the core stages
+    assert probe.staged == original.staged > 0 and probe.block is not original.block
+    twin.core.stage_into(probe.block, probe.flush)  # as the pickled core holds them
+    twin.core.skip = CoreSkip(probe)  # type: ignore[method-assign]
     for r in (rack, twin_rack):
         r.sched.advance(300_000_000)
     a = scopes.op(card, {"action": "read"})
@@ -185,6 +188,7 @@ def test_an_armed_recording_pickles_and_records_on() -> None:
     assert a["count"] == b["count"] == 60
     assert a["columns"] == b["columns"] and a["time_ns"] == b["time_ns"]
     assert not {"tick", "skip"} & set(vars(twin.core))  # done: detached from the twin
+    assert twin.core.staging is None and card.core.staging is None
 
 
 def test_times_follow_a_change_of_period_during_the_recording() -> None:

@@ -81,6 +81,9 @@ class MotionCore:
         self._track_idx = np.zeros(0, dtype=np.intp)
         self._track_plans = -1
         self._kmode = 0
+        #: a scope's stage block and what empties it (`stage_into`)
+        self._stage_block: np.ndarray | None = None
+        self._on_stage_full: Callable[[], None] | None = None
         self.servo_on_mask = np.zeros(n, dtype=bool)
         self.amp_fault = np.zeros(n, dtype=bool)
         self.encoder_loss = np.zeros(n, dtype=bool)
@@ -137,7 +140,8 @@ class MotionCore:
                                + self.jammed * kn.AX_JAM + self._enc_ok * kn.AX_ENC_OK)
         self._kmode = ((kn.PLANT | kn.PID if self._has_servo else 0) | kn.FOLLOW
                        | (kn.PLAIN_ENCODER if self._plain_encoder else 0)
-                       | (kn.STEPPERS if self._any_step else 0))
+                       | (kn.STEPPERS if self._any_step else 0)
+                       | (self._kmode & kn.RECORD))
 
     @property
     def stepper(self) -> StepperPlant:
@@ -155,6 +159,8 @@ class MotionCore:
         """One servo tick; the AxisFlag bits of what happened (0 when nothing did)."""
         kernel = self._kernel
         if kernel is None or (self._any_step and not self._own_stepper):
+            if self._kmode & kn.RECORD:
+                return self._tick_numpy_staged()
             return self.tick_numpy()
         events = self._pending
         if events:
@@ -172,8 +178,8 @@ class MotionCore:
                 mode |= kn.PROFILE
             over = kernel(mode, ax.state, ax.encoder, self.coef, self._ax_flags, prof._m3, self.dt)
         else:
-            kernel(mode & ~(kn.FOLLOW | kn.PID), ax.state, ax.encoder, self.coef, self._ax_flags,
-                   prof._m3, self.dt)
+            kernel(mode & ~(kn.FOLLOW | kn.PID | kn.RECORD), ax.state, ax.encoder, self.coef,
+                   self._ax_flags, prof._m3, self.dt)
             finished = prof.boundary(t)
             if len(finished):
                 events |= self._finish(finished)
@@ -181,11 +187,66 @@ class MotionCore:
             over = kernel(mode & ~kn.PLANT, ax.state, ax.encoder, self.coef, self._ax_flags,
                           prof._m3, self.dt)
         if over:
-            hit = self.limits.fe_exceeded(ax.ferr)
-            if hit is not None:
-                events |= self._fe_trip(hit)
-            kernel(self._kmode & kn.PID, ax.state, ax.encoder, self.coef, self._ax_flags,
-                   prof._m3, self.dt)
+            if over == 1:
+                hit = self.limits.fe_exceeded(ax.ferr)
+                if hit is not None:
+                    events |= self._fe_trip(hit)
+                over = kernel(self._kmode & (kn.PID | kn.RECORD), ax.state, ax.encoder,
+                              self.coef, self._ax_flags, prof._m3, self.dt)
+            if over:  # 2: the stage is full (`stage_into`)
+                self._stage_full()
+        return events
+
+    # -- staging (a scope recording, issue 23 §1) ------------------------------------------------
+    def stage_into(self, block: np.ndarray, on_full: Callable[[], None]) -> None:
+        """From the next tick, stage a sample of the state after each whole tick into `block`
+        (a stage block, vdevd.rt.kernel "Staging": counters set by the caller), the compiled
+        kernel's copy (no Python per tick); `on_full()` once a tick filled it (it empties it:
+        STAGED 0). The numpy path stages the same samples."""
+        prof = self.profile
+        block[:3, :3] = prof._m3
+        prof._m3 = block  # the kernel's step comes from its top-left corner
+        self._stage_block = block
+        self._on_stage_full = on_full
+        self._kmode |= kn.RECORD
+
+    def stop_staging(self) -> None:
+        """No more samples staged: the tick as before `stage_into`."""
+        block = self._stage_block
+        if block is None:
+            return
+        self._kmode &= ~kn.RECORD
+        self.profile._m3 = np.ascontiguousarray(block[:3, :3])
+        self._stage_block = None
+        self._on_stage_full = None
+
+    @property
+    def staging(self) -> np.ndarray | None:
+        """The stage block samples go into (`stage_into`), or None."""
+        return self._stage_block
+
+    def _stage_full(self) -> None:
+        if self._on_stage_full is not None:
+            self._on_stage_full()
+
+    def _tick_numpy_staged(self) -> int:
+        """`tick_numpy`, then its sample staged as the kernel stages it."""
+        events = self.tick_numpy()
+        b = self._stage_block
+        assert b is not None
+        h = b[kn.STAGE_ROW]
+        c = h[kn.COUNTDOWN] - 1.0
+        if c > 0.0:
+            h[kn.COUNTDOWN] = c
+            return events
+        h[kn.COUNTDOWN] = h[kn.EVERY]
+        k, m = int(h[kn.STAGED]), int(h[kn.NCOLS])
+        row = kn.STAGE_HEAD + k
+        at = h[kn.COL0:kn.COL0 + 2 * m].astype(np.intp)
+        b[row, :m] = self.axes.state[at[0::2], at[1::2]]
+        h[kn.STAGED] = k + 1
+        if row + 1 == len(b):
+            self._stage_full()
         return events
 
     def tick_numpy(self) -> int:
@@ -765,6 +826,9 @@ class MotionCore:
             raise ValueError("the period must be positive")
         self.dt_ns, self.dt = dt_ns, dt_ns / 1e9
         self.profile.set_dt(self.dt)
+        block, on_full = self._stage_block, self._on_stage_full
+        if block is not None and on_full is not None:  # the new step into the stage block
+            self.stage_into(block, on_full)
         self.plant.set_dt(self.dt)
         self.stepper.set_dt(self.dt)
 

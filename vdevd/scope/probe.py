@@ -6,10 +6,14 @@ replaced, on the core object only, by callables that call the core's own and the
 (`CoreTick`) or write the skipped ticks' samples from the resting state (`CoreSkip`); disarmed or
 done, they are removed, so a card without a scope costs nothing more.
 
-The tick's share is one block copy: the rows of the core's state block that hold the recorded
-signals (`Axes.state[lo:hi]`, every axis) go into a staging block (`STAGE` samples); the
+The tick's share is one copy: the rows of the core's state block that hold the recorded
+signals (`Axes.state[rows]`, every axis) go into a stage block (`STAGE` samples); the
 recorder takes its columns from it, with their times and the trigger's look, vectorised, when it
-is full, before a skip, and before a status or a read (`flush`). A `register` or `irq` trigger
+is full, before a skip, and before a status or a read (`flush`). With only signals of the state
+block (no word), the core stages them itself (`MotionCore.stage_into`): the compiled kernel
+copies the rows at the end of its tick and counts the ticks between samples, so an armed scope
+adds no Python call to the tick (decision 0016); a word signal needs the card's registers after
+each sample's tick, so then the core's `tick` is replaced (`CoreTick`). A `register` or `irq` trigger
 needs the card's state after each whole tick (a card publishes its memory at the end of a batch),
 so until it fires the card runs one tick a call (`CardTicks`), as a `wait` makes it.
 
@@ -24,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from vdevd.rt import kernel as kn
 from vdevd.scope.recorder import ARMED, DONE, Recorder
 from vdevd.scope.signals import Signals
 from vdevd.scope.trigger import Trigger, TriggerMachine
@@ -41,7 +46,7 @@ class Probe:
                  wanted: list[str], every: int, capacity: int, pre: int,
                  trigger: Trigger) -> None:
         self.card, self.signals = card, signals
-        self.core = core = signals.core(card)
+        self.core = signals.core(card)
         self.axes, self.axis_names = list(axes), list(names)
         self.every = every
         self.trigger = trigger
@@ -56,47 +61,67 @@ class Probe:
                 if kind == "f":
                     rows.append((signals.rows[s], a))
         watch_row = signals.rows["position"] if trigger.kind == "position" else -1
-        used = [r for r, _ in rows] + ([watch_row] if watch_row >= 0 else [])
-        lo, hi = (min(used), max(used) + 1) if used else (0, 1)
-        n = core.n
-        #: the staged rows of the state block (a view), and each float column's place in them
-        self.rows_span = (lo, hi)
-        self.src = core.axes.state[lo:hi]
-        self.take = np.array([(r - lo) * n + a for r, a in rows], dtype=np.intp)
-        # a `now` recording takes `capacity` samples at most; one waiting for its trigger, more
-        size = max(16, min(STAGE, STAGE_BYTES // self.src.nbytes,
-                           capacity if trigger.kind == "now" else STAGE))
-        self.stage = np.zeros((size,) + self.src.shape)
-        self.stage.fill(0.0)  # its pages mapped now, at arming, not in the ticks
-        self.wstage = np.zeros((len(self.stage), len(axes) * len(self.word_names)),
-                               dtype=np.int64)
-        self._axes = np.array(axes, dtype=np.intp)
         watch = -1
         if watch_row >= 0:
-            self.take = np.append(self.take, (watch_row - lo) * n + trigger.axis)
-            watch = len(self.take) - 1  # an extra column, the watched position
+            rows.append((watch_row, trigger.axis))
+            watch = len(rows) - 1  # an extra column, the watched position
+        #: each float column's (state row, axis): a sample, in the columns' order
+        self.cells = np.array(rows, dtype=np.intp).reshape(-1, 2)
+        self.width = width = len(rows)  # floats a sample
+        # a `now` recording takes `capacity` samples at most; one waiting for its trigger, more
+        size = max(16, min(STAGE, STAGE_BYTES // (8 * max(1, width)),
+                           capacity if trigger.kind == "now" else STAGE))
+        #: the stage block (vdevd.rt.kernel "Staging"): counters, then `size` samples
+        head = [0, every, every, width, *self.cells.ravel()]
+        self.block = np.zeros((kn.STAGE_HEAD + size, max(len(head), width)))
+        self.block.fill(0.0)  # its pages mapped now, at arming, not in the ticks
+        self.block[kn.STAGE_ROW, :len(head)] = head
+        self.wstage = np.zeros((size, len(axes) * len(self.word_names)), dtype=np.int64)
+        self._axes = np.array(axes, dtype=np.intp)
         machine = TriggerMachine(trigger, self._register(trigger), self._irq_seq(trigger))
-        self.rec = Recorder(len(self.take), len(axes) * len(self.word_names), capacity, pre,
+        self.rec = Recorder(width, len(axes) * len(self.word_names), capacity, pre,
                             machine, watch)
         self.tick = card.ticks  # the card's tick of the last sample flushed (or at arming)
-        self.countdown = every  # ticks to the next sample
         self._regime = self._period_regime()
-        self.hook = CoreTick(self)  # holds the count of staged samples (`n`)
+        #: the core's tick while recording a word signal (else the core stages: `stage_into`)
+        self.hook = CoreTick(self) if self.word_names else None
         self.attached = False
         self.attach()
 
     # -- pickling (snapshots) ---------------------------------------------------------------------
-    def __getstate__(self) -> dict[str, Any]:
-        """Without the view of the core's state (a copy once unpickled): `rebuild` makes it."""
-        state = dict(vars(self))
-        state.pop("src", None)
-        return state
-
     def rebuild(self) -> None:
-        """The views an unpickled probe and its hook need, of the objects unpickled with them."""
-        lo, hi = self.rows_span
-        self.src = self.core.axes.state[lo:hi]
-        self.hook.src, self.hook.rows = self.src, list(self.stage)
+        """The views an unpickled hook needs, of the stage block unpickled with it."""
+        if self.hook is not None:
+            self.hook.rows = self.hook.views()
+
+    def sample(self) -> np.ndarray:
+        """A sample's floats now (a fresh array)."""
+        return self.core.axes.state[self.cells[:, 0], self.cells[:, 1]]
+
+    @property
+    def stage(self) -> np.ndarray:
+        """The staged samples, one a row, in the columns' order (a view
+        of the stage block)."""
+        return self.block[kn.STAGE_HEAD:, :self.width]
+
+    # -- the stage's counters (in the stage block: the kernel keeps them) --------------------------
+    @property
+    def staged(self) -> int:
+        """Samples staged, not yet written into the recorder."""
+        return int(self.block[kn.STAGE_ROW, kn.STAGED])
+
+    @staged.setter
+    def staged(self, m: int) -> None:
+        self.block[kn.STAGE_ROW, kn.STAGED] = m
+
+    @property
+    def countdown(self) -> int:
+        """Ticks to the next sample."""
+        return int(self.block[kn.STAGE_ROW, kn.COUNTDOWN])
+
+    @countdown.setter
+    def countdown(self, c: int) -> None:
+        self.block[kn.STAGE_ROW, kn.COUNTDOWN] = c
 
     # -- the card's state -------------------------------------------------------------------------
     def _register(self, t: Trigger) -> int:
@@ -122,14 +147,17 @@ class Probe:
 
     def times(self, ticks: np.ndarray) -> np.ndarray:
         """The simulated times of `ticks`: the card's period now from the tick it took effect,
-        the one of the last flush before it."""
+        the one of the last flush before it (`ticks` ascending)."""
         now = self._period_regime()
         out = np.empty(len(ticks), dtype=np.int64)
-        for regime, sel in ((now, ticks >= now[1]), (self._regime, ticks < now[1])):
-            if sel.any():
+        split = int(np.searchsorted(ticks, now[1]))  # the first tick of the period now
+        for regime, sel in ((now, slice(split, None)), (self._regime, slice(0, split))):
+            if len(ticks[sel]):
                 base_ns, base_ticks, num, den = regime
                 k = ticks[sel] - base_ticks
-                if int(k.max()) * num < 1 << 62:  # int64 arithmetic is exact
+                if den == 1 and int(k.max()) * num < 1 << 62:  # a whole period in ns
+                    out[sel] = base_ns + k * num
+                elif int(k.max()) * num < 1 << 62:  # int64 arithmetic is exact
                     out[sel] = base_ns + k * num // den
                 else:
                     out[sel] = np.asarray(base_ns + k.astype(object) * num // den,
@@ -140,7 +168,10 @@ class Probe:
     # -- hooks ---------------------------------------------------------------------------------------
     def attach(self) -> None:
         core = self.core
-        core.tick = self.hook  # type: ignore[method-assign]
+        if self.hook is None:
+            core.stage_into(self.block, self.flush)
+        else:
+            core.tick = self.hook  # type: ignore[method-assign]
         core.skip = CoreSkip(self)  # type: ignore[method-assign]
         if self.trigger.kind in ("register", "irq") and self.rec.state == ARMED:
             self.card.tick = CardTicks(self)
@@ -148,6 +179,8 @@ class Probe:
 
     def detach(self) -> None:
         """Remove the hooks: the card ticks as if no scope had been armed."""
+        if self.core.staging is self.block:
+            self.core.stop_staging()
         for obj, name in ((self.core, "tick"), (self.core, "skip"), (self.card, "tick")):
             if isinstance(vars(obj).get(name), CoreTick | CoreSkip | CardTicks):
                 delattr(obj, name)
@@ -156,13 +189,13 @@ class Probe:
     def flush(self) -> None:
         """Write the staged samples into the recorder (their ticks follow `tick` every
         `every`); detach once it is done."""
-        m = self.hook.n
+        m = self.staged
         if not m:
             return
-        self.hook.n = 0
+        self.staged = 0
         ticks = self.tick + self.every * np.arange(1, m + 1, dtype=np.int64)
         self.tick = int(ticks[-1])
-        values = self.stage[:m].reshape(m, -1)[:, self.take]
+        values = self.stage[:m]
         self.rec.write(self.times(ticks), values, self.wstage[:m] if self.word_names else None)
         if self.rec.state == DONE:
             self.detach()
@@ -172,8 +205,6 @@ class Probe:
         if self.rec.state == DONE:
             return
         self.flush()
-        if "src" not in vars(self):
-            self.rebuild()
         c, every = self.countdown, self.every
         ticks_before = self.tick + (every - c)  # the card's tick before the skip
         if k < c:
@@ -183,7 +214,7 @@ class Probe:
         first = ticks_before + c  # the tick of the first sample among them
         self.countdown = every - (k - c) % every
         self.tick = first + (m - 1) * every
-        row = self.src.reshape(-1)[self.take]
+        row = self.sample()
         words = self._words() if self.word_names else None
         self.rec.rest(m, lambda j: self.times(first + j * every), row, words)
         if self.rec.state == DONE:
@@ -214,23 +245,24 @@ class Probe:
 
 
 class CoreTick:
-    """The core's `tick` while a scope records: the core's own, then a block copy of the
-    recorded rows into the next row of the stage (the hot path: no Python loop over axes or
-    signals; every tick with no word signal, the common case, takes the shortest path)."""
+    """The core's `tick` while a scope records a word signal: the core's own, then a block copy
+    of the recorded rows into the next row of the stage and the words into theirs (no Python
+    loop over axes or signals)."""
 
     def __init__(self, probe: Probe) -> None:
         self.probe = probe
         self.core = probe.core
         self.fn: Callable[[Any], int] = type(probe.core).tick
-        self.src = probe.src
-        self.rows = list(probe.stage)  # a view per row: the cheapest copy into it
+        self.state = probe.core.axes.state
+        self.rows = self.views()  # a view per sample: copied into
         self.size = len(self.rows)
-        self.plain = probe.every == 1 and not probe.word_names
-        self.n = 0  # samples staged
+
+    def views(self) -> list[np.ndarray]:
+        return list(self.probe.stage)
 
     def __getstate__(self) -> dict[str, Any]:
         state = dict(vars(self))
-        del state["src"], state["rows"]  # views: rebuilt at the first call (StaleCoreTick)
+        del state["state"], state["rows"]  # views: rebuilt at the first call (StaleCoreTick)
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
@@ -239,24 +271,16 @@ class CoreTick:
 
     def __call__(self) -> int:
         events = self.fn(self.core)
-        if self.plain:
-            i = self.n
-            self.rows[i][...] = self.src
-            self.n = i = i + 1
-            if i == self.size:
-                self.probe.flush()
-            return events
         p = self.probe
         c = p.countdown - 1
         if c:
             p.countdown = c
             return events
         p.countdown = p.every
-        i = self.n
-        self.rows[i][...] = self.src
-        if p.word_names:
-            p.wstage[i] = p._words()
-        self.n = i = i + 1
+        i = p.staged
+        self.rows[i][...] = self.state[p.cells[:, 0], p.cells[:, 1]]
+        p.wstage[i] = p._words()
+        p.staged = i = i + 1
         if i == self.size:
             p.flush()
         return events
@@ -267,6 +291,7 @@ class StaleCoreTick(CoreTick):
     a `CoreTick` again (no test on the hot path)."""
 
     def __call__(self) -> int:
+        self.state = self.core.axes.state
         self.probe.rebuild()
         self.__class__ = CoreTick  # type: ignore[assignment]
         return CoreTick.__call__(self)

@@ -60,11 +60,11 @@ class Recorder:
             self.state = DONE
             return
         first = max(0, keep - self.capacity)  # armed: only the last `capacity` matter
-        slots = (self.written + np.arange(first, keep)) % self.capacity
-        self.ring[slots] = values[first:keep]
+        at = (self.written + first) % self.capacity
+        _put(self.ring, at, values[first:keep])
         if words is not None:
-            self.words[slots] = words[first:keep]
-        self.times[slots] = times[first:keep]
+            _put(self.words, at, words[first:keep])
+        _put(self.times, at, times[first:keep])
         self.written += keep
         if self.state == RECORDING and self.written >= self.end:
             self.state = DONE
@@ -116,3 +116,11 @@ class Recorder:
         count = max(0, min(count, self.available - first))
         slots = (self.start + first + np.arange(count)) % self.capacity
         return self.times[slots], self.ring[slots], self.words[slots]
+
+
+def _put(ring: np.ndarray, at: int, block: np.ndarray) -> None:
+    """`block` (at most len(ring) rows) into `ring` from row `at` on, wrapping once: slice
+    copies, no index arrays."""
+    head = min(len(block), len(ring) - at)
+    ring[at:at + head] = block[:head]
+    ring[:len(block) - head] = block[head:]
