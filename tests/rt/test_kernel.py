@@ -193,3 +193,73 @@ def test_a_tracked_path_sampled_every_tick() -> None:
     script[300] = lambda c: c.hold([0, 2])
     fast, seen = run_both([S, S, ID], script, 400)
     assert seen & AxisFlag.DONE
+
+
+def _stage(core: MotionCore, every: int, size: int) -> tuple[np.ndarray, list[np.ndarray]]:
+    """A stage block of 4 signals x every axis on `core` (`stage_into`); the samples it
+    emptied, a list that grows as it fills."""
+    from vdevd.rt.axes import Axes
+    cells = [(r, a) for a in range(core.n) for r in (Axes.FB, Axes.CMD_POS, Axes.OUT, Axes.FERR)]
+    head = [0, every, every, len(cells), *np.ravel(cells)]
+    block = np.zeros((kernel.STAGE_HEAD + size, max(len(head), len(cells))))
+    block[kernel.STAGE_ROW, :len(head)] = head
+    emptied: list[np.ndarray] = []
+
+    def on_full() -> None:
+        emptied.append(block[kernel.STAGE_HEAD:, :len(cells)].copy())
+        block[kernel.STAGE_ROW, kernel.STAGED] = 0
+
+    core.stage_into(block, on_full)
+    return block, emptied
+
+
+@pytest.mark.parametrize("every", [1, 3])
+def test_staged_samples_are_the_state_after_whole_ticks_and_change_nothing(every: int) -> None:
+    """RECORD (a scope recording, decision 0016): the compiled and the numpy path stage, every
+    `every` ticks, the state after the whole tick - on ticks at a phase boundary, after a
+    following-error trip (the PID's output comes from the call after the check), across period
+    changes and with a card's own stepper - and tick exactly as a core that stages nothing."""
+    if kernel.jit_disabled():
+        pytest.skip("VDEVD_JIT=0: the numpy path only")
+    kinds = [S, S, V, ID]
+    fast, ref, plain = (MotionCore(4, MS, kinds, compiled=c) for c in (True, False, True))
+    stages = [_stage(c, every, 16) for c in (fast, ref)]
+    expected: list[np.ndarray] = []
+    script: Script = {
+        0: lambda c: c.move_absolute(slice(None), [30_000, 30_000, 9_000, -8_000], 200_000,
+                                     4e6, 4e6),
+        300: lambda c: c.servo_on(slice(None)),  # clears the trip
+        320: lambda c: c.jog(slice(None), 10_000, 1e6, 1e6),
+        400: lambda c: c.set_period(442_708.37),
+        500: lambda c: c.set_jammed([0], True),
+        560: lambda c: c.set_jammed([0], False),
+        600: lambda c: setattr(c, "stepper", _Smoothed(c.n, c.dt)),  # the numpy path serves
+        700: lambda c: c.stop(slice(None), 2e5),
+    }
+    cores = (fast, ref, plain)
+    for core in cores:
+        core.servo_on(slice(None))
+        core.set_fe_limit([0, 1], 40.0)
+    seen = 0
+    from vdevd.rt.axes import Axes
+    rows = [Axes.FB, Axes.CMD_POS, Axes.OUT, Axes.FERR]
+    for t in range(900):
+        if t in script:
+            for core in cores:
+                script[t](core)
+        events = [c.tick() for c in cores]
+        assert events[0] == events[1] == events[2], f"tick {t}"
+        seen |= events[0]
+        for core in (ref, plain):
+            np.testing.assert_array_equal(fast.axes.state, core.axes.state, err_msg=f"tick {t}")
+        if (t + 1) % every == 0:
+            expected.append(plain.axes.state[rows].T.ravel())
+    assert seen & AxisFlag.FE_TRIP and seen & AxisFlag.DONE
+    assert not fast._own_stepper
+    for block, emptied in stages:
+        m = int(block[kernel.STAGE_ROW, kernel.STAGED])
+        got = np.concatenate(emptied + [block[kernel.STAGE_HEAD:kernel.STAGE_HEAD + m, :16]])
+        np.testing.assert_array_equal(got, np.array(expected))
+    fast.stop_staging()
+    assert fast.staging is None and fast.profile._m3.shape == (3, 3)
+    assert fast.profile._m3[0, 1] == fast.dt  # the step of the period now
