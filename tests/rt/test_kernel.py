@@ -196,21 +196,24 @@ def test_a_tracked_path_sampled_every_tick() -> None:
 
 
 def _stage(core: MotionCore, every: int, size: int) -> tuple[np.ndarray, list[np.ndarray]]:
-    """A stage block of 4 signals x every axis on `core` (`stage_into`); the samples it
-    emptied, a list that grows as it fills."""
+    """A stage block of 4 signals x every axis on `core` (`stage_into`), its ring of `size`
+    samples taken whenever full; the samples taken, a list that grows."""
     from vdevd.rt.axes import Axes
-    cells = [(r, a) for a in range(core.n) for r in (Axes.FB, Axes.CMD_POS, Axes.OUT, Axes.FERR)]
-    head = [0, every, every, len(cells), *np.ravel(cells)]
-    block = np.zeros((kernel.STAGE_HEAD + size, max(len(head), len(cells))))
-    block[kernel.STAGE_ROW, :len(head)] = head
-    emptied: list[np.ndarray] = []
+    cells = np.array([(r, a) for a in range(core.n)
+                      for r in (Axes.FB, Axes.CMD_POS, Axes.OUT, Axes.FERR)])
+    block = np.zeros((kernel.STAGE_HEAD + size, max(kernel.STAGE_COLS, len(cells))))
+    block[kernel.STAGE_ROW, :kernel.STAGE_COLS] = (0, every, every, len(cells), 0, size)
+    block[kernel.CELL_ROWS, :len(cells)] = cells[:, 0]
+    block[kernel.CELL_AXES, :len(cells)] = cells[:, 1]
+    taken: list[np.ndarray] = []
 
     def on_full() -> None:
-        emptied.append(block[kernel.STAGE_HEAD:, :len(cells)].copy())
+        assert block[kernel.STAGE_ROW, kernel.SLOT] == 0  # wrapped
+        taken.append(block[kernel.STAGE_HEAD:, :len(cells)].copy())
         block[kernel.STAGE_ROW, kernel.STAGED] = 0
 
     core.stage_into(block, on_full)
-    return block, emptied
+    return block, taken
 
 
 @pytest.mark.parametrize("every", [1, 3])

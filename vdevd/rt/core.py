@@ -201,8 +201,8 @@ class MotionCore:
     def stage_into(self, block: np.ndarray, on_full: Callable[[], None]) -> None:
         """From the next tick, stage a sample of the state after each whole tick into `block`
         (a stage block, vdevd.rt.kernel "Staging": counters set by the caller), the compiled
-        kernel's copy (no Python per tick); `on_full()` once a tick filled it (it empties it:
-        STAGED 0). The numpy path stages the same samples."""
+        kernel's copy (no Python per tick); `on_full()` once a tick staged LIMIT samples (it
+        takes them: STAGED 0). The numpy path stages the same samples."""
         prof = self.profile
         block[:3, :3] = prof._m3
         prof._m3 = block  # the kernel's step comes from its top-left corner
@@ -240,12 +240,12 @@ class MotionCore:
             h[kn.COUNTDOWN] = c
             return events
         h[kn.COUNTDOWN] = h[kn.EVERY]
-        k, m = int(h[kn.STAGED]), int(h[kn.NCOLS])
-        row = kn.STAGE_HEAD + k
-        at = h[kn.COL0:kn.COL0 + 2 * m].astype(np.intp)
-        b[row, :m] = self.axes.state[at[0::2], at[1::2]]
-        h[kn.STAGED] = k + 1
-        if row + 1 == len(b):
+        m, row = int(h[kn.NCOLS]), kn.STAGE_HEAD + int(h[kn.SLOT])
+        at = b[kn.CELL_ROWS:kn.CELL_AXES + 1, :m].astype(np.intp)
+        b[row, :m] = self.axes.state[at[0], at[1]]
+        h[kn.SLOT] = 0 if row + 1 == len(b) else row + 1 - kn.STAGE_HEAD
+        h[kn.STAGED] += 1
+        if h[kn.STAGED] >= h[kn.LIMIT]:
             self._stage_full()
         return events
 

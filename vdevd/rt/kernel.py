@@ -13,13 +13,15 @@ the following-error limit, the stepper's pulse generator, the profile's jerk ste
 encoder and jam rows. `flags` holds per-axis switches (AX_*) and `m3` the profile's 3x3 step.
 
 Staging (RECORD, issue 23 §1, decision 0016). While a scope records, `m3` is a taller block: its
-rows 0-2 (columns 0-2) the step, row STAGE_ROW the stage's counters (STAGED, COUNTDOWN, EVERY,
-NCOLS, then the (state row, axis) of each of the NCOLS columns sampled, as floats), and the rows
-below the staged samples, one a row, in the columns' order. At the end of a call with RECORD
+rows 0-2 (columns 0-2) the step; row STAGE_ROW the stage's counters (STAGED, COUNTDOWN, EVERY,
+NCOLS, SLOT, LIMIT, as floats); rows CELL_ROWS and CELL_AXES the state row and the axis of each of
+the NCOLS columns sampled; the rows from STAGE_HEAD on a ring of samples, one a row, in the
+columns' order (the scope's recorder reads them there: no copy). At the end of a call with RECORD
 (`MotionCore.tick` sets it on the call that ends a tick) that does not return 1, the kernel
-counts COUNTDOWN down and, at 0, copies the state into the next sample row; it returns 2 when the
-stage is then full (the caller empties it: STAGED 0). No extra argument (each costs the call
-some 30 ns), and nothing while RECORD is off.
+counts COUNTDOWN down and, at 0, copies the state into ring row SLOT (then the next, wrapping)
+and counts it in STAGED; it returns 2 once STAGED reaches LIMIT (the caller takes the samples:
+STAGED 0, and sets SLOT and LIMIT). No extra argument (each costs the call some 30 ns), and
+nothing while RECORD is off.
 """
 
 from __future__ import annotations
@@ -62,9 +64,10 @@ RECORD = 256  # a whole tick ends here: stage its sample (m3 is the stage block)
 ALL = PLANT | PROFILE | FOLLOW | PID
 
 # -- the stage block (RECORD): its counters' row and columns, then the samples' rows -----------------
-STAGE_ROW = 3
-STAGED, COUNTDOWN, EVERY, NCOLS, COL0 = range(5)
-STAGE_HEAD = STAGE_ROW + 1  # rows before the first sample
+STAGE_ROW, CELL_ROWS, CELL_AXES = 3, 4, 5
+STAGED, COUNTDOWN, EVERY, NCOLS, SLOT, LIMIT = range(6)
+STAGE_HEAD = 6  # rows before the ring's first
+STAGE_COLS = 6  # the least width of a stage block (its counters)
 
 # the state rows (Axes)
 _CMD_POS, _CMD_VEL, _CMD_ACC, _ONE, _INTEG, _E_PREV, _FERR, _POS, _VEL, _OUT, _FB = range(11)
@@ -73,7 +76,7 @@ _CMD_POS, _CMD_VEL, _CMD_ACC, _ONE, _INTEG, _E_PREV, _FERR, _POS, _VEL, _OUT, _F
 def tick_py(mode: int, s: Any, encoder: Any, coef: Any, flags: Any, m3: Any, dt: float) -> int:
     """One tick (or the parts `mode` names) of every axis; 1 when a following error is over its
     limit (the PID is then not run: the caller trips and calls again with PID), 2 when the tick
-    staged a sample that filled the stage (RECORD), else 0."""
+    staged the LIMIT-th sample (RECORD), else 0."""
     n = s.shape[1]
     if mode & PLANT:
         friction = mode & FRICTION
@@ -165,12 +168,13 @@ def tick_py(mode: int, s: Any, encoder: Any, coef: Any, flags: Any, m3: Any, dt:
             m3[STAGE_ROW, COUNTDOWN] = c
             return 0
         m3[STAGE_ROW, COUNTDOWN] = m3[STAGE_ROW, EVERY]
-        k = int(m3[STAGE_ROW, STAGED])
-        row = STAGE_HEAD + k
+        row = STAGE_HEAD + int(m3[STAGE_ROW, SLOT])
         for j in range(int(m3[STAGE_ROW, NCOLS])):
-            m3[row, j] = s[int(m3[STAGE_ROW, COL0 + 2 * j]), int(m3[STAGE_ROW, COL0 + 2 * j + 1])]
-        m3[STAGE_ROW, STAGED] = k + 1
-        if row + 1 == m3.shape[0]:
+            m3[row, j] = s[int(m3[CELL_ROWS, j]), int(m3[CELL_AXES, j])]
+        m3[STAGE_ROW, SLOT] = 0.0 if row + 1 == m3.shape[0] else row + 1 - STAGE_HEAD
+        k = m3[STAGE_ROW, STAGED] + 1.0
+        m3[STAGE_ROW, STAGED] = k
+        if k >= m3[STAGE_ROW, LIMIT]:
             return 2
     return 0
 

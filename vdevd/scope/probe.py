@@ -1,21 +1,20 @@
 """A recorder on one card's ticks (issue 23 §1): what the hot path of an armed scope runs.
 
 Every card ticks its axes through its `MotionCore` (`tick`) and runs ticks at rest in closed
-form through it (`skip`, decision 0008). While a scope is armed, the core's `tick` and `skip` are
-replaced, on the core object only, by callables that call the core's own and then sample
-(`CoreTick`) or write the skipped ticks' samples from the resting state (`CoreSkip`); disarmed or
-done, they are removed, so a card without a scope costs nothing more.
-
-The tick's share is one copy: the rows of the core's state block that hold the recorded
-signals (`Axes.state[rows]`, every axis) go into a stage block (`STAGE` samples); the
-recorder takes its columns from it, with their times and the trigger's look, vectorised, when it
-is full, before a skip, and before a status or a read (`flush`). With only signals of the state
-block (no word), the core stages them itself (`MotionCore.stage_into`): the compiled kernel
-copies the rows at the end of its tick and counts the ticks between samples, so an armed scope
-adds no Python call to the tick (decision 0016); a word signal needs the card's registers after
-each sample's tick, so then the core's `tick` is replaced (`CoreTick`). A `register` or `irq` trigger
-needs the card's state after each whole tick (a card publishes its memory at the end of a batch),
-so until it fires the card runs one tick a call (`CardTicks`), as a `wait` makes it.
+form through it (`skip`, decision 0008). While a scope is armed, the core stages a sample after
+each whole tick itself (`MotionCore.stage_into`): the compiled kernel copies the recorded cells
+of the state block (`Axes.state[row, axis]`, in the columns' order) into the recorder's ring,
+which is the stage block's tail, and counts the ticks between samples, so an armed scope adds no
+Python call to the tick (decision 0016). The core's `skip` is replaced, on the core object only,
+by a callable that calls the core's own and writes the skipped ticks' samples from the resting
+state (`CoreSkip`). The recorder commits the staged samples (their times and the trigger's look,
+vectorised) when the kernel says it has staged as many as it may (`Recorder.room`), before a
+skip, and before a status or a read (`flush`). A word signal (the card's registers) needs Python
+after each sample's tick: the core's `tick` is then replaced (`CoreTick`), staging the same way.
+Disarmed or done, all of it is removed, so a card without a scope costs nothing more. A
+`register` or `irq` trigger needs the card's state after each whole tick (a card publishes its
+memory at the end of a batch), so until it fires the card runs one tick a call (`CardTicks`), as
+a `wait` makes it.
 
 A sample's time is its tick's (`Card.time_of_tick`), ticks counted from the card's at arming.
 Only plain objects refer to each other here: a snapshot of the rack pickles them.
@@ -32,10 +31,6 @@ from vdevd.rt import kernel as kn
 from vdevd.scope.recorder import ARMED, DONE, Recorder
 from vdevd.scope.signals import Signals
 from vdevd.scope.trigger import Trigger, TriggerMachine
-
-#: samples staged between two vectorised writes into the recorder: at most STAGE, in at most
-#: STAGE_BYTES (a write costs some 30 us: spread over a thousand ticks, 30 ns a tick)
-STAGE, STAGE_BYTES = 4096, 1 << 20
 
 
 class Probe:
@@ -68,19 +63,17 @@ class Probe:
         #: each float column's (state row, axis): a sample, in the columns' order
         self.cells = np.array(rows, dtype=np.intp).reshape(-1, 2)
         self.width = width = len(rows)  # floats a sample
-        # a `now` recording takes `capacity` samples at most; one waiting for its trigger, more
-        size = max(16, min(STAGE, STAGE_BYTES // (8 * max(1, width)),
-                           capacity if trigger.kind == "now" else STAGE))
-        #: the stage block (vdevd.rt.kernel "Staging"): counters, then `size` samples
-        head = [0, every, every, width, *self.cells.ravel()]
-        self.block = np.zeros((kn.STAGE_HEAD + size, max(len(head), width)))
+        #: the stage block (vdevd.rt.kernel "Staging"): counters, the cells, then the ring
+        self.block = np.zeros((kn.STAGE_HEAD + capacity, max(kn.STAGE_COLS, width)))
         self.block.fill(0.0)  # its pages mapped now, at arming, not in the ticks
-        self.block[kn.STAGE_ROW, :len(head)] = head
-        self.wstage = np.zeros((size, len(axes) * len(self.word_names)), dtype=np.int64)
+        self.block[kn.STAGE_ROW, :kn.STAGE_COLS] = (0, every, every, width, 0, 1)
+        self.block[kn.CELL_ROWS, :width] = self.cells[:, 0]
+        self.block[kn.CELL_AXES, :width] = self.cells[:, 1]
         self._axes = np.array(axes, dtype=np.intp)
         machine = TriggerMachine(trigger, self._register(trigger), self._irq_seq(trigger))
         self.rec = Recorder(width, len(axes) * len(self.word_names), capacity, pre,
-                            machine, watch)
+                            machine, watch, self.ring)
+        self._limit()
         self.tick = card.ticks  # the card's tick of the last sample flushed (or at arming)
         self._regime = self._period_regime()
         #: the core's tick while recording a word signal (else the core stages: `stage_into`)
@@ -89,6 +82,11 @@ class Probe:
         self.attach()
 
     # -- pickling (snapshots) ---------------------------------------------------------------------
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """The recorder's ring is a view of the stage block (pickled once, with the probe)."""
+        vars(self).update(state)
+        self.rec.ring = self.ring
+
     def rebuild(self) -> None:
         """The views an unpickled hook needs, of the stage block unpickled with it."""
         if self.hook is not None:
@@ -99,20 +97,16 @@ class Probe:
         return self.core.axes.state[self.cells[:, 0], self.cells[:, 1]]
 
     @property
-    def stage(self) -> np.ndarray:
-        """The staged samples, one a row, in the columns' order (a view
-        of the stage block)."""
+    def ring(self) -> np.ndarray:
+        """The recorder's ring of samples, one a row, in the columns' order: the stage block's
+        rows the tick writes (a view)."""
         return self.block[kn.STAGE_HEAD:, :self.width]
 
     # -- the stage's counters (in the stage block: the kernel keeps them) --------------------------
     @property
     def staged(self) -> int:
-        """Samples staged, not yet written into the recorder."""
+        """Samples staged, not yet committed to the recorder."""
         return int(self.block[kn.STAGE_ROW, kn.STAGED])
-
-    @staged.setter
-    def staged(self, m: int) -> None:
-        self.block[kn.STAGE_ROW, kn.STAGED] = m
 
     @property
     def countdown(self) -> int:
@@ -122,6 +116,11 @@ class Probe:
     @countdown.setter
     def countdown(self, c: int) -> None:
         self.block[kn.STAGE_ROW, kn.COUNTDOWN] = c
+
+    def _limit(self) -> None:
+        """None staged; the next into the recorder's next slot, as many as it has room for."""
+        h = self.block[kn.STAGE_ROW]
+        h[kn.STAGED], h[kn.SLOT], h[kn.LIMIT] = 0, self.rec.slot, max(1, self.rec.room)
 
     # -- the card's state -------------------------------------------------------------------------
     def _register(self, t: Trigger) -> int:
@@ -187,16 +186,15 @@ class Probe:
         self.attached = False
 
     def flush(self) -> None:
-        """Write the staged samples into the recorder (their ticks follow `tick` every
+        """Commit the staged samples to the recorder (their ticks follow `tick` every
         `every`); detach once it is done."""
         m = self.staged
         if not m:
             return
-        self.staged = 0
         ticks = self.tick + self.every * np.arange(1, m + 1, dtype=np.int64)
         self.tick = int(ticks[-1])
-        values = self.stage[:m]
-        self.rec.write(self.times(ticks), values, self.wstage[:m] if self.word_names else None)
+        self.rec.commit(self.times(ticks))
+        self._limit()
         if self.rec.state == DONE:
             self.detach()
 
@@ -217,6 +215,7 @@ class Probe:
         row = self.sample()
         words = self._words() if self.word_names else None
         self.rec.rest(m, lambda j: self.times(first + j * every), row, words)
+        self._limit()
         if self.rec.state == DONE:
             self.detach()
 
@@ -235,6 +234,7 @@ class Probe:
             fired = m.irq(0 if event is None else int(event.seq))
         if fired:  # at this tick's sample, or the next one taken
             rec.fire(rec.written - 1 if sampled else rec.written)
+            self._limit()
             if rec.state == DONE:
                 self.detach()
 
@@ -254,11 +254,10 @@ class CoreTick:
         self.core = probe.core
         self.fn: Callable[[Any], int] = type(probe.core).tick
         self.state = probe.core.axes.state
-        self.rows = self.views()  # a view per sample: copied into
-        self.size = len(self.rows)
+        self.rows = self.views()  # a view per ring row: copied into
 
     def views(self) -> list[np.ndarray]:
-        return list(self.probe.stage)
+        return list(self.probe.ring)
 
     def __getstate__(self) -> dict[str, Any]:
         state = dict(vars(self))
@@ -272,16 +271,21 @@ class CoreTick:
     def __call__(self) -> int:
         events = self.fn(self.core)
         p = self.probe
-        c = p.countdown - 1
-        if c:
-            p.countdown = c
+        if not p.attached:  # done during a run that holds this tick (`MotionCore.run`)
             return events
-        p.countdown = p.every
-        i = p.staged
-        self.rows[i][...] = self.state[p.cells[:, 0], p.cells[:, 1]]
-        p.wstage[i] = p._words()
-        p.staged = i = i + 1
-        if i == self.size:
+        h = p.block[kn.STAGE_ROW]
+        c = h[kn.COUNTDOWN] - 1.0
+        if c > 0.0:
+            h[kn.COUNTDOWN] = c
+            return events
+        h[kn.COUNTDOWN] = p.every
+        slot = int(h[kn.SLOT])
+        cells = p.cells
+        self.rows[slot][...] = self.state[cells[:, 0], cells[:, 1]]
+        p.rec.words[slot] = p._words()
+        h[kn.SLOT] = 0 if slot + 1 == len(self.rows) else slot + 1
+        h[kn.STAGED] += 1
+        if h[kn.STAGED] >= h[kn.LIMIT]:
             p.flush()
         return events
 

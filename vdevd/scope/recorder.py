@@ -12,6 +12,7 @@ pickles it.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -24,13 +25,18 @@ class Recorder:
     """Samples of `columns` floats and `n_words` ints, at most `capacity` of them kept."""
 
     def __init__(self, columns: int, n_words: int, capacity: int, pre: int,
-                 machine: TriggerMachine, watch: int = -1) -> None:
+                 machine: TriggerMachine, watch: int = -1, ring: np.ndarray | None = None
+                 ) -> None:
         """`pre`: the samples kept before the trigger (< capacity); `watch`: the float column
-        a `position` trigger watches (-1: none)."""
+        a `position` trigger watches (-1: none); `ring`: the (capacity, columns) floats to keep
+        them in (a view into a stage block that the tick writes, `commit`), else its own."""
         if capacity < 1 or not 0 <= pre < capacity:
             raise ValueError(f"capacity {capacity}, pre {pre}: need 0 <= pre < capacity")
         self.capacity, self.pre = capacity, pre
-        self.ring = np.zeros((capacity, columns))
+        self.own_ring = ring is None
+        self.ring = np.zeros((capacity, columns)) if ring is None else ring
+        if self.ring.shape != (capacity, columns):
+            raise ValueError(f"a ring of {self.ring.shape}, not {(capacity, columns)}")
         self.words = np.zeros((capacity, n_words), dtype=np.int64)
         self.times = np.zeros(capacity, dtype=np.int64)
         for block in (self.ring, self.words, self.times):  # pages mapped now, not in the ticks
@@ -66,6 +72,45 @@ class Recorder:
             _put(self.words, at, words[first:keep])
         _put(self.times, at, times[first:keep])
         self.written += keep
+        if self.state == RECORDING and self.written >= self.end:
+            self.state = DONE
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Without a ring it does not own (a view: its owner gives it back, `ring`)."""
+        state = dict(vars(self))
+        if not self.own_ring:
+            del state["ring"]
+        return state
+
+    @property
+    def slot(self) -> int:
+        """The ring row of the next sample."""
+        return self.written % self.capacity
+
+    @property
+    def room(self) -> int:
+        """Samples the ring takes in before they must be looked at (`commit`): up to the
+        window's end once fired; while armed, so many that the `pre` samples before a
+        trigger among them are still there."""
+        if self.state == ARMED:
+            return self.capacity - self.pre
+        return max(0, self.end - self.written) if self.state == RECORDING else 0
+
+    def commit(self, times: np.ndarray) -> None:
+        """The next len(times) samples, already in the ring (floats and words) from `slot` on,
+        at most `room` of them: their times; a `position` trigger looks at its column."""
+        m = len(times)
+        if m == 0 or self.state == DONE:
+            return
+        if m > self.room:
+            raise ValueError(f"{m} samples committed, room for {self.room}")
+        if self.state == ARMED and self.watch >= 0:
+            slots = (self.written + np.arange(m)) % self.capacity
+            hit = self.machine.position(self.ring[slots, self.watch])
+            if hit >= 0:
+                self.fire(self.written + hit)
+        _put(self.times, self.slot, times)
+        self.written += m
         if self.state == RECORDING and self.written >= self.end:
             self.state = DONE
 
