@@ -130,7 +130,8 @@ def test_bad_capacity_or_pre() -> None:
         Recorder(1, 0, 0, 0, TriggerMachine(Trigger()))
 
 
-def test_an_armed_recording_pickles_and_records_on() -> None:
+@pytest.mark.parametrize("signals", [["position", "command"], ["position", "status"]])
+def test_an_armed_recording_pickles_and_records_on(signals: list[str]) -> None:
     """Snapshots pickle the rack: the recorder, its hooks and the trigger machine are plain
     objects (the card and its core are the snapshot's own business, referred to here by
     persistent ids and restored as a card brought to the same state). The restored recorder
@@ -154,7 +155,7 @@ def test_an_armed_recording_pickles_and_records_on() -> None:
 
     card, rack = make()
     scopes = Scopes()
-    scopes.op(card, {"action": "arm", "axes": [0], "signals": ["position", "command"],
+    scopes.op(card, {"action": "arm", "axes": [0], "signals": signals,
                      "samples": 60, "pre": 5,
                      "trigger": {"kind": "position", "axis": 0, "level": 50}})
     rack.sched.advance(40_000_000)
@@ -176,9 +177,14 @@ def test_an_armed_recording_pickles_and_records_on() -> None:
     copy: Scopes = In(buf).load()
     probe = copy.probes["c"]
     original = scopes.probes["c"]
-    assert probe.hook is None and original.core.staging is original.block  # the core stages
     assert probe.staged == original.staged > 0 and probe.block is not original.block
-    twin.core.stage_into(probe.block, probe.flush)  # as the pickled core holds them
+    assert probe.rec.ring.base is probe.block  # the ring is the stage block's tail again
+    if "status" in signals:  # a word: the core's tick is the probe's hook
+        assert type(probe.hook).__name__ == "StaleCoreTick"
+        twin.core.tick = probe.hook  # type: ignore[method-assign]
+    else:
+        assert probe.hook is None and original.core.staging is original.block  # the core stages
+        twin.core.stage_into(probe.block, probe.flush)  # as the pickled core holds them
     twin.core.skip = CoreSkip(probe)  # type: ignore[method-assign]
     for r in (rack, twin_rack):
         r.sched.advance(300_000_000)
@@ -187,6 +193,7 @@ def test_an_armed_recording_pickles_and_records_on() -> None:
     assert a is not None and b is not None and a["state"] == b["state"] == "done"
     assert a["count"] == b["count"] == 60
     assert a["columns"] == b["columns"] and a["time_ns"] == b["time_ns"]
+    assert a["columns"]["0.position"] != bytes(len(a["columns"]["0.position"]))  # it moved
     assert not {"tick", "skip"} & set(vars(twin.core))  # done: detached from the twin
     assert twin.core.staging is None and card.core.staging is None
 

@@ -245,9 +245,9 @@ class Probe:
 
 
 class CoreTick:
-    """The core's `tick` while a scope records a word signal: the core's own, then a block copy
-    of the recorded rows into the next row of the stage and the words into theirs (no Python
-    loop over axes or signals)."""
+    """The core's `tick` while a scope records a word signal: the core's own, then, every
+    `every` ticks, the sample's floats and words into the recorder's next slot, counted in the
+    stage block as the kernel counts (no Python loop over axes or signals)."""
 
     def __init__(self, probe: Probe) -> None:
         self.probe = probe
