@@ -11,7 +11,8 @@ at a time, timed (wall ns per tick). Each repeat runs the card once without a re
 with one armed (signals position, command, velocity, error of the 8 axes, every tick, trigger
 `now`, as many samples as the run's ticks), in turn, so the host's slow phases hit both series
 alike. Figures: p50 over the repeats of ns per tick, and the ratio of the p50s. Sanity: the
-recorder took every tick of its run, and the axes were still moving at the end.
+recorder took every tick of its run, its last sample is the state after the run's last tick,
+and the axes were still moving at the end.
 
     python bench/scope.py [--quick] [--json]
 """
@@ -70,6 +71,7 @@ def per_tick(card: Any, rack: Rack, ticks: int) -> float:
 
 def run_card(type_name: str, ticks: int, repeats: int) -> dict[str, Any]:
     card, rack, core = build(type_name)
+    rows = [card.scope_signals().rows[s] for s in SIGNALS]
     scopes = Scopes()
     per_tick(card, rack, ticks)  # warm up (the compiled kernel, the caches)
     base: list[float] = []
@@ -81,6 +83,8 @@ def run_card(type_name: str, ticks: int, repeats: int) -> dict[str, Any]:
         status = scopes.op(card, {"action": "status"})
         assert status is not None and status["state"] == "done" and status["taken"] == ticks, \
             status
+        _, last, _ = scopes.probes[card.name].rec.window(ticks - 1, 1)  # the state now
+        assert (last[0] == core.axes.state[rows].T.ravel()).all(), f"{type_name}: last sample"
         scopes.op(card, {"action": "clear"})
     assert (np.abs(core.axes.cmd_vel) > 0).all(), f"{type_name}: an axis stopped"
     b, s = dist(base), dist(scoped)
