@@ -202,15 +202,15 @@ def _stage(core: MotionCore, every: int, size: int) -> tuple[np.ndarray, list[np
     cells = np.array([(r, a) for a in range(core.n)
                       for r in (Axes.FB, Axes.CMD_POS, Axes.OUT, Axes.FERR)])
     block = np.zeros((kernel.STAGE_HEAD + size, max(kernel.STAGE_COLS, len(cells))))
-    block[kernel.STAGE_ROW, :kernel.STAGE_COLS] = (0, every, every, len(cells), 0, size)
+    block[kernel.STAGED:kernel.LIMIT + 1, 0] = (0, every, every, len(cells), 0, size)
     block[kernel.CELL_ROWS, :len(cells)] = cells[:, 0]
     block[kernel.CELL_AXES, :len(cells)] = cells[:, 1]
     taken: list[np.ndarray] = []
 
     def on_full() -> None:
-        assert block[kernel.STAGE_ROW, kernel.SLOT] == 0  # wrapped
+        assert block[kernel.SLOT, 0] == 0  # wrapped
         taken.append(block[kernel.STAGE_HEAD:, :len(cells)].copy())
-        block[kernel.STAGE_ROW, kernel.STAGED] = 0
+        block[kernel.STAGED, 0] = 0
 
     core.stage_into(block, on_full)
     return block, taken
@@ -260,7 +260,7 @@ def test_staged_samples_are_the_state_after_whole_ticks_and_change_nothing(every
     assert seen & AxisFlag.FE_TRIP and seen & AxisFlag.DONE
     assert not fast._own_stepper
     for block, emptied in stages:
-        m = int(block[kernel.STAGE_ROW, kernel.STAGED])
+        m = int(block[kernel.STAGED, 0])
         got = np.concatenate(emptied + [block[kernel.STAGE_HEAD:kernel.STAGE_HEAD + m, :16]])
         np.testing.assert_array_equal(got, np.array(expected))
     fast.stop_staging()

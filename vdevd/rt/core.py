@@ -234,7 +234,7 @@ class MotionCore:
         events = self.tick_numpy()
         b = self._stage_block
         assert b is not None
-        h = b[kn.STAGE_ROW]
+        h = b[:, 0]
         c = h[kn.COUNTDOWN] - 1.0
         if c > 0.0:
             h[kn.COUNTDOWN] = c

@@ -13,15 +13,16 @@ the following-error limit, the stepper's pulse generator, the profile's jerk ste
 encoder and jam rows. `flags` holds per-axis switches (AX_*) and `m3` the profile's 3x3 step.
 
 Staging (RECORD, issue 23 §1, decision 0016). While a scope records, `m3` is a taller block: its
-rows 0-2 (columns 0-2) the step; row STAGE_ROW the stage's counters (STAGED, COUNTDOWN, EVERY,
-NCOLS, SLOT, LIMIT, as floats); rows CELL_ROWS and CELL_AXES the state row and the axis of each of
+rows 0-2 (columns 0-2) the step; column 0 of rows STAGED, COUNTDOWN, EVERY, NCOLS, SLOT, LIMIT the
+stage's counters (as floats); rows CELL_ROWS and CELL_AXES the state row and the axis of each of
 the NCOLS columns sampled; the rows from STAGE_HEAD on a ring of samples, one a row, in the
-columns' order (the scope's recorder reads them there: no copy). At the end of a call with RECORD
-(`MotionCore.tick` sets it on the call that ends a tick) that does not return 1, the kernel
-counts COUNTDOWN down and, at 0, copies the state into ring row SLOT (then the next, wrapping)
-and counts it in STAGED; it returns 2 once STAGED reaches LIMIT (the caller takes the samples:
-STAGED 0, and sets SLOT and LIMIT). No extra argument (each costs the call some 30 ns), and
-nothing while RECORD is off.
+columns' order (the scope's recorder reads them there: no copy). The block is as wide as a sample
+(3 columns at least), so the ring costs no more memory than the recorder's own. At the end of a
+call with RECORD (`MotionCore.tick` sets it on the call that ends a tick) that does not return
+1, the kernel counts COUNTDOWN down and, at 0, copies the state into ring row SLOT (then the
+next, wrapping) and counts it in STAGED; it returns 2 once STAGED reaches LIMIT (the caller takes
+the samples: STAGED 0, and sets SLOT and LIMIT). No extra argument (each costs the call some
+30 ns), and nothing while RECORD is off.
 """
 
 from __future__ import annotations
@@ -64,10 +65,10 @@ RECORD = 256  # a whole tick ends here: stage its sample (m3 is the stage block)
 ALL = PLANT | PROFILE | FOLLOW | PID
 
 # -- the stage block (RECORD): its counters' row and columns, then the samples' rows -----------------
-STAGE_ROW, CELL_ROWS, CELL_AXES = 3, 4, 5
-STAGED, COUNTDOWN, EVERY, NCOLS, SLOT, LIMIT = range(6)
-STAGE_HEAD = 6  # rows before the ring's first
-STAGE_COLS = 6  # the least width of a stage block (its counters)
+STAGED, COUNTDOWN, EVERY, NCOLS, SLOT, LIMIT = range(3, 9)  # rows (column 0)
+CELL_ROWS, CELL_AXES = 9, 10
+STAGE_HEAD = 11  # rows before the ring's first
+STAGE_COLS = 3  # the least width of a stage block (the step)
 
 # the state rows (Axes)
 _CMD_POS, _CMD_VEL, _CMD_ACC, _ONE, _INTEG, _E_PREV, _FERR, _POS, _VEL, _OUT, _FB = range(11)
@@ -163,18 +164,18 @@ def tick_py(mode: int, s: Any, encoder: Any, coef: Any, flags: Any, m3: Any, dt:
             s[_OUT, i] = out
             s[_E_PREV, i] = e
     if mode & RECORD:  # the tick is whole: its sample, every EVERY ticks
-        c = m3[STAGE_ROW, COUNTDOWN] - 1.0
+        c = m3[COUNTDOWN, 0] - 1.0
         if c > 0.0:
-            m3[STAGE_ROW, COUNTDOWN] = c
+            m3[COUNTDOWN, 0] = c
             return 0
-        m3[STAGE_ROW, COUNTDOWN] = m3[STAGE_ROW, EVERY]
-        row = STAGE_HEAD + int(m3[STAGE_ROW, SLOT])
-        for j in range(int(m3[STAGE_ROW, NCOLS])):
+        m3[COUNTDOWN, 0] = m3[EVERY, 0]
+        row = STAGE_HEAD + int(m3[SLOT, 0])
+        for j in range(int(m3[NCOLS, 0])):
             m3[row, j] = s[int(m3[CELL_ROWS, j]), int(m3[CELL_AXES, j])]
-        m3[STAGE_ROW, SLOT] = 0.0 if row + 1 == m3.shape[0] else row + 1 - STAGE_HEAD
-        k = m3[STAGE_ROW, STAGED] + 1.0
-        m3[STAGE_ROW, STAGED] = k
-        if k >= m3[STAGE_ROW, LIMIT]:
+        m3[SLOT, 0] = 0.0 if row + 1 == m3.shape[0] else row + 1 - STAGE_HEAD
+        k = m3[STAGED, 0] + 1.0
+        m3[STAGED, 0] = k
+        if k >= m3[LIMIT, 0]:
             return 2
     return 0
 

@@ -66,7 +66,7 @@ class Probe:
         #: the stage block (vdevd.rt.kernel "Staging"): counters, the cells, then the ring
         self.block = np.zeros((kn.STAGE_HEAD + capacity, max(kn.STAGE_COLS, width)))
         self.block.fill(0.0)  # its pages mapped now, at arming, not in the ticks
-        self.block[kn.STAGE_ROW, :kn.STAGE_COLS] = (0, every, every, width, 0, 1)
+        self.block[kn.STAGED:kn.LIMIT + 1, 0] = (0, every, every, width, 0, 1)
         self.block[kn.CELL_ROWS, :width] = self.cells[:, 0]
         self.block[kn.CELL_AXES, :width] = self.cells[:, 1]
         self._axes = np.array(axes, dtype=np.intp)
@@ -106,20 +106,20 @@ class Probe:
     @property
     def staged(self) -> int:
         """Samples staged, not yet committed to the recorder."""
-        return int(self.block[kn.STAGE_ROW, kn.STAGED])
+        return int(self.block[kn.STAGED, 0])
 
     @property
     def countdown(self) -> int:
         """Ticks to the next sample."""
-        return int(self.block[kn.STAGE_ROW, kn.COUNTDOWN])
+        return int(self.block[kn.COUNTDOWN, 0])
 
     @countdown.setter
     def countdown(self, c: int) -> None:
-        self.block[kn.STAGE_ROW, kn.COUNTDOWN] = c
+        self.block[kn.COUNTDOWN, 0] = c
 
     def _limit(self) -> None:
         """None staged; the next into the recorder's next slot, as many as it has room for."""
-        h = self.block[kn.STAGE_ROW]
+        h = self.block[:, 0]
         h[kn.STAGED], h[kn.SLOT], h[kn.LIMIT] = 0, self.rec.slot, max(1, self.rec.room)
 
     # -- the card's state -------------------------------------------------------------------------
@@ -273,7 +273,7 @@ class CoreTick:
         p = self.probe
         if not p.attached:  # done during a run that holds this tick (`MotionCore.run`)
             return events
-        h = p.block[kn.STAGE_ROW]
+        h = p.block[:, 0]
         c = h[kn.COUNTDOWN] - 1.0
         if c > 0.0:
             h[kn.COUNTDOWN] = c
