@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vdevd.devices.pmac import kin_velocity, mode_blend, rollover
+from vdevd.devices.pmac import kin_velocity, mode_blend, rollover, stop_commands
 from vdevd.devices.pmac.circle import CirclePlanner
 from vdevd.devices.pmac.coord import AXES, CS_COUNT
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, CommandError
@@ -792,6 +792,8 @@ class CsProgram:
             self._restart_planner()
         if self.stopping or self.state == "quit":
             if self.planner is not None:
+                if self.state == "quit":   # Q in PVT: no velocity step at the stop
+                    stop_commands.pvt_quit(self)
                 self._flush()
                 self.planner = None
             self.stopping = True

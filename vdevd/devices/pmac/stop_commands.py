@@ -24,6 +24,7 @@ import numpy as np
 
 from vdevd.devices.pmac.linear import LinearPlanner, blend
 from vdevd.devices.pmac.pieces import NAXES, Piece
+from vdevd.devices.pmac.pvt import PvtPlanner
 
 if TYPE_CHECKING:
     from vdevd.devices.pmac.program_runner import CsProgram
@@ -33,7 +34,7 @@ def stop_at_end_of_move(r: CsProgram) -> None:
     """`/` for C.S. r (module docstring)."""
     if not r.running:
         return
-    if not _cut_next_move(r):
+    if not _cut_next_move(r) and not _cut_next_pvt(r):
         r.quit()
 
 
@@ -116,3 +117,61 @@ def _segmented_stop(r: CsProgram, nxt: int,
     ts = min(float(r._params()["TS"]), ta / 2)
     return at, blend(p, v, np.zeros(NAXES), ta, ts)
 
+
+
+# -- PVT: no velocity step at the stop (pvt.py) -----------------------------------------------------
+def ixx15_time(r: CsProgram, v: np.ndarray) -> float:
+    """The shortest time in which every motor of C.S. r comes from axis velocity `v` (units/s)
+    to rest at its Ixx15 (counts/ms^2) [SRM Ixx15]; 0 where Ixx15 is 0."""
+    if not len(r.members):
+        return 0.0
+    counts = np.abs(r.scale @ v)                                       # counts/s
+    dec = r.fw.ivars.values[100 * (r.members + 1) + 15] * 1e6          # counts/s^2
+    need = np.divide(counts, dec, out=np.zeros_like(counts), where=dec > 0)
+    return float(need.max())
+
+
+def pvt_quit(r: CsProgram) -> None:
+    """Q (or `/` with nothing calculated past the executing move) in PVT mode: the segments
+    calculated run out, then the deceleration of `PvtPlanner.stop` brings the axes to rest from
+    the last point's velocity; the program stands (and R goes on) where they stop."""
+    planner = r.planner
+    if not isinstance(planner, PvtPlanner):
+        return
+    r._enqueue(planner.stop(ixx15_time(r, planner.velocity)), starts=0)
+    r.pos = planner.position.copy()
+
+
+def _cut_next_pvt(r: CsProgram) -> bool:
+    """`/` in PVT mode with the next segment calculated: that segment is dropped and given back to
+    the calculation, and the executing segment ends in the deceleration of `PvtPlanner.stop`
+    from its end point and velocity; False when that is not how the motion stands."""
+    planner = r.planner
+    if r.mode != "PVT" or r.wait or not isinstance(planner, PvtPlanner):
+        return False
+    nxt = r.started + 1
+    rec = r.move_from
+    if rec is None or rec[0] != nxt or r.calc != nxt:
+        return False
+    _, prog, pc, stack, ops, _start = rec
+    if prog == 0 and r.rot.ops is not ops:
+        return False   # the rotary line of that move is gone: it cannot be calculated again
+    queue = list(r.queue)
+    at = next((k for k, q in enumerate(queue) if q.starts == nxt), None)
+    if at is None:
+        return False
+    before = queue[at - 1].piece if at else (r.cur.piece if r.cur is not None else None)
+    if before is None:
+        return False
+    p, v = before.end()
+    while len(r.queue) > at:
+        r.queue.pop()
+    planner.position, planner.velocity = p.copy(), v.copy()
+    pvt_quit(r)
+    r.planner = None
+    r.prog, r.pc, r.stack = prog, pc, stack
+    r.calc = r.started
+    r.move_from = None
+    r._blocked = r._glide = None
+    r.state, r.stopping = "quit", True
+    return True
