@@ -167,6 +167,8 @@ class CirclePlanner(Planner):
         self.emitted_t = 0.0       # time up to which pieces were returned
         self.emitted_k = 0         # segments returned
         self.seg = 0.0
+        self.begin = 0             # index in add()'s pieces where the added move begins
+        self._starts = np.zeros(0)   # start times of the pieces `_emit` returned last
 
     # -- building the sequence ----------------------------------------------------------------
     def add(self, move: Move) -> list[Piece]:
@@ -188,6 +190,12 @@ class CirclePlanner(Planner):
         ta, ts = _num(move, "TA"), _num(move, "TS")
         kern = blend.widths(ta, ts)
         accel = kern[0] + kern[1]
+        if self.elements:   # the blend may not reach back into what was returned (as LINEAR's
+            last = self.elements[-1]   # "at most 2·(T − TA/2) of the move before")
+            room = max(2 * (last.t0 + last.dur - self.emitted_t), 0.0)
+            if accel > room:
+                scale = room / accel
+                kern, accel = (kern[0] * scale, kern[1] * scale), room
         f, tm = move.params.get("F"), move.params.get("TM")
         moving = length > _EPS or bool(np.any(np.abs(d) > _EPS))
         if tm is not None:
@@ -210,8 +218,15 @@ class CirclePlanner(Planner):
         self.elements.append(_Element(start, end, arc, centre, e1, e2, n, sweep, rho0, rho1, rise,
                                       length, length / dur, t0, dur, kern))
         self.position = end
-        # times before this move's start blend are final
-        return self._emit(t0 - accel / 2, final=False)
+        # times up to the end of this move's start blend are final (the next move's blend
+        # begins after it); `begin` is the piece where this move (its blend) begins, as
+        # LinearPlanner's, so the runner's look-ahead counts it from there
+        t_begin = t0 - accel / 2
+        reach = accel / 2 if accel > 0 else min(self.seg or dur, dur) / 2
+        out = self._emit(t0 + min(reach, dur), final=False)
+        k = int(np.searchsorted(self._starts, t_begin + 1e-12, side="right")) - 1
+        self.begin = min(max(k, 0), max(len(out) - 1, 0))
+        return out
 
     def flush(self) -> list[Piece]:
         """The sequence decelerates to a stop at the last end point."""
@@ -248,6 +263,7 @@ class CirclePlanner(Planner):
         return ts[(ts >= self.emitted_t - 1e-12) & (ts <= horizon + 1e-12)]
 
     def _emit(self, horizon: float, final: bool) -> list[Piece]:
+        self._starts = np.zeros(0)
         if horizon <= self.emitted_t + 1e-12 and not final:
             return []
         ts = self._grid(horizon, final)
@@ -263,6 +279,7 @@ class CirclePlanner(Planner):
             pieces[-1] = Piece.hermite(pos[idx[-1]], vel[idx[-1]], self.position,
                                        np.zeros(NAXES), float(dur[keep][-1]))
         self.emitted_t = float(ts[-1])
+        self._starts = ts[idx]
         self._drop()
         return pieces
 

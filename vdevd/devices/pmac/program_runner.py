@@ -175,6 +175,9 @@ class CsProgram:
         #: the `/` stop (stop_commands.py): (move number, prog, pc, stack, ops, start point)
         self.move_from: tuple[int, int, int, list[_Frame], list[Any], np.ndarray] | None = None
         self.move_blend = (0, 0)
+        #: the same per move number for the moves calculated ahead (`/` with two of them)
+        self.move_recs: dict[int, tuple[int, int, int, list[_Frame], list[Any], np.ndarray]] = {}
+        self.blend_at: dict[int, int] = {}
         self.online = False   # running an on-line `!` move only (altdest.py)
         self.reset_modes()
 
@@ -222,8 +225,11 @@ class CsProgram:
         return left * 1000
 
     def _ahead(self) -> int:
+        """Moves calculated beyond the one executing (README "Calculation and look-ahead"):
+        two for blended LINEAR/CIRCLE moves without segmentation (Isx13 = 0), else one."""
         iv = self.fw.ivars.values
-        return 2 if self.mode == "LINEAR" and iv[5000 + 100 * self.cs + 13] == 0 else 1
+        blended = self.mode in ("LINEAR", "CIRCLE1", "CIRCLE2")
+        return 2 if blended and iv[5000 + 100 * self.cs + 13] == 0 else 1
 
     # -- run control ---------------------------------------------------------------------------------
     def point(self, n: float | None) -> None:
@@ -833,6 +839,9 @@ class CsProgram:
                 if name == "move":
                     self.move_from = (self.calc + 1, self.prog, self.pc, list(self.stack), ops,
                                       self.pos.copy())
+                    self.move_recs[self.calc + 1] = self.move_from
+                    if len(self.move_recs) > 8:
+                        self.move_recs.pop(min(self.move_recs))
             self.pc += 1
             calc = self.calc
             try:
@@ -1149,6 +1158,9 @@ class CsProgram:
         begin = int(getattr(planner, "begin", 0))
         self._enqueue(pieces, self.calc, begin=begin)
         self.move_blend = (self.calc, len(pieces) - begin)
+        self.blend_at[self.calc] = len(pieces) - begin
+        if len(self.blend_at) > 8:
+            self.blend_at.pop(min(self.blend_at))
         if not pieces:  # nothing to execute for it: it counts as begun
             self.started = max(self.started, self.calc) if not self.queue and self.cur is None \
                 else self.started

@@ -46,14 +46,15 @@ def quick_stop(r: CsProgram) -> None:
 def _cut_next_move(r: CsProgram) -> bool:
     """Replace the blend into move `started + 1` by a stop at the corner; False when that is
     not how the motion stands (the caller quits instead)."""
-    iv = r.fw.ivars.values
-    if r.mode != "LINEAR" or not iv[5000 + 100 * r.cs + 13] or r.wait \
+    if r.mode != "LINEAR" or r.wait \
             or not isinstance(r.planner, LinearPlanner):   # not in a CIRCLE sequence
         return False
     nxt = r.started + 1
-    rec = r.move_from
-    count = r.move_blend[1] if r.move_blend[0] == nxt else 0
-    if rec is None or rec[0] != nxt or r.calc != nxt or count <= 0:
+    rec = r.move_recs.get(nxt)
+    count = r.blend_at.get(nxt, 0)
+    # Isx13 > 0: the next move alone is calculated; Isx13 = 0: the next two [module docstring]
+    ahead = nxt if r.segmenter is not None else nxt + 1
+    if rec is None or rec[0] != nxt or not nxt <= r.calc <= ahead or count <= 0:
         return False
     _, prog, pc, stack, ops, corner = rec
     if prog == 0 and r.rot.ops is not ops:
