@@ -168,6 +168,7 @@ class CirclePlanner(Planner):
         self.emitted_k = 0         # segments returned
         self.seg = 0.0
         self.begin = 0             # index in add()'s pieces where the added move begins
+        self.t_begin = 0.0         # the time its `begin` piece starts (stop_commands.py `/`)
         self._starts = np.zeros(0)   # start times of the pieces `_emit` returned last
 
     # -- building the sequence ----------------------------------------------------------------
@@ -221,11 +222,13 @@ class CirclePlanner(Planner):
         # times up to the end of this move's start blend are final (the next move's blend
         # begins after it); `begin` is the piece where this move (its blend) begins, as
         # LinearPlanner's, so the runner's look-ahead counts it from there
-        t_begin = t0 - accel / 2
+        t_begin = self.t_begin = t0 - accel / 2
         reach = accel / 2 if accel > 0 else min(self.seg or dur, dur) / 2
         out = self._emit(t0 + min(reach, dur), final=False)
         k = int(np.searchsorted(self._starts, t_begin + 1e-12, side="right")) - 1
         self.begin = min(max(k, 0), max(len(out) - 1, 0))
+        if len(out):   # where that piece starts (on the Isx13 grid, at or before the blend)
+            self.t_begin = float(self._starts[self.begin])
         return out
 
     def flush(self) -> list[Piece]:

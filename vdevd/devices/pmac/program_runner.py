@@ -27,6 +27,7 @@ bit 22 (run-time error) is set until the next R.
 
 from __future__ import annotations
 
+import copy
 from collections import deque
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -178,6 +179,8 @@ class CsProgram:
         #: the same per move number for the moves calculated ahead (`/` with two of them)
         self.move_recs: dict[int, tuple[int, int, int, list[_Frame], list[Any], np.ndarray]] = {}
         self.blend_at: dict[int, int] = {}
+        #: a CIRCLE sequence's planner before each move and that move's blend start (`/`)
+        self.circle_before: dict[int, tuple[CirclePlanner, float]] = {}
         self.online = False   # running an on-line `!` move only (altdest.py)
         self.reset_modes()
 
@@ -1154,8 +1157,13 @@ class CsProgram:
         if planner is None:
             raise CommandError(ERR_DATA, f"{self.mode} is not emulated")
         self.calc += 1
+        before = copy.deepcopy(planner) if isinstance(planner, CirclePlanner) else None
         pieces = planner.add(move)
         begin = int(getattr(planner, "begin", 0))
+        if isinstance(planner, CirclePlanner) and before is not None:   # for `/`
+            self.circle_before[self.calc] = (before, planner.t_begin)
+            if len(self.circle_before) > 4:
+                self.circle_before.pop(min(self.circle_before))
         self._enqueue(pieces, self.calc, begin=begin)
         self.move_blend = (self.calc, len(pieces) - begin)
         self.blend_at[self.calc] = len(pieces) - begin

@@ -18,10 +18,12 @@ emulated").
 
 from __future__ import annotations
 
+import copy
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from vdevd.devices.pmac.circle import CirclePlanner
 from vdevd.devices.pmac.linear import LinearPlanner, blend
 from vdevd.devices.pmac.pieces import NAXES, Piece
 from vdevd.devices.pmac.pvt import PvtPlanner
@@ -34,7 +36,7 @@ def stop_at_end_of_move(r: CsProgram) -> None:
     """`/` for C.S. r (module docstring)."""
     if not r.running:
         return
-    if not _cut_next_move(r) and not _cut_next_pvt(r):
+    if not _cut_next_move(r) and not _cut_next_pvt(r) and not _cut_next_circle(r):
         r.quit()
 
 
@@ -173,6 +175,50 @@ def _cut_next_pvt(r: CsProgram) -> bool:
     r.prog, r.pc, r.stack = prog, pc, stack
     r.calc = r.started
     r.move_from = None
+    r._blocked = r._glide = None
+    r.state, r.stopping = "quit", True
+    return True
+
+
+# -- CIRCLE: the sequence ended on the executing move, along its path (circle.py) ---------------
+def _cut_next_circle(r: CsProgram) -> bool:
+    """`/` in a CIRCLE sequence: the planner as it stood before the next move was added ends the
+    sequence on the executing move (its flush: the deceleration of its own blend kernel along
+    its path), spliced in at the piece boundary where the next move's blend begins (the two
+    agree up to there); the moves calculated after it go back to the calculation. False when
+    no boundary of the flush meets the queued motion (the caller quits)."""
+    if r.wait or not isinstance(r.planner, CirclePlanner):
+        return False
+    nxt = r.started + 1
+    rec, saved = r.move_recs.get(nxt), r.circle_before.get(nxt)
+    if rec is None or saved is None or r.calc < nxt:
+        return False
+    _, prog, pc, stack, ops, start = rec
+    if prog == 0 and r.rot.ops is not ops:
+        return False
+    queue = list(r.queue)
+    found = next((k for k, q in enumerate(queue) if q.starts == nxt), None)
+    if found is None:
+        return False
+    before = queue[found - 1].piece if found else (r.cur.piece if r.cur is not None else None)
+    if before is None:
+        return False
+    p0, v0 = before.end()
+    flushed = copy.deepcopy(saved[0]).flush()
+    at = next((k for k, piece in enumerate(flushed)
+               if np.allclose(piece.at(0.0)[0], p0, atol=1e-6)
+               and np.allclose(piece.at(0.0)[1], v0, atol=1e-4)), None)
+    if at is None:
+        return False   # the stop's kernel leaves the path before the next move's blend begins
+    kept = flushed[at:]
+    while len(r.queue) > found:
+        r.queue.pop()
+    r.segmenter = None   # what it still holds lies past the cut; R segments afresh
+    r._enqueue(kept, starts=0)
+    r.planner = None
+    r.prog, r.pc, r.stack = prog, pc, stack
+    r.pos = start.copy()
+    r.calc = r.started
     r._blocked = r._glide = None
     r.state, r.stopping = "quit", True
     return True
