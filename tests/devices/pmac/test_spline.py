@@ -101,12 +101,26 @@ def test_spline2_changes_time_per_segment_smoothly(segs: list[tuple[float, float
                                                                      abs=1e-5 * acc_scale)
 
 
-def test_pieces_come_two_moves_behind_and_flush_gives_the_rest() -> None:
+def test_spline1_pieces_come_one_move_behind_and_flush_gives_the_rest() -> None:
+    """SPLINE1: a span is final once the next point is known (the times ahead are the segment
+    time); `labels` (index, moves before the last added) mark the piece each move begins with:
+    the added start segment begins move 1, span 3 + m move m [README "Calculation and
+    look-ahead"]."""
     pl = SplinePlanner(vec(X=0))
+    assert len(pl.add(move(vec(X=1), "X", TM=0.1))) == 1 and pl.labels == [(0, 0)]
+    assert len(pl.add(move(vec(X=2), "X", TM=0.1))) == 1 and pl.labels == []
+    assert len(pl.add(move(vec(X=3), "X", TM=0.1))) == 1 and pl.labels == [(0, 1)]
+    assert len(pl.flush()) == 2 and pl.labels == [(0, 0)]
+    assert pl.flush() == []
+
+
+def test_spline2_pieces_come_two_moves_behind_and_flush_gives_the_rest() -> None:
+    """SPLINE2: a span depends on the segment times two moves ahead."""
+    pl = SplinePlanner(vec(X=0), uniform=False)
     assert pl.add(move(vec(X=1), "X", TM=0.1)) == []
-    assert len(pl.add(move(vec(X=2), "X", TM=0.1))) == 1
-    assert len(pl.add(move(vec(X=3), "X", TM=0.1))) == 1
-    assert len(pl.flush()) == 3
+    assert len(pl.add(move(vec(X=2), "X", TM=0.1))) == 1 and pl.labels == [(0, 1)]
+    assert len(pl.add(move(vec(X=3), "X", TM=0.1))) == 1 and pl.labels == []
+    assert len(pl.flush()) == 3 and pl.labels == [(0, 1), (1, 0)]
     assert pl.flush() == []
 
 

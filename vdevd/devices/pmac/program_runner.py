@@ -50,7 +50,7 @@ from vdevd.devices.pmac.plc import CMD_QUEUE, MESSAGE_QUEUE, _true
 from vdevd.devices.pmac.prog_trigger import start_trigger_move
 from vdevd.devices.pmac.programs import Program, ProgramStore, compile_program
 from vdevd.devices.pmac.pvt import PvtPlanner
-from vdevd.devices.pmac.spline import Spline1Planner, Spline2Planner
+from vdevd.devices.pmac.spline import Spline1Planner, Spline2Planner, SplinePlanner
 
 if TYPE_CHECKING:
     from vdevd.devices.pmac.firmware import Firmware
@@ -229,8 +229,12 @@ class CsProgram:
 
     def _ahead(self) -> int:
         """Moves calculated beyond the one executing (README "Calculation and look-ahead"):
-        two for blended LINEAR/CIRCLE moves without segmentation (Isx13 = 0), else one."""
+        two for blended LINEAR/CIRCLE moves without segmentation (Isx13 = 0), one with it and
+        in PVT; SPLINE1 two, SPLINE2 three (the spline's next segment needs the points, and
+        SPLINE2's times, that far ahead: spline.py)."""
         iv = self.fw.ivars.values
+        if self.mode.startswith("SPLINE"):
+            return 2 if self.mode == "SPLINE1" else 3
         blended = self.mode in ("LINEAR", "CIRCLE1", "CIRCLE2")
         return 2 if blended and iv[5000 + 100 * self.cs + 13] == 0 else 1
 
@@ -588,9 +592,18 @@ class CsProgram:
                 self.queue.append(_Queued(piece, True, starts))
 
     def _flush(self) -> None:
-        if self.planner is not None:
-            self._enqueue(self.planner.flush(), starts=0)
+        planner = self.planner
+        if isinstance(planner, SplinePlanner):
+            self._enqueue_labelled(planner.flush(), planner.labels)
+        elif planner is not None:
+            self._enqueue(planner.flush(), starts=0)
         self._release_segments(final=True)
+
+    def _enqueue_labelled(self, pieces: list[Piece], labels: list[tuple[int, int]]) -> None:
+        """Pieces of which those at the labels' indices begin move calc − lag (spline.py)."""
+        lags = dict(labels)
+        for k, piece in enumerate(pieces):
+            self._enqueue([piece], self.calc - lags[k] if k in lags else 0)
 
     def _enqueue(self, pieces: list[Piece], starts: int, scaled: bool = True,
                  begin: int = 0) -> None:
@@ -1164,7 +1177,10 @@ class CsProgram:
             self.circle_before[self.calc] = (before, planner.t_begin)
             if len(self.circle_before) > 4:
                 self.circle_before.pop(min(self.circle_before))
-        self._enqueue(pieces, self.calc, begin=begin)
+        if isinstance(planner, SplinePlanner):
+            self._enqueue_labelled(pieces, planner.labels)
+        else:
+            self._enqueue(pieces, self.calc, begin=begin)
         self.move_blend = (self.calc, len(pieces) - begin)
         self.blend_at[self.calc] = len(pieces) - begin
         if len(self.blend_at) > 8:
