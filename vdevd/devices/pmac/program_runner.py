@@ -5,14 +5,15 @@ Program", "Writing and Executing Motion Programs"; Turbo SRM B, R, S, Q, H, A, D
 Calculation and execution are apart, as on the card. The calculator reads program statements
 (logic, variables, moves) and hands each move to the move mode's planner (`PLANNERS`: LINEAR,
 RAPID here; the other modes register their planner there), whose pieces (pieces.py) queue for
-execution. It works ahead only as far as the card does [UM "Calculating Ahead"]: down to and
-including the first move at R (the second in LINEAR mode with Isx13 = 0), then one more move
-each time a move starts executing; so a statement reading a P-variable sees the value written
-on-line before the calculation reached it. It does not calculate past a DWELL (until the dwell
-is over), a RAPID move or a HOME (until every motor has finished) [UM "When No Calculation
-Ahead"], nor past a second backward jump (ENDWHILE, GOTO) without a move in between: the move
-before comes to a stop and calculation goes on at the next servo cycle ("double-jump-back
-rule"). DELAY is a move of its own time: calculation goes through it.
+execution. It works ahead only as far as the card does [UM "Calculating Ahead"]: `_ahead` moves
+past the one executing (two for blended LINEAR/CIRCLE moves with Isx13 = 0, one with Isx13 > 0
+and in PVT, SPLINE1 two, SPLINE2 three: README "Calculation and look-ahead"), one more each time
+a move starts executing; so a statement reading a P-variable sees the value written on-line
+before the calculation reached it, and Q stops at the end of those moves. It does not
+calculate past a DWELL (until the dwell is over), a RAPID move or a HOME (until every motor
+has finished) [UM "When No Calculation Ahead"], nor past a second backward jump (ENDWHILE,
+GOTO) without a move in between: the move before comes to a stop and calculation goes on at the
+next servo cycle ("double-jump-back rule"). DELAY is a move of its own time: calculation goes through it.
 
 Execution samples the queued pieces each servo cycle at the program's time, which runs at %/100
 of real time (the feedrate override and the feed hold, which slews the time base to 0 at Isx95

@@ -1,14 +1,20 @@
 """The `/` and `\\` on-line commands of a coordinate system's running program [Turbo SRM `/`,
 `\\`, `<`; Turbo UM "Writing and Executing Motion Programs": stopping commands].
 
-`/` stops the program at the end of the move executing now. In segmentation mode (Isx13 > 0) a
-LINEAR move has at most the next move calculated beside it: the blend into that move is replaced
-by a deceleration to the executing move's end point in the blend's own TA and TS (centred on the
-corner, so it ends on it), the next move is given back to the calculation (R or S calculates it
-again from its statement) and the program stops there, resumable as after Q. Without segmentation
-(Isx13 = 0), or in any other move mode, the moves already calculated cannot be taken back: `/`
-acts as Q, the program stopping at the end of the last move calculated (ASSUMPTION: the SRM text
-for `/` was not in the sources; PMAC1's "segmentation mode" rule followed).
+`/` stops the program at the end of the move executing now, in every mode that can end there
+without a step of velocity; the moves calculated past it go back to the calculation (R or S
+calculates them again from their statements) and the program stops there, resumable as after Q:
+- LINEAR: the blend into the next move is replaced by a deceleration onto the executing move's
+  end point in the blend's own TA and TS (centred on the corner, so it ends on it), whether one
+  move (Isx13 > 0) or two (Isx13 = 0) are calculated past it;
+- CIRCLE: the sequence ends on the executing move as the planner before the next move would have
+  ended it (its own kernel, along its path), spliced in where the next move's blend begins;
+- PVT: the next segment is dropped and the executing one ends in `PvtPlanner.stop` (pvt.py);
+- RAPID: nothing is calculated past the executing move; SPLINE (whose executing segment already
+  bends toward the points after it), a move in the special lookahead, a DWELL or any motion that
+  cannot be cut this way: `/` acts as Q, the end of the moves calculated (ASSUMPTION: the Turbo
+  SRM text for `/` was not in the sources retrieved; README "`/` and `\\`").
+Q (program_runner.py) in PVT ends in the same deceleration (`pvt_quit`).
 
 `\\` is the quick stop in the special lookahead buffer; "if the coordinate system is not currently
 in the middle of a lookahead sequence", it is a feed hold (H) [SRM `<`, `\\`]. Here it is always
