@@ -5,7 +5,8 @@ Executes a Motion Program", "When No Calculation Ahead"; README "Calculation and
 Q stops "at the end of the moves already calculated": as deep as the mode calculates ahead of
 the executing move (LINEAR and CIRCLE two moves with Isx13 = 0, one with Isx13 > 0; PVT one;
 SPLINE1 two, SPLINE2 three, as their next segment needs; RAPID none, the calculation waits for
-the motors). `/` stops at the end of the executing move (SPLINE: no sooner than Q can).
+the motors). `/` stops at the end of the executing move (SPLINE: where the executing segment
+lets the sequence end, one move sooner than Q).
 
 The program: eight 10-unit moves along X (#1->1000X), 1 s each (TM1000 / PVT1000 / SPLINE
 TM1000 at 10 units/s; RAPID at Ixx22 = 10 counts/ms, Ixx19 = 0.1 counts/ms²), TA100 TS0. At
@@ -70,8 +71,8 @@ def stop_at(mode: str, isx13: int, command: str) -> tuple[Card, float, float]:
     ("CIRCLE1", 10, 40.0, 30.0),   # segmented as LINEAR
     ("PVT", 0, 45.0, 35.0),        # one ahead, then v·T/2 = 10·1/2 of deceleration
     ("PVT", 10, 45.0, 35.0),       # Isx13 does not act on PVT
-    ("SPLINE1", 0, 40.0, 40.0),    # move 2 executes, points 3 and 4 calculated
-    ("SPLINE2", 10, 50.0, 50.0),   # the times of the two moves ahead too
+    ("SPLINE1", 0, 40.0, 30.0),    # move 2 executes, points 3 and 4 calculated; `/`: its
+    ("SPLINE2", 10, 50.0, 40.0),   # segment bends toward point 3 (SPLINE2: and point 4's time)
     ("RAPID", 0, 30.0, 30.0),      # no calculation during a RAPID move
 ])
 def test_q_stops_at_the_end_of_the_moves_calculated_and_slash_at_the_executing_ones(

@@ -182,6 +182,8 @@ class CsProgram:
         self.blend_at: dict[int, int] = {}
         #: a CIRCLE sequence's planner before each move and that move's blend start (`/`)
         self.circle_before: dict[int, tuple[CirclePlanner, float]] = {}
+        #: a SPLINE sequence's planner before the move that began move n, and its move count
+        self.spline_before: dict[int, tuple[SplinePlanner, int]] = {}
         self.online = False   # running an on-line `!` move only (altdest.py)
         self.reset_modes()
 
@@ -1171,14 +1173,20 @@ class CsProgram:
         if planner is None:
             raise CommandError(ERR_DATA, f"{self.mode} is not emulated")
         self.calc += 1
-        before = copy.deepcopy(planner) if isinstance(planner, CirclePlanner) else None
+        before = copy.deepcopy(planner) if isinstance(planner, CirclePlanner | SplinePlanner) \
+            else None
         pieces = planner.add(move)
         begin = int(getattr(planner, "begin", 0))
-        if isinstance(planner, CirclePlanner) and before is not None:   # for `/`
+        if isinstance(planner, CirclePlanner) and isinstance(before, CirclePlanner):   # for `/`
             self.circle_before[self.calc] = (before, planner.t_begin)
             if len(self.circle_before) > 4:
                 self.circle_before.pop(min(self.circle_before))
         if isinstance(planner, SplinePlanner):
+            if isinstance(before, SplinePlanner):   # for `/`: the planner before a move began
+                for _, lag in planner.labels:
+                    self.spline_before[self.calc - lag] = (before, self.calc - 1)
+                if len(self.spline_before) > 4:
+                    self.spline_before.pop(min(self.spline_before))
             self._enqueue_labelled(pieces, planner.labels)
         else:
             self._enqueue(pieces, self.calc, begin=begin)

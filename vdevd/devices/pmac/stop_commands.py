@@ -10,10 +10,12 @@ calculates them again from their statements) and the program stops there, resuma
 - CIRCLE: the sequence ends on the executing move as the planner before the next move would have
   ended it (its own kernel, along its path), spliced in where the next move's blend begins;
 - PVT: the next segment is dropped and the executing one ends in `PvtPlanner.stop` (pvt.py);
-- RAPID: nothing is calculated past the executing move; SPLINE (whose executing segment already
-  bends toward the points after it), a move in the special lookahead, a DWELL or any motion that
-  cannot be cut this way: `/` acts as Q, the end of the moves calculated (ASSUMPTION: the Turbo
-  SRM text for `/` was not in the sources retrieved; README "`/` and `\\`").
+- SPLINE: the executing segment already bends toward the point after it (SPLINE2: and the times
+  two on): the sequence ends as soon as that allows (`_cut_next_spline`), one move before Q;
+- RAPID: nothing is calculated past the executing move; a move in the special lookahead, a
+  DWELL or any motion that cannot be cut this way: `/` acts as Q, the end of the moves
+  calculated (ASSUMPTION: the Turbo SRM text for `/` was not in the sources retrieved; README
+  "`/` and `\\`").
 Q (program_runner.py) in PVT ends in the same deceleration (`pvt_quit`).
 
 `\\` is the quick stop in the special lookahead buffer; "if the coordinate system is not currently
@@ -33,6 +35,7 @@ from vdevd.devices.pmac.circle import CirclePlanner
 from vdevd.devices.pmac.linear import LinearPlanner, blend
 from vdevd.devices.pmac.pieces import NAXES, Piece
 from vdevd.devices.pmac.pvt import PvtPlanner
+from vdevd.devices.pmac.spline import SplinePlanner
 
 if TYPE_CHECKING:
     from vdevd.devices.pmac.program_runner import CsProgram
@@ -42,7 +45,8 @@ def stop_at_end_of_move(r: CsProgram) -> None:
     """`/` for C.S. r (module docstring)."""
     if not r.running:
         return
-    if not _cut_next_move(r) and not _cut_next_pvt(r) and not _cut_next_circle(r):
+    if not (_cut_next_move(r) or _cut_next_pvt(r) or _cut_next_circle(r)
+            or _cut_next_spline(r)):
         r.quit()
 
 
@@ -225,6 +229,51 @@ def _cut_next_circle(r: CsProgram) -> bool:
     r.prog, r.pc, r.stack = prog, pc, stack
     r.pos = start.copy()
     r.calc = r.started
+    r._blocked = r._glide = None
+    r.state, r.stopping = "quit", True
+    return True
+
+
+# -- SPLINE: the sequence ended as soon as its executing segment allows (spline.py) ----------------
+def _cut_next_spline(r: CsProgram) -> bool:
+    """`/` in a SPLINE sequence: the executing segment is shaped by the point after it (SPLINE2:
+    and the times two on), so the sequence ends as the planner stood just before the move that
+    began the next segment was added: its flush (the added end segment) from the end of the
+    executing segment, stopping on that planner's last point, one move sooner than Q; the moves
+    after it go back to the calculation. False when that cannot be done (the caller quits)."""
+    if r.wait or not isinstance(r.planner, SplinePlanner):
+        return False
+    nxt = r.started + 1
+    saved = r.spline_before.get(nxt)
+    if saved is None:
+        return False
+    planner, last = copy.deepcopy(saved[0]), saved[1]
+    rec = r.move_recs.get(last + 1)
+    if rec is None or r.calc < last + 1:
+        return False
+    _, prog, pc, stack, ops, start = rec
+    if prog == 0 and r.rot.ops is not ops:
+        return False
+    queue = list(r.queue)
+    found = next((k for k, q in enumerate(queue) if q.starts == nxt), None)
+    if found is None:
+        return False
+    before = queue[found - 1].piece if found else (r.cur.piece if r.cur is not None else None)
+    if before is None:
+        return False
+    flushed = planner.flush()
+    if not flushed:
+        return False
+    (p0, v0), (p1, v1) = before.end(), flushed[0].at(0.0)
+    if not (np.allclose(p0, p1, atol=1e-6) and np.allclose(v0, v1, atol=1e-4)):
+        return False
+    while len(r.queue) > found:
+        r.queue.pop()
+    r.calc = last
+    r._enqueue_labelled(flushed, planner.labels)
+    r.planner = None
+    r.prog, r.pc, r.stack = prog, pc, stack
+    r.pos = start.copy()
     r._blocked = r._glide = None
     r.state, r.stopping = "quit", True
     return True
