@@ -300,6 +300,7 @@ class CsProgram:
         self.stopping = False
         self.calc = self.started = 0
         self.move_at.clear()
+        self._forget_calculated()
         self.block = False
         self.wait = ""
         self._map_motors()
@@ -318,6 +319,13 @@ class CsProgram:
             self.planner = None
             return
         motors.abort_decel[self.members] = False
+
+    def _forget_calculated(self) -> None:
+        """A fresh run: the records `/` keeps of the moves calculated ahead are stale."""
+        self.move_recs.clear()
+        self.blend_at.clear()
+        self.circle_before.clear()
+        self.spline_before.clear()
 
     def _check_start(self) -> None:
         """The program first (ERR015 a PROG buffer open or no program pointed to, ERR016 one
@@ -365,6 +373,7 @@ class CsProgram:
         self.online = True
         self.calc = self.started = 0
         self.move_at.clear()
+        self._forget_calculated()
         self._map_motors()
         self._read_position()
         self._forward()
