@@ -128,3 +128,19 @@ def test_zero_segment_time_is_a_run_time_error() -> None:
     with pytest.raises(PlanError) as exc:
         SplinePlanner(vec()).add(move(vec(X=1), "X", TM=0))
     assert exc.value.bit == RUN_TIME_ERROR
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_a_long_sequence_keeps_the_planner_small_and_the_path_unchanged(uniform: bool) -> None:
+    """The points and knots no span still needs are dropped (`_trim`): after 500 moves the
+    planner holds a few of them, and the pieces are those of the whole spline."""
+    pl = SplinePlanner(vec(X=0), uniform=uniform)
+    pieces = []
+    for k in range(1, 501):
+        pieces += pl.add(move(vec(X=float(k % 7)), "X", TM=0.1))
+        assert len(pl.ctrl) <= 8 and len(pl.knots) <= 10
+    pieces += pl.flush()
+    assert len(pieces) == 502                     # n moves, n + 2 segments
+    assert pieces[-1].end()[0][6] == pytest.approx(500 % 7)
+    for pa, va, pb, vb in joints(pieces):
+        assert pa[6] == pytest.approx(pb[6], abs=1e-9) and va[6] == pytest.approx(vb[6], abs=1e-6)

@@ -74,6 +74,7 @@ class SplinePlanner(Planner):
         self.ctrl: list[np.ndarray] = []
         self.knots: list[float] = []
         self.emitted = 0          # spans emitted, counted from the first (span index 3)
+        self.base = 0             # spans (and leading points and knots) dropped (`_trim`)
         self.seg_time = 0.0
         #: (index in the pieces last returned, moves before the last one added) of each piece
         #: that begins a move of the sequence
@@ -100,15 +101,25 @@ class SplinePlanner(Planner):
         self.position = move.target.astype(float)
         first = self.emitted
         ready = self._ready()
-        self.labels = before + self._labels(first, len(out), len(self.ctrl) - 3)
+        self.labels = before + self._labels(first, len(out), len(self.ctrl) - 3 + self.base)
+        self._trim()
         return out + ready
+
+    def _trim(self) -> None:
+        """Drop the points and knots no span still to come uses (span 3 + e uses points e..e+3
+        and knots e+1..e+6): the planner stays small over a sequence of any length."""
+        d = self.emitted
+        if d:
+            del self.ctrl[:d], self.knots[:d]
+            self.base += d
+            self.emitted = 0
 
     def _labels(self, first: int, offset: int, moves: int) -> list[tuple[int, int]]:
         """The labels of spans `first`.. (counted as `emitted`) returned after `offset` pieces,
         of a sequence of `moves` points: span 3 + m is move m's segment (span 3, the added
         start segment, begins move 1)."""
         out = []
-        for k, e in enumerate(range(first, self.emitted)):
+        for k, e in enumerate(range(first + self.base, self.emitted + self.base)):
             m = e if e >= 2 else (1 if e == 0 else 0)   # span 3 + e
             if m and m <= moves:
                 out.append((offset + k, moves - m))
@@ -134,7 +145,7 @@ class SplinePlanner(Planner):
             return []
         end, t = self.ctrl[-1], self.seg_time
         first = self.emitted
-        moves = len(self.ctrl) - 3
+        moves = len(self.ctrl) - 3 + self.base
         self.ctrl += [end, end]
         for _ in range(4):
             self.knots.append(self.knots[-1] + t)
