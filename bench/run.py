@@ -1,7 +1,7 @@
 """`make bench`: the figures of the issues' "Done when", each against a baseline of the same run.
 
     python bench/run.py [--quick] [--only rtt,lockstep,...,pmac-program,shm,overload,rt-cpu,
-                        rt-behind,rack,mx4,aps,pmac-pvt]
+                        rt-behind,rack,mx4,aps,pmac-pvt,scope]
                         [--pin split|same|none] [--json [FILE]]
 
 1. rtt       4-byte register read through vdevclient vs a raw pyzmq REQ/REP round trip
@@ -42,6 +42,9 @@
 14. pmac-pvt a 1000-point PVT scan (two servo motors, 10 ms points from P-variables) on a lockstep
              Turbo PMAC, simulated s per wall s (>= 20x), against the motors jogging,
              bench/pmac_pvt.py
+15. scope    a 4-signal, 8-axis scope trace at every tick on each 8-axis card type, every axis
+             moving: tick cost with the recorder against the same run without (<= 1.10x),
+             bench/scope.py
 
 The defaults are the issue's (realtime, rt-cpu and rt-behind run 60 s each; the whole takes
 ~6 min); `--quick` shortens everything for a smoke run (~1 min). Placement (default split:
@@ -77,12 +80,13 @@ from bench import (  # noqa: E402
     rack,
     realtime,
     rtt,
+    scope,
     shm,
 )
 from bench.common import install_signal_handlers, machine_facts, table, verdict, write_json  # noqa: E402
 
 FIGURES = ("rtt", "lockstep", "realtime", "galil", "maxk", "pmac", "pmac-program", "shm", "overload",
-           "rt-cpu", "rt-behind", "rack", "mx4", "aps", "pmac-pvt")
+           "rt-cpu", "rt-behind", "rack", "mx4", "aps", "pmac-pvt", "scope")
 
 
 def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]], dict[str, Any],
@@ -125,6 +129,8 @@ def plan(a: argparse.Namespace) -> dict[str, tuple[Callable[..., dict[str, Any]]
                           "warmup": 300 if q else 1000, "seconds": 2.0 if q else 5.0,
                           "speed_repeats": 2 if q else 3, "pin": a.pin}, aps.report),
         "pmac-pvt": (pmac_pvt.run, {"repeats": 2 if q else 3, "pin": a.pin}, pmac_pvt.report),
+        "scope": (scope.run, {"ticks": 1000 if q else 2000, "repeats": 5 if q else 15},
+                  scope.report),
     }
 
 
@@ -208,6 +214,12 @@ def summary_rows(results: dict[str, dict[str, Any]]) -> list[list[Any]]:
             rows.append(["pmac 1000-point PVT scan", f">= {pmac_pvt.GOAL_SPEED:.0f}x real time",
                          f"{r['speed_median']:.1f}x", f"jog baseline {r['jog_median']:.1f}x",
                          verdict(r["pass"])])
+        elif name == "scope":
+            for card, c in r["cards"].items():
+                rows.append([f"scope 4 x 8 every tick, {card}", f"<= {scope.GOAL_RATIO}x tick",
+                             f"{c['ratio_p50']:.2f}x",
+                             f"tick p50 {c['base_ns']['p50'] / 1e3:.2f} us -> "
+                             f"{c['scope_ns']['p50'] / 1e3:.2f} us", verdict(c["pass"])])
         elif name == "shm":
             raw, req = r["series"][rtt.RAW], r["series"][shm.REQUEST]
             rows.append(["shm read32 p50", f"<= {shm.GOAL_P50_US:g} us, >= {shm.GOAL_SPEEDUP:.0f}x "

@@ -431,3 +431,15 @@ def test_tagged_samples_since_a_count_across_the_ring_wrap() -> None:
     assert list(ring.since(6)[0]) == [70, 80]
     assert (len(ring.since(8)[0]), ring.since(8)[2]) == (0, 0)
     assert ring.summary()["count"] == 8 and ring.added == 8
+
+
+def test_metrics_follow_a_rack_a_snapshot_load_swaps_in(served: DaemonThread) -> None:
+    """After a `snapshot load` the endpoint reports the rack served, not the one replaced."""
+    assert served.health is not None
+    url = served.health.url
+    with vdevclient.connect(served.endpoint, served.events) as rack:
+        snap = rack.snapshot()  # at time 0: no ticks
+        rack.sim.step(ns=5 * MS)
+        assert scrape(url)[("vdevd_card_ticks_total", (("card", "servo0"),))] == 5
+        rack.restore(snap)
+        assert scrape(url)[("vdevd_card_ticks_total", (("card", "servo0"),))] == 0

@@ -160,3 +160,63 @@ def test_the_readme_example_runs_as_written(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(myapp=MYAPP, test_readme_example=python)
     pytester.syspathinsert()
     pytester.runpytest().assert_outcomes(passed=2)
+
+
+HOMED = '''
+import pytest
+
+POSITION = 0x11C
+pytestmark = pytest.mark.vdevd_rack("racks/stage.toml")
+
+
+@pytest.mark.vdevd_snapshot("homed.snap")
+def test_starts_from_the_snapshot(vdevd_rack):
+    assert vdevd_rack.card("stage").region("bar0").read32(POSITION) == 5000
+    assert vdevd_rack.sim.now_ns() == TAKEN_NS
+
+
+def test_without_the_marker_a_power_on_rack(vdevd_rack):
+    assert vdevd_rack.card("stage").region("bar0").read32(POSITION) == 0
+    assert vdevd_rack.sim.now_ns() == 0
+
+
+@pytest.mark.vdevd_snapshot("cut.snap")
+def test_a_damaged_snapshot_fails_the_test(vdevd_rack):
+    pass
+'''
+
+
+def test_a_test_starts_from_a_snapshot_by_marker(pytester: pytest.Pytester) -> None:
+    """A snapshot of the stage moved to 5000 (what an application's set-up would leave),
+    saved by a daemon of the same rack file; a test marked with it starts there."""
+    import vdevclient
+
+    from vdevd import config as configmod
+    from vdevd.testing import DaemonThread
+
+    pytester.makefile(".toml", **{"racks/stage": STAGE})
+    cfg = configmod.load(pytester.path / "racks" / "stage.toml")
+    cfg.clock, cfg.state_dir = "lockstep", None
+    cfg.endpoint = cfg.events = "tcp://127.0.0.1:*"
+    with DaemonThread(cfg) as d, vdevclient.connect(d.endpoint) as rack:
+        bar = rack.card("stage").region("bar0")
+        bar.write32(0x104, 5000)
+        bar.write32(0x100, 1)
+        rack.sim.step(seconds=2.0)
+        assert bar.read32(0x11C) == 5000
+        snap = rack.snapshot()
+        taken = rack.sim.now_ns()
+    (pytester.path / "homed.snap").write_bytes(snap)
+    (pytester.path / "cut.snap").write_bytes(snap[:-10])
+    pytester.makepyfile(test_homed=HOMED.replace("TAKEN_NS", str(taken)))
+    result = pytester.runpytest("-v")
+    result.assert_outcomes(passed=2, errors=1)  # at its set-up
+    result.stdout.fnmatch_lines(["*vdevd_snapshot *cut.snap: bad_snapshot: truncated or extended*"])
+    # the ini option: every test of the session from the snapshot
+    pytester.makeini("[pytest]\nvdevd_snapshot = homed.snap\n")
+    pytester.makepyfile(test_homed=HOMED.replace("TAKEN_NS", str(taken)).replace(
+        "def test_without_the_marker_a_power_on_rack(vdevd_rack):",
+        "def test_without_the_marker_the_ini_snapshot(vdevd_rack):\n"
+        "    assert vdevd_rack.card(\"stage\").region(\"bar0\").read32(POSITION) == 5000\n\n\n"
+        "def _unused(vdevd_rack):"))
+    pytester.runpytest("-v").assert_outcomes(passed=2, errors=1)

@@ -20,6 +20,7 @@ from vdevd.devices.options import CardOptions, parse_options
 from vdevd.heartbeat import PERIOD_NS as HEARTBEAT_NS
 from vdevd.http_health import MetricsConfig, parse_metrics
 from vdevd.security import CurveConfig, check_curve, is_local, parse_networks
+from vdevd.web.config import WebConfig, parse_web
 
 DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
 DEFAULT_EVENTS = "tcp://127.0.0.1:5556"
@@ -74,10 +75,12 @@ class Config:
     open_networks: tuple[str, ...] = ()
     #: `[metrics]`: the HTTP metrics and health endpoint (None: off)
     metrics: MetricsConfig | None = None
+    #: `[web]`: the live web view (None: off)
+    web: WebConfig | None = None
     cards: list[CardSpec] = field(default_factory=list)
 
 
-_SECTIONS = {"server", "clock", "state", "security", "metrics", "card"}
+_SECTIONS = {"server", "clock", "state", "security", "metrics", "card", "web"}
 
 
 def load(path: str | Path | None) -> Config:
@@ -170,6 +173,11 @@ def parse(data: dict[str, Any]) -> Config:
     if "metrics" in data:
         try:
             cfg.metrics = parse_metrics(data["metrics"])
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+    if "web" in data:
+        try:
+            cfg.web = parse_web(data["web"])
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
     cards = data.get("card", [])

@@ -58,11 +58,13 @@ def build_server(cfg: Config, ctx: zmq.Context | None = None) -> Server:
     """A server of the rack of `cfg`, its passive regions in the daemon's shared segment."""
     rack = build_rack(cfg, shared_memory(cfg))
     try:
-        return Server(rack, cfg.endpoint, cfg.events, ctx=ctx, curve=cfg.curve,
-                      open_networks=cfg.open_networks)
+        server = Server(rack, cfg.endpoint, cfg.events, ctx=ctx, curve=cfg.curve,
+                        open_networks=cfg.open_networks)
     except BaseException:
         rack.stop()
         raise
+    server.new_memory = lambda: shared_memory(cfg)  # a snapshot loaded: its segment
+    return server
 
 
 def sd_notify(message: str) -> None:
@@ -117,8 +119,11 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
     watchdog = None
     written = False
     health = None
+    web = None
     try:
         health = open_health(cfg.metrics, server.rack, loop)  # /healthz answers during start
+        if health is not None:
+            server.on_swap.append(health.follow)  # a snapshot loaded: its rack's metrics
         # before the clock starts: a rack with no card compiles the motion core here, which
         # would otherwise hold the first scheduler pass (a false stall at every start)
         core = server.rack.stats()["motion_core"]
@@ -129,10 +134,16 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
             log.warning("the configuration has no [[card]]: the rack is empty")
         log.info("listening on %s, events on %s, clock %s, motion core %s; cards: %s",
                  server.endpoint, server.events, cfg.clock, core, cards)
+        if cfg.web is not None:
+            from vdevd.web.app import open_web  # aiohttp only for a daemon with a web view
+
+            web = await open_web(cfg.web, lambda: server.rack)
         if ready_file is not None:
             listeners = server.listeners()
             if health is not None:
                 listeners["metrics"] = health.url
+            if web is not None:
+                listeners["web"] = web.url
             write_ready_file(ready_file, listeners)
             written = True
         if health is not None:
@@ -150,6 +161,8 @@ async def serve(cfg: Config, stop: asyncio.Event | None = None,
         sd_notify("STOPPING=1")
         if health is not None:
             health.ready = False
+        if web is not None:
+            await web.stop()
         await server.stop()
         if health is not None:
             health.stop()

@@ -92,6 +92,10 @@ SETTINGS: tuple[Setting, ...] = (
             active=False),
     Setting("metrics", "unresponsive_s", "`/healthz` fails when the event loop has not run a "
             "heartbeat for this long, 0.1..600 s", "`5.0`", "5.0", active=False),
+    Setting("web", "listen", "the live web view of the rack (`host:port`; README \"Web "
+            "view\"); no `[web]`: off", "`127.0.0.1:8080`", '"127.0.0.1:8080"', active=False),
+    Setting("web", "allow", "networks that may connect to a non-loopback `listen` (required "
+            "for one; loopback always may)", "none", '["10.0.0.0/8"]', active=False),
 )
 
 #: the `[[card.axis]]` keys (vdevd/rt/world.py `AXIS_KEYS`): meaning and default

@@ -21,6 +21,7 @@ class ErrorCode(enum.StrEnum):
     BAD_PARAM = "bad_param"  # a value out of range or of the wrong kind
     WRONG_MODE = "wrong_mode"  # e.g. `sim step` while the clock is realtime
     BUSY = "busy"  # too many pending waits
+    BAD_SNAPSHOT = "bad_snapshot"  # a snapshot of another version or layout, or damaged
     INTERNAL = "internal"  # a bug in a card; the daemon keeps serving
 
 

@@ -216,17 +216,22 @@ class HealthServer:
     def __init__(self, cfg: MetricsConfig, rack: Rack, loop: asyncio.AbstractEventLoop) -> None:
         from prometheus_client import make_wsgi_app
 
-        from vdevd.prom import registry_of
+        from vdevd.prom import RackCollector, registry_of
 
         self.cfg = cfg
         self.liveness = Liveness(loop, cfg.unresponsive_s)
         self.ready = False
         self._networks = cfg.networks
-        self._metrics = make_wsgi_app(registry_of(rack, loop))
+        self._collector = RackCollector(rack, loop)
+        self._metrics = make_wsgi_app(registry_of(rack, loop, self._collector))
         self._httpd: WSGIServer | None = None
         self._thread: threading.Thread | None = None
         self._stopping = False
         self.url = ""
+
+    def follow(self, rack: Rack) -> None:
+        """Report `rack` from now on (the server swapped it in: a snapshot loaded, a reset)."""
+        self._collector.rack = rack
 
     def start(self) -> HealthServer:
         """Bind and serve; a `StartError` naming `metrics.listen` when it cannot bind."""

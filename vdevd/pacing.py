@@ -111,6 +111,11 @@ class Pacer:
         self._fault_logged_ns = -FAULT_LOG_NS
 
     # -- realtime ----------------------------------------------------------------------------------
+    @property
+    def clock(self) -> Callable[[], int]:
+        """The wall clock it paces to (ns)."""
+        return self._clock
+
     def start(self, loop: asyncio.AbstractEventLoop) -> None:
         """Attach to the event loop; in realtime start pacing simulated time to wall time."""
         self._loop = loop

@@ -204,11 +204,13 @@ def _stalls(sched: dict[str, Any], cards: dict[str, Any]) -> Iterator[Any]:
     yield from (count, total, longest)
 
 
-def registry_of(rack: Rack, loop: asyncio.AbstractEventLoop) -> CollectorRegistry:
-    """A registry of the rack's metrics and the process's (memory, CPU, open files)."""
+def registry_of(rack: Rack, loop: asyncio.AbstractEventLoop,
+                collector: RackCollector | None = None) -> CollectorRegistry:
+    """A registry of the rack's metrics (through `collector`, made here when not given) and the
+    process's (memory, CPU, open files)."""
     from prometheus_client import ProcessCollector
 
     registry = CollectorRegistry()
-    registry.register(RackCollector(rack, loop))
+    registry.register(collector or RackCollector(rack, loop))
     ProcessCollector(namespace="vdevd", registry=registry)
     return registry

@@ -24,7 +24,7 @@ HARD_MAX_MESSAGE = 4 * MAX_MESSAGE
 MAX_WAIT_NS = 86_400 * 1_000_000_000
 
 CAPABILITIES = ("read", "write", "rep", "batch", "batch.compact", "wait.irq", "wait.value", "sim",
-                "control", "stats", "sync", "shm", "heartbeat")
+                "control", "stats", "sync", "shm", "heartbeat", "scope", "snapshot")
 
 
 
@@ -84,6 +84,21 @@ SCHEMA: dict[str, dict[str, Field]] = {
     },
     "stats": {},
     "sync": {"card": _f(_STR)},
+    "scope": {
+        "card": _f(_STR),
+        "action": _f(_STR),
+        "axes": _f(_LIST, False),
+        "signals": _f(_LIST, False),
+        "every": _f(_INT, False),
+        "samples": _f(_INT, False),
+        "seconds": _f((int, float), False),
+        "pre": _f(_INT, False),
+        "trigger": _f(_MAP, False),
+        "start": _f(_INT, False),
+        "count": _f(_INT, False),
+    },
+    "snapshot": {"action": _f(_STR), "offset": _f(_INT, False), "size": _f(_INT, False),
+                 "data": _f(_BYTES, False)},
 }
 _META = ("id", "op", "v")
 _REQUIRED = {op: tuple(k for k, f in fields.items() if f.required) for op, fields in SCHEMA.items()}

@@ -21,6 +21,14 @@ Fixtures:
 - `vdevd_events`: the events endpoint (ZeroMQ PUB, topic = card name).
 - `vdevd_step`: `vdevd_step(seconds=..., ns=..., ticks=...)` advances the lockstep clock and
   returns the new time in ns.
+
+A test can start from a snapshot instead of a power-on rack (issue 23 §2: homed axes, a loaded
+program, without the set-up sequence): `@pytest.mark.vdevd_snapshot("homed.snap")` on a test,
+class or module (a path relative to the test file), else the `vdevd_snapshot` ini option
+(relative to the ini file). The file is one `vdevctl snapshot save` wrote from a daemon of the
+same rack in lockstep; after the reset, the daemon serves it (`DaemonThread.restore`). A snapshot
+that does not load (another rack layout, another vdevd version, a damaged file) fails the test
+with the daemon's reason.
 """
 
 from __future__ import annotations
@@ -44,11 +52,15 @@ PORT_OPTIONS = ("ethernet",)
 def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addini("vdevd_rack", "the rack TOML of the vdevd fixtures, relative to the ini file "
                   "(default: the embedded default rack)", default="")
+    parser.addini("vdevd_snapshot", "a snapshot (vdevctl snapshot save) each test starts from, "
+                  "relative to the ini file (default: none, a power-on rack)", default="")
 
 
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "vdevd_rack(path): the rack TOML the vdevd fixtures serve "
                             "to this test, class or module (relative to the test file)")
+    config.addinivalue_line("markers", "vdevd_snapshot(path): the snapshot the vdevd fixtures "
+                            "start this test, class or module from (relative to the test file)")
 
 
 class DaemonPool:
@@ -110,24 +122,44 @@ def _vdevd_pool(tmp_path_factory: pytest.TempPathFactory) -> Iterator[DaemonPool
         pool.close()
 
 
-def rack_path(request: pytest.FixtureRequest) -> Path | None:
-    """The rack file chosen for the requesting test: the closest marker, else the ini option."""
-    marker = request.node.get_closest_marker("vdevd_rack")
+def rack_path(request: pytest.FixtureRequest, name: str = "vdevd_rack",
+              example: str = "rack.toml") -> Path | None:
+    """The rack file (`name`: or the snapshot) chosen for the requesting test: the closest
+    marker, else the ini option."""
+    marker = request.node.get_closest_marker(name)
     if marker is not None:
         if len(marker.args) != 1 or not isinstance(marker.args[0], str | Path):
-            raise pytest.UsageError("vdevd_rack: give one path, @pytest.mark.vdevd_rack(\"rack.toml\")")
+            raise pytest.UsageError(f"{name}: give one path, @pytest.mark.{name}(\"{example}\")")
         return (Path(request.node.path).parent / marker.args[0]).resolve()
-    ini = str(request.config.getini("vdevd_rack") or "")
+    ini = str(request.config.getini(name) or "")
     if ini:
         base = request.config.inipath.parent if request.config.inipath else request.config.rootpath
         return (base / ini).resolve()
     return None
 
 
+def start_from_snapshot(daemon: DaemonThread, path: Path) -> None:
+    """Serve the snapshot at `path` in place of the daemon's fresh rack; the test fails with
+    the reason when it does not load."""
+    from vdevd.errors import VdevError
+
+    try:
+        daemon.restore(path.read_bytes())
+        return
+    except OSError as exc:
+        reason = str(exc.strerror or exc)
+    except VdevError as exc:
+        reason = f"{exc.code}: {exc.message}"
+    pytest.fail(f"vdevd_snapshot {path}: {reason}", pytrace=False)
+
+
 @pytest.fixture
 def vdevd_daemon(request: pytest.FixtureRequest, _vdevd_pool: DaemonPool,
                  monkeypatch: pytest.MonkeyPatch) -> DaemonThread:
     daemon = _vdevd_pool.get(rack_path(request))
+    snapshot = rack_path(request, "vdevd_snapshot", "homed.snap")
+    if snapshot is not None:
+        start_from_snapshot(daemon, snapshot)
     monkeypatch.setenv("VDEVD_ENDPOINT", daemon.endpoint)
     monkeypatch.setenv("VDEVD_EVENTS", daemon.events)
     return daemon

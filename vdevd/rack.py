@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any, Protocol
 
+from vdevd import snapshot
 from vdevd.bounds import (
     MAX_HELD_OPS,
     MAX_READ,
@@ -41,7 +42,9 @@ from vdevd.protocol import (
 from vdevd.region import Region
 from vdevd.rt import kernel
 from vdevd.rt.scheduler import Scheduler
+from vdevd.scope.op import Scopes
 from vdevd.shm import Segment
+from vdevd.snapshot_transfer import Transfers
 from vdevd.waits import MAX_PENDING, Reply, Waiter, Waits, make_waiter, value_wait
 
 log = logging.getLogger("vdevd.rack")
@@ -124,12 +127,19 @@ class Rack:
         self.errors = 0
         self.latency = TaggedSamples()  # tagged with the op (metrics.OP_TAGS)
         self.events_published = 0
+        #: the scope's recorder of each card (`scope` op)
+        self.scopes = Scopes()
         #: the ops a batch runs as requests (its plain accesses run inline)
         self._batchable: dict[str, Callable[[dict[str, Any], Reply], Any]] = {
             "read": self.op_read, "write": self.op_write, "control": self.op_control}
         #: op -> its handler (every op of protocol.SCHEMA has an `op_<name>`)
         self._handlers: dict[str, Callable[[dict[str, Any], Reply], Any]] = {
             name: getattr(self, "op_" + name) for name in SCHEMA}
+        #: the snapshot transfers under way (`op_snapshot`)
+        self.transfers = Transfers()
+        #: how a loaded snapshot replaces this rack in the server serving it (`Server` sets it:
+        #: called with the file and the reply); None: `snapshot load` is refused
+        self.on_restore: Callable[[bytes, Reply], None] | None = None
 
     def add_card(self, card: Card) -> None:
         if card.name in self.cards:
@@ -138,6 +148,35 @@ class Rack:
         card.skip_quiet = self.skip_quiet
         self.sched.add(card)
         self._regions.update({(card.name, r.name): r for r in card.regions.values()})
+
+    # -- snapshots (vdevd/snapshot.py) --------------------------------------------------------------
+    def snapshot(self) -> bytes:
+        """Every card's state and the simulated clock, as one versioned file."""
+        return snapshot.save(self)
+
+    def restore(self, data: bytes, memory: Segment | None = None) -> Rack:
+        """A NEW rack with this one's settings, the cards and clock of the snapshot `data`, its
+        shared regions in `memory`; this rack is untouched. `bad_snapshot` naming why a snapshot
+        does not load (another version or layout, truncated, changed). Its NV images go to the
+        store once it serves (`snapshot.write_nv_images`, `Server.restore`)."""
+        return snapshot.load(data, self, memory)
+
+    def empty_like(self, memory: Segment | None = None) -> Rack:
+        """A rack with no card and this one's settings and event sink."""
+        p = self.pacer
+        return Rack([], self.mode, sink=self.sink, wake_ns=p.wake_ns, waker=p.waker,
+                    clock=p.clock, skip_quiet=self.skip_quiet, memory=memory,
+                    max_scheduled_per_client=self.scheduled.per_client,
+                    max_scheduled=self.scheduled.limit)
+
+    def adopt(self, sched: Scheduler) -> None:
+        """Serve the cards of `sched` on its clock (a restored snapshot's, to an empty rack)."""
+        self.sched = self.pacer.sched = sched
+        self.cards, self._regions = {}, {}
+        for card in sched.cards:
+            assert isinstance(card, Card)
+            self.cards[card.name] = card
+            self._regions.update({(card.name, r.name): r for r in card.regions.values()})
 
     # -- events ------------------------------------------------------------------------------------
     def emit(self, event: IrqEvent) -> None:
@@ -551,6 +590,33 @@ class Rack:
         """Publish a `sync` event on the card's topic (a subscriber's proof it is connected)."""
         self.sink.sync(self.card(args["card"]).name)
         return None
+
+    def op_scope(self, args: dict[str, Any], reply: Reply) -> Any:
+        """Arm, report, read or clear a card's scope (PROTOCOL.md "Scope")."""
+        return self.scopes.op(self.card(args["card"]), args)
+
+    def op_snapshot(self, args: dict[str, Any], reply: Reply) -> Any:
+        """`save`: the chunk at `offset` of a snapshot (taken at offset 0); `load`: a chunk of
+        a snapshot to restore, restored once its last chunk is here (PROTOCOL.md "snapshot")."""
+        action, offset = args["action"], args.get("offset", 0)
+        if action == "save":
+            if self.scheduled.total:
+                raise VdevError(ErrorCode.BUSY, f"snapshot save: {self.scheduled.total} "
+                                "scheduled control actions pending (a snapshot holds none)")
+            return self.transfers.read(self._client, offset, self.snapshot)
+        if action != "load":
+            raise VdevError(ErrorCode.BAD_PARAM, f"snapshot: unknown action {action!r} "
+                            "(save, load)")
+        if "size" not in args or "data" not in args:
+            raise VdevError(ErrorCode.MALFORMED, "snapshot load: give size and data")
+        data = self.transfers.write(self._client, offset, args["size"], bytes(args["data"]))
+        if data is None:
+            return {"received": offset + len(args["data"])}
+        if self.on_restore is None:
+            raise VdevError(ErrorCode.WRONG_MODE, "snapshot load: this rack is served by no "
+                            "server that can swap it")
+        self.on_restore(data, reply)
+        return _DEFERRED
 
     def op_stats(self, args: dict[str, Any], reply: Reply) -> Any:
         return self.stats()

@@ -11,12 +11,14 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
+from collections.abc import Callable
 from typing import Any
 
 import msgpack
 import zmq
 
-from vdevd import protocol
+from vdevd import protocol, snapshot
+from vdevd.card_ports import PORT_KEYS
 from vdevd.errors import ErrorCode, VdevError
 from vdevd.heartbeat import PERIOD_NS as HEARTBEAT_NS
 from vdevd.heartbeat import TOPIC as HEARTBEAT_TOPIC
@@ -25,6 +27,7 @@ from vdevd.irq import IrqEvent
 from vdevd.metrics import OP_TAGS
 from vdevd.rack import Rack
 from vdevd.security import CurveConfig, allow_networks, peer_ip, secure
+from vdevd.shm import Segment
 
 log = logging.getLogger("vdevd.server")
 
@@ -128,6 +131,13 @@ class Server:
         self._draining = False
         self._pack = msgpack.Packer(use_bin_type=True).pack  # this server's, for read replies
         self._heartbeat = Heartbeat(self.publisher)
+        self._tasks: set[asyncio.Task[None]] = set()
+        #: the shared segment a restored rack's regions take (`daemon.shared_memory` of the
+        #: configuration; the default: none, private memory)
+        self.new_memory: Callable[[], Segment | None] = _no_memory
+        #: told of each rack swapped in (`swap`): what reports the rack follows it
+        self.on_swap: list[Callable[[Rack], None]] = []
+        rack.on_restore = self.restore
         # pyzmq's own send, without the Python wrapper of zmq.Socket (routing ids, groups and
         # Frame objects, none used here) that costs ~0.5 us a frame
         self._router_send = super(zmq.Socket, self.router).send  # type: ignore[misc]
@@ -168,6 +178,70 @@ class Server:
         self.pub.close()
         if self._auth is not None:
             self._auth.stop()
+
+    # -- swapping the rack (a reset, a snapshot loaded) ----------------------------------------
+    async def swap(self, rack: Rack, bound: dict[str, dict[str, str]] | None = None) -> None:
+        """Serve `rack` in place of the rack served, on the same endpoints: the old rack's card
+        ports close and its clock stops (unless `bound`, the ports it had bound, is given: it
+        was stopped already), the new one's clock starts and its cards listen on the ports the
+        old ones had bound (a card's port option is an attribute of the same name,
+        `card_ports.PORT_KEYS`). Clients keep their connection, not their shared memory."""
+        old = self.rack
+        if bound is None:
+            bound = {name: card.listeners() for name, card in old.cards.items()}
+            await old.close_services()
+            old.stop()
+        for name, ports in bound.items():
+            card = rack.cards.get(name)
+            for key, endpoint in ports.items():
+                if card is not None and key in PORT_KEYS and hasattr(card, key):
+                    setattr(card, key, endpoint)
+        if not isinstance(rack.sink, Publisher):
+            raise TypeError("a served rack publishes through a server.Publisher sink")
+        if rack.sink is not self.publisher:
+            rack.sink.attach(self.pub)
+        self.rack, self.publisher = rack, rack.sink
+        rack.on_restore = self.restore
+        assert self._loop is not None
+        rack.start(self._loop)
+        await rack.open_services()
+        for follow in self.on_swap:
+            follow(rack)
+
+    def restore(self, data: bytes, reply: Callable[[Any], None]) -> None:
+        """`snapshot load` (Rack.op_snapshot): a new rack from the snapshot, swapped in; the
+        reply once it serves. A snapshot that does not load leaves the rack served as it was."""
+        memory = self.new_memory()
+        try:
+            rack = self.rack.restore(data, memory)
+        except VdevError as exc:
+            if memory is not None:
+                memory.close()
+            reply(exc)
+            return
+        except Exception as exc:
+            if memory is not None:
+                memory.close()
+            reply(self.rack._internal(exc, "snapshot load"))
+            return
+
+        async def swap() -> None:
+            old = self.rack
+            try:
+                await self.swap(rack)
+                _drop_waits(old)
+                # after the old cards' writers have flushed: the NV images of the snapshot
+                await asyncio.to_thread(snapshot.write_nv_images, rack)
+            except Exception as exc:  # a card port taken meanwhile: the rack serves without it
+                log.exception("swapping in a restored rack")
+                reply(VdevError(ErrorCode.INTERNAL, f"snapshot load: {exc}"))
+                return
+            log.info("rack restored from a snapshot at %d ns", rack.now_ns)
+            reply({"now_ns": rack.now_ns, "cards": list(rack.cards)})
+
+        assert self._loop is not None
+        self._tasks.add(task := self._loop.create_task(swap()))
+        task.add_done_callback(self._tasks.discard)
 
     # -- requests ---------------------------------------------------------------------------------
     def _on_readable(self) -> None:
@@ -289,6 +363,19 @@ class Server:
         if not self._draining:
             # an edge-triggered FD may have swallowed a readable edge while we sent
             self._schedule_drain()
+
+
+def _drop_waits(rack: Rack) -> None:
+    """Answer the waits pending on a rack no longer served (`busy`): their clients need not
+    wait for their timeouts."""
+    pending, rack.waits.pending = rack.waits.pending, []
+    for waiter in pending:
+        waiter.reply(VdevError(ErrorCode.BUSY, "the rack was replaced (snapshot load): the wait "
+                               "is dropped"))
+
+
+def _no_memory() -> Segment | None:
+    return None
 
 
 def _within_limit(req_id: Any, body: bytes) -> bytes:

@@ -12,7 +12,7 @@ import asyncio
 import threading
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import zmq
 
@@ -22,6 +22,9 @@ from vdevd.devices.base import Card, CardContext
 from vdevd.http_health import HealthServer, open_health
 from vdevd.rack import Rack
 from vdevd.server import Publisher, Server
+
+if TYPE_CHECKING:
+    from vdevd.web.app import WebView
 
 
 def rack_of(*cards: Callable[[CardContext], Card], mode: str = "lockstep") -> Rack:
@@ -55,6 +58,8 @@ class DaemonThread:
         self.server: Server | None = None
         #: the `[metrics]` HTTP endpoint (its `url`), when the configuration has one
         self.health: HealthServer | None = None
+        #: the `[web]` view (its `url`), when the configuration has one
+        self.web: WebView | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop: asyncio.Event | None = None
         self._ready = threading.Event()
@@ -93,15 +98,26 @@ class DaemonThread:
         except BaseException:
             rack.stop()
             raise
+        if self._rack is None:  # a snapshot loaded: its shared segment
+            self.server.new_memory = lambda: shared_memory(self.cfg)
         try:
             self.health = open_health(self.cfg.metrics, rack, self._loop)
+            if self.health is not None:
+                self.server.on_swap.append(self.health.follow)
             await self.server.start(self._loop)
             self.endpoint, self.events = self.server.endpoint, self.server.events
+            if self.cfg.web is not None:
+                from vdevd.web.app import open_web
+
+                server = self.server
+                self.web = await open_web(self.cfg.web, lambda: server.rack)
             if self.health is not None:
                 self.health.ready = True
             self._ready.set()
             await self._stop.wait()
         finally:
+            if self.web is not None:
+                await self.web.stop()
             await self.server.stop()
             if self.health is not None:
                 self.health.stop()
@@ -127,17 +143,40 @@ class DaemonThread:
         assert self.server is not None and self._loop is not None
         server, old = self.server, self.server.rack
         bound = server.listeners()["cards"]  # each card's ports as bound: the new rack's too
-        await old.close_services()
+        await old.close_services()  # its flash written: the new rack loads it
         old.stop()
         cfg = replace(self.cfg, cards=[
             replace(spec, options={**spec.options, **bound.get(spec.name, {})})
             for spec in self.cfg.cards])
         rack = build_rack(cfg, shared_memory(cfg))
-        assert isinstance(rack.sink, Publisher)
-        server.rack, server.publisher = rack, rack.sink
-        rack.sink.attach(server.pub)
-        rack.start(self._loop)
-        await rack.open_services()
+        await server.swap(rack, bound)
+
+    def restore(self, data: bytes, timeout: float = 30.0) -> None:
+        """Serve the rack of the snapshot `data` (`Rack.snapshot`) in place of the one served,
+        as a `snapshot load` request does; `VdevError` (`bad_snapshot`) when it does not load,
+        the rack served then untouched."""
+        if self._loop is None or self.server is None:
+            raise RuntimeError("the daemon is not running")
+        asyncio.run_coroutine_threadsafe(self._restore(data), self._loop).result(timeout)
+
+    async def _restore(self, data: bytes) -> None:
+        assert self.server is not None
+        done: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
+        self.server.restore(data, done.set_result)
+        result = await done
+        if isinstance(result, Exception):
+            raise result
+
+    def snapshot(self, timeout: float = 30.0) -> bytes:
+        """The snapshot of the rack served (`Rack.snapshot`), taken on the daemon's loop."""
+        if self._loop is None or self.server is None:
+            raise RuntimeError("the daemon is not running")
+
+        async def take() -> bytes:
+            assert self.server is not None
+            return self.server.rack.snapshot()
+
+        return asyncio.run_coroutine_threadsafe(take(), self._loop).result(timeout)
 
     def stop(self) -> None:
         if self._loop is not None and self._stop is not None and self._thread.is_alive():

@@ -1,5 +1,5 @@
 """`vdevctl`: the operator command (cards, lspci, peek, poke, irq, step, stats, control, now,
-dropin-path).
+scope, dropin-path).
 
 Endpoint rules as `vdevclient.connect`: --endpoint, else $VDEVD_ENDPOINT, else tcp://127.0.0.1:5555.
 """
@@ -19,6 +19,7 @@ from typing import Any, NoReturn
 import zmq
 from vdevmaps.pci import IDENTITY_SIZE, lspci_line
 
+from vdevclient import scope_cli, snapshot
 from vdevclient.core import DEFAULT_ENDPOINT, connect
 from vdevclient.errors import ConfigurationError, VdevClientError
 
@@ -73,8 +74,13 @@ def parser() -> argparse.ArgumentParser:
     ctl.add_argument("params", nargs="*", type=_param, metavar="KEY=VALUE",
                      help="the action's parameters, VALUE parsed as JSON when it can be "
                           "(true, 3, 0.5), True/False as booleans, else a string (default: none)")
+    scope_cli.add_parser(sub)
     sub.add_parser("dropin-path", help="print the directory of the drop-in vendor modules "
                    "(gclib): put it first on PYTHONPATH")
+    snap = sub.add_parser("snapshot", help="save the rack (every card's state and the clock) "
+                          "to FILE, or load FILE in its place")
+    snap.add_argument("action", choices=("save", "load"), help="save or load (required)")
+    snap.add_argument("file", type=Path, help="the snapshot file, on this machine (required)")
     return p
 
 
@@ -264,10 +270,14 @@ def _run(rack: Any, args: argparse.Namespace) -> int:
         print(f"{info['now_ns']} ns ({info['mode']}, tick {info['tick_ns']} ns)", file=out)
     elif args.command == "stats":
         print(json.dumps(rack.stats(), indent=2), file=out)
+    elif args.command == "scope":
+        return scope_cli.run(rack, args)
     elif args.command == "control":
         result = rack.control(args.card, args.action, **dict(args.params))
         if result is not None:
             print(json.dumps(result), file=out)
+    elif args.command == "snapshot":
+        print(snapshot.run(rack, args.action, args.file), file=out)
     return 0
 
 

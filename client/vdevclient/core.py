@@ -328,6 +328,19 @@ class Rack:
         wait_s = sum(op.get("timeout_ns", 0) for op in ops if op.get("op") == "wait") / _NS
         return self.request("batch", _wait_s=wait_s, ops=list(ops))
 
+    def snapshot(self) -> bytes:
+        """The daemon's rack as a snapshot file (every card's state and the clock)."""
+        from vdevclient import snapshot
+
+        return snapshot.save(self)
+
+    def restore(self, data: bytes) -> dict[str, Any]:
+        """Serve the snapshot `data` in place of the daemon's rack (`bad_snapshot` when it
+        does not load); reconnect to map the new shared memory."""
+        from vdevclient import snapshot
+
+        return snapshot.load(self, data)
+
 
 class Sim:
     """The daemon's clock."""
@@ -381,6 +394,23 @@ class Card:
 
     def control(self, action: str, **params: Any) -> Any:
         return self.rack.control(self.name, action, **params)
+
+    def scope(self, axes: Sequence[str | int] | None = None, signals: Sequence[str] | None = None,
+              *, seconds: float, every: int = 1, trigger: dict[str, Any] | str | None = None,
+              pre: int = 0, step: bool = True) -> Any:
+        """Record `signals` of `axes` for `seconds` (issue 23 §1): arm, step the lockstep clock
+        that long (unless `step` is false), read; a `vdevclient.scope.Trace` of numpy arrays
+        with the simulated time base. `scope_recorder()` gives the single actions."""
+        from vdevclient.scope import record
+
+        return record(self, axes, signals, seconds=seconds, every=every, trigger=trigger,
+                      pre=pre, step=step)
+
+    def scope_recorder(self) -> Any:
+        """The card's recorder (`vdevclient.scope.Scope`: arm, status, read, clear)."""
+        from vdevclient.scope import Scope
+
+        return Scope(self)
 
 
 class Region:

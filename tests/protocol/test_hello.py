@@ -15,7 +15,8 @@ from vdevd.testing import DaemonThread
 
 #: PROTOCOL.md, `hello`: what a v1 server implements, and the 1 MiB maximum message
 V1_CAPABILITIES = {"read", "write", "rep", "batch", "batch.compact", "wait.irq", "wait.value", "sim",
-                   "control", "stats", "sync", "shm", "heartbeat"}
+                   "control", "stats", "sync", "shm", "heartbeat", "scope",
+                   "snapshot"}
 
 
 def test_hello_reports_version_capabilities_and_limits(raw: RawClient) -> None:

@@ -9,6 +9,7 @@ world and marks its own backdoor methods with `@control`. The rack owns the cloc
 
 from __future__ import annotations
 
+import importlib
 import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -23,6 +24,7 @@ from vdevd.nvram import NvramStore
 from vdevd.pci import ConfigSpace, PciIdentity
 from vdevd.region import Backing, Region
 from vdevd.rt.world import AxisWorld
+from vdevd.scope.signals import Signals
 
 __all__ = ["Card", "CardContext", "CardOptions", "Option", "control"]
 
@@ -402,6 +404,18 @@ class Card(WorldBackdoor):
             "deprecated": {k: getattr(fn, "__vdev_deprecated__", None) for k, fn in
                            self._controls.items() if getattr(fn, "__vdev_deprecated__", None)},
         }
+
+    def scope_signals(self) -> type[Signals]:
+        """How the scope reads this card (issue 23 §1; docs/card-pattern.md "Scope"): the
+        `SIGNALS` class of the `scope` module of the card's package. LookupError: the card has
+        none."""
+        package = type(self).__module__.rpartition(".")[0]
+        try:
+            module = importlib.import_module(package + ".scope")
+        except ModuleNotFoundError as exc:
+            raise LookupError(f"{package} has no scope module") from exc
+        signals: type[Signals] = module.SIGNALS
+        return signals
 
     # -- backdoor ----------------------------------------------------------------------------------
     def _collect_controls(self) -> dict[str, Callable[..., Any]]:

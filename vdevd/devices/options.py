@@ -116,6 +116,10 @@ class CardOptions(Mapping[str, Any]):
     def __repr__(self) -> str:
         return f"CardOptions({dict(self._values)!r})"
 
+    def __reduce__(self) -> tuple[type[CardOptions], tuple[dict[str, Any]]]:
+        """Pickled as its values (a rack snapshot, vdevd/snapshot.py)."""
+        return CardOptions, (dict(self._values),)
+
     @property
     def axis(self) -> tuple[AxisMechanics, ...]:
         """The `[[card.axis]]` tables, in the card's axis order."""

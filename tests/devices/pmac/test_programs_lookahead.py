@@ -182,3 +182,29 @@ def test_a_blended_sequence_runs_through_the_lookahead_without_stopping(card: Ca
     assert np.max(v) == pytest.approx(20.0, abs=0.01)
     assert np.count_nonzero(v > 19.99) * DT > 0.05    # at speed in the middle
     assert np.max(np.abs(window_acceleration(xs))) <= 0.05 * 1.02
+
+
+def test_the_lookahead_turns_a_right_angle_corner_without_stopping(card: Card) -> None:
+    """X then Y at F100 with a 10 ms blend, Ixx17 = 0.5: inside the corner's segment motor 1
+    stops and motor 2 starts, so both ends of that segment run at the speed that makes each
+    motor's change Ixx17 × the segment's time: the corner is entered and left at sqrt(0.5 ×
+    1000) = 22.4 counts/ms (1000 counts: the segment's programmed 10 ms at 100 counts/ms), one
+    motor slowing as the other speeds up, so the path speed dips to 22.4/√2 = 15.8 in the middle
+    but does not stop there, and no motor passes Ixx17 [UM "Special Lookahead"]."""
+    download(card, 1, "LINEAR ABS TA10 TS0 F100", "X10", "Y10")
+    card.ask("&1DEFINE LOOKAHEAD 200,20")
+    card.ask("I5113=10 I5120=50 I117=0.5 I217=0.5")
+    card.ask("&1B1R")
+    rows = [card.fw.reports.commanded()[:2].copy()]
+    for _ in range(20000):
+        card.tick()
+        rows.append(card.fw.reports.commanded()[:2].copy())
+        if not running(card):
+            break
+    xy = np.array(rows)
+    assert np.array_equal(xy[-1], [10000.0, 10000.0])
+    speed = np.linalg.norm(np.diff(xy, axis=0), axis=1) / (DT * 1000)
+    corner = (xy[1:, 0] > 9000) & (xy[1:, 1] < 1000)   # the last/first 1000 counts of X/Y
+    assert np.min(speed[corner]) == pytest.approx(np.sqrt(500 / 2), abs=0.05)
+    for trace in xy.T:
+        assert np.max(np.abs(window_acceleration(trace))) <= 0.5 * 1.001

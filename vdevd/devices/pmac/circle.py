@@ -35,6 +35,7 @@ Params of a `Move`: "CIRCLE" (1 or 2), "NORMAL" (I J K), "IJK" (array) or "R", "
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import cast
 
@@ -191,12 +192,6 @@ class CirclePlanner(Planner):
         ta, ts = _num(move, "TA"), _num(move, "TS")
         kern = blend.widths(ta, ts)
         accel = kern[0] + kern[1]
-        if self.elements:   # the blend may not reach back into what was returned (as LINEAR's
-            last = self.elements[-1]   # "at most 2·(T − TA/2) of the move before")
-            room = max(2 * (last.t0 + last.dur - self.emitted_t), 0.0)
-            if accel > room:
-                scale = room / accel
-                kern, accel = (kern[0] * scale, kern[1] * scale), room
         f, tm = move.params.get("F"), move.params.get("TM")
         moving = length > _EPS or bool(np.any(np.abs(d) > _EPS))
         if tm is not None:
@@ -211,17 +206,22 @@ class CirclePlanner(Planner):
             length = 1.0 if moving else 0.0   # non-feedrate axes only: a nominal path
         if dur <= 0:
             dur = _EPS
+        stop = None
         if self.elements:
             last = self.elements[-1]
             t0 = last.t0 + last.dur
+            room = 2 * max(t0 - self.emitted_t, 0.0)   # the blend begins after what was returned
+            if accel > room:                           # (`advance`): narrowed to fit
+                stop, kern = kern, (kern[0] * room / accel, kern[1] * room / accel)
         else:
             t0 = accel / 2
         self.elements.append(_Element(start, end, arc, centre, e1, e2, n, sweep, rho0, rho1, rise,
-                                      length, length / dur, t0, dur, kern))
+                                      length, length / dur, t0, dur, kern, stop))
         self.position = end
         # times up to the end of this move's start blend are final (the next move's blend
         # begins after it); `begin` is the piece where this move (its blend) begins, as
         # LinearPlanner's, so the runner's look-ahead counts it from there
+        accel = kern[0] + kern[1]   # as narrowed
         t_begin = self.t_begin = t0 - accel / 2
         reach = accel / 2 if accel > 0 else min(self.seg or dur, dur) / 2
         out = self._emit(t0 + min(reach, dur), final=False)
@@ -230,6 +230,18 @@ class CirclePlanner(Planner):
         if len(out):   # where that piece starts (on the Isx13 grid, at or before the blend)
             self.t_begin = float(self._starts[self.begin])
         return out
+
+    def advance(self, most: float = math.inf) -> list[Piece]:
+        """At most `most` seconds more (a segment at least) of the last move, never past where
+        its stop would begin, for a calculation that must go on without the next move yet (a
+        rotary buffer waiting for its next line, program_runner.py); the next move's blend is
+        narrowed to begin after it (`add`)."""
+        if not self.elements:
+            return []
+        i = len(self.elements) - 1
+        last = self.elements[i]
+        stop_at = last.t0 + last.dur - sum(self._kend(i)) / 2
+        return self._emit(min(stop_at, self.emitted_t + max(most, self.seg)), final=False)
 
     def flush(self) -> list[Piece]:
         """The sequence decelerates to a stop at the last end point."""

@@ -145,6 +145,21 @@ class LinearPlanner(Planner):
                 duration *= float(np.max(r))
         return duration
 
+    def advance(self, most: float = math.inf) -> list[Piece]:
+        """At most `most` seconds more of the held move's cruise, never past where a stop in its
+        own TA would begin (TA/2 before its corner), for a calculation that must go on without
+        the next move yet (a rotary buffer waiting for its next line, program_runner.py): the
+        next move added still blends from there, in at most twice the cruise left (the bound of
+        `add`; its own TA at least)."""
+        if not self.vel.any():
+            return []
+        keep = min(self.last_ta, 2 * self.left) / 2
+        out = cruise(self.tail, self.vel, min(self.left - keep, most))
+        if out:
+            self.tail = out[-1].end()[0]
+            self.left -= out[-1].dur
+        return out
+
     def flush(self) -> list[Piece]:
         """Decelerate to a stop at the last move's end in its own TA."""
         if not self.vel.any():

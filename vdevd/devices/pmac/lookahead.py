@@ -12,12 +12,17 @@ Lookahead"].
 
 `Segmenter` takes the planner's pieces (program time, axis units) and gives the executed pieces,
 one per segment: the path speed (motor counts/s, Euclidean over the C.S.'s motors) is solved at
-the segment points and each segment runs from point to point in 2·length/(speed in + speed
-out) (constant acceleration on a straight path), the point velocity being the programmed
-velocity there scaled to the solved speed (Hermite cubics). Bounds on the speed at a point: the
-programmed speed (the lookahead only slows) and Ixx16 for each motor along the programmed
-direction; from point to point (a forward and a backward pass, the classic look-ahead
-recurrence) no motor's velocity may change by more than Ixx17 times the segment's time; the
+the segment points and each segment runs from point to point in its programmed time (Isx13)
+stretched by the slowing, 2·run/(speed in + speed out) where `run` is the programmed time × the
+mean programmed speed at its ends, the point velocity being the programmed velocity there scaled
+to the solved speed (Hermite cubics). Not slowed, a segment is the cubic of the exact
+trajectory's positions and velocities at its ends over Isx13 ms, so the fine interpolation keeps
+the TA/TS blend's acceleration (within what a cubic per segment can follow of it). Bounds on the
+speed at a point: the programmed speed (the lookahead only slows) and Ixx16 for each motor along
+the programmed direction; from point to point (a forward and a backward pass, the classic
+look-ahead recurrence) no motor's velocity may change by more than Ixx17 times the segment's
+time, a segment that turns the path having both ends at most at the even speed that turns it
+within Ixx17 (else the forward pass could reach a corner too fast to turn and stop in it); the
 last point the buffer holds is a stop.
 """
 
@@ -103,14 +108,28 @@ class Segmenter:
         n = min(self.pending, self.depth + 1)
         speed = self._speeds(n, stop=self.limited or (final and n == self.pending))
         p0, p1 = self.pts[0], self.pts[1]
-        length = float(np.linalg.norm(self.scale @ (p1 - p0)))
         v0, v1 = speed[0], speed[1]
-        tau = 2 * length / (v0 + v1) if length > 0 and v0 + v1 > 0 else self.nom[0]
+        run = self._run(0)   # the speed × time the segment takes at its programmed speeds
+        tau = 2 * run / (v0 + v1) if run > 0 and v0 + v1 > 0 else self.nom[0]
         piece = Piece.hermite(p0, self._velocity(0, v0), p1, self._velocity(1, v1), tau)
         mark = self.marks[0]
         self.speed = v1
         del self.pts[0], self.vel[0], self.nom[0], self.marks[0]
         return piece, mark
+
+    def _run(self, k: int) -> float:
+        """Segment k's programmed time × its mean programmed speed (counts): the segment takes
+        its programmed time (Isx13) exactly when the speeds are the programmed ones, 2·run/(speed
+        in + speed out) when the lookahead slows it. (The chord over the mean speed would be the
+        time of constant acceleration along a straight line: inside an S-curve or at the edge of
+        a blend it shortens or stretches the segment and the cubic through its ends overshoots
+        the programmed acceleration, up to twice it.) A segment without programmed speed: its
+        chord."""
+        c0 = float(np.linalg.norm(self.scale @ self.vel[k]))
+        c1 = float(np.linalg.norm(self.scale @ self.vel[k + 1]))
+        run = self.nom[k] * (c0 + c1) / 2
+        return run if run > 0 else float(np.linalg.norm(self.scale @ (self.pts[k + 1]
+                                                                       - self.pts[k])))
 
     def _velocity(self, k: int, speed: float) -> np.ndarray:
         """The programmed velocity at point k scaled to the path speed `speed`."""
@@ -125,6 +144,8 @@ class Segmenter:
         length = np.linalg.norm(dm, axis=1)
         vm = vel @ self.scale.T                           # programmed motor velocity at points
         cap = np.linalg.norm(vm, axis=1)                  # the programmed speed
+        run = np.array(self.nom[:n]) * (cap[:-1] + cap[1:]) / 2   # as `_run`, every segment
+        length = np.where(run > 0, run, length)
         with np.errstate(divide="ignore", invalid="ignore"):
             unit = np.where(cap[:, None] > 0, vm / cap[:, None], 0.0)  # its direction
             vcap = np.min(np.where(unit != 0, self.vmax / np.abs(unit), np.inf), axis=1) \
@@ -136,6 +157,14 @@ class Segmenter:
             v[n] = 0.0
         if not self.limited:
             return v
+        lim = self.amax > 0                               # where the path turns: both ends at
+        turn = np.abs(np.diff(unit, axis=0))[:, lim]      # most the speed that turns it within
+        turn[(cap[:-1] == 0) | (cap[1:] == 0)] = 0.0      # (from or to rest: no turn)
+        with np.errstate(divide="ignore"):                # Ixx17 at an even speed, so the
+            even = np.sqrt(np.min(np.where(turn > 0, self.amax[lim] * length[:, None] / turn,
+                                           np.inf), axis=1, initial=np.inf))
+        v[1:] = np.minimum(v[1:], even)                   # passes below never stop in a corner
+        v[1:-1] = np.minimum(v[1:-1], even[1:])
         for k in range(n):                                # forward
             v[k + 1] = self._reach(v[k], unit[k], unit[k + 1], length[k], v[k + 1])
         for k in range(n - 1, 0, -1):                     # backward: to the stop
@@ -145,7 +174,7 @@ class Segmenter:
     def _reach(self, va: float, a: np.ndarray, b: np.ndarray, length: float, cap: float) -> float:
         """The highest speed x ≤ cap at the far end of a segment of `length` counts whose near
         end runs at `va` (directions a, b at the two ends) such that no motor's velocity changes
-        by more than Ixx17 × the segment's time 2·length/(va + x)."""
+        by more than Ixx17 × the segment's time 2·length/(va + x) (`length`: `_run`)."""
         amax = self.amax
         lim = amax > 0
         budget = 2 * amax[lim] * length

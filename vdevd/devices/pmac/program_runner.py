@@ -29,6 +29,7 @@ bit 22 (run-time error) is set until the next R.
 from __future__ import annotations
 
 import copy
+import math
 from collections import deque
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -120,6 +121,9 @@ class _Glide:
 
 #: servo cycles one glide computes at most
 GLIDE_MAX = 4096
+#: program time a LINEAR or CIRCLE move waiting for the rotary buffer's next line runs on at a time, s
+#: (ASSUMPTION: the sources give no calculation step)
+ROTARY_CHUNK = 0.010
 
 
 @dataclass
@@ -725,9 +729,11 @@ class CsProgram:
     def _execute(self, dt: float) -> np.ndarray | None:
         fw = self.fw
         if self.hold != self.hold_target:
+            # the time base itself moves by Isx95 I10-units a cycle, whatever the `%` under it
             iv = fw.ivars.values
             rate = float(iv[5000 + 100 * self.cs + 95]) / max(float(iv[10]), 1.0)
-            step = rate if rate > 0 else 1.0
+            pct = fw.timebase.present(self.cs - 1) / 100
+            step = rate / pct if rate > 0 and pct > 0 else 1.0
             self.hold = min(self.hold + step, 1.0) if self.hold_target > self.hold \
                 else max(self.hold - step, 0.0)
         tb = fw.timebase.present(self.cs - 1) / 100 * self.hold  # `%` slewing at Isx94
@@ -760,6 +766,8 @@ class CsProgram:
                 real -= need
                 self.exec_pos = q.piece.end()[0]
                 self.cur = None
+                if self.prog == 0 and self.rot_flushed and not self.queue:
+                    self.exec_pos = self.pos.copy()   # a dry rotary buffer: on the end exactly
         fw.motors.dwell[self.members] = self.cur is not None and not self.cur.scaled
         if self.cur is not None:
             c, tau = self.cur.piece.coef, self.tau
@@ -903,14 +911,11 @@ class CsProgram:
 
     def _next_rotary_line(self) -> bool:
         """The next line the host sent to the rotary buffer, compiled on its own (rotary.py).
-        None waiting: once the motion calculated has started to run out, the last move is
-        completed to a stop (the planner flushed) and the program waits for lines."""
+        None waiting: the program waits for lines (`_rotary_dry`)."""
         line = self.fw.rotary.take(self.cs)
         if line is None:
-            if not self.rot_flushed and not self.queue:
-                self._flush()
-                self._restart_planner()
-                self.rot_flushed = True
+            if not self.rot_flushed:
+                self._rotary_dry()
             return False
         self.rot_flushed = False
         try:
@@ -920,6 +925,45 @@ class CsProgram:
             self._runtime_error()
         self.rot.ops, self.rot.labels, self.pc = ops, labels, 0
         return bool(ops)
+
+    def _rotary_dry(self) -> None:
+        """No line waits in the rotary buffer. The buffer is dry only when the card needs the
+        next move [UM "Rotary Motion Program Buffers"; SRM I16, I17]: the LINEAR (or CIRCLE)
+        move held for its blend runs on (`advance` of its planner, ROTARY_CHUNK at a time as
+        the motion needs it, so the blend keeps the room Ixx17 may stretch it into) as far as a
+        stop in its TA allows, the lookahead buffer (Isx20) filling from it; once the motion calculated would
+        run out in this servo cycle, the last move is completed to a stop (the planner flushed)
+        and the next line sent starts from rest. A line that comes before blends."""
+        seg = self.segmenter
+        hungry = seg is not None and seg.lookahead and not seg.full()
+        if not hungry and not self._running_out():
+            return
+        planner = self.planner
+        if isinstance(planner, (LinearPlanner, CirclePlanner)):
+            for _ in range(MAX_STEPS):
+                more = planner.advance(math.inf if hungry else ROTARY_CHUNK)
+                if not more:
+                    break
+                self._enqueue(more, starts=0)
+                if not self._running_out():
+                    return
+        if self._running_out():
+            self._flush()
+            self._restart_planner()
+            self.rot_flushed = True
+
+    def _running_out(self) -> bool:
+        """The motion queued ends within this servo cycle (at the present time base)."""
+        rate = self.fw.timebase.present(self.cs - 1) / 100 * self.hold
+        step = rate * self.fw.period_ns / 1e9
+        if step <= 0:
+            return False   # held: nothing runs out
+        left = self.cur.piece.dur - self.tau if self.cur is not None else 0.0
+        for q in self.queue:
+            if left > step:
+                break
+            left += q.piece.dur
+        return left <= step
 
     def _read_position_after_wait(self) -> None:
         self.exec_pos = self.pos.copy()
