@@ -16,6 +16,7 @@ import vdevclient
 from vdevclient import aps, maxk, mx4
 from vdevclient.errors import RemoteError
 
+from tests.client.galil import card, rack_config
 from tests.client.test_snapshot_cards import (
     AXIS,
     COMMAND,
@@ -169,6 +170,36 @@ def test_adlink_servo_off_axis_stays_and_an_ideal_drive_follows_its_command(
         assert aps_position(1) == 0  # the ideal drive (feedback = command) at its next cycle
         rack.sim.step(seconds=0.5)
         assert aps_position(0) == 2500
+
+
+def aps_error(axis: int) -> float:
+    err = ctypes.c_double()
+    assert aps.APS_get_error_position_f(axis, ctypes.byref(err)) == aps.ERR_NoError
+    return err.value
+
+
+def test_adlink_servo_drive_and_a_maxk_stepper_with_encoder_see_the_push() -> None:
+    """A `servo` drive on the AMP takes the push back with its position error; a MAXk stepper
+    with encoder (PSE) keeps its steps (RP) while RE moves, and past ES that is a slip
+    (EA char 3 'S') [S §4.7]."""
+    cfg = rack_config(card("adlink-amp20xc", "adlink0", drive="servo"),
+                      card("oms-maxk", "maxk0", axes=2,
+                           axis_types=["servo", "stepper_encoder"]))
+    with DaemonThread(cfg) as d, vdevclient.connect(d.endpoint, shm=False) as rack:
+        with aps_session(d):
+            assert aps.APS_set_servo_on(1, 1) == 0
+            rack.sim.step(seconds=0.01)
+            rack.control("adlink0", "push", axis=1, counts=500)
+            rack.sim.step(seconds=0.002)
+            assert 0 < aps_position(1) < 500 and aps_error(1) == -aps_position(1)
+            rack.sim.step(seconds=0.5)
+            assert aps_position(1) == 0 and aps_error(1) == 0
+        with maxk.open(1, endpoint=d.endpoint, name="maxk0") as m:
+            m.send_string("AY ES10")
+            rack.control("maxk0", "push", axis="Y", counts=50)
+            rack.sim.step(seconds=0.01)
+            assert (reads(m, "RP")[1], reads(m, "RE")[1]) == (0, 50)
+            assert m.send_and_get_string("AY EA")[2] == "S"
 
 
 def signed(value: int) -> int:
