@@ -87,6 +87,22 @@ def test_galil_stepper_keeps_its_step_count_while_tp_reads_the_stage() -> None:
             960, 1000, 1000, 40]
 
 
+def test_galil_push_onto_a_limit_switch_trips_it() -> None:
+    """The stage's switches are where the stage is: a push past the forward limit (the axis
+    world's `limits`) makes it active at once, a push back releases it (TS bit 3: forward limit
+    inactive when 1 [M Ch3 TS])."""
+    with (DaemonThread(card_config(axis=[{"limits": [-1000, 1000]}])) as d,
+          vdevclient.connect(d.endpoint, shm=False) as rack, galil_session(d) as g):
+        g.GCommand("MO X")
+        assert int(float(g.GCommand("TS X"))) & 0x08
+        rack.control("galil0", "push", axis="X", counts=1500)
+        rack.sim.step(seconds=0.01)
+        assert not int(float(g.GCommand("TS X"))) & 0x08 and float(g.GCommand("TP X")) == 1500
+        rack.control("galil0", "push", axis="X", counts=-1500)
+        rack.sim.step(seconds=0.01)
+        assert int(float(g.GCommand("TS X"))) & 0x08 and float(g.GCommand("TP X")) == 0
+
+
 def test_pmac_killed_motor_stays_where_pushed(daemon: DaemonThread,
                                               rack: vdevclient.Rack) -> None:
     with pmac_session(daemon):
