@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.devices.pmac.test_kinematics import FORWARD, INVERSE
 from tests.devices.pmac.test_online import PERIOD_NS, Card
 
 DT = PERIOD_NS / 1e9
@@ -142,3 +143,50 @@ def test_a_spline_point_fed_late_ends_the_sequence_and_starts_a_new_one() -> Non
         fresh.append(float(c.fw.reports.commanded()[0]))
     assert np.allclose(fed[came + 1:came + 1 + len(fresh)], fresh, rtol=0, atol=1e-6)
     assert fed[-1] == 30000.0
+
+
+def test_a_segment_time_sent_on_a_line_of_its_own_does_not_end_the_sequence() -> None:
+    """`PVT50` and `TM100` change the segment time on the fly [SRM PVT{data}]: sent on lines of
+    their own while the buffer is empty (each point sent before the segment before it ends),
+    they end nothing; the stored program's trajectory."""
+    pts = ["X5:100", "X10:100", "PVT50", "X5:100", "X5:100", "TM100", "X10:100", "X5:0"]
+    send = [0.05, 0.15, 0.151, 0.16, 0.22, 0.23, 0.27]
+    fed = run("INC PVT100", pts, send, 0.8)
+    assert np.allclose(fed, run("INC PVT100", pts, None, 0.8), rtol=0, atol=1e-6)
+    assert fed[-1] == 40000.0
+
+
+def test_a_pvt_stream_in_a_kinematic_cs_runs_as_the_stored_program() -> None:
+    """The UM's shoulder-elbow robot (Isx50 = 1, #1->I #2->I, the motors' cubics from the
+    inverse program with Q10 = 1 in PVT [UM "Kinematic Calculations"]): tip PVT points each sent
+    1 ms before the segment before them ends give the motors the stored program's counts."""
+    pts = ["X10:100 Y-10:-100", *["X20:100 Y-20:-100"] * 3, "X10:0 Y-10:0"]
+
+    def motors(send: list[float] | None) -> np.ndarray:
+        c = Card()
+        c.raw("I3=2")
+        for line in ["&1 #1->I #2->I", "&1 Q91=400 Q92=300 Q93=1000 I5150=1", "&1 OPEN FORWARD CLEAR",
+                     *FORWARD, "CLOSE &1 OPEN INVERSE CLEAR", *INVERSE, "CLOSE", "#1J/ #2J/",
+                     "#1J=30000 #2J=60000"]:
+            c.ask(line)
+        c.tick(round(3 / DT))
+        c.ask("&1 DEFINE ROT 200")
+        if send is None:
+            start = ["OPEN PROG 1 CLEAR", "INC PVT200", *pts, "CLOSE", "&1 B1 R"]
+        else:
+            start = ["&1 B0", "OPEN ROT", "INC PVT200", pts[0], "&1 R"]
+        for line in start:
+            c.ask(line)
+        waiting = [] if send is None else list(zip(send, pts[1:], strict=True))
+        rows = [c.fw.reports.commanded()[:2].copy()]
+        for k in range(round(1.2 / DT)):
+            while waiting and waiting[0][0] <= k * DT:
+                c.ask(waiting.pop(0)[1])
+            c.tick()
+            rows.append(c.fw.reports.commanded()[:2].copy())
+        return np.array(rows)
+
+    fed = motors([0.2 * k - 0.001 for k in range(1, len(pts))])
+    stored = motors(None)
+    assert np.allclose(fed, stored, rtol=0, atol=1e-6)
+    assert not np.allclose(fed[-1], fed[0], rtol=0, atol=100.0)   # the motors moved
