@@ -75,3 +75,31 @@ def test_pvt_points_fed_one_segment_ahead_keep_the_speed_and_a_late_one_stops(ho
     assert x() == 101000.0
     ask("CLOSE")
     ask("&1A")
+
+
+def test_pvt_points_through_the_binary_rotary_ring_keep_the_speed(host: Pmac) -> None:
+    """The same stream through the DPRAM binary rotary ring (I45 = 1, PmacDPRAsciiStrToRotA; the
+    card takes a line from the ring at the servo cycle after it is written): 50 cruise points,
+    each written as the segment before it starts, X on the line in every segment and ending on
+    X51 at rest."""
+    from vdevclient import pcomm
+
+    ask("&1#1->1000X #1J/ &1 DEFINE ROT 200 &1 B0")
+    assert pcomm.PmacDPRRotBufInit(DEVICE, 0) == pcomm.DprOk
+    for line in ("INC PVT10", "X0.5:100"):
+        assert pcomm.PmacDPRAsciiStrToRotA(DEVICE, line, 0) == pcomm.DprOk
+    host.step(1)
+    ask("&1R")
+    now = [0]
+    for k in range(1, 51):
+        at(host, (k - 1) * T, now)
+        assert pcomm.PmacDPRAsciiStrToRotA(DEVICE, "X1:100", 0) == pcomm.DprOk
+        if k >= 2:
+            at(host, (k - 1) * T + T / 2, now)
+            t = now[0] * DT
+            assert x() == pytest.approx(CRUISE * 1000 * (t - 0.005), abs=1.0)
+    at(host, 50 * T, now)
+    assert pcomm.PmacDPRAsciiStrToRotA(DEVICE, "X0.5:0", 0) == pcomm.DprOk
+    at(host, 52 * T + 2 * DT, now)
+    assert x() == 51000.0
+    ask("&1A")
