@@ -24,6 +24,11 @@ A stop command (Q, `/`) that ends the motion on a point of non-zero velocity add
 constant rate to rest, in the PVT segment time or longer, as long as no motor decelerates faster
 than its Ixx15 (the SRM's "controlled stop" rate of A); they stop v·T/2 past the point, and R
 goes on from there (ASSUMPTION: the manuals retrieved say nothing of a PVT stop on a moving point).
+
+Streamed into a rotary buffer (README "Rotary buffers"), a segment is final at once, so nothing
+runs on while the next point is awaited: a point in the buffer before the servo cycle in which
+the segment before it ends gives the stored program's trajectory; a later one finds the sequence
+ended (`flush`) on the last point and its segment starts from rest (ASSUMPTION: the cycle).
 """
 
 from __future__ import annotations
