@@ -2,7 +2,9 @@
 the page of a lockstep daemon, jogs a Galil axis and steps the clock with the page's buttons,
 trips the forward limit with a backdoor button, and checks what the page shows against the
 card's own answers (TP, RP, TS, _BG) through the vendor library; arms the scope and sees it
-plotted, sees an interrupt come, and a bad request's error; a screenshot is saved.
+plotted, sees an interrupt come, and a bad request's error; a screenshot is saved; then moves
+an axis at rest, its motor off, by the push buttons (backdoor `push`) and checks the page and
+TP.
 
 Chromium is installed by `make test` where the machine allows (`make chromium`: root with
 apt); without it the test is skipped, saying so. VDEVD_WEB_SCREENSHOT names where the screenshot goes
@@ -159,6 +161,29 @@ def test_the_page_jogs_an_axis_steps_the_clock_and_trips_a_limit(
         expect(page.locator("#clock-now")).not_to_have_text("0.300000", timeout=SHOWN_MS)
         page.click("#btn-pause")
         expect(page.locator("#clock-running")).to_have_text("paused", timeout=SHOWN_MS)
+        assert page.locator("#error").is_hidden()
+
+        # the push buttons move Y (at rest: X coasts from its limit stop once its motor is off)
+        # by hand (backdoor `push`): its motor off [M Ch2 MO], it stays there, TP reads it, and
+        # at the next step its command follows
+        command(h, "MO Y")
+        tp, rp = int(command(h, "TPY")), int(command(h, "RPY"))
+        page.click("#btn-pushpos-galil0-Y")
+        expect(page.locator("#position-galil0-Y")).to_have_text(shown(tp + 100), timeout=SHOWN_MS)
+        page.click("#btn-pushpos-galil0-Y")
+        expect(page.locator("#position-galil0-Y")).to_have_text(shown(tp + 200), timeout=SHOWN_MS)
+        page.click("#btn-pushneg-galil0-Y")
+        expect(page.locator("#position-galil0-Y")).to_have_text(shown(tp + 100), timeout=SHOWN_MS)
+        held = page.locator("#command-galil0-Y").inner_text()
+        assert round(float(held)) == rp  # the command did not move (no tick yet)
+        assert int(command(h, "TPY")) == tp + 100
+        before = page.locator("#clock-now").inner_text()
+        page.click("#btn-step")
+        expect(page.locator("#clock-now")).not_to_have_text(before, timeout=SHOWN_MS)
+        expect(page.locator("#command-galil0-Y")).to_have_text(shown(tp + 100), timeout=SHOWN_MS)
+        expect(page.locator("#position-galil0-Y")).to_have_text(shown(tp + 100), timeout=SHOWN_MS)
+        assert int(command(h, "TPY")) == tp + 100  # it stayed where it was pushed
+        assert int(command(h, "RPY")) == tp + 100  # the command follows a motor off
         assert page.locator("#error").is_hidden()
     finally:
         galil.DMCClose(h)

@@ -77,15 +77,17 @@ def split_listen(listen: str, key: str = "metrics.listen") -> tuple[str, int]:
     return host, int(port)
 
 
-def parse_metrics(table: Any, where: str = "metrics") -> MetricsConfig:
-    """`[metrics]` checked (ValueError naming the key): `listen` host:port, `allow` a list of IP
-    networks (required when `listen` is not loopback), `unresponsive_s` 0.1..600."""
+def parse_listener(table: Any, where: str, keys: tuple[str, ...],
+                   default_listen: str) -> tuple[str, tuple[str, ...]]:
+    """The `listen` and `allow` of an HTTP endpoint's table (`[metrics]`, `[web]`), checked
+    (ValueError naming the key): no key outside `keys`, `listen` host:port, `allow` a list of IP
+    networks, required when `listen` is not loopback."""
     if not isinstance(table, dict):
         raise ValueError(f"{where}: must be a table")
     for key in table:
-        if key not in _KEYS:
-            raise ValueError(f"{where}.{key}: unknown key (keys: {', '.join(_KEYS)})")
-    listen = table.get("listen", DEFAULT_LISTEN)
+        if key not in keys:
+            raise ValueError(f"{where}.{key}: unknown key (keys: {', '.join(keys)})")
+    listen = table.get("listen", default_listen)
     if not isinstance(listen, str):
         raise ValueError(f"{where}.listen: expected a string, got {listen!r}")
     host, _ = split_listen(listen, f"{where}.listen")
@@ -100,6 +102,13 @@ def parse_metrics(table: Any, where: str = "metrics") -> MetricsConfig:
     if not is_loopback_host(host) and not allow:
         raise ValueError(f"{where}.listen: {listen!r} is not loopback; name the networks that may "
                          f"connect in {where}.allow (e.g. [\"10.0.0.0/8\"])")
+    return listen, tuple(allow)
+
+
+def parse_metrics(table: Any, where: str = "metrics") -> MetricsConfig:
+    """`[metrics]` checked (ValueError naming the key): `listen` and `allow` as
+    `parse_listener` checks them, `unresponsive_s` 0.1..600."""
+    listen, allow = parse_listener(table, where, _KEYS, DEFAULT_LISTEN)
     limit = table.get("unresponsive_s", DEFAULT_UNRESPONSIVE_S)
     if isinstance(limit, bool) or not isinstance(limit, int | float) or not 0.1 <= limit <= 600:
         raise ValueError(f"{where}.unresponsive_s: {limit!r} is not a number in 0.1..600")

@@ -1,8 +1,8 @@
 """The backdoor vocabulary every card speaks (DESIGN.md "The axis world").
 
 `set_limit`, `set_home`, `set_home_window`, `set_index`, `set_input`, `set_analog`,
-`set_amp_fault`, `set_encoder_loss`, `set_estop` and `jam` have the same names and parameters on
-every card; each card maps them to its own signals (its README has the table). The axis actions
+`set_amp_fault`, `set_encoder_loss`, `set_estop`, `jam` and `push` have the same names and
+parameters on every card; each card maps them to its own signals (its README has the table). The axis actions
 change the card's `AxisWorld` and ask the card to apply it (`apply_world`); the input, analog and
 emergency-stop actions go to the card's `drive_input`, `drive_analog` and `drive_estop`. Axes are
 named as the card names them: a letter of `axis_letters` (any case) or a number counted from
@@ -25,6 +25,8 @@ from vdevd.rt.world import AxisWorld
 SIDES = ("positive", "negative")
 #: the largest voltage `set_analog` drives onto an input (the cards' ranges are +-10 V or less)
 MAX_VOLTS = 100.0
+#: the largest distance `push` moves an axis by, in counts (either way)
+MAX_PUSH = 2**31
 
 
 def flag(name: str, value: Any, optional: bool = False) -> bool | None:
@@ -108,6 +110,11 @@ class WorldBackdoor:
         """Drive the card's emergency-stop or abort input (override)."""
         raise ValueError("this card has no emergency-stop input")
 
+    def push_axis(self, a: int, counts: float) -> None:
+        """Move the mechanics of axis index `a` by hand by `counts` (override: usually
+        `MotionCore.push`)."""
+        raise ValueError("this card has no mechanics to push")
+
     def physical_positions(self) -> Any:
         """The stage's physical positions of the card's axes, in counts (override: usually
         `MotionCore.physical()`)."""
@@ -190,4 +197,17 @@ class WorldBackdoor:
         """Block the motor of an axis: the stage stays put while the command goes on, so the
         following error grows."""
         self.world.set_fault("jammed", self.axis_index(axis), bool(active))
+        self._world_changed()
+
+    @control()
+    def push(self, axis: str | int, counts: float) -> None:
+        """Move the mechanics of an axis by hand by `counts` (whole counts, |counts| <= 2**31):
+        the stage and the actual position move, the command does not. Servo off, the axis stays
+        there and its encoder reads it; servo on, its loop pulls it back; a stepper's step count
+        does not change (MotionCore.push)."""
+        if isinstance(counts, bool) or not isinstance(counts, int | float):
+            raise ValueError(f"counts: expected a number, got {counts!r}")
+        if not -MAX_PUSH <= counts <= MAX_PUSH:  # also NaN
+            raise ValueError(f"counts {counts!r} outside -{MAX_PUSH}..{MAX_PUSH}")
+        self.push_axis(self.axis_index(axis), float(counts))
         self._world_changed()

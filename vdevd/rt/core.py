@@ -706,6 +706,35 @@ class MotionCore:
             self.profile.shift(a, dist)
         self.profile.commit()
 
+    def push(self, axes: Selector, counts: Any) -> None:
+        """The mechanics of `axes` moved by hand by whole `counts` (backdoor `push`): the stage
+        moves, the command does not, and the encoder reads the stage at once (its scale and slip
+        as the tick's; a lost encoder stays frozen). Servo and ideal axes: the actual position
+        moves, so the following error changes; servo off, the axis stays there (the next tick's
+        command follows it); servo on, the loop pulls it back as the plant allows (an ideal axis
+        at the next tick); a jammed stage stays where pushed. Stepper axes: the step count (their
+        actual position) does not change; the stage moves away from it (`zero`) and their
+        encoder slips by as much (`encoder_slip`), so the following error is the lost steps."""
+        idx = self._select(axes)
+        d = np.rint(self._per_axis(counts, len(idx)))
+        if not np.isfinite(d).all():
+            raise ValueError("counts must be finite")
+        ax = self.axes
+        step = self.kinds[idx] == PlantKind.STEPPER
+        moved, dm = idx[~step], d[~step]
+        ax.pos[moved] += dm
+        self._jam_pos[moved] += dm
+        steps, ds = idx[step], d[step]
+        self.zero[steps] -= ds
+        self.encoder_slip[steps] -= np.rint(ds * self.encoder_scale[steps])
+        enc = np.floor(ax.pos[idx] * self.encoder_scale[idx]) - self.encoder_slip[idx]
+        self._enc[idx] = np.where(self.encoder_loss[idx], self._enc[idx], enc)
+        ax.encoder[idx] = self._enc[idx]
+        ax.fb[idx] = self._enc[idx] * self._inv_scale[idx]
+        ax.ferr[idx] = ax.cmd_pos[idx] - ax.fb[idx]
+        if len(steps):
+            self._configure()
+
     def track(self, axes: Selector, positions: Any) -> None:
         """The commanded positions of `axes` at the next tick, given by the caller every tick
         (a path sampled once a tick: contouring, cam and gear followers): each axis runs in a

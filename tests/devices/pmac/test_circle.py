@@ -190,15 +190,20 @@ def test_blend_kernel_moves_the_full_distance(ta: float, ts: float, t: float) ->
     assert 0.0 <= rate <= 1.0 + 1e-12
 
 
-def test_pieces_before_the_last_moves_blend_are_final_at_add() -> None:
+def test_pieces_through_the_last_moves_blend_are_final_at_add() -> None:
+    """Each add returns the motion up to the end of the added move's start blend (TA centred on
+    its start; the next move's blend is held after it), and `begin` marks the piece where the
+    added move's blend begins (the runner's look-ahead counts the move from there, one move
+    ahead with Isx13 > 0 as segmented LINEAR) [README "Calculation and look-ahead"]."""
     pl = CirclePlanner(vec(X=10))
     p = {"CIRCLE": 1, "F": 10.0, "TA": 0.1, "SEG": SEG}
     first = pl.add(move(vec(X=-10), "XY", IJK=np.array([-10.0, 0, 0]), **p))
-    assert first == []
+    assert total(first) == pytest.approx(0.1, abs=SEG) and pl.begin == 0   # its start blend
     second = pl.add(move(vec(X=10), "XY", IJK=np.array([10.0, 0, 0]), **p))
-    assert total(second) == pytest.approx(np.pi, abs=SEG)   # up to the second move's blend
+    assert total(first + second) == pytest.approx(np.pi + 0.1, abs=SEG)   # through its blend
+    assert total(first + second[:pl.begin]) == pytest.approx(np.pi, abs=SEG)
     rest = pl.flush()
-    assert total(second + rest) == pytest.approx(2 * np.pi + 0.1)
+    assert total(first + second + rest) == pytest.approx(2 * np.pi + 0.1)
 
 
 @settings(max_examples=40, deadline=None)

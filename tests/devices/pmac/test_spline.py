@@ -101,12 +101,26 @@ def test_spline2_changes_time_per_segment_smoothly(segs: list[tuple[float, float
                                                                      abs=1e-5 * acc_scale)
 
 
-def test_pieces_come_two_moves_behind_and_flush_gives_the_rest() -> None:
+def test_spline1_pieces_come_one_move_behind_and_flush_gives_the_rest() -> None:
+    """SPLINE1: a span is final once the next point is known (the times ahead are the segment
+    time); `labels` (index, moves before the last added) mark the piece each move begins with:
+    the added start segment begins move 1, span 3 + m move m [README "Calculation and
+    look-ahead"]."""
     pl = SplinePlanner(vec(X=0))
+    assert len(pl.add(move(vec(X=1), "X", TM=0.1))) == 1 and pl.labels == [(0, 0)]
+    assert len(pl.add(move(vec(X=2), "X", TM=0.1))) == 1 and pl.labels == []
+    assert len(pl.add(move(vec(X=3), "X", TM=0.1))) == 1 and pl.labels == [(0, 1)]
+    assert len(pl.flush()) == 2 and pl.labels == [(0, 0)]
+    assert pl.flush() == []
+
+
+def test_spline2_pieces_come_two_moves_behind_and_flush_gives_the_rest() -> None:
+    """SPLINE2: a span depends on the segment times two moves ahead."""
+    pl = SplinePlanner(vec(X=0), uniform=False)
     assert pl.add(move(vec(X=1), "X", TM=0.1)) == []
-    assert len(pl.add(move(vec(X=2), "X", TM=0.1))) == 1
-    assert len(pl.add(move(vec(X=3), "X", TM=0.1))) == 1
-    assert len(pl.flush()) == 3
+    assert len(pl.add(move(vec(X=2), "X", TM=0.1))) == 1 and pl.labels == [(0, 1)]
+    assert len(pl.add(move(vec(X=3), "X", TM=0.1))) == 1 and pl.labels == []
+    assert len(pl.flush()) == 3 and pl.labels == [(0, 1), (1, 0)]
     assert pl.flush() == []
 
 
@@ -114,3 +128,19 @@ def test_zero_segment_time_is_a_run_time_error() -> None:
     with pytest.raises(PlanError) as exc:
         SplinePlanner(vec()).add(move(vec(X=1), "X", TM=0))
     assert exc.value.bit == RUN_TIME_ERROR
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_a_long_sequence_keeps_the_planner_small_and_the_path_unchanged(uniform: bool) -> None:
+    """The points and knots no span still needs are dropped (`_trim`): after 500 moves the
+    planner holds a few of them, and the pieces are those of the whole spline."""
+    pl = SplinePlanner(vec(X=0), uniform=uniform)
+    pieces = []
+    for k in range(1, 501):
+        pieces += pl.add(move(vec(X=float(k % 7)), "X", TM=0.1))
+        assert len(pl.ctrl) <= 8 and len(pl.knots) <= 10
+    pieces += pl.flush()
+    assert len(pieces) == 502                     # n moves, n + 2 segments
+    assert pieces[-1].end()[0][6] == pytest.approx(500 % 7)
+    for pa, va, pb, vb in joints(pieces):
+        assert pa[6] == pytest.approx(pb[6], abs=1e-9) and va[6] == pytest.approx(vb[6], abs=1e-6)

@@ -234,6 +234,10 @@ class AdlinkCard(Card):
         super().skip(k)
 
     # -- the axis world and the backdoor ---------------------------------------------------------
+    def push_axis(self, a: int, counts: float) -> None:
+        """Backdoor `push`: the axis moved by hand (MotionCore.push)."""
+        self.kernel.core.push(a, counts)
+
     def physical_positions(self) -> np.ndarray:
         return self.kernel.core.physical()
 

@@ -294,6 +294,10 @@ class GalilCard(Card):
                 self.firmware.probe(a, float(reading) + float(self.firmware.motion.enc_offset[a]))
         self._phys_prev = now
 
+    def push_axis(self, a: int, counts: float) -> None:
+        """Backdoor `push`: the axis moved by hand (MotionCore.push)."""
+        self.firmware.motion.core.push(a, counts)
+
     def physical_positions(self) -> np.ndarray:
         """Where the stage is: the core's position less every zero DP, HM, FI and RS defined
         (DE on a servo axis defines the auxiliary encoder only; on a stepper axis TP's offset)."""

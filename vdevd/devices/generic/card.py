@@ -268,6 +268,10 @@ class GenericServoCard(Card):
             raise ValueError(f"axis {axis!r} outside 0..{self.n - 1}")
         return axis
 
+    def push_axis(self, a: int, counts: float) -> None:
+        """Backdoor `push`: the axis moved by hand (MotionCore.push)."""
+        self.core.push(a, counts)
+
     def physical_positions(self) -> np.ndarray:
         return self.core.physical()
 

@@ -186,6 +186,10 @@ class OctaviaCard(Card):
         return 1 << 62
 
     # -- the axis world and the backdoor ---------------------------------------------------------
+    def push_axis(self, a: int, counts: float) -> None:
+        """Backdoor `push`: the axis moved by hand (MotionCore.push)."""
+        self.fw.core.push(a, counts)
+
     def physical_positions(self) -> np.ndarray:
         return self.fw.core.physical()
 

@@ -546,6 +546,10 @@ class MaxkCard(Card):
         self._probe_axes = [a for a, p in enumerate(world.probes) if len(p)]
         self._probing = bool(self._probe_axes)
 
+    def push_axis(self, a: int, counts: float) -> None:
+        """Backdoor `push`: the axis moved by hand (MotionCore.push)."""
+        self.fw.motion.core.push(a, counts)
+
     def physical_positions(self) -> np.ndarray:
         """The stage's positions (motor counts): the core's actual ones less every LP and
         home search (MotionCore.physical), and less what a restart zeroed (power_up)."""

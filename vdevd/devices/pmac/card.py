@@ -571,6 +571,10 @@ class PmacCard(Card):
             return axis - 1
         raise ValueError(f"no motor {axis!r} on this {n}-motor card (motors 1..{n})")
 
+    def push_axis(self, a: int, counts: float) -> None:
+        """Backdoor `push`: the axis moved by hand (MotionCore.push)."""
+        self.fw.motors.core.push(a, counts)
+
     def physical_positions(self) -> np.ndarray:
         """The stages' positions: homing moves only the motors' origins (Motors.origin) and a
         power-up reset redefines the core's zero, which `physical()` takes out."""

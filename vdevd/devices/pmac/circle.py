@@ -168,6 +168,9 @@ class CirclePlanner(Planner):
         self.emitted_t = 0.0       # time up to which pieces were returned
         self.emitted_k = 0         # segments returned
         self.seg = 0.0
+        self.begin = 0             # index in add()'s pieces where the added move begins
+        self.t_begin = 0.0         # the time its `begin` piece starts (stop_commands.py `/`)
+        self._starts = np.zeros(0)   # start times of the pieces `_emit` returned last
 
     # -- building the sequence ----------------------------------------------------------------
     def add(self, move: Move) -> list[Piece]:
@@ -215,8 +218,18 @@ class CirclePlanner(Planner):
         self.elements.append(_Element(start, end, arc, centre, e1, e2, n, sweep, rho0, rho1, rise,
                                       length, length / dur, t0, dur, kern, stop))
         self.position = end
-        # times before this move's start blend are final
-        return self._emit(t0 - accel / 2, final=False)
+        # times up to the end of this move's start blend are final (the next move's blend
+        # begins after it); `begin` is the piece where this move (its blend) begins, as
+        # LinearPlanner's, so the runner's look-ahead counts it from there
+        accel = kern[0] + kern[1]   # as narrowed
+        t_begin = self.t_begin = t0 - accel / 2
+        reach = accel / 2 if accel > 0 else min(self.seg or dur, dur) / 2
+        out = self._emit(t0 + min(reach, dur), final=False)
+        k = int(np.searchsorted(self._starts, t_begin + 1e-12, side="right")) - 1
+        self.begin = min(max(k, 0), max(len(out) - 1, 0))
+        if len(out):   # where that piece starts (on the Isx13 grid, at or before the blend)
+            self.t_begin = float(self._starts[self.begin])
+        return out
 
     def advance(self, most: float = math.inf) -> list[Piece]:
         """At most `most` seconds more (a segment at least) of the last move, never past where
@@ -265,6 +278,7 @@ class CirclePlanner(Planner):
         return ts[(ts >= self.emitted_t - 1e-12) & (ts <= horizon + 1e-12)]
 
     def _emit(self, horizon: float, final: bool) -> list[Piece]:
+        self._starts = np.zeros(0)
         if horizon <= self.emitted_t + 1e-12 and not final:
             return []
         ts = self._grid(horizon, final)
@@ -280,6 +294,7 @@ class CirclePlanner(Planner):
             pieces[-1] = Piece.hermite(pos[idx[-1]], vel[idx[-1]], self.position,
                                        np.zeros(NAXES), float(dur[keep][-1]))
         self.emitted_t = float(ts[-1])
+        self._starts = ts[idx]
         self._drop()
         return pieces
 

@@ -5,14 +5,15 @@ Program", "Writing and Executing Motion Programs"; Turbo SRM B, R, S, Q, H, A, D
 Calculation and execution are apart, as on the card. The calculator reads program statements
 (logic, variables, moves) and hands each move to the move mode's planner (`PLANNERS`: LINEAR,
 RAPID here; the other modes register their planner there), whose pieces (pieces.py) queue for
-execution. It works ahead only as far as the card does [UM "Calculating Ahead"]: down to and
-including the first move at R (the second in LINEAR mode with Isx13 = 0), then one more move
-each time a move starts executing; so a statement reading a P-variable sees the value written
-on-line before the calculation reached it. It does not calculate past a DWELL (until the dwell
-is over), a RAPID move or a HOME (until every motor has finished) [UM "When No Calculation
-Ahead"], nor past a second backward jump (ENDWHILE, GOTO) without a move in between: the move
-before comes to a stop and calculation goes on at the next servo cycle ("double-jump-back
-rule"). DELAY is a move of its own time: calculation goes through it.
+execution. It works ahead only as far as the card does [UM "Calculating Ahead"]: `_ahead` moves
+past the one executing (two for blended LINEAR/CIRCLE moves with Isx13 = 0, one with Isx13 > 0
+and in PVT, SPLINE1 two, SPLINE2 three: README "Calculation and look-ahead"), one more each time
+a move starts executing; so a statement reading a P-variable sees the value written on-line
+before the calculation reached it, and Q stops at the end of those moves. It does not
+calculate past a DWELL (until the dwell is over), a RAPID move or a HOME (until every motor
+has finished) [UM "When No Calculation Ahead"], nor past a second backward jump (ENDWHILE,
+GOTO) without a move in between: the move before comes to a stop and calculation goes on at the
+next servo cycle ("double-jump-back rule"). DELAY is a move of its own time: calculation goes through it.
 
 Execution samples the queued pieces each servo cycle at the program's time, which runs at %/100
 of real time (the feedrate override and the feed hold, which slews the time base to 0 at Isx95
@@ -27,6 +28,7 @@ bit 22 (run-time error) is set until the next R.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections import deque
 from dataclasses import dataclass, field
@@ -34,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vdevd.devices.pmac import kin_velocity, mode_blend, rollover
+from vdevd.devices.pmac import kin_velocity, mode_blend, rollover, stop_commands
 from vdevd.devices.pmac.circle import CirclePlanner
 from vdevd.devices.pmac.coord import AXES, CS_COUNT
 from vdevd.devices.pmac.errors import ERR_DATA, ERR_NO_PROGRAM, CommandError
@@ -50,7 +52,7 @@ from vdevd.devices.pmac.plc import CMD_QUEUE, MESSAGE_QUEUE, _true
 from vdevd.devices.pmac.prog_trigger import start_trigger_move
 from vdevd.devices.pmac.programs import Program, ProgramStore, compile_program
 from vdevd.devices.pmac.pvt import PvtPlanner
-from vdevd.devices.pmac.spline import Spline1Planner, Spline2Planner
+from vdevd.devices.pmac.spline import Spline1Planner, Spline2Planner, SplinePlanner
 
 if TYPE_CHECKING:
     from vdevd.devices.pmac.firmware import Firmware
@@ -179,6 +181,13 @@ class CsProgram:
         #: the `/` stop (stop_commands.py): (move number, prog, pc, stack, ops, start point)
         self.move_from: tuple[int, int, int, list[_Frame], list[Any], np.ndarray] | None = None
         self.move_blend = (0, 0)
+        #: the same per move number for the moves calculated ahead (`/` with two of them)
+        self.move_recs: dict[int, tuple[int, int, int, list[_Frame], list[Any], np.ndarray]] = {}
+        self.blend_at: dict[int, int] = {}
+        #: a CIRCLE sequence's planner before each move and that move's blend start (`/`)
+        self.circle_before: dict[int, tuple[CirclePlanner, float]] = {}
+        #: a SPLINE sequence's planner before the move that began move n, and its move count
+        self.spline_before: dict[int, tuple[SplinePlanner, int]] = {}
         self.online = False   # running an on-line `!` move only (altdest.py)
         self.reset_modes()
 
@@ -226,8 +235,15 @@ class CsProgram:
         return left * 1000
 
     def _ahead(self) -> int:
+        """Moves calculated beyond the one executing (README "Calculation and look-ahead"):
+        two for blended LINEAR/CIRCLE moves without segmentation (Isx13 = 0), one with it and
+        in PVT; SPLINE1 two, SPLINE2 three (the spline's next segment needs the points, and
+        SPLINE2's times, that far ahead: spline.py)."""
         iv = self.fw.ivars.values
-        return 2 if self.mode == "LINEAR" and iv[5000 + 100 * self.cs + 13] == 0 else 1
+        if self.mode.startswith("SPLINE"):
+            return 2 if self.mode == "SPLINE1" else 3
+        blended = self.mode in ("LINEAR", "CIRCLE1", "CIRCLE2")
+        return 2 if blended and iv[5000 + 100 * self.cs + 13] == 0 else 1
 
     # -- run control ---------------------------------------------------------------------------------
     def point(self, n: float | None) -> None:
@@ -288,6 +304,7 @@ class CsProgram:
         self.stopping = False
         self.calc = self.started = 0
         self.move_at.clear()
+        self._forget_calculated()
         self.block = False
         self.wait = ""
         self._map_motors()
@@ -306,6 +323,13 @@ class CsProgram:
             self.planner = None
             return
         motors.abort_decel[self.members] = False
+
+    def _forget_calculated(self) -> None:
+        """A fresh run: the records `/` keeps of the moves calculated ahead are stale."""
+        self.move_recs.clear()
+        self.blend_at.clear()
+        self.circle_before.clear()
+        self.spline_before.clear()
 
     def _check_start(self) -> None:
         """The program first (ERR015 a PROG buffer open or no program pointed to, ERR016 one
@@ -353,6 +377,7 @@ class CsProgram:
         self.online = True
         self.calc = self.started = 0
         self.move_at.clear()
+        self._forget_calculated()
         self._map_motors()
         self._read_position()
         self._forward()
@@ -583,9 +608,18 @@ class CsProgram:
                 self.queue.append(_Queued(piece, True, starts))
 
     def _flush(self) -> None:
-        if self.planner is not None:
-            self._enqueue(self.planner.flush(), starts=0)
+        planner = self.planner
+        if isinstance(planner, SplinePlanner):
+            self._enqueue_labelled(planner.flush(), planner.labels)
+        elif planner is not None:
+            self._enqueue(planner.flush(), starts=0)
         self._release_segments(final=True)
+
+    def _enqueue_labelled(self, pieces: list[Piece], labels: list[tuple[int, int]]) -> None:
+        """Pieces of which those at the labels' indices begin move calc − lag (spline.py)."""
+        lags = dict(labels)
+        for k, piece in enumerate(pieces):
+            self._enqueue([piece], self.calc - lags[k] if k in lags else 0)
 
     def _enqueue(self, pieces: list[Piece], starts: int, scaled: bool = True,
                  begin: int = 0) -> None:
@@ -800,6 +834,8 @@ class CsProgram:
             self._restart_planner()
         if self.stopping or self.state == "quit":
             if self.planner is not None:
+                if self.state == "quit":   # Q in PVT: no velocity step at the stop
+                    stop_commands.pvt_quit(self)
                 self._flush()
                 self.planner = None
             self.stopping = True
@@ -839,6 +875,9 @@ class CsProgram:
                 if name == "move":
                     self.move_from = (self.calc + 1, self.prog, self.pc, list(self.stack), ops,
                                       self.pos.copy())
+                    self.move_recs[self.calc + 1] = self.move_from
+                    if len(self.move_recs) > 8:
+                        self.move_recs.pop(min(self.move_recs))
             self.pc += 1
             calc = self.calc
             try:
@@ -1187,10 +1226,27 @@ class CsProgram:
         if planner is None:
             raise CommandError(ERR_DATA, f"{self.mode} is not emulated")
         self.calc += 1
+        before = copy.deepcopy(planner) if isinstance(planner, CirclePlanner | SplinePlanner) \
+            else None
         pieces = planner.add(move)
         begin = int(getattr(planner, "begin", 0))
-        self._enqueue(pieces, self.calc, begin=begin)
+        if isinstance(planner, CirclePlanner) and isinstance(before, CirclePlanner):   # for `/`
+            self.circle_before[self.calc] = (before, planner.t_begin)
+            if len(self.circle_before) > 4:
+                self.circle_before.pop(min(self.circle_before))
+        if isinstance(planner, SplinePlanner):
+            if isinstance(before, SplinePlanner):   # for `/`: the planner before a move began
+                for _, lag in planner.labels:
+                    self.spline_before[self.calc - lag] = (before, self.calc - 1)
+                if len(self.spline_before) > 4:
+                    self.spline_before.pop(min(self.spline_before))
+            self._enqueue_labelled(pieces, planner.labels)
+        else:
+            self._enqueue(pieces, self.calc, begin=begin)
         self.move_blend = (self.calc, len(pieces) - begin)
+        self.blend_at[self.calc] = len(pieces) - begin
+        if len(self.blend_at) > 8:
+            self.blend_at.pop(min(self.blend_at))
         if not pieces:  # nothing to execute for it: it counts as begun
             self.started = max(self.started, self.calc) if not self.queue and self.cur is None \
                 else self.started

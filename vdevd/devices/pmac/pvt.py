@@ -18,6 +18,17 @@ End of a PVT sequence (a mode change, DWELL, the end of the program): the card a
 trajectory stops at the last programmed point, so a last segment with a non-zero end velocity
 stops abruptly there (ASSUMPTION: the manuals only advise ending on zero velocity, "BLOCKSTART
 ... the last of which has a zero end velocity").
+
+A stop command (Q, `/`) that ends the motion on a point of non-zero velocity adds a deceleration
+(`PvtPlanner.stop`): from that point the axes go on along their velocity vector and slow at a
+constant rate to rest, in the PVT segment time or longer, as long as no motor decelerates faster
+than its Ixx15 (the SRM's "controlled stop" rate of A); they stop v·T/2 past the point, and R
+goes on from there (ASSUMPTION: the manuals retrieved say nothing of a PVT stop on a moving point).
+
+Streamed into a rotary buffer (README "Rotary buffers"), a segment is final at once, so nothing
+runs on while the next point is awaited: a point in the buffer before the servo cycle in which
+the segment before it ends gives the stored program's trajectory; a later one finds the sequence
+ended (`flush`) on the last point and its segment starts from rest (ASSUMPTION: the cycle).
 """
 
 from __future__ import annotations
@@ -63,6 +74,12 @@ def hermite_pieces(pos: np.ndarray, vel: np.ndarray, dur: np.ndarray) -> list[Pi
     return [Piece(float(t), c) for t, c in zip(dur, coef, strict=True)]
 
 
+def decelerate(p: np.ndarray, v: np.ndarray, dur: float) -> Piece:
+    """From (p, v) to rest at constant deceleration v/dur: the Hermite to p + v·dur/2, 0."""
+    dur = dur if dur > 0 else 1e-3
+    return Piece.hermite(p, v, p + v * dur / 2, np.zeros(NAXES), dur)
+
+
 class PvtPlanner(Planner):
     """PVT segments: each move is final at once (no blending), so `add` returns its piece."""
 
@@ -70,6 +87,7 @@ class PvtPlanner(Planner):
         super().__init__(start)
         self.velocity = (np.zeros(NAXES) if velocity is None
                          else np.array(velocity, dtype=float))
+        self.seg_time = 0.0   # the last segment's time, s (the stop's shortest time)
 
     def add(self, move: Move) -> list[Piece]:
         """The segment to `move.target`: params "PVT" (seconds), "V" (end velocities, units/s,
@@ -82,8 +100,19 @@ class PvtPlanner(Planner):
         end_v = np.zeros(NAXES) if v is None else np.array(v, dtype=float)
         end_v = np.where(move.named, end_v, 0.0)
         piece = Piece.hermite(self.position, self.velocity, move.target.astype(float), end_v, dur)
+        self.seg_time = dur
         self.position = move.target.astype(float)
         self.velocity = end_v
+        return [piece]
+
+    def stop(self, min_time: float = 0.0) -> list[Piece]:
+        """Q or `/` (module docstring): the deceleration to rest from the last point, constant
+        along the velocity vector, in max(segment time, `min_time`) seconds; none at rest."""
+        if not np.any(self.velocity):
+            return []
+        piece = decelerate(self.position, self.velocity, max(self.seg_time, min_time))
+        self.position = piece.end()[0]
+        self.velocity = np.zeros(NAXES)
         return [piece]
 
     def flush(self) -> list[Piece]:

@@ -16,8 +16,11 @@ SPLINE1 spline when the times are equal). The segment time is the move's "TM" pa
 program set TM, else its "TA" (seconds) (ASSUMPTION: the Turbo SRM pages on SPLINE1 were not
 retrieved; the PMAC manuals use TA, the digest TM).
 
-A segment is final when the moves two ahead are known (the non-uniform way-point depends on the
-times around it), or at `flush`.
+A segment is final when the points it spans are known: with SPLINE1 the next point (the times
+ahead are the segment time), with SPLINE2 the next two (the non-uniform spline's span depends on
+the times around it), or at `flush`. `labels` tells the runner which returned piece begins which
+move (the added start segment begins the first move), so its look-ahead counts the moves
+executing as the path runs them (README "Calculation and look-ahead").
 """
 
 from __future__ import annotations
@@ -71,7 +74,11 @@ class SplinePlanner(Planner):
         self.ctrl: list[np.ndarray] = []
         self.knots: list[float] = []
         self.emitted = 0          # spans emitted, counted from the first (span index 3)
+        self.base = 0             # spans (and leading points and knots) dropped (`_trim`)
         self.seg_time = 0.0
+        #: (index in the pieces last returned, moves before the last one added) of each piece
+        #: that begins a move of the sequence
+        self.labels: list[tuple[int, int]] = []
 
     def add(self, move: Move) -> list[Piece]:
         """One spline segment to `move.target` in the segment time: "TM" (seconds) when the
@@ -83,6 +90,7 @@ class SplinePlanner(Planner):
         out: list[Piece] = []
         if self.ctrl and self.uniform and t != self.seg_time:
             out += self.flush()   # SPLINE1: a new segment time stops the sequence first
+        before = [(k, lag + 1) for k, lag in self.labels] if out else []
         if not self.ctrl:          # the added zero-distance start segment [UM "Added Pieces"]
             p0 = self.position.copy()
             self.ctrl = [p0, p0, p0]
@@ -91,16 +99,44 @@ class SplinePlanner(Planner):
         self.ctrl.append(move.target.astype(float))
         self.knots.append(self.knots[-1] + t)
         self.position = move.target.astype(float)
-        return out + self._ready()
+        first = self.emitted
+        ready = self._ready()
+        self.labels = before + self._labels(first, len(out), len(self.ctrl) - 3 + self.base)
+        self._trim()
+        return out + ready
+
+    def _trim(self) -> None:
+        """Drop the points and knots no span still to come uses (span 3 + e uses points e..e+3
+        and knots e+1..e+6): the planner stays small over a sequence of any length."""
+        d = self.emitted
+        if d:
+            del self.ctrl[:d], self.knots[:d]
+            self.base += d
+            self.emitted = 0
+
+    def _labels(self, first: int, offset: int, moves: int) -> list[tuple[int, int]]:
+        """The labels of spans `first`.. (counted as `emitted`) returned after `offset` pieces,
+        of a sequence of `moves` points: span 3 + m is move m's segment (span 3, the added
+        start segment, begins move 1)."""
+        out = []
+        for k, e in enumerate(range(first + self.base, self.emitted + self.base)):
+            m = e if e >= 2 else (1 if e == 0 else 0)   # span 3 + e
+            if m and m <= moves:
+                out.append((offset + k, moves - m))
+        return out
 
     def _ready(self) -> list[Piece]:
-        """Spans whose control points and knots are all known."""
+        """Spans whose control points and knots are all known (SPLINE1: the knots ahead are the
+        segment time's)."""
         out: list[Piece] = []
         while True:
             span = 3 + self.emitted
-            if span > len(self.ctrl) - 1 or span + 3 > len(self.knots) - 1:
+            knots = self.knots
+            if self.uniform and self.seg_time > 0:
+                knots = knots + [knots[-1] + self.seg_time * (i + 1) for i in range(3)]
+            if span > len(self.ctrl) - 1 or span + 3 > len(knots) - 1:
                 return out
-            out.append(span_piece(span, self.knots, self.ctrl))
+            out.append(span_piece(span, knots, self.ctrl))
             self.emitted += 1
 
     def flush(self) -> list[Piece]:
@@ -108,11 +144,15 @@ class SplinePlanner(Planner):
         if not self.ctrl:
             return []
         end, t = self.ctrl[-1], self.seg_time
+        first = self.emitted
+        moves = len(self.ctrl) - 3 + self.base
         self.ctrl += [end, end]
         for _ in range(4):
             self.knots.append(self.knots[-1] + t)
         out = self._ready()
+        labels = self._labels(first, 0, moves)
         self._reset()
+        self.labels = labels
         return out
 
 

@@ -12,6 +12,7 @@ const AXIS_BUTTONS = [  // [id, label, action, params(axis, active)]
   ["home", "home", "set_home", (a, on) => ({ axis: a, active: on })],
   ["amp", "amp fault", "set_amp_fault", (a, on) => ({ axis: a, active: on })],
 ];
+const PUSH_COUNTS = 100;  // the counts a push button moves its axis by hand (backdoor `push`)
 const COLORS = ["#2457a6", "#c0392b", "#1e8449", "#8e44ad", "#d35400", "#16a085", "#7f8c8d", "#b7950b"];
 
 function el(tag, attrs = {}, ...children) {
@@ -106,6 +107,8 @@ function buildCard(card, axes) {
         buttons.append(toggleButton(key, label, `btn-${key}`,
           (on) => ({ op: "control", card: card.name, action, params: params(axisParam(axis), on) })));
       }
+      if (card.controls.push) buttons.append(pushButton(card.name, axis, -PUSH_COUNTS),
+                                             pushButton(card.name, axis, PUSH_COUNTS));
       row.append(buttons, el("td", { class: "flags", id: `flags-${id}` }));
       body.append(row);
     }
@@ -126,6 +129,16 @@ function toggleButton(key, label, id, request) {
       b.classList.toggle("active", on);
     }
   });
+  return b;
+}
+
+// A button that moves the axis by hand by `counts` (backdoor `push`), each press.
+function pushButton(cardName, axis, counts) {
+  const label = `push ${counts > 0 ? "+" : ""}${counts}`;
+  const b = el("button", { type: "button", id: `btn-push${counts > 0 ? "pos" : "neg"}-${cardName}-${axis}`,
+                           text: label, title: `backdoor push: the axis moved by hand by ${counts} counts` });
+  b.addEventListener("click", () =>
+    op({ op: "control", card: cardName, action: "push", params: { axis: axisParam(axis), counts } }));
   return b;
 }
 
