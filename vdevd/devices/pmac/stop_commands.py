@@ -27,7 +27,7 @@ emulated").
 from __future__ import annotations
 
 import copy
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -96,13 +96,10 @@ def _cut_next_move(r: CsProgram) -> bool:
         r.queue.pop()
     r.segmenter = None   # the stop runs as planned; R segments afresh from the corner
     r._enqueue(stop, starts=0)
-    r.planner = None
-    r.prog, r.pc, r.stack = prog, pc, stack
     r.pos = corner.copy()
     r.calc = r.started
     r.move_from = None
-    r._blocked = r._glide = None
-    r.state, r.stopping = "quit", True
+    _quit_at(r, prog, pc, stack)
     return True
 
 
@@ -115,13 +112,10 @@ def _segmented_stop(r: CsProgram, nxt: int,
     speed there (the blend's TA when the segment begins where the blend does), S-curve TS. None
     when that segment cannot be found or the axes stand there (the caller quits instead)."""
     r._release_segments(final=True)
-    queue = list(r.queue)
-    at = next((k for k, q in enumerate(queue) if q.starts == nxt), None)
-    if at is None:
+    start = _move_start(r, nxt)
+    if start is None:
         return None
-    before = queue[at - 1].piece if at else (r.cur.piece if r.cur is not None else None)
-    if before is None:
-        return None
+    at, before = start
     p, v = before.end()
     speed, left = float(np.linalg.norm(v)), float(np.linalg.norm(corner - p))
     if speed <= 0 or left <= 0:
@@ -169,24 +163,18 @@ def _cut_next_pvt(r: CsProgram) -> bool:
     _, prog, pc, stack, ops, _start = rec
     if prog == 0 and r.rot.ops is not ops:
         return False   # the rotary line of that move is gone: it cannot be calculated again
-    queue = list(r.queue)
-    at = next((k for k, q in enumerate(queue) if q.starts == nxt), None)
-    if at is None:
+    start = _move_start(r, nxt)
+    if start is None:
         return False
-    before = queue[at - 1].piece if at else (r.cur.piece if r.cur is not None else None)
-    if before is None:
-        return False
+    at, before = start
     p, v = before.end()
     while len(r.queue) > at:
         r.queue.pop()
     planner.position, planner.velocity = p.copy(), v.copy()
     pvt_quit(r)
-    r.planner = None
-    r.prog, r.pc, r.stack = prog, pc, stack
     r.calc = r.started
     r.move_from = None
-    r._blocked = r._glide = None
-    r.state, r.stopping = "quit", True
+    _quit_at(r, prog, pc, stack)
     return True
 
 
@@ -206,13 +194,10 @@ def _cut_next_circle(r: CsProgram) -> bool:
     _, prog, pc, stack, ops, start = rec
     if prog == 0 and r.rot.ops is not ops:
         return False
-    queue = list(r.queue)
-    found = next((k for k, q in enumerate(queue) if q.starts == nxt), None)
-    if found is None:
+    cut = _move_start(r, nxt)
+    if cut is None:
         return False
-    before = queue[found - 1].piece if found else (r.cur.piece if r.cur is not None else None)
-    if before is None:
-        return False
+    found, before = cut
     p0, v0 = before.end()
     flushed = copy.deepcopy(saved[0]).flush()
     at = next((k for k, piece in enumerate(flushed)
@@ -225,12 +210,9 @@ def _cut_next_circle(r: CsProgram) -> bool:
         r.queue.pop()
     r.segmenter = None   # what it still holds lies past the cut; R segments afresh
     r._enqueue(kept, starts=0)
-    r.planner = None
-    r.prog, r.pc, r.stack = prog, pc, stack
     r.pos = start.copy()
     r.calc = r.started
-    r._blocked = r._glide = None
-    r.state, r.stopping = "quit", True
+    _quit_at(r, prog, pc, stack)
     return True
 
 
@@ -254,13 +236,10 @@ def _cut_next_spline(r: CsProgram) -> bool:
     _, prog, pc, stack, ops, start = rec
     if prog == 0 and r.rot.ops is not ops:
         return False
-    queue = list(r.queue)
-    found = next((k for k, q in enumerate(queue) if q.starts == nxt), None)
-    if found is None:
+    cut = _move_start(r, nxt)
+    if cut is None:
         return False
-    before = queue[found - 1].piece if found else (r.cur.piece if r.cur is not None else None)
-    if before is None:
-        return False
+    found, before = cut
     flushed = planner.flush()
     if not flushed:
         return False
@@ -271,9 +250,27 @@ def _cut_next_spline(r: CsProgram) -> bool:
         r.queue.pop()
     r.calc = last
     r._enqueue_labelled(flushed, planner.labels)
+    r.pos = start.copy()
+    _quit_at(r, prog, pc, stack)
+    return True
+
+
+# -- what every cut shares ---------------------------------------------------------------------------
+def _move_start(r: CsProgram, nxt: int) -> tuple[int, Piece] | None:
+    """Where move `nxt` begins in r's queue and the piece that ends there (the executing one when
+    it is the first queued); None when the queue does not hold its start."""
+    queue = list(r.queue)
+    at = next((k for k, q in enumerate(queue) if q.starts == nxt), None)
+    if at is None:
+        return None
+    before = queue[at - 1].piece if at else (r.cur.piece if r.cur is not None else None)
+    return None if before is None else (at, before)
+
+
+def _quit_at(r: CsProgram, prog: int, pc: int, stack: list[Any]) -> None:
+    """The calculation given back to the move recorded at (prog, pc, stack): the program quits
+    once what is queued has run, and R calculates again from there."""
     r.planner = None
     r.prog, r.pc, r.stack = prog, pc, stack
-    r.pos = start.copy()
     r._blocked = r._glide = None
     r.state, r.stopping = "quit", True
-    return True
