@@ -7,7 +7,6 @@ import asyncio
 import http.client
 import json
 import re
-import signal
 import socket
 import subprocess
 import sys
@@ -24,6 +23,7 @@ import vdevclient
 import zmq.auth
 from prometheus_client.parser import text_string_to_metric_families
 
+from tests.card_ports import Served
 from tests.conftest import rack_config
 from vdevd import http_health
 from vdevd.config import CardSpec, ConfigError, parse
@@ -329,33 +329,15 @@ def test_a_metrics_port_in_use_stops_the_start() -> None:
 
 
 def test_vdevd_serve_announces_the_endpoint_in_its_ready_file(tmp_path: Path) -> None:
-    (tmp_path / "rack.toml").write_text('[clock]\nmode = "lockstep"\n[metrics]\n'
-                                        'listen = "127.0.0.1:0"\n[[card]]\n'
-                                        'type = "generic-servo"\nname = "servo0"\n')
-    ready = tmp_path / "ready.json"
-    log = (tmp_path / "vdevd.log").open("w")
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "vdevd", "serve", "--config", str(tmp_path / "rack.toml"),
-         "--endpoint", "tcp://127.0.0.1:*", "--events", "tcp://127.0.0.1:*",
-         "--ready-file", str(ready)], stderr=log)
+    daemon = Served(tmp_path, '[clock]\nmode = "lockstep"\n[metrics]\nlisten = "127.0.0.1:0"\n'
+                              '[[card]]\ntype = "generic-servo"\nname = "servo0"\n')
     try:
-        deadline = time.monotonic() + 60  # a guard against a hung daemon, not a measured wait
-        while not ready.exists():
-            try:
-                code = proc.wait(timeout=0.01)
-            except subprocess.TimeoutExpired:
-                assert time.monotonic() < deadline, "no ready file"
-                continue
-            raise AssertionError(f"vdevd exited {code}: {(tmp_path / 'vdevd.log').read_text()}")
-        url = json.loads(ready.read_text())["metrics"]
+        url = daemon.info["metrics"]
         assert get(url + "/readyz")[0] == 200 and get(url + "/healthz")[0] == 200
         assert ("vdevd_card_ticks_total", (("card", "servo0"),)) in scrape(url)
     finally:
-        proc.send_signal(signal.SIGTERM)
-        code = proc.wait(30)
-        log.close()
-    assert code == 0
-    assert "metrics and health on http://127.0.0.1:" in (tmp_path / "vdevd.log").read_text()
+        log = daemon.stop()  # SIGTERM; asserts exit status 0
+    assert "metrics and health on http://127.0.0.1:" in log
 
 
 def test_the_image_health_check_asks_healthz(served: DaemonThread) -> None:

@@ -9,10 +9,7 @@ import asyncio
 import ctypes
 import functools
 import json
-import signal
 import socket
-import subprocess
-import sys
 import time
 import urllib.error
 import urllib.request
@@ -26,6 +23,7 @@ import pytest
 import vdevclient
 from vdevclient import RemoteError, galil
 
+from tests.card_ports import Served
 from tests.client.galil import GALIL, card, rack_config
 from tests.client.pulser import Pulser
 from tests.test_http_health import closed_unanswered, own_address
@@ -438,33 +436,15 @@ def test_a_web_port_in_use_stops_the_start() -> None:
 
 
 def test_vdevd_serve_serves_the_page_and_lists_it_in_its_ready_file(tmp_path: Path) -> None:
-    (tmp_path / "rack.toml").write_text('[clock]\nmode = "lockstep"\n[web]\n'
-                                        'listen = "127.0.0.1:0"\n[[card]]\n'
-                                        'type = "generic-servo"\nname = "servo0"\n')
-    ready = tmp_path / "ready.json"
-    log = (tmp_path / "vdevd.log").open("w")
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "vdevd", "serve", "--config", str(tmp_path / "rack.toml"),
-         "--endpoint", "tcp://127.0.0.1:*", "--events", "tcp://127.0.0.1:*",
-         "--ready-file", str(ready)], stderr=log)
+    daemon = Served(tmp_path, '[clock]\nmode = "lockstep"\n[web]\nlisten = "127.0.0.1:0"\n'
+                              '[[card]]\ntype = "generic-servo"\nname = "servo0"\n')
     try:
-        deadline = time.monotonic() + 60  # a guard against a hung daemon, not a measured wait
-        while not ready.exists():
-            try:
-                code = proc.wait(timeout=0.01)
-            except subprocess.TimeoutExpired:
-                assert time.monotonic() < deadline, "no ready file"
-                continue
-            raise AssertionError(f"vdevd exited {code}: {(tmp_path / 'vdevd.log').read_text()}")
-        page = json.loads(ready.read_text())["web"]
+        page = daemon.info["web"]
         status, _, body = get(page + "/api/layout")
         assert status == 200 and json.loads(body)["axes"] == {"servo0": ["0", "1", "2", "3"]}
     finally:
-        proc.send_signal(signal.SIGTERM)
-        code = proc.wait(30)
-        log.close()
-    assert code == 0
-    assert "web view on http://127.0.0.1:" in (tmp_path / "vdevd.log").read_text()
+        log = daemon.stop()  # SIGTERM; asserts exit status 0
+    assert "web view on http://127.0.0.1:" in log
 
 
 def test_the_page_follows_the_rack_a_reset_serves(served: DaemonThread,
