@@ -16,6 +16,7 @@ from collections.abc import Iterator
 import pytest
 
 from tests.devices.pmac.conftest import PERIOD_NS, Pmac, pcomm_ask, pcomm_device
+from tests.devices.pmac.conftest import step_to as at  # after R
 
 DEVICE = 0
 DT = PERIOD_NS / 1e9
@@ -31,14 +32,6 @@ def host() -> Iterator[Pmac]:
 
 def ask(command: str) -> str:
     return pcomm_ask(DEVICE, command)
-
-
-def at(host: Pmac, seconds: float, now: list[int]) -> None:
-    """Step the lockstep clock to `seconds` after R (`now`: the servo cycles run since R)."""
-    n = round(seconds / DT) - now[0]
-    if n > 0:
-        host.step(n)
-        now[0] += n
 
 
 def x() -> float:

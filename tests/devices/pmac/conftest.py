@@ -124,6 +124,15 @@ def pcomm_device(device: int = 0, **options: Any) -> Iterator[Pmac]:
             host.close()
 
 
+def step_to(host: Pmac, seconds: float, now: list[int]) -> None:
+    """Step the lockstep clock to `seconds` after a start (`now`: the servo cycles run since
+    that start, kept up to date); nothing when that time has passed."""
+    n = round(seconds / (PERIOD_NS / 1e9)) - now[0]
+    if n > 0:
+        host.step(n)
+        now[0] += n
+
+
 def pcomm_ask(device: int, command: str, size: int = 256) -> str:
     """PmacGetResponseA of one command: the reply without its CR/ACK framing."""
     import ctypes
