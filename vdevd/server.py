@@ -214,15 +214,10 @@ class Server:
         memory = self.new_memory()
         try:
             rack = self.rack.restore(data, memory)
-        except VdevError as exc:
-            if memory is not None:
-                memory.close()
-            reply(exc)
-            return
         except Exception as exc:
             if memory is not None:
                 memory.close()
-            reply(self.rack._internal(exc, "snapshot load"))
+            reply(exc if isinstance(exc, VdevError) else self.rack._internal(exc, "snapshot load"))
             return
 
         async def swap() -> None:
